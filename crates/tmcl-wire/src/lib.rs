@@ -1,0 +1,42 @@
+//! TMCL wire formats, as defined by the PD28-1021 TMCL firmware manual §3.1–3.2 (V1.05, firmware V1.42).
+//!
+//! This crate turns bytes into values and back, nothing else: it knows no motor, no parameter table and no
+//! clock. The layers, from the bytes up:
+//!
+//! - [`frame`]: the 9-byte request frame as an untrusted byte view ([`Frame`]) with its field map, the 8-bit
+//!   sum checksum, and the parsed [`Request`] repr.
+//! - [`reply`]: the 9-byte reply frame view ([`ReplyFrame`]), the [`Reply`] repr and [`Response`], which also
+//!   carries the raw special replies (command 136 type 0, command 134).
+//! - [`status`]: the reply status codes ([`Status`]), unknown codes kept as values.
+//! - [`opcode`]: command numbers ([`Opcode`]) with their mnemonics, unknown numbers kept as values.
+//! - [`instruction`]: one raw command ([`Instruction`]): what a frame carries and what one program-memory
+//!   cell holds.
+//! - [`command`]: the validated form ([`Command`]) that the firmware executes.
+//!
+//! # Panics
+//!
+//! Nothing in this crate panics on any input. Views made with `new_checked` (or checked with `check_len`)
+//! never index out of bounds; `new_unchecked` views panic on access if the buffer is shorter than a frame,
+//! which the view's documentation states.
+#![no_std]
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod command;
+pub mod frame;
+pub mod instruction;
+pub mod opcode;
+pub mod reply;
+pub mod status;
+
+pub use command::{
+    CalcOp, CalcxOp, Command, Condition, ErrorFlag, EventMode, MoveTarget, RfsAction, StatusKind, VersionFormat,
+    WaitCondition,
+};
+pub use frame::{checksum, Frame, Request, WireError, FRAME_LEN};
+pub use instruction::Instruction;
+pub use opcode::Opcode;
+pub use reply::{Reply, ReplyFrame, Response};
+pub use status::Status;
