@@ -14,7 +14,7 @@ macro_rules! kind_enum {
     ($(#[$m:meta])* $name:ident { $( $(#[$d:meta])* $variant:ident = $code:literal, $word:literal; )* }) => {
         $(#[$m])*
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-        pub enum $name { $( $(#[$d])* $variant, )* }
+        pub enum $name { $( $(#[$d])* #[doc = concat!("`", $word, "` = type ", stringify!($code))] $variant, )* }
 
         impl $name {
             /// Every value, in code order.
