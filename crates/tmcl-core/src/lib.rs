@@ -1,1 +1,6 @@
-//! placeholder
+//! The OpenTMCL firmware core.
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod hal;
+pub mod time;
