@@ -3,4 +3,7 @@
 #![forbid(unsafe_code)]
 
 pub mod hal;
+pub mod model;
+pub mod motion;
+pub mod param;
 pub mod time;
