@@ -1,1 +1,8 @@
-//! placeholder
+//! The simulated board behind the OpenTMCL core: everything `tmcl run` and `tmcl serve` need to run the firmware
+//! on a PC.
+//!
+//! - [`nvm`]: the EEPROM, in memory ([`MemNvm`]) or in a crash-safe file ([`FileNvm`]).
+
+pub mod nvm;
+
+pub use nvm::{FileNvm, MemNvm, NvmError, Options};
