@@ -42,9 +42,9 @@ pub struct Connection {
     /// TCP address of the module, HOST:PORT (e.g. 127.0.0.1:2323 for `tmcl serve --tcp`).
     #[arg(long, global = true, value_name = "HOST:PORT", help_heading = "Connection")]
     pub tcp: Option<String>,
-    /// Module address (global parameter 66).
-    #[arg(long, global = true, value_name = "N", default_value_t = 1, help_heading = "Connection")]
-    pub address: u8,
+    /// Module address (global parameter 66; default 1). For `serve`: the address the module answers at.
+    #[arg(long, global = true, value_name = "N", help_heading = "Connection")]
+    pub address: Option<u8>,
     /// How long to wait for each reply, in seconds (fractions allowed).
     #[arg(long, global = true, value_name = "SECONDS", default_value = "5", value_parser = parse_seconds,
           help_heading = "Connection")]
@@ -200,7 +200,7 @@ impl Connection {
                 ))
             }
         };
-        Ok(Client::new(transport).with_module_address(self.address).with_timeout(self.timeout))
+        Ok(Client::new(transport).with_module_address(self.address.unwrap_or(1)).with_timeout(self.timeout))
     }
 }
 
@@ -479,9 +479,9 @@ mod tests {
         assert!(cli.connection.json);
         let cli = parse(&["--port", "/tmp/link", "--baud", "115200", "--address", "3", "version"]).unwrap();
         assert_eq!(cli.connection.port.as_deref(), Some("/tmp/link"));
-        assert_eq!((cli.connection.baud, cli.connection.address), (115_200, 3));
+        assert_eq!((cli.connection.baud, cli.connection.address), (115_200, Some(3)));
         let cli = parse(&["version"]).unwrap();
-        assert_eq!((cli.connection.baud, cli.connection.address), (9600, 1));
+        assert_eq!((cli.connection.baud, cli.connection.address), (9600, None));
         assert_eq!(cli.connection.timeout, Duration::from_secs(5));
     }
 

@@ -74,6 +74,9 @@ pub trait Io {
 /// What the step generator asks of the motor driver, passed to [`Drive::update`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DriveState {
+    /// Microsteps (of the current resolution) moved since the previous update, signed. Setting the step
+    /// counter (SAP 1) or a reset changes `position` without moving: `moved` is then 0.
+    pub moved: i64,
     /// The step counter (axis parameter 1) in microsteps of the current resolution.
     pub position: i32,
     /// Signed velocity in microsteps per second (axis parameter 3).

@@ -1,9 +1,32 @@
-//! The OpenTMCL firmware core.
+//! The OpenTMCL firmware core: a TMCL module's firmware as a `no_std`, heap-free library.
+//!
+//! It takes bytes and time and returns bytes and its next deadline (STYLE.md §3.4). The layers:
+//!
+//! - [`time`]: `Instant`/`Duration` in µs, passed in by the caller.
+//! - [`hal`]: the board traits (EEPROM, I/O and switches, motor driver).
+//! - [`model`]: each product's static description (parameters, ports, interrupts, limits).
+//! - [`param`]: parameter descriptors, ranges, access, and the EEPROM image ([`param::persist`]).
+//! - [`motion`]: the ramp generator.
+//! - [`iface`]: the byte-fed framer and the reply outbox.
+//! - [`module`] and the dispatcher in `exec`: [`Module`], which ties it together.
+//!
+//! Specification: PD28-1021 TMCL firmware manual V1.05 (firmware V1.42); the index in
+//! `shared/reference/inventory-pd28-1021.md` numbers its ambiguities (AMB-n), which the code cites where
+//! it decides one.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 
+mod exec;
 pub mod hal;
+pub mod iface;
 pub mod model;
+pub mod module;
 pub mod motion;
 pub mod param;
 pub mod time;
+
+pub use module::{Module, Outcome, Registers, State};
+pub use time::{Duration, Instant};
+
+#[cfg(test)]
+mod tests;

@@ -244,7 +244,7 @@ fn approach(v: i64, target: i64, accel: i64, v_min: i64) -> i64 {
     if v == target {
         return v;
     }
-    if v != 0 && (v > 0) != (target > 0) && target != 0 || (target == 0 && v != 0) {
+    if v != 0 && (target == 0 || (v > 0) != (target > 0)) {
         // Decelerate towards zero first (reversal or stop); below the stop speed, stop.
         let s = v.abs() - accel;
         return if s <= v_min { 0 } else { s * v.signum() };

@@ -6,6 +6,8 @@
 //! firmware computes or acts on. The executor checks ranges and access from the table and dispatches on
 //! the role, so a new model is a new table, not new branches.
 
+pub mod persist;
+
 use tmcl_wire::Status;
 
 /// Access letters (manual Table 14 for axis parameters, Table 16 for global parameters).

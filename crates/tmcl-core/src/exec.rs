@@ -1,0 +1,641 @@
+//! The one dispatcher: every command a host sends goes through [`Module::execute`] (STYLE.md §2).
+//!
+//! Each arm cites the manual section that defines the command. Statuses the manual leaves open
+//! (inventory AMB-20) are decided once, here and in [`crate::param::ParamError`]:
+//! - an unknown parameter, port or coordinate number, or one that does not support the operation
+//!   (a write to a read-only parameter, STAP of a parameter without E): **3, wrong type** — the type byte
+//!   names it;
+//! - a value out of range, a motor other than 0, a bank the command does not know: **4, invalid value**;
+//! - an EEPROM that cannot be written: **5, configuration EEPROM locked**;
+//! - program-flow commands sent from the host (JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI, "standalone
+//!   only", manual §3.6.2 and inventory AMB-13) and UF0–UF7 (no user functions in the standard firmware,
+//!   §3.7.37): **6, command not available**. CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in
+//!   direct mode" (§3.6.3) and work on the module's registers.
+
+use crate::hal::Board;
+use crate::model::PortKind;
+use crate::module::{flags, Module, Outcome};
+use crate::motion::Mode;
+use crate::param::{find, persist, ParamDesc, ParamError, Role};
+use crate::time::Instant;
+use tmcl_wire::command::MAGIC_KEY;
+use tmcl_wire::{
+    CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, VersionFormat, FRAME_LEN,
+};
+
+type Exec = Result<Outcome, Status>;
+
+fn value(v: i32) -> Exec {
+    Ok(Outcome::Value(v))
+}
+
+impl<B: Board> Module<B> {
+    /// Executes one validated command sent by the host at `now`.
+    pub fn execute(&mut self, command: Command, now: Instant) -> Exec {
+        use Command as C;
+        match command {
+            // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
+            C::Ror { motor, velocity } => {
+                self.motor(motor)?;
+                self.start_rotation(velocity);
+                value(velocity)
+            }
+            // §3.7.2 ROL: as ROR to the left: AP 2 = −velocity (AMB-19: a negative velocity turns right).
+            C::Rol { motor, velocity } => {
+                self.motor(motor)?;
+                let v = velocity.checked_neg().ok_or(Status::InvalidValue)?;
+                self.start_rotation(v);
+                value(velocity)
+            }
+            // §3.7.3 MST: velocity mode, target speed 0 (AMB-8: "#0" is AP 2), decelerating with AP 5.
+            C::Mst { motor } => {
+                self.motor(motor)?;
+                self.start_rotation(0);
+                value(0)
+            }
+            // §3.7.4 MVP ABS/REL/COORD: AP 0 = new target, position mode (AP 128 = 0).
+            C::Mvp { motor, target } => {
+                self.motor(motor)?;
+                let to = match target {
+                    MoveTarget::Abs(p) => p,
+                    // "an offset to the actual position ... must not exceed the above mentioned limits".
+                    MoveTarget::Rel(d) => self.st.ramp.position.checked_add(d).ok_or(Status::InvalidValue)?,
+                    MoveTarget::Coord(n) => {
+                        let n = usize::try_from(n).ok().filter(|n| *n <= usize::from(self.spec.coordinates));
+                        self.st.coords[n.ok_or(Status::InvalidValue)?]
+                    }
+                };
+                self.start_move(to);
+                value(match target {
+                    MoveTarget::Abs(v) | MoveTarget::Rel(v) | MoveTarget::Coord(v) => v,
+                })
+            }
+            // §3.7.5 SAP: RAM only.
+            C::Sap { param, motor, value: v } => {
+                self.motor(motor)?;
+                self.set_axis(param, v, now)?;
+                value(v)
+            }
+            // §3.7.6 GAP.
+            C::Gap { param, motor } => {
+                self.motor(motor)?;
+                value(self.get_axis(param)?)
+            }
+            // §3.7.7 STAP: E parameters only.
+            C::Stap { param, motor } => {
+                self.motor(motor)?;
+                let (i, _) = self.axis_desc(param, |d| d.access.store)?;
+                persist::store_axis(&mut self.board, self.spec, i, self.st.axis[i])?;
+                value(0)
+            }
+            // §3.7.8 RSAP: E parameters only.
+            C::Rsap { param, motor } => {
+                self.motor(motor)?;
+                let (i, d) = self.axis_desc(param, |d| d.access.store)?;
+                let v = persist::load_axis(&mut self.board, self.spec, i)?;
+                self.st.axis[i] = if d.range.contains(v) { v } else { d.default };
+                value(0)
+            }
+            // §3.7.9 SGP.
+            C::Sgp { param, bank, value: v } => {
+                self.set_global(param, bank, v, now)?;
+                value(v)
+            }
+            // §3.7.10 GGP.
+            C::Ggp { param, bank } => value(self.get_global(param, bank, now)?),
+            // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
+            // and a STGP rewrites them (AMB-11).
+            C::Stgp { param, bank } => {
+                match bank {
+                    0 => {
+                        let (i, _) = self.global_desc(param, |d| d.access.auto)?;
+                        persist::store_global(&mut self.board, self.spec, i, self.st.global[i])?;
+                    }
+                    2 => persist::store_user(&mut self.board, self.spec, param, self.st.user[usize::from(param)])?,
+                    3 => return Err(ParamError::NotPermitted.into()),
+                    _ => return Err(ParamError::NoSuchMotor.into()),
+                }
+                value(0)
+            }
+            // §3.7.12 RSGP.
+            C::Rsgp { param, bank } => {
+                match bank {
+                    0 => {
+                        let (i, d) = self.global_desc(param, |d| d.access.auto)?;
+                        let v = persist::load_global(&mut self.board, self.spec, i)?;
+                        self.st.global[i] = if d.range.contains(v) { v } else { d.default };
+                    }
+                    2 => {
+                        self.st.user[usize::from(param)] = persist::load_user(&mut self.board, self.spec, param)?;
+                    }
+                    3 => return Err(ParamError::NotPermitted.into()),
+                    _ => return Err(ParamError::NoSuchMotor.into()),
+                }
+                value(0)
+            }
+            // §3.7.13 RFS START/STOP/STATUS.
+            C::Rfs { action, motor } => {
+                self.motor(motor)?;
+                value(self.reference_search(action, now)?)
+            }
+            // §3.7.14 SIO: bank 2 outputs; port 255 sets all from a bit vector, −1 takes it from A.
+            C::Sio { port, bank, value: v } => {
+                // Only bank 2 (outputs) can be set; another bank is an invalid value of the bank byte.
+                if bank != 2 {
+                    return Err(Status::InvalidValue);
+                }
+                let desc = self.spec.port(bank, port).ok_or(Status::WrongType)?;
+                let bits = match desc.kind {
+                    PortKind::Output(bit) => match v {
+                        0 => self.st.outputs & !(1 << bit),
+                        1 => self.st.outputs | (1 << bit),
+                        _ => return Err(Status::InvalidValue),
+                    },
+                    PortKind::AllOutputs => match v {
+                        -1 => self.st.regs.accumulator as u8,
+                        0..=255 => v as u8,
+                        _ => return Err(Status::InvalidValue),
+                    },
+                    _ => return Err(Status::WrongType),
+                };
+                self.st.outputs = bits & (((1u16 << self.spec.outputs) - 1) as u8);
+                self.board.set_outputs(self.st.outputs);
+                value(v)
+            }
+            // §3.7.15 GIO: bank 0 digital inputs, bank 1 analog inputs, bank 2 outputs read back.
+            C::Gio { port, bank } => {
+                let desc = self.spec.port(bank, port).ok_or(if bank <= 2 {
+                    Status::WrongType
+                } else {
+                    Status::InvalidValue
+                })?;
+                value(self.read_port(desc.kind))
+            }
+            // §3.7.16 CALC: A ← A op operand; the reply carries the operand (example reply §3.7.16).
+            C::Calc { op, operand } => {
+                let a = self.st.regs.accumulator;
+                let r = match op {
+                    CalcOp::Add => a.wrapping_add(operand),
+                    CalcOp::Sub => a.wrapping_sub(operand),
+                    CalcOp::Mul => a.wrapping_mul(operand),
+                    CalcOp::Div => a
+                        .checked_div(operand)
+                        .or((operand == -1).then(|| a.wrapping_neg()))
+                        .ok_or(Status::InvalidValue)?,
+                    CalcOp::Mod => {
+                        a.checked_rem(operand).or((operand == -1).then_some(0)).ok_or(Status::InvalidValue)?
+                    }
+                    CalcOp::And => a & operand,
+                    CalcOp::Or => a | operand,
+                    CalcOp::Xor => a ^ operand,
+                    CalcOp::Not => !a,
+                    CalcOp::Load => operand,
+                };
+                self.load_accumulator(r);
+                value(operand)
+            }
+            // §3.7.28 CALCX: A ← A op X; LOAD copies A to X, SWAP exchanges them, NOT inverts X (Table of
+            // §3.7.28; AMB-23).
+            C::Calcx { op } => {
+                let (a, x) = (self.st.regs.accumulator, self.st.regs.x);
+                let r = match op {
+                    CalcxOp::Add => a.wrapping_add(x),
+                    CalcxOp::Sub => a.wrapping_sub(x),
+                    CalcxOp::Mul => a.wrapping_mul(x),
+                    CalcxOp::Div => {
+                        a.checked_div(x).or((x == -1).then(|| a.wrapping_neg())).ok_or(Status::InvalidValue)?
+                    }
+                    CalcxOp::Mod => a.checked_rem(x).or((x == -1).then_some(0)).ok_or(Status::InvalidValue)?,
+                    CalcxOp::And => a & x,
+                    CalcxOp::Or => a | x,
+                    CalcxOp::Xor => a ^ x,
+                    CalcxOp::Not => {
+                        self.st.regs.x = !x;
+                        return value(0);
+                    }
+                    CalcxOp::Load => {
+                        self.st.regs.x = a;
+                        return value(0);
+                    }
+                    CalcxOp::Swap => {
+                        self.st.regs.x = a;
+                        x
+                    }
+                };
+                self.load_accumulator(r);
+                value(0)
+            }
+            // §3.7.29 AAP: axis parameter ← A.
+            C::Aap { param, motor } => {
+                self.motor(motor)?;
+                let a = self.st.regs.accumulator;
+                self.set_axis(param, a, now)?;
+                value(a)
+            }
+            // §3.7.30 AGP: global parameter ← A.
+            C::Agp { param, bank } => {
+                let a = self.st.regs.accumulator;
+                self.set_global(param, bank, a, now)?;
+                value(a)
+            }
+            // §3.7.24 SCO; motor 255 copies RAM → EEPROM (coordinate 0 = all of 1..20).
+            C::Sco { coord, motor, position } => {
+                if motor == 255 {
+                    self.copy_coordinates(coord, true)?;
+                    return value(0);
+                }
+                self.motor(motor)?;
+                self.write_coordinate(coord, position)?;
+                value(position)
+            }
+            // §3.7.25 GCO; motor 255 copies EEPROM → RAM.
+            C::Gco { coord, motor } => {
+                if motor == 255 {
+                    self.copy_coordinates(coord, false)?;
+                    return value(0);
+                }
+                self.motor(motor)?;
+                value(self.st.coords[self.coord_index(coord)?])
+            }
+            // §3.7.26 CCO: coordinate ← actual position; the reply carries it.
+            C::Cco { coord, motor } => {
+                self.motor(motor)?;
+                let p = self.st.ramp.position;
+                self.write_coordinate(coord, p)?;
+                value(p)
+            }
+            // §3.7.27 ACO: coordinate ← accumulator (AMB-12: the accumulator, not the actual position).
+            C::Aco { coord, motor } => {
+                self.motor(motor)?;
+                let a = self.st.regs.accumulator;
+                self.write_coordinate(coord, a)?;
+                value(a)
+            }
+            // §3.7.31 CLE: clears error flags (the comparison flags stay).
+            C::Cle { flag } => {
+                let mask = match flag {
+                    ErrorFlag::All => {
+                        flags::TIMEOUT | flags::ALARM | flags::DEVIATION | flags::POSITION | flags::SHUTDOWN
+                    }
+                    ErrorFlag::Timeout => flags::TIMEOUT,
+                    ErrorFlag::ExternalAlarm => flags::ALARM,
+                    ErrorFlag::Deviation => flags::DEVIATION,
+                    ErrorFlag::PositionError => flags::POSITION,
+                    ErrorFlag::Shutdown => flags::SHUTDOWN,
+                };
+                self.st.regs.flags &= !mask;
+                value(0)
+            }
+            // §3.7.32 EI / §3.7.33 DI: interrupt n (Table 12) or 255 = global.
+            C::Ei { interrupt } | C::Di { interrupt } => {
+                let on = matches!(command, C::Ei { .. });
+                if interrupt == 255 {
+                    self.st.irq_global = on;
+                } else if self.spec.interrupts.iter().any(|(n, _)| *n == interrupt) {
+                    let bit = 1u64 << interrupt;
+                    self.st.irq_enabled = if on { self.st.irq_enabled | bit } else { self.st.irq_enabled & !bit };
+                } else {
+                    return Err(Status::WrongType);
+                }
+                value(0)
+            }
+            // Standalone-only program flow (§3.6.2, AMB-13) and user functions (§3.7.37).
+            C::Comp { .. }
+            | C::Jc { .. }
+            | C::Ja { .. }
+            | C::Csub { .. }
+            | C::Rsub
+            | C::Wait { .. }
+            | C::Stop
+            | C::Vect { .. }
+            | C::Reti
+            | C::UserFunction { .. } => Err(Status::NotAvailable),
+            // §3.7.38 128..135: the TMCL program machine (standalone mode) is not part of this firmware
+            // build yet; the host is told the commands are not available rather than given false answers.
+            C::StopApplication
+            | C::RunApplication { .. }
+            | C::StepApplication
+            | C::ResetApplication
+            | C::StartDownload { .. }
+            | C::QuitDownload
+            | C::ReadMemory { .. }
+            | C::GetStatus { .. } => Err(Status::NotAvailable),
+            // §3.4.1 command 139: ASCII mode is not part of this build yet.
+            C::EnterAscii => Err(Status::NotAvailable),
+            // §3.7.38 136: type 0 = host address + 8 characters, no checksum; type 1 = binary.
+            C::GetVersion { format: VersionFormat::String } => {
+                let mut raw = [0u8; FRAME_LEN];
+                raw[0] = self.global_value(76) as u8;
+                raw[1..].copy_from_slice(&self.spec.version_string);
+                Ok(Outcome::Raw(raw))
+            }
+            C::GetVersion { format: VersionFormat::Binary } => value(self.spec.version_binary),
+            // §3.7.38 137 (value 1234, checked by decode): factory defaults into the EEPROM, no reply; the
+            // module then restarts on them (the program memory is kept: it is not a setting).
+            C::FactoryDefault => {
+                persist::format(&mut self.board, self.spec, false).map_err(Status::from)?;
+                Ok(Outcome::Silent)
+            }
+            // §3.7.39 138: type 0 = next MVP, type 1 = every MVP; value = motor mask. Mask 0 cancels (our
+            // decision, AMB-16: the manual gives no way to turn type 1 off).
+            C::RequestTargetReachedEvent { mode, mask } => {
+                let all = (1i32 << self.spec.motors) - 1;
+                if mask & !all != 0 {
+                    return Err(Status::InvalidValue);
+                }
+                self.st.event.mode = (mask != 0).then_some(mode);
+                self.st.event.mask = mask;
+                if mask == 0 {
+                    self.st.event.pending = false;
+                }
+                value(mask)
+            }
+            // 242: pytrinamic's boot-loader request. The module has no boot loader on this link; it stays
+            // silent so the host's reply stream stays aligned (pytrinamic expects no reply).
+            C::Boot => Ok(Outcome::Silent),
+            // §3.7.38 255 (value 1234): restart like a power cycle; the reply goes out first.
+            C::SoftwareReset => Ok(Outcome::Restart(MAGIC_KEY)),
+        }
+    }
+
+    fn motor(&self, motor: u8) -> Result<(), Status> {
+        if motor < self.spec.motors {
+            Ok(())
+        } else {
+            Err(ParamError::NoSuchMotor.into())
+        }
+    }
+
+    fn start_rotation(&mut self, velocity: i32) {
+        self.st.ramp.rotate(velocity);
+        self.st.error_flags = 0; // AP 207: "cleared ... when a motion command runs"
+        self.st.event.pending = false;
+    }
+
+    fn start_move(&mut self, target: i32) {
+        self.st.ramp.move_to(target);
+        self.st.error_flags = 0;
+        match self.st.event.mode {
+            Some(EventMode::Next) => {
+                self.st.event.mode = None;
+                self.st.event.pending = true;
+            }
+            Some(EventMode::Every) => self.st.event.pending = true,
+            None => {}
+        }
+    }
+
+    /// Loads the accumulator and sets the zero flag from it (inventory AMB-1).
+    pub(crate) fn load_accumulator(&mut self, v: i32) {
+        self.st.regs.accumulator = v;
+        if v == 0 {
+            self.st.regs.flags |= flags::ZERO;
+        } else {
+            self.st.regs.flags &= !flags::ZERO;
+        }
+    }
+
+    fn axis_desc(
+        &self,
+        number: u8,
+        allowed: impl Fn(&ParamDesc) -> bool,
+    ) -> Result<(usize, &'static ParamDesc), Status> {
+        let (i, d) = find(self.spec.axis_params, number)?;
+        if allowed(d) {
+            Ok((i, d))
+        } else {
+            Err(ParamError::NotPermitted.into())
+        }
+    }
+
+    fn global_desc(
+        &self,
+        number: u8,
+        allowed: impl Fn(&ParamDesc) -> bool,
+    ) -> Result<(usize, &'static ParamDesc), Status> {
+        let (i, d) = find(self.spec.global_params, number)?;
+        if allowed(d) {
+            Ok((i, d))
+        } else {
+            Err(ParamError::NotPermitted.into())
+        }
+    }
+
+    /// GAP: an axis parameter's value (chapter 4, Table 15).
+    pub fn get_axis(&mut self, number: u8) -> Result<i32, Status> {
+        let (i, d) = self.axis_desc(number, |d| d.access.read)?;
+        let ramp = &self.st.ramp;
+        Ok(match d.role {
+            Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axis[i],
+            Role::TargetPosition => ramp.target_position,
+            Role::ActualPosition => ramp.position,
+            Role::TargetSpeed => ramp.target_velocity,
+            Role::ActualSpeed => ramp.velocity(),
+            Role::PositionReached => i32::from(ramp.position_reached()),
+            Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
+            Role::HomeSwitch => i32::from(self.switches().2),
+            Role::RightSwitch => i32::from(self.switches().1),
+            Role::LeftSwitch => i32::from(self.switches().0),
+            // AP 180: the current scale 0..31 in use (current / 8, Table 22).
+            Role::ActualCurrent => i32::from(self.current(self.st.now).0 >> 3),
+            Role::LoadValue => i32::from(self.board.feedback().load.min(1023)),
+            // AP 207: "cleared automatically when read".
+            Role::ErrorFlags => i32::from(core::mem::take(&mut self.st.error_flags)),
+            Role::DriverFlags => i32::from(self.board.feedback().driver_flags),
+            Role::EncoderPosition => self.encoder_position(),
+            Role::EncoderAbsolute => self.encoder_absolute(),
+            _ => self.st.axis[i],
+        })
+    }
+
+    /// SAP/AAP: writes an axis parameter (RAM only).
+    pub fn set_axis(&mut self, number: u8, v: i32, _now: Instant) -> Result<(), Status> {
+        let (i, d) = self.axis_desc(number, |d| d.access.write)?;
+        if !d.range.contains(v) {
+            return Err(ParamError::OutOfRange.into());
+        }
+        match d.role {
+            // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
+            // result to target position" relies on it).
+            Role::TargetPosition => self.st.ramp.move_to(v),
+            Role::ActualPosition => self.st.ramp.set_position(v),
+            // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
+            Role::TargetSpeed => self.st.ramp.target_velocity = v,
+            // AMB-27: accepted, no effect: the ramp generator owns the actual speed.
+            Role::ActualSpeed => {}
+            Role::RampMode => {
+                self.st.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
+            }
+            Role::EncoderPosition => self.set_encoder(v, self.st.axis[i_prescaler(self)]),
+            Role::EncoderPrescaler => {
+                let now_value = self.encoder_position();
+                self.st.axis[i] = v;
+                self.set_encoder(now_value, v);
+            }
+            _ => self.st.axis[i] = v,
+        }
+        Ok(())
+    }
+
+    /// GGP: a global parameter (chapter 5).
+    pub fn get_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
+        match bank {
+            0 => {
+                let (i, d) = self.global_desc(number, |d| d.access.read)?;
+                Ok(match d.role {
+                    Role::ApplicationStatus | Role::DownloadMode | Role::ProgramCounter => 0,
+                    // GP 132: "incremented every 1 ms" (§5.1).
+                    Role::TickTimer => {
+                        let (at, base) = self.st.tick_base;
+                        ((u64::from(base) + (now - at).millis()) & 0x7FFF_FFFF) as i32
+                    }
+                    // GP 133: a new random number 0..2^31−1 on every read (xorshift32).
+                    Role::RandomNumber => {
+                        let mut x = self.st.rng;
+                        x ^= x << 13;
+                        x ^= x >> 17;
+                        x ^= x << 5;
+                        self.st.rng = x;
+                        (x & 0x7FFF_FFFF) as i32
+                    }
+                    _ => self.st.global[i],
+                })
+            }
+            2 => Ok(self.st.user[usize::from(number)]),
+            3 => {
+                let (i, _) = find(self.spec.interrupt_params, number)?;
+                Ok(self.st.interrupt[i])
+            }
+            _ => Err(ParamError::NoSuchMotor.into()),
+        }
+    }
+
+    /// SGP/AGP: writes a global parameter; bank 0 A parameters go to the EEPROM at once (§5.1).
+    pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
+        match bank {
+            0 => {
+                let (i, d) = self.global_desc(number, |d| d.access.write)?;
+                if !d.range.contains(v) {
+                    return Err(ParamError::OutOfRange.into());
+                }
+                if d.access.auto {
+                    // Stored first: if the EEPROM refuses, nothing changes.
+                    persist::store_global(&mut self.board, self.spec, i, v)?;
+                }
+                match d.role {
+                    Role::TickTimer => self.st.tick_base = (now, v as u32),
+                    // A written value seeds the generator (0 would stick; it becomes the start seed).
+                    Role::RandomNumber => self.st.rng = if v == 0 { 0x2545_F491 } else { v as u32 },
+                    _ => {}
+                }
+                self.st.global[i] = v;
+                Ok(())
+            }
+            2 => {
+                self.st.user[usize::from(number)] = v;
+                Ok(())
+            }
+            3 => {
+                let (i, d) = find(self.spec.interrupt_params, number)?;
+                if !d.range.contains(v) {
+                    return Err(ParamError::OutOfRange.into());
+                }
+                self.st.interrupt[i] = v;
+                Ok(())
+            }
+            _ => Err(ParamError::NoSuchMotor.into()),
+        }
+    }
+
+    fn read_port(&mut self, kind: PortKind) -> i32 {
+        match kind {
+            PortKind::DigitalInput(bit) => i32::from((self.board.digital_inputs() >> bit) & 1),
+            PortKind::AllInputs => i32::from(self.board.digital_inputs()),
+            PortKind::EncoderNearZero => i32::from(self.encoder_near_zero()),
+            PortKind::Analog(ch) => i32::from(self.board.analog_input(ch).min(4095)),
+            PortKind::Temperature => self.board.temperature(),
+            PortKind::Output(bit) => i32::from((self.st.outputs >> bit) & 1),
+            PortKind::AllOutputs => i32::from(self.st.outputs),
+        }
+    }
+
+    fn coord_index(&self, coord: u8) -> Result<usize, Status> {
+        if coord <= self.spec.coordinates {
+            Ok(usize::from(coord))
+        } else {
+            Err(Status::WrongType)
+        }
+    }
+
+    /// Sets a coordinate; with GP 84 = 1 coordinates 1..20 also go to the EEPROM (§3.7.24).
+    fn write_coordinate(&mut self, coord: u8, v: i32) -> Result<(), Status> {
+        let n = self.coord_index(coord)?;
+        if n > 0 && self.global_value(84) == 1 {
+            persist::store_coordinate(&mut self.board, self.spec, coord, v)?;
+        }
+        self.st.coords[n] = v;
+        Ok(())
+    }
+
+    /// SCO/GCO x, 255: coordinate 0 = all of 1..20, n = that one (§3.7.24, §3.7.25).
+    fn copy_coordinates(&mut self, coord: u8, to_eeprom: bool) -> Result<(), Status> {
+        let n = self.coord_index(coord)? as u8;
+        let range = if n == 0 { 1..=self.spec.coordinates } else { n..=n };
+        for c in range {
+            if to_eeprom {
+                persist::store_coordinate(&mut self.board, self.spec, c, self.st.coords[usize::from(c)])?;
+            } else {
+                self.st.coords[usize::from(c)] = persist::load_coordinate(&mut self.board, self.spec, c)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The prescaler without its function bits: p = prescaler × 512, bit 2 (value 4) = clear on null
+    /// (§6.2; inventory AMB-34: only bit 2 is a function bit, so Table 20's p = 200 keeps its value).
+    fn prescaler_value(p: i32) -> i64 {
+        i64::from(p & !4)
+    }
+
+    fn encoder_counts(&mut self) -> i64 {
+        let physical = self.board.feedback().encoder_counts;
+        self.logical_counts(physical)
+    }
+
+    /// AP 209 = value at the reference + counts since × p / 512 (§6.2).
+    fn encoder_position(&mut self) -> i32 {
+        let counts = self.encoder_counts();
+        let p = Self::prescaler_value(self.axis_value(210));
+        let delta = i128::from(counts - self.st.encoder.counts) * i128::from(p) / 512;
+        (i128::from(self.st.encoder.value) + delta) as i32
+    }
+
+    fn set_encoder(&mut self, v: i32, _prescaler: i32) {
+        let counts = self.encoder_counts();
+        self.st.encoder = crate::module::EncoderBase { counts, value: v };
+    }
+
+    /// AP 215: the absolute single-turn value 0..1023, independent of the prescaler (§6.2).
+    fn encoder_absolute(&mut self) -> i32 {
+        self.encoder_counts().rem_euclid(1024) as i32
+    }
+
+    /// GIO 11, 0: the encoder is within ±4 counts (±1.4°) of its absolute zero (our tolerance; §6.2 gives
+    /// none).
+    fn encoder_near_zero(&mut self) -> bool {
+        let a = self.encoder_absolute();
+        !(4..=1020).contains(&a)
+    }
+
+    /// RFS START/STOP/STATUS (§3.7.13).
+    fn reference_search(&mut self, action: RfsAction, _now: Instant) -> Result<i32, Status> {
+        match action {
+            RfsAction::Status => Ok(0),
+            RfsAction::Start | RfsAction::Stop => Err(Status::NotAvailable),
+        }
+    }
+}
+
+fn i_prescaler<B: Board>(m: &Module<B>) -> usize {
+    find(m.spec.axis_params, 210).map(|(i, _)| i).unwrap_or(0)
+}
