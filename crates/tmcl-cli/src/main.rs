@@ -1,6 +1,8 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
 mod host;
+mod pty;
+mod serve;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -17,6 +19,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run a virtual module on a pty (--pty LINK) or a TCP port (--tcp HOST:PORT) until SIGINT/SIGTERM.
+    Serve(serve::ServeArgs),
     #[command(flatten)]
     Host(host::HostCommand),
 }
@@ -24,6 +28,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
+        Command::Serve(args) => serve::run(&cli.connection, args),
         Command::Host(command) => host::run(&cli.connection, command),
     }
 }

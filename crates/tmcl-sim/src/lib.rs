@@ -2,7 +2,10 @@
 //! on a PC.
 //!
 //! - [`nvm`]: the EEPROM, in memory ([`MemNvm`]) or in a crash-safe file ([`FileNvm`]).
+//! - [`board`]: [`SimBoard`], the board the firmware core runs on, and its [`World`].
 
+pub mod board;
 pub mod nvm;
 
+pub use board::{Eeprom, SimBoard, World};
 pub use nvm::{FileNvm, MemNvm, NvmError, Options};

@@ -1,0 +1,246 @@
+//! `tmcl serve`: a virtual module on a pty or a TCP port, in real time.
+//!
+//! The firmware core runs on a [`SimBoard`]; this file only moves bytes and wall-clock time between the
+//! OS and [`Module::receive`]/[`Module::poll`], and sleeps until the module's next deadline or the next
+//! byte, whichever comes first.
+
+use crate::host::Connection;
+use crate::pty::Pty;
+use clap::Args;
+use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+use std::io::{self, Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::os::fd::AsFd;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use tmcl_core::model::{self, ModelSpec};
+use tmcl_core::param::persist;
+use tmcl_core::{Instant, Module};
+use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
+use tmcl_wire::{Command, Frame, Instruction, Reply, ReplyFrame, Request};
+
+/// Longest sleep between two looks at the shutdown flag.
+const MAX_SLEEP: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// Options of `tmcl serve` (the link comes from `--pty` or the global `--tcp`, the address from the global
+/// `--address`).
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// The module to simulate.
+    #[arg(long, value_name = "MODEL", default_value = "pd28-1021")]
+    pub module: String,
+    /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
+    #[arg(long, value_name = "LINK", conflicts_with = "tcp")]
+    pub pty: Option<PathBuf>,
+    /// Keep the module's EEPROM in FILE (crash-safe; FILE.journal sits beside it). Without it the EEPROM
+    /// lives in memory and is lost when the server stops.
+    #[arg(long, value_name = "FILE")]
+    pub eeprom: Option<PathBuf>,
+    /// Log every request and reply to stderr.
+    #[arg(short, long)]
+    pub verbose: bool,
+}
+
+/// Where the bytes come from and go to.
+enum Link {
+    Pty(Pty),
+    Tcp { listener: TcpListener, peer: Option<TcpStream> },
+}
+
+/// Runs the server until SIGINT or SIGTERM.
+pub fn run(conn: &Connection, args: ServeArgs) -> ExitCode {
+    match serve(conn, args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("tmcl serve: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
+    let spec: &'static ModelSpec = model::by_id(&args.module).ok_or_else(|| {
+        let known: Vec<&str> = model::MODELS.iter().map(|m| m.id).collect();
+        format!("unknown module `{}`; known: {}", args.module, known.join(", "))
+    })?;
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop)).map_err(|e| format!("cannot handle signals: {e}"))?;
+    }
+    let capacity = persist::capacity(spec);
+    let eeprom = match &args.eeprom {
+        Some(path) => Eeprom::File(FileNvm::open(path, capacity).map_err(|e| e.to_string())?),
+        None => Eeprom::Memory(MemNvm::new(capacity)),
+    };
+    let start = std::time::Instant::now();
+    let clock = move || Instant::from_micros(start.elapsed().as_micros() as u64);
+    let mut module = Module::new(SimBoard::new(eeprom), spec, clock());
+    if let Some(address) = conn.address {
+        // --address: the module answers at N (GP 66, stored like any SGP 66).
+        module
+            .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
+            .map_err(|s| format!("--address {address}: {s}"))?;
+    }
+    let mut link = match (&args.pty, &conn.tcp) {
+        (Some(path), None) => {
+            Link::Pty(Pty::open(path).map_err(|e| format!("cannot open a pty at {}: {e}", path.display()))?)
+        }
+        (None, Some(addr)) => {
+            let addr = parse_listen_address(addr)?;
+            let listener = TcpListener::bind(addr).map_err(|e| format!("cannot listen on {addr}: {e}"))?;
+            listener.set_nonblocking(true).map_err(|e| e.to_string())?;
+            Link::Tcp { listener, peer: None }
+        }
+        _ => return Err("give exactly one of --pty LINK or --tcp HOST:PORT".into()),
+    };
+    let place = match &link {
+        Link::Pty(pty) => pty.link.display().to_string(),
+        Link::Tcp { listener, .. } => listener.local_addr().map(|a| a.to_string()).unwrap_or_default(),
+    };
+    println!("serving {} at address {} on {place}", spec.name, module.address());
+    let _ = io::stdout().flush();
+    if args.verbose {
+        if let Link::Pty(pty) = &link {
+            eprintln!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
+        }
+    }
+
+    let mut buf = [0u8; 4096];
+    while !stop.load(Ordering::Relaxed) {
+        let now = clock();
+        let deadline = {
+            let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
+            module.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
+        };
+        let sleep = deadline
+            .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
+            .unwrap_or(MAX_SLEEP)
+            .min(MAX_SLEEP);
+        let readable = wait(&link, sleep).map_err(|e| format!("poll: {e}"))?;
+        if !readable {
+            continue;
+        }
+        let received = match &mut link {
+            Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
+            Link::Tcp { listener, peer } => match peer {
+                None => {
+                    if let Ok((stream, from)) = listener.accept() {
+                        let _ = stream.set_nonblocking(true);
+                        let _ = stream.set_nodelay(true);
+                        if args.verbose {
+                            eprintln!("[{}] connection from {from}", clock());
+                        }
+                        *peer = Some(stream);
+                    }
+                    0
+                }
+                Some(stream) => match stream.read(&mut buf) {
+                    Ok(0) | Err(_) if !would_block_or_ok(stream) => {
+                        if args.verbose {
+                            eprintln!("[{}] connection closed", clock());
+                        }
+                        *peer = None;
+                        0
+                    }
+                    Ok(n) => n,
+                    Err(_) => 0,
+                },
+            },
+        };
+        if received > 0 {
+            let now = clock();
+            if args.verbose {
+                log_request(now, &buf[..received]);
+            }
+            let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
+            module.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
+        }
+    }
+    module.board_mut().eeprom().sync().map_err(|e| format!("EEPROM not flushed: {e}"))?;
+    if args.verbose {
+        eprintln!("[{}] stopped", clock());
+    }
+    Ok(())
+}
+
+/// `HOST:PORT`, or just `PORT` for loopback.
+fn parse_listen_address(s: &str) -> Result<SocketAddr, String> {
+    if let Ok(port) = s.parse::<u16>() {
+        return Ok(SocketAddr::from(([127, 0, 0, 1], port)));
+    }
+    s.parse().map_err(|_| format!("`{s}` is not HOST:PORT (e.g. 127.0.0.1:2323) or a port number"))
+}
+
+/// After a failed or empty read: whether the stream is merely idle (true) or closed (false).
+fn would_block_or_ok(stream: &mut TcpStream) -> bool {
+    let mut probe = [0u8; 1];
+    matches!(stream.peek(&mut probe), Err(e) if e.kind() == io::ErrorKind::WouldBlock)
+}
+
+fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
+    // WouldBlock: nothing after all; EIO cannot happen while we hold the slave open.
+    file.read(buf).unwrap_or_default()
+}
+
+/// Waits until the link is readable or `timeout` passes.
+fn wait(link: &Link, timeout: std::time::Duration) -> io::Result<bool> {
+    let fd = match link {
+        Link::Pty(pty) => pty.master.as_fd(),
+        Link::Tcp { listener, peer: None } => listener.as_fd(),
+        Link::Tcp { peer: Some(stream), .. } => stream.as_fd(),
+    };
+    let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
+    let ms = PollTimeout::try_from(timeout.as_millis().max(1) as u64).unwrap_or(PollTimeout::MAX);
+    match poll(&mut fds, ms) {
+        Ok(n) => Ok(n > 0),
+        Err(nix::Error::EINTR) => Ok(false),
+        Err(e) => Err(io::Error::from_raw_os_error(e as i32)),
+    }
+}
+
+/// Writes what the module sends; a host that is not listening loses it, as on a real line.
+struct Sender<'a> {
+    link: &'a mut Link,
+    verbose: bool,
+    now: Instant,
+}
+
+impl Sender<'_> {
+    fn send(&mut self, bytes: &[u8]) {
+        if self.verbose {
+            log_reply(self.now, bytes);
+        }
+        let _ = match self.link {
+            Link::Pty(pty) => pty.master.write_all(bytes),
+            Link::Tcp { peer: Some(stream), .. } => stream.write_all(bytes),
+            Link::Tcp { peer: None, .. } => Ok(()),
+        };
+    }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02X}")).collect::<Vec<_>>().join(" ")
+}
+
+fn log_request(now: Instant, bytes: &[u8]) {
+    let what = match Frame::new_checked(bytes).map(|f| Request::parse(&f)) {
+        Ok(Ok(Request { address, instruction })) if bytes.len() == 9 => describe(address, instruction),
+        Ok(Err(e)) if bytes.len() == 9 => e.to_string(),
+        _ => format!("{} bytes", bytes.len()),
+    };
+    eprintln!("[{now}] -> {}  {what}", hex(bytes));
+}
+
+fn describe(address: u8, i: Instruction) -> String {
+    format!("to {address}: {} {}, {}, {}", i.opcode, i.kind, i.motor, i.value)
+}
+
+fn log_reply(now: Instant, bytes: &[u8]) {
+    let what = match ReplyFrame::new_checked(bytes).map(|f| Reply::parse(&f)) {
+        Ok(Ok(r)) => format!("status {}, value {}", r.status, r.value),
+        _ => format!("special reply {:?}", String::from_utf8_lossy(&bytes[1.min(bytes.len())..])),
+    };
+    eprintln!("[{now}] <- {}  {what}", hex(bytes));
+}
