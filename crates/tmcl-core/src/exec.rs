@@ -15,7 +15,8 @@
 use crate::hal::Board;
 use crate::model::PortKind;
 use crate::module::{flags, Module, Outcome};
-use crate::motion::Mode;
+use crate::motion::reference::Action;
+use crate::motion::{Mode, SearchMode};
 use crate::param::{find, persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
 use tmcl_wire::command::MAGIC_KEY;
@@ -367,12 +368,14 @@ impl<B: Board> Module<B> {
     }
 
     fn start_rotation(&mut self, velocity: i32) {
+        self.st.reference.stop();
         self.st.ramp.rotate(velocity);
         self.st.error_flags = 0; // AP 207: "cleared ... when a motion command runs"
         self.st.event.pending = false;
     }
 
     fn start_move(&mut self, target: i32) {
+        self.st.reference.stop();
         self.st.ramp.move_to(target);
         self.st.error_flags = 0;
         match self.st.event.mode {
@@ -627,11 +630,33 @@ impl<B: Board> Module<B> {
         !(4..=1020).contains(&a)
     }
 
-    /// RFS START/STOP/STATUS (§3.7.13).
+    /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions.
     fn reference_search(&mut self, action: RfsAction, _now: Instant) -> Result<i32, Status> {
         match action {
-            RfsAction::Status => Ok(0),
-            RfsAction::Start | RfsAction::Stop => Err(Status::NotAvailable),
+            RfsAction::Start => {
+                // AP 193 is range-checked on write, so it always decodes.
+                let mode = SearchMode::decode(self.axis_value(193)).ok_or(Status::InvalidValue)?;
+                let (fast, slow) = (self.axis_value(194), self.axis_value(195));
+                if fast == 0 || slow == 0 {
+                    // A search at speed 0 would never end: refused (our decision).
+                    return Err(Status::InvalidValue);
+                }
+                self.st.error_flags = 0;
+                self.st.event.pending = false;
+                if let Action::Rotate(v) = self.st.reference.start(mode, fast) {
+                    self.st.ramp.hard_stop();
+                    self.st.ramp.rotate(v);
+                }
+                Ok(0)
+            }
+            RfsAction::Stop => {
+                if self.st.reference.is_active() {
+                    self.st.reference.stop();
+                    self.st.ramp.rotate(0);
+                }
+                Ok(0)
+            }
+            RfsAction::Status => Ok(self.st.reference.status()),
         }
     }
 }

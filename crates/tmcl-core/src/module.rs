@@ -8,7 +8,8 @@
 use crate::hal::{Board, DriveState};
 use crate::iface::{Framer, Outbox, Sink};
 use crate::model::ModelSpec;
-use crate::motion::{Limits, Mode, Ramp, RampParams, TICK};
+use crate::motion::reference::{Action, SwitchLevels};
+use crate::motion::{Limits, Mode, Ramp, RampParams, Reference, TICK};
 use crate::param::{find, persist};
 use crate::time::{Duration, Instant};
 use tmcl_wire::{Command, EventMode, Frame, Opcode, Reply, Request, Status, FRAME_LEN};
@@ -90,6 +91,7 @@ pub struct State {
     pub(crate) user: [i32; MAX_USER_VARIABLES],
     pub(crate) coords: [i32; MAX_COORDINATES],
     pub(crate) ramp: Ramp,
+    pub(crate) reference: Reference,
     pub(crate) regs: Registers,
     /// Interrupt enables: bit n = EI n; `irq_global` = EI 255.
     pub(crate) irq_enabled: u64,
@@ -131,6 +133,7 @@ impl State {
             user: [0; MAX_USER_VARIABLES],
             coords: [0; MAX_COORDINATES],
             ramp: Ramp::default(),
+            reference: Reference::Idle,
             regs: Registers::default(),
             irq_enabled: 0,
             irq_global: false,
@@ -389,6 +392,10 @@ impl<B: Board> Module<B> {
     }
 
     fn limits(&mut self) -> Limits {
+        if self.st.reference.is_active() {
+            // The reference search handles the switches itself (§7.1: AP 12/13 do not affect it).
+            return Limits::default();
+        }
         let (left, right, _) = self.switches();
         Limits { block_negative: left && self.axis_value(13) == 0, block_positive: right && self.axis_value(12) == 0 }
     }
@@ -470,13 +477,50 @@ impl<B: Board> Module<B> {
                 (false, None) => self.st.standstill_since = Some(t),
                 _ => {}
             }
-            self.check_event(t);
             self.update_board(t);
+            if self.st.reference.is_active() {
+                self.step_reference();
+            }
+            self.check_event(t);
         }
         self.check_event(now);
         self.check_heartbeat(now);
         self.update_board(now);
         self.st.outbox.flush(now, sink);
+    }
+
+    /// One step of the reference search after a motion tick (§7.1).
+    fn step_reference(&mut self) {
+        let (left, right, home) = self.switches();
+        let levels = SwitchLevels { left, right, home };
+        let (fast, slow) = (self.axis_value(194), self.axis_value(195));
+        let position = self.st.ramp.position;
+        match self.st.reference.step(levels, position, fast, slow) {
+            Action::Continue => {}
+            Action::Rotate(v) => {
+                self.st.ramp.hard_stop();
+                self.st.ramp.rotate(v);
+            }
+            Action::Done { zero, far_distance } => {
+                self.st.ramp.hard_stop();
+                // AP 197: "position value just before the counter is zeroed"; AP 196: end switch distance.
+                self.set_axis_raw(197, position);
+                if let Some(d) = far_distance {
+                    self.set_axis_raw(196, d);
+                }
+                self.st.ramp.mode = Mode::Position;
+                self.st.ramp.set_position(position.wrapping_sub(zero));
+                self.st.ramp.target_position = self.st.ramp.position;
+            }
+            Action::Failed => self.st.ramp.hard_stop(),
+        }
+    }
+
+    /// Sets a parameter's RAM slot directly (results the firmware produces, e.g. AP 196/197).
+    pub(crate) fn set_axis_raw(&mut self, number: u8, v: i32) {
+        if let Ok((i, _)) = find(self.spec.axis_params, number) {
+            self.st.axis[i] = v;
+        }
     }
 
     /// §3.7.39: the second reply of command 138 when an MVP's target is reached.
@@ -504,7 +548,7 @@ impl<B: Board> Module<B> {
     fn next_deadline(&self) -> Option<Instant> {
         let mut next: Option<Instant> = self.st.outbox.next_due();
         let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
-        if !self.st.ramp.is_idle() || self.st.event.pending {
+        if !self.st.ramp.is_idle() || self.st.event.pending || self.st.reference.is_active() {
             consider(self.st.motion_time + TICK);
         }
         if let Some(since) = self.st.standstill_since {

@@ -1,5 +1,8 @@
-//! Motion: the ramp generator (trapezoidal position ramps, velocity mode) in integer arithmetic.
+//! Motion: the ramp generator (trapezoidal position ramps, velocity mode) in integer arithmetic, and the
+//! reference search.
 
 pub mod ramp;
+pub mod reference;
 
 pub use ramp::{Limits, Mode, Ramp, RampParams, TickResult, TICK};
+pub use reference::{Reference, SearchMode};

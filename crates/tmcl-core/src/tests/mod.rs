@@ -3,6 +3,7 @@
 
 mod commands;
 mod params;
+mod reference;
 mod wire;
 
 use crate::hal::{Drive, DriveState, Feedback, Io, Nvm, Switches};
@@ -48,6 +49,8 @@ pub struct TestBoard {
     pub analog: u16,
     pub outputs: u8,
     pub switches: Switches,
+    /// Switch zones in physical 1/256 microsteps; a switch reads pressed inside its zone (or if set).
+    pub zones: [Option<core::ops::RangeInclusive<i64>>; 3],
     pub drive: DriveState,
     /// Physical position in 1/256 microsteps.
     pub physical: i64,
@@ -62,6 +65,7 @@ impl TestBoard {
             analog: 0,
             outputs: 0,
             switches: Switches::default(),
+            zones: [None, None, None],
             drive: DriveState::default(),
             physical: 0,
             updates: 0,
@@ -96,7 +100,12 @@ impl Io for TestBoard {
         self.outputs = bits;
     }
     fn switches(&mut self) -> Switches {
-        self.switches
+        let at = |z: &Option<core::ops::RangeInclusive<i64>>| z.as_ref().is_some_and(|z| z.contains(&self.physical));
+        Switches {
+            left: self.switches.left || at(&self.zones[0]),
+            right: self.switches.right || at(&self.zones[1]),
+            home: self.switches.home || at(&self.zones[2]),
+        }
     }
 }
 
