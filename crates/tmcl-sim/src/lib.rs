@@ -5,6 +5,7 @@
 //! - [`board`]: [`SimBoard`], the board the firmware core runs on, and its [`World`].
 
 pub mod board;
+pub mod fuzzing;
 pub mod nvm;
 
 pub use board::{Eeprom, SimBoard, World};

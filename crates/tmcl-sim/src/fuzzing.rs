@@ -1,0 +1,81 @@
+//! Fuzz harnesses, shared by the cargo-fuzz targets in `fuzz/` and by the stable property tests, so that
+//! "never panics" is checked on every `cargo test` too.
+
+use crate::board::SimBoard;
+use tmcl_core::model::pd28_1021::SPEC;
+use tmcl_core::param::persist;
+use tmcl_core::{Duration, Instant, Module};
+use tmcl_wire::{Command, Frame, Reply, ReplyFrame, Request, FRAME_LEN};
+
+/// Feeds arbitrary bytes to a module on a simulated board, in chunks with arbitrary gaps between them,
+/// and checks what comes out: only whole 9-byte frames, each a valid reply or the 136 special reply.
+///
+/// Input layout: repeated `[gap, len, bytes...]`, where `gap` is in milliseconds (0..=255) and `len` the
+/// number of following bytes to deliver at once.
+pub fn module_stream(data: &[u8]) {
+    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut now = Instant::ZERO;
+    let mut out = Vec::new();
+    let mut rest = data;
+    while let [gap, len, tail @ ..] = rest {
+        now += Duration::from_millis(u64::from(*gap));
+        let n = usize::from(*len).min(tail.len());
+        module.receive(now, &tail[..n], &mut |b: &[u8]| out.extend_from_slice(b));
+        rest = &tail[n..];
+        if let Some(next) = module.poll(now, &mut |b: &[u8]| out.extend_from_slice(b)) {
+            // Time moves on a little, as it would between reads.
+            now = next.min(now + Duration::from_millis(10));
+        }
+    }
+    module.poll(now + Duration::from_secs(1), &mut |b: &[u8]| out.extend_from_slice(b));
+    check_replies(&out);
+}
+
+/// Decodes and executes one arbitrary 9-byte frame on a fresh module.
+pub fn one_frame(data: &[u8]) {
+    let Ok(frame) = Frame::new_checked(data) else { return };
+    if let Ok(request) = Request::parse(&frame) {
+        if let Ok(command) = Command::decode(request.instruction) {
+            assert_eq!(Command::decode(command.encode()), Ok(command));
+            let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+            let _ = module.execute(command, Instant::ZERO);
+            module.poll(Instant::from_secs(1), &mut |_: &[u8]| {});
+        }
+    }
+    let mut out = Vec::new();
+    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    module.receive(Instant::ZERO, &data[..FRAME_LEN], &mut |b: &[u8]| out.extend_from_slice(b));
+    check_replies(&out);
+}
+
+fn check_replies(out: &[u8]) {
+    assert_eq!(out.len() % FRAME_LEN, 0, "replies come as whole frames");
+    for chunk in out.chunks(FRAME_LEN) {
+        let frame = ReplyFrame::new_checked(chunk).expect("9 bytes");
+        let special = chunk[1..].iter().all(|b| b.is_ascii_alphanumeric());
+        assert!(Reply::parse(&frame).is_ok() || special, "bad reply {chunk:02X?}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    proptest::proptest! {
+        #[test]
+        fn module_stream_never_panics(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {
+            module_stream(&data);
+        }
+
+        #[test]
+        fn one_frame_never_panics(data in proptest::array::uniform9(proptest::num::u8::ANY)) {
+            one_frame(&data);
+        }
+
+        #[test]
+        fn valid_frames_of_every_opcode(op in 0u8..=255, t: u8, m: u8, v: i32) {
+            let bytes = Request { address: 1, instruction: tmcl_wire::Instruction::new(op.into(), t, m, v) }.to_bytes();
+            one_frame(&bytes);
+        }
+    }
+}
