@@ -17,7 +17,7 @@ use crate::model::PortKind;
 use crate::module::{flags, Module, Outcome};
 use crate::motion::reference::Action;
 use crate::motion::{Mode, SearchMode};
-use crate::param::{find, persist, ParamDesc, ParamError, Role};
+use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
@@ -403,7 +403,7 @@ impl<B: Board> Module<B> {
         number: u8,
         allowed: impl Fn(&ParamDesc) -> bool,
     ) -> Result<(usize, &'static ParamDesc), Status> {
-        let (i, d) = find(self.spec.axis_params, number)?;
+        let (i, d) = self.spec.axis.find(number)?;
         if allowed(d) {
             Ok((i, d))
         } else {
@@ -416,7 +416,7 @@ impl<B: Board> Module<B> {
         number: u8,
         allowed: impl Fn(&ParamDesc) -> bool,
     ) -> Result<(usize, &'static ParamDesc), Status> {
-        let (i, d) = find(self.spec.global_params, number)?;
+        let (i, d) = self.spec.global.find(number)?;
         if allowed(d) {
             Ok((i, d))
         } else {
@@ -506,7 +506,7 @@ impl<B: Board> Module<B> {
             }
             2 => Ok(self.st.user[usize::from(number)]),
             3 => {
-                let (i, _) = find(self.spec.interrupt_params, number)?;
+                let (i, _) = self.spec.interrupt.find(number)?;
                 Ok(self.st.interrupt[i])
             }
             _ => Err(ParamError::NoSuchMotor.into()),
@@ -539,7 +539,7 @@ impl<B: Board> Module<B> {
                 Ok(())
             }
             3 => {
-                let (i, d) = find(self.spec.interrupt_params, number)?;
+                let (i, d) = self.spec.interrupt.find(number)?;
                 if !d.range.contains(v) {
                     return Err(ParamError::OutOfRange.into());
                 }
@@ -662,5 +662,5 @@ impl<B: Board> Module<B> {
 }
 
 fn i_prescaler<B: Board>(m: &Module<B>) -> usize {
-    find(m.spec.axis_params, 210).map(|(i, _)| i).unwrap_or(0)
+    m.spec.axis.find(210).map(|(i, _)| i).unwrap_or(0)
 }

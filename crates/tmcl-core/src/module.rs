@@ -10,7 +10,7 @@ use crate::iface::{Framer, Outbox, Sink};
 use crate::model::ModelSpec;
 use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Limits, Mode, Ramp, RampParams, Reference, TICK};
-use crate::param::{find, persist};
+use crate::param::persist;
 use crate::time::{Duration, Instant};
 use tmcl_wire::{Command, EventMode, Frame, Opcode, Reply, Request, Status, FRAME_LEN};
 
@@ -122,6 +122,10 @@ pub struct State {
     pub(crate) active_baud: u8,
     /// Steps moved since the board was last updated.
     pub(crate) unreported_steps: i64,
+    /// What the board was last told (with `moved` = 0), to skip updates that change nothing.
+    pub(crate) last_drive: Option<DriveState>,
+    /// When the driver current next changes on its own (standby, freewheeling), if it will.
+    pub(crate) drive_due: Option<Instant>,
 }
 
 impl State {
@@ -153,6 +157,8 @@ impl State {
             outputs: 0,
             active_baud: 0,
             unreported_steps: 0,
+            last_drive: None,
+            drive_due: None,
         }
     }
 }
@@ -240,7 +246,7 @@ impl<B: Board> Module<B> {
         let counts = self.board.feedback().encoder_counts;
         self.st = State::new(now);
         self.st.outbox = outbox;
-        for (i, d) in spec.axis_params.iter().enumerate() {
+        for (i, d) in spec.axis.params.iter().enumerate() {
             self.st.axis[i] = d.default;
             if d.access.persistent() {
                 if let Ok(v) = persist::load_axis(&mut self.board, spec, i) {
@@ -248,7 +254,7 @@ impl<B: Board> Module<B> {
                 }
             }
         }
-        for (i, d) in spec.global_params.iter().enumerate() {
+        for (i, d) in spec.global.params.iter().enumerate() {
             self.st.global[i] = d.default;
             if d.access.persistent() {
                 if let Ok(v) = persist::load_global(&mut self.board, spec, i) {
@@ -256,7 +262,7 @@ impl<B: Board> Module<B> {
                 }
             }
         }
-        for (i, d) in spec.interrupt_params.iter().enumerate() {
+        for (i, d) in spec.interrupt.params.iter().enumerate() {
             self.st.interrupt[i] = d.default;
         }
         // §5.3 / §8.4: user variables are restored unless GP 85 = 1.
@@ -284,6 +290,14 @@ impl<B: Board> Module<B> {
         for &b in bytes {
             if let Some(frame) = self.st.framer.push(b, now) {
                 self.handle_frame(frame, now);
+                // Reads change nothing the driver sees; anything else may (currents, direction, ...).
+                let read = matches!(
+                    Opcode::from(frame[1]),
+                    Opcode::Gap | Opcode::Ggp | Opcode::Gio | Opcode::Gco | Opcode::GetVersion
+                );
+                if !read {
+                    self.update_board(now);
+                }
             }
         }
         self.st.outbox.flush(now, sink);
@@ -311,6 +325,7 @@ impl<B: Board> Module<B> {
                 self.start(now);
             }
         }
+        self.update_board(now);
         result
     }
 
@@ -372,12 +387,12 @@ impl<B: Board> Module<B> {
 
     /// Reads a bank 0 parameter's RAM value by number (0 if the model has no such parameter).
     pub(crate) fn global_value(&self, number: u8) -> i32 {
-        find(self.spec.global_params, number).map(|(i, _)| self.st.global[i]).unwrap_or(0)
+        self.spec.global.find(number).map(|(i, _)| self.st.global[i]).unwrap_or(0)
     }
 
     /// Reads an axis parameter's RAM value by number (0 if the model has no such parameter).
     pub(crate) fn axis_value(&self, number: u8) -> i32 {
-        find(self.spec.axis_params, number).map(|(i, _)| self.st.axis[i]).unwrap_or(0)
+        self.spec.axis.find(number).map(|(i, _)| self.st.axis[i]).unwrap_or(0)
     }
 
     fn ramp_params(&self) -> RampParams {
@@ -437,7 +452,7 @@ impl<B: Board> Module<B> {
     fn update_board(&mut self, now: Instant) {
         let (current, enabled) = self.current(now);
         let state = DriveState {
-            moved: core::mem::take(&mut self.st.unreported_steps),
+            moved: self.st.unreported_steps,
             position: self.st.ramp.position,
             velocity: self.st.ramp.velocity(),
             resolution: self.axis_value(140) as u8,
@@ -445,6 +460,20 @@ impl<B: Board> Module<B> {
             enabled,
             reverse: self.global_value(90) == 1,
         };
+        self.st.drive_due = self.st.standstill_since.and_then(|since| {
+            [self.axis_value(214), self.axis_value(204)]
+                .into_iter()
+                .filter(|d| *d > 0)
+                .map(|d| since + Duration::from_millis(d as u64 * 10))
+                .filter(|t| *t > now)
+                .min()
+        });
+        let unchanged = DriveState { moved: 0, ..state };
+        if state.moved == 0 && self.st.last_drive == Some(unchanged) {
+            return;
+        }
+        self.st.unreported_steps = 0;
+        self.st.last_drive = Some(unchanged);
         self.board.update(now, &state);
     }
 
@@ -457,6 +486,7 @@ impl<B: Board> Module<B> {
         }
         self.st.now = now;
         let params = self.ramp_params();
+        let mut ticked = false;
         while self.st.motion_time + TICK <= now {
             if self.st.ramp.is_idle() {
                 // Nothing moves: jump to the last tick boundary at or before `now` in one step.
@@ -466,6 +496,7 @@ impl<B: Board> Module<B> {
                 break;
             }
             self.st.motion_time += TICK;
+            ticked = true;
             let t = self.st.motion_time;
             let limits = self.limits();
             let r = self.st.ramp.tick(TICK, &params, limits);
@@ -485,7 +516,9 @@ impl<B: Board> Module<B> {
         }
         self.check_event(now);
         self.check_heartbeat(now);
-        self.update_board(now);
+        if ticked || self.st.drive_due.is_some_and(|t| t <= now) {
+            self.update_board(now);
+        }
         self.st.outbox.flush(now, sink);
     }
 
@@ -518,7 +551,7 @@ impl<B: Board> Module<B> {
 
     /// Sets a parameter's RAM slot directly (results the firmware produces, e.g. AP 196/197).
     pub(crate) fn set_axis_raw(&mut self, number: u8, v: i32) {
-        if let Ok((i, _)) = find(self.spec.axis_params, number) {
+        if let Ok((i, _)) = self.spec.axis.find(number) {
             self.st.axis[i] = v;
         }
     }

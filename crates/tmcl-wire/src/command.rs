@@ -259,6 +259,7 @@ fn kind<T>(decoded: Option<T>) -> Result<T, Status> {
 
 impl Command {
     /// Validates an instruction (see the module docs for what is checked here).
+    #[inline]
     pub fn decode(i: Instruction) -> Result<Command, Status> {
         let (t, m, v) = (i.kind, i.motor, i.value);
         Ok(match i.opcode {

@@ -35,6 +35,7 @@ pub mod field {
 }
 
 /// The TMCL checksum: the 8-bit sum of `bytes` (§3.1.1). Pass the first eight bytes of a frame.
+#[inline]
 pub fn checksum(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0u8, |sum, b| sum.wrapping_add(*b))
 }
@@ -82,6 +83,7 @@ impl<T: AsRef<[u8]>> Frame<T> {
     }
 
     /// Wraps a buffer after [`Frame::check_len`].
+    #[inline]
     pub fn new_checked(buffer: T) -> Result<Frame<T>, WireError> {
         let frame = Self::new_unchecked(buffer);
         frame.check_len()?;
@@ -89,6 +91,7 @@ impl<T: AsRef<[u8]>> Frame<T> {
     }
 
     /// Ensures that no accessor will panic.
+    #[inline]
     pub fn check_len(&self) -> Result<(), WireError> {
         if self.buffer.as_ref().len() < FRAME_LEN {
             Err(WireError::Truncated)
@@ -103,42 +106,50 @@ impl<T: AsRef<[u8]>> Frame<T> {
     }
 
     /// Module (target) address, byte 0.
+    #[inline]
     pub fn address(&self) -> u8 {
         self.buffer.as_ref()[field::ADDRESS]
     }
 
     /// Command number, byte 1.
+    #[inline]
     pub fn opcode(&self) -> u8 {
         self.buffer.as_ref()[field::OPCODE]
     }
 
     /// Type number, byte 2.
+    #[inline]
     pub fn kind(&self) -> u8 {
         self.buffer.as_ref()[field::TYPE]
     }
 
     /// Motor or bank number, byte 3.
+    #[inline]
     pub fn motor(&self) -> u8 {
         self.buffer.as_ref()[field::MOTOR]
     }
 
     /// The value, bytes 4..8, MSB first, as a signed 32-bit number (negative values are two's complement).
+    #[inline]
     pub fn value(&self) -> i32 {
         let b = &self.buffer.as_ref()[field::VALUE];
         i32::from_be_bytes([b[0], b[1], b[2], b[3]])
     }
 
     /// The checksum byte, byte 8.
+    #[inline]
     pub fn checksum(&self) -> u8 {
         self.buffer.as_ref()[field::CHECKSUM]
     }
 
     /// The checksum the frame should carry: the sum of bytes 0..8.
+    #[inline]
     pub fn expected_checksum(&self) -> u8 {
         checksum(&self.buffer.as_ref()[..field::CHECKSUM])
     }
 
     /// Whether the checksum is right. Always true under `cfg(fuzzing)`, so that fuzzers reach the decoder.
+    #[inline]
     pub fn verify_checksum(&self) -> bool {
         if cfg!(fuzzing) {
             return true;
@@ -149,31 +160,37 @@ impl<T: AsRef<[u8]>> Frame<T> {
 
 impl<T: AsRef<[u8]> + AsMut<[u8]>> Frame<T> {
     /// Sets byte 0.
+    #[inline]
     pub fn set_address(&mut self, value: u8) {
         self.buffer.as_mut()[field::ADDRESS] = value;
     }
 
     /// Sets byte 1.
+    #[inline]
     pub fn set_opcode(&mut self, value: u8) {
         self.buffer.as_mut()[field::OPCODE] = value;
     }
 
     /// Sets byte 2.
+    #[inline]
     pub fn set_kind(&mut self, value: u8) {
         self.buffer.as_mut()[field::TYPE] = value;
     }
 
     /// Sets byte 3.
+    #[inline]
     pub fn set_motor(&mut self, value: u8) {
         self.buffer.as_mut()[field::MOTOR] = value;
     }
 
     /// Sets bytes 4..8, MSB first.
+    #[inline]
     pub fn set_value(&mut self, value: i32) {
         self.buffer.as_mut()[field::VALUE].copy_from_slice(&value.to_be_bytes());
     }
 
     /// Computes the checksum and stores it in byte 8.
+    #[inline]
     pub fn fill_checksum(&mut self) {
         let sum = self.expected_checksum();
         self.buffer.as_mut()[field::CHECKSUM] = sum;
@@ -191,6 +208,7 @@ pub struct Request {
 
 impl Request {
     /// Parses a frame whose length has been checked, verifying the checksum.
+    #[inline]
     pub fn parse<T: AsRef<[u8]>>(frame: &Frame<T>) -> Result<Request, WireError> {
         frame.check_len()?;
         if !frame.verify_checksum() {
@@ -203,6 +221,7 @@ impl Request {
     }
 
     /// Writes the request into a frame, checksum included.
+    #[inline]
     pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, frame: &mut Frame<T>) {
         frame.set_address(self.address);
         frame.set_opcode(self.instruction.opcode.into());
@@ -213,6 +232,7 @@ impl Request {
     }
 
     /// The request as the nine bytes a host sends.
+    #[inline]
     pub fn to_bytes(&self) -> [u8; FRAME_LEN] {
         let mut bytes = [0u8; FRAME_LEN];
         self.emit(&mut Frame::new_unchecked(&mut bytes[..]));

@@ -24,12 +24,14 @@ impl Instruction {
     }
 
     /// The seven bytes opcode, type, motor, value (MSB first).
+    #[inline]
     pub fn to_bytes(&self) -> [u8; 7] {
         let v = self.value.to_be_bytes();
         [self.opcode.into(), self.kind, self.motor, v[0], v[1], v[2], v[3]]
     }
 
     /// The inverse of [`Instruction::to_bytes`].
+    #[inline]
     pub fn from_bytes(bytes: [u8; 7]) -> Instruction {
         Instruction::new(
             bytes[0].into(),

@@ -17,6 +17,7 @@ macro_rules! opcodes {
         }
 
         impl From<u8> for Opcode {
+            #[inline]
             fn from(code: u8) -> Opcode {
                 match code {
                     $( $code => Opcode::$variant, )*
@@ -27,6 +28,7 @@ macro_rules! opcodes {
         }
 
         impl From<Opcode> for u8 {
+            #[inline]
             fn from(opcode: Opcode) -> u8 {
                 match opcode {
                     $( Opcode::$variant => $code, )*

@@ -43,6 +43,7 @@ impl<T: AsRef<[u8]>> ReplyFrame<T> {
     }
 
     /// Wraps a buffer after [`ReplyFrame::check_len`].
+    #[inline]
     pub fn new_checked(buffer: T) -> Result<ReplyFrame<T>, WireError> {
         let frame = Self::new_unchecked(buffer);
         frame.check_len()?;
@@ -50,6 +51,7 @@ impl<T: AsRef<[u8]>> ReplyFrame<T> {
     }
 
     /// Ensures that no accessor will panic.
+    #[inline]
     pub fn check_len(&self) -> Result<(), WireError> {
         if self.buffer.as_ref().len() < FRAME_LEN {
             Err(WireError::Truncated)
@@ -64,37 +66,44 @@ impl<T: AsRef<[u8]>> ReplyFrame<T> {
     }
 
     /// Reply (host) address, byte 0.
+    #[inline]
     pub fn host(&self) -> u8 {
         self.buffer.as_ref()[field::HOST]
     }
 
     /// Module address, byte 1.
+    #[inline]
     pub fn module(&self) -> u8 {
         self.buffer.as_ref()[field::MODULE]
     }
 
     /// Status, byte 2.
+    #[inline]
     pub fn status(&self) -> Status {
         self.buffer.as_ref()[field::STATUS].into()
     }
 
     /// Command number, byte 3.
+    #[inline]
     pub fn opcode(&self) -> u8 {
         self.buffer.as_ref()[field::OPCODE]
     }
 
     /// Value, bytes 4..8.
+    #[inline]
     pub fn value(&self) -> i32 {
         let b = &self.buffer.as_ref()[field::VALUE];
         i32::from_be_bytes([b[0], b[1], b[2], b[3]])
     }
 
     /// Checksum, byte 8.
+    #[inline]
     pub fn checksum(&self) -> u8 {
         self.buffer.as_ref()[field::CHECKSUM]
     }
 
     /// Whether the checksum is right (always true under `cfg(fuzzing)`).
+    #[inline]
     pub fn verify_checksum(&self) -> bool {
         cfg!(fuzzing) || self.checksum() == checksum(&self.buffer.as_ref()[..field::CHECKSUM])
     }
@@ -102,31 +111,37 @@ impl<T: AsRef<[u8]>> ReplyFrame<T> {
 
 impl<T: AsRef<[u8]> + AsMut<[u8]>> ReplyFrame<T> {
     /// Sets byte 0.
+    #[inline]
     pub fn set_host(&mut self, value: u8) {
         self.buffer.as_mut()[field::HOST] = value;
     }
 
     /// Sets byte 1.
+    #[inline]
     pub fn set_module(&mut self, value: u8) {
         self.buffer.as_mut()[field::MODULE] = value;
     }
 
     /// Sets byte 2.
+    #[inline]
     pub fn set_status(&mut self, value: Status) {
         self.buffer.as_mut()[field::STATUS] = value.into();
     }
 
     /// Sets byte 3.
+    #[inline]
     pub fn set_opcode(&mut self, value: u8) {
         self.buffer.as_mut()[field::OPCODE] = value;
     }
 
     /// Sets bytes 4..8.
+    #[inline]
     pub fn set_value(&mut self, value: i32) {
         self.buffer.as_mut()[field::VALUE].copy_from_slice(&value.to_be_bytes());
     }
 
     /// Computes and stores the checksum.
+    #[inline]
     pub fn fill_checksum(&mut self) {
         let sum = checksum(&self.buffer.as_ref()[..field::CHECKSUM]);
         self.buffer.as_mut()[field::CHECKSUM] = sum;
@@ -150,6 +165,7 @@ pub struct Reply {
 
 impl Reply {
     /// Parses a reply, verifying the checksum.
+    #[inline]
     pub fn parse<T: AsRef<[u8]>>(frame: &ReplyFrame<T>) -> Result<Reply, WireError> {
         frame.check_len()?;
         if !frame.verify_checksum() {
@@ -168,6 +184,7 @@ impl Reply {
     }
 
     /// Writes the reply into a frame, checksum included.
+    #[inline]
     pub fn emit<T: AsRef<[u8]> + AsMut<[u8]>>(&self, frame: &mut ReplyFrame<T>) {
         frame.set_host(self.host);
         frame.set_module(self.module);
@@ -178,6 +195,7 @@ impl Reply {
     }
 
     /// The reply as nine bytes.
+    #[inline]
     pub fn to_bytes(&self) -> [u8; FRAME_LEN] {
         let mut bytes = [0u8; FRAME_LEN];
         self.emit(&mut ReplyFrame::new_unchecked(&mut bytes[..]));
@@ -197,6 +215,7 @@ pub enum Response {
 
 impl Response {
     /// The nine bytes on the wire.
+    #[inline]
     pub fn to_bytes(&self) -> [u8; FRAME_LEN] {
         match self {
             Response::Normal(reply) => reply.to_bytes(),

@@ -51,6 +51,7 @@ impl Status {
 }
 
 impl From<u8> for Status {
+    #[inline]
     fn from(code: u8) -> Status {
         match code {
             100 => Status::Ok,
@@ -68,6 +69,7 @@ impl From<u8> for Status {
 }
 
 impl From<Status> for u8 {
+    #[inline]
     fn from(status: Status) -> u8 {
         match status {
             Status::Ok => 100,

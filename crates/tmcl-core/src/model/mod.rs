@@ -2,7 +2,7 @@
 
 pub mod pd28_1021;
 
-use crate::param::ParamDesc;
+use crate::param::Table;
 
 /// What a GIO/SIO port is (manual §3.7.14, §3.7.15).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,11 +50,11 @@ pub struct ModelSpec {
     /// Number of motors.
     pub motors: u8,
     /// Axis parameters.
-    pub axis_params: &'static [ParamDesc],
+    pub axis: Table,
     /// Global parameters, bank 0.
-    pub global_params: &'static [ParamDesc],
+    pub global: Table,
     /// Interrupt configuration, bank 3.
-    pub interrupt_params: &'static [ParamDesc],
+    pub interrupt: Table,
     /// Number of user variables in bank 2.
     pub user_variables: u16,
     /// How many of them (from 0) STGP can store.

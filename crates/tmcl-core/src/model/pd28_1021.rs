@@ -22,7 +22,7 @@
 //! the EEPROM". We therefore make AP 6, 7 and 140 storable (E), as they are on the real module.
 
 use super::{ModelSpec, PortDesc, PortKind};
-use crate::param::{Access, ParamDesc, Range, Role};
+use crate::param::{Access, ParamDesc, Range, Role, Table};
 
 const A: &str = "§4 Table 15";
 const G: &str = "§5.1 Table 17";
@@ -226,9 +226,9 @@ pub static SPEC: ModelSpec = ModelSpec {
     // 136 type 1: module number as two BCD-like digit pairs (10, 21), major 1, minor 42 (TMC-EvalSystem).
     version_binary: i32::from_be_bytes([10, 21, 1, 42]),
     motors: 1,
-    axis_params: &AXIS_PARAMS,
-    global_params: &GLOBAL_PARAMS,
-    interrupt_params: &INTERRUPT_PARAMS,
+    axis: Table::new(&AXIS_PARAMS),
+    global: Table::new(&GLOBAL_PARAMS),
+    interrupt: Table::new(&INTERRUPT_PARAMS),
     user_variables: 256,
     // §5.3: "the first 56 variables can also be stored permanently in the EEPROM" (AMB-10).
     stored_user_variables: 56,

@@ -184,7 +184,50 @@ impl From<ParamError> for Status {
     }
 }
 
-/// Finds a parameter in a table: its index and descriptor.
+/// A parameter table with a number → index map built at compile time, so lookups are O(1).
+#[derive(Debug)]
+pub struct Table {
+    /// The descriptors, in number order.
+    pub params: &'static [ParamDesc],
+    index: [u8; 256],
+}
+
+/// Marks an absent number in [`Table`]'s index.
+const ABSENT: u8 = 0xFF;
+
+impl Table {
+    /// Builds the table (in a `static`); panics at compile time if it has more than 255 entries or a
+    /// number twice.
+    pub const fn new(params: &'static [ParamDesc]) -> Table {
+        assert!(params.len() < ABSENT as usize);
+        let mut index = [ABSENT; 256];
+        let mut i = 0;
+        while i < params.len() {
+            let n = params[i].number as usize;
+            assert!(index[n] == ABSENT, "parameter number used twice");
+            index[n] = i as u8;
+            i += 1;
+        }
+        Table { params, index }
+    }
+
+    /// Finds a parameter: its index in the table and its descriptor.
+    #[inline]
+    pub fn find(&self, number: u8) -> Result<(usize, &'static ParamDesc), ParamError> {
+        match self.index[usize::from(number)] {
+            ABSENT => Err(ParamError::Unknown),
+            i => Ok((usize::from(i), &self.params[usize::from(i)])),
+        }
+    }
+
+    /// The index of a parameter the firmware knows exists (for its own lookups).
+    #[inline]
+    pub fn index(&self, number: u8) -> Option<usize> {
+        self.find(number).ok().map(|(i, _)| i)
+    }
+}
+
+/// Finds a parameter in a plain table by scanning (for tools; the firmware uses [`Table::find`]).
 pub fn find(table: &'static [ParamDesc], number: u8) -> Result<(usize, &'static ParamDesc), ParamError> {
     table.iter().enumerate().find(|(_, d)| d.number == number).ok_or(ParamError::Unknown)
 }

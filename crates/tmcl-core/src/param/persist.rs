@@ -88,7 +88,7 @@ pub fn format<N: Nvm>(nvm: &mut N, spec: &ModelSpec, erase_program: bool) -> Res
     }
     nvm.write(HEADER, &[0u8; 16]).map_err(|_| ParamError::Storage)?;
     let mut region = [0u8; SLOTS * 4];
-    for (base, table) in [(AXIS, spec.axis_params), (GLOBAL, spec.global_params)] {
+    for (base, table) in [(AXIS, spec.axis.params), (GLOBAL, spec.global.params)] {
         region.fill(0);
         for (i, d) in table.iter().enumerate() {
             if let Some(s) = slot(table, i) {
@@ -114,25 +114,25 @@ pub fn format<N: Nvm>(nvm: &mut N, spec: &ModelSpec, erase_program: bool) -> Res
 
 /// Reads the stored value of axis parameter table entry `index` (an E parameter).
 pub fn load_axis<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize) -> Result<i32, ParamError> {
-    let s = slot(spec.axis_params, index).ok_or(ParamError::NotPermitted)?;
+    let s = slot(spec.axis.params, index).ok_or(ParamError::NotPermitted)?;
     read_i32(nvm, AXIS + 4 * s)
 }
 
 /// Stores axis parameter table entry `index`.
 pub fn store_axis<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize, value: i32) -> Result<(), ParamError> {
-    let s = slot(spec.axis_params, index).ok_or(ParamError::NotPermitted)?;
+    let s = slot(spec.axis.params, index).ok_or(ParamError::NotPermitted)?;
     write_i32(nvm, AXIS + 4 * s, value)
 }
 
 /// Reads the stored value of bank 0 table entry `index` (an A parameter).
 pub fn load_global<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize) -> Result<i32, ParamError> {
-    let s = slot(spec.global_params, index).ok_or(ParamError::NotPermitted)?;
+    let s = slot(spec.global.params, index).ok_or(ParamError::NotPermitted)?;
     read_i32(nvm, GLOBAL + 4 * s)
 }
 
 /// Stores bank 0 table entry `index`.
 pub fn store_global<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize, value: i32) -> Result<(), ParamError> {
-    let s = slot(spec.global_params, index).ok_or(ParamError::NotPermitted)?;
+    let s = slot(spec.global.params, index).ok_or(ParamError::NotPermitted)?;
     write_i32(nvm, GLOBAL + 4 * s, value)
 }
 
@@ -206,8 +206,8 @@ mod tests {
     #[test]
     fn layout_fits_the_model() {
         assert_eq!(capacity(&SPEC), 0x0400 + 2048 * 8);
-        assert!(SPEC.axis_params.iter().filter(|d| d.access.persistent()).count() <= SLOTS);
-        assert!(SPEC.global_params.iter().filter(|d| d.access.persistent()).count() <= SLOTS);
+        assert!(SPEC.axis.params.iter().filter(|d| d.access.persistent()).count() <= SLOTS);
+        assert!(SPEC.global.params.iter().filter(|d| d.access.persistent()).count() <= SLOTS);
         assert!(usize::from(SPEC.stored_user_variables) <= USER_SLOTS);
         assert!(usize::from(SPEC.coordinates) <= SLOTS);
     }
@@ -218,9 +218,9 @@ mod tests {
         assert!(!is_formatted(&mut nvm, &SPEC));
         format(&mut nvm, &SPEC, true).unwrap();
         assert!(is_formatted(&mut nvm, &SPEC));
-        let (i, _) = find(SPEC.axis_params, 214).unwrap();
+        let (i, _) = find(SPEC.axis.params, 214).unwrap();
         assert_eq!(load_axis(&mut nvm, &SPEC, i), Ok(200));
-        let (i, _) = find(SPEC.global_params, 66).unwrap();
+        let (i, _) = find(SPEC.global.params, 66).unwrap();
         assert_eq!(load_global(&mut nvm, &SPEC, i), Ok(1));
         assert_eq!(&nvm.0[..4], b"OTMC");
         assert!(nvm.0[PROGRAM..].iter().all(|b| *b == 0));
@@ -230,10 +230,10 @@ mod tests {
     fn slots_and_refusals() {
         let mut nvm = RamNvm(std::vec![0xFF; capacity(&SPEC)]);
         format(&mut nvm, &SPEC, false).unwrap();
-        let (i, _) = find(SPEC.axis_params, 4).unwrap();
+        let (i, _) = find(SPEC.axis.params, 4).unwrap();
         store_axis(&mut nvm, &SPEC, i, 1234).unwrap();
         assert_eq!(load_axis(&mut nvm, &SPEC, i), Ok(1234));
-        let (i, _) = find(SPEC.axis_params, 0).unwrap();
+        let (i, _) = find(SPEC.axis.params, 0).unwrap();
         assert_eq!(store_axis(&mut nvm, &SPEC, i, 1), Err(ParamError::NotPermitted));
         store_user(&mut nvm, &SPEC, 55, -7).unwrap();
         assert_eq!(load_user(&mut nvm, &SPEC, 55), Ok(-7));

@@ -22,7 +22,7 @@ fn outside(range: &Range) -> Option<i32> {
 
 #[test]
 fn every_axis_parameter_rule() {
-    for d in SPEC.axis_params {
+    for d in SPEC.axis.params {
         let mut b = Bench::new();
         let before = b.gap(d.number);
         if !d.access.write {
@@ -73,8 +73,8 @@ fn unknown_parameters_motors_and_banks() {
 
 #[test]
 fn every_global_parameter_rule() {
-    for d in SPEC.global_params.iter().chain(SPEC.interrupt_params) {
-        let bank = if SPEC.global_params.contains(d) { 0 } else { 3 };
+    for d in SPEC.global.params.iter().chain(SPEC.interrupt.params) {
+        let bank = if SPEC.global.params.contains(d) { 0 } else { 3 };
         let mut b = Bench::new();
         let before = b.ggp(d.number, bank);
         if !d.access.write {
@@ -192,7 +192,7 @@ fn read_only_globals() {
 
 #[test]
 fn access_letters_are_consistent() {
-    for d in SPEC.axis_params.iter().chain(SPEC.global_params) {
+    for d in SPEC.axis.params.iter().chain(SPEC.global.params) {
         assert!(!(d.access.store && d.access.auto));
         if d.access == Access::R {
             assert!(!d.access.persistent());

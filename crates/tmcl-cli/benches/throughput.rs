@@ -1,0 +1,98 @@
+//! Figures for docs/benchmarks.md: frames per second through the core, pty round-trip latency, memory.
+//!
+//! Run: `cargo bench -p tmcl-cli --bench throughput` (a plain harness that prints its figures; pass
+//! `--quick` for a short run).
+
+use std::hint::black_box;
+use std::process::{Child, Command as Process, Stdio};
+use std::time::{Duration as StdDuration, Instant as StdInstant};
+use tmcl_core::model::pd28_1021::SPEC;
+use tmcl_core::param::persist;
+use tmcl_core::{Instant, Module, State};
+use tmcl_host::{Client, SerialTransport};
+use tmcl_sim::SimBoard;
+use tmcl_wire::{Instruction, Opcode, Request};
+
+fn frame(op: Opcode, t: u8, v: i32) -> [u8; 9] {
+    Request { address: 1, instruction: Instruction::new(op, t, 0, v) }.to_bytes()
+}
+
+/// Frames per second through `Module::receive`, time advancing 1 µs per frame (so the motion controller
+/// and timers run as they would).
+fn core_rate(name: &str, frames: &[[u8; 9]], n: u64) {
+    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut replies = 0u64;
+    let mut sink = |b: &[u8]| replies += b.len() as u64 / 9;
+    let start = StdInstant::now();
+    for i in 0..n {
+        let f = &frames[(i % frames.len() as u64) as usize];
+        module.receive(Instant::from_micros(i), black_box(f), &mut sink);
+    }
+    let secs = start.elapsed().as_secs_f64();
+    assert_eq!(replies, n, "every frame answered");
+    println!(
+        "core {name:<28} {:>8.2} M frames/s  ({:.0} ns/frame, {n} frames)",
+        n as f64 / secs / 1e6,
+        secs * 1e9 / n as f64
+    );
+}
+
+struct Server(Child, std::path::PathBuf);
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = Process::new("kill").arg("-TERM").arg(self.0.id().to_string()).status();
+        let _ = self.0.wait();
+        let _ = std::fs::remove_file(&self.1);
+    }
+}
+
+fn pty_latency(n: usize) {
+    let dir = std::env::temp_dir().join(format!("tmcl-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let link = dir.join("tmcl0");
+    let child = Process::new(env!("CARGO_BIN_EXE_tmcl"))
+        .args(["serve", "--pty"])
+        .arg(&link)
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("start tmcl serve");
+    let _server = Server(child, link.clone());
+    let deadline = StdInstant::now() + StdDuration::from_secs(10);
+    while std::fs::symlink_metadata(&link).is_err() {
+        assert!(StdInstant::now() < deadline, "server did not start");
+        std::thread::sleep(StdDuration::from_millis(10));
+    }
+    let transport = SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty");
+    let mut client = Client::new(transport);
+    for _ in 0..100 {
+        client.get_axis_parameter(1, 0).unwrap();
+    }
+    let mut samples = Vec::with_capacity(n);
+    for _ in 0..n {
+        let t = StdInstant::now();
+        black_box(client.get_axis_parameter(1, 0).unwrap());
+        samples.push(t.elapsed());
+    }
+    samples.sort();
+    let pct = |p: f64| samples[((samples.len() - 1) as f64 * p) as usize].as_secs_f64() * 1e6;
+    println!(
+        "pty round trip (GAP 1, Rust client)  median {:.1} µs, p90 {:.1} µs, p99 {:.1} µs, max {:.1} µs ({n} requests)",
+        pct(0.5),
+        pct(0.9),
+        pct(0.99),
+        pct(1.0)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let n = if quick { 1_000_000 } else { 20_000_000 };
+    println!("size_of::<State>() (all firmware RAM but program memory) = {} bytes", std::mem::size_of::<State>());
+    println!("size_of::<Module<SimBoard>>() = {} bytes", std::mem::size_of::<Module<SimBoard>>());
+    core_rate("GAP 1 (actual position)", &[frame(Opcode::Gap, 1, 0)], n);
+    core_rate("SAP 4 (max speed)", &[frame(Opcode::Sap, 4, 51200)], n);
+    core_rate("MVP ABS (alternating)", &[frame(Opcode::Mvp, 0, 100_000), frame(Opcode::Mvp, 0, -100_000)], n);
+    pty_latency(if quick { 2_000 } else { 20_000 });
+}
