@@ -1,0 +1,248 @@
+"""Shared helpers of the Python host-compatibility suite: the `tmcl serve` process wrapper, pytrinamic
+connections, bounded polling and raw TMCL frames."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import queue
+import re
+import signal
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+READY_TIMEOUT_S = 20.0
+STOP_TIMEOUT_S = 10.0
+READY_RE = re.compile(r"^serving (\S+) at address (\d+) on (.+)$")
+
+# Factory defaults of the PD28-1021 (manual and inventory §3/§4).
+DEFAULT_AP = {4: 51200, 5: 51200, 140: 8, 214: 200}
+DEFAULT_GP = {66: 1, 76: 2}
+
+
+class Server:
+    """One `tmcl serve` process. `start()` waits for its ready line; `stop()` sends SIGTERM."""
+
+    def __init__(self, tmcl: Path, workdir: Path, kind: str, eeprom: Path | None = None,
+                 extra: list[str] | None = None, link_name: str = "tmcl-link"):
+        self.tmcl = tmcl
+        self.workdir = workdir
+        self.kind = kind
+        self.eeprom = eeprom
+        self.extra = list(extra or [])
+        self.link = workdir / link_name if kind == "pty" else None
+        self.proc: subprocess.Popen | None = None
+        self.ready_line = ""
+        self.address = ""  # the LINK path or 127.0.0.1:PORT
+        self.host = ""
+        self.port = 0
+        self.starts = 0
+        self._lines: queue.Queue = queue.Queue()
+        self._stderr_path: Path | None = None
+
+    # -- lifecycle ---------------------------------------------------------------------------------
+    def args(self) -> list[str]:
+        args = [str(self.tmcl), "serve", "--module", "pd28-1021"]
+        if self.kind == "pty":
+            args += ["--pty", str(self.link)]
+        else:
+            args += ["--tcp", "127.0.0.1:0"]
+        if self.eeprom is not None:
+            args += ["--eeprom", str(self.eeprom)]
+        return args + self.extra
+
+    def start(self) -> "Server":
+        assert self.proc is None, "server already running"
+        self.starts += 1
+        self._stderr_path = self.workdir / f"serve-{self.kind}-{self.starts}.stderr"
+        stderr = open(self._stderr_path, "wb")
+        try:
+            self.proc = subprocess.Popen(self.args(), cwd=self.workdir, stdin=subprocess.DEVNULL,
+                                         stdout=subprocess.PIPE, stderr=stderr)
+        finally:
+            stderr.close()
+        self._lines = queue.Queue()
+        threading.Thread(target=self._pump, args=(self.proc, self._lines), daemon=True).start()
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                self.kill()
+                raise AssertionError(f"no ready line within {READY_TIMEOUT_S} s; stderr: {self.stderr()}")
+            try:
+                line = self._lines.get(timeout=min(left, 0.5))
+            except queue.Empty:
+                if self.proc.poll() is not None:
+                    rc = self.proc.returncode
+                    self.proc = None
+                    raise AssertionError(f"tmcl serve exited with {rc} before it was ready; "
+                                         f"stderr: {self.stderr()}")
+                continue
+            if line is None:
+                continue
+            m = READY_RE.match(line)
+            if m:
+                break
+        self.ready_line = line
+        assert m.group(1) == "PD28-1021", line
+        assert m.group(2) == "1", line
+        self.address = m.group(3)
+        if self.kind == "pty":
+            assert self.address == str(self.link), line
+            assert self.link.is_symlink(), f"{self.link} is not a symlink"
+        else:
+            host, _, port = self.address.rpartition(":")
+            assert host == "127.0.0.1", line
+            self.host, self.port = host, int(port)
+            assert self.port > 0, line
+        return self
+
+    @staticmethod
+    def _pump(proc: subprocess.Popen, lines: queue.Queue) -> None:
+        # Keep reading stdout so the server never blocks on a full pipe.
+        assert proc.stdout is not None
+        for raw in proc.stdout:
+            lines.put(raw.decode("utf-8", "replace").rstrip("\r\n"))
+        lines.put(None)
+
+    @property
+    def running(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
+
+    def stop(self, sig: int = signal.SIGTERM) -> int:
+        """Sends `sig`, waits for the exit and returns the exit code."""
+        assert self.proc is not None, "server not running"
+        proc, self.proc = self.proc, None
+        if proc.poll() is None:
+            proc.send_signal(sig)
+        try:
+            return proc.wait(timeout=STOP_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=STOP_TIMEOUT_S)
+            raise AssertionError(f"tmcl serve did not exit within {STOP_TIMEOUT_S} s after signal {sig}")
+
+    def terminate_checked(self) -> None:
+        """SIGTERM; the exit code must be 0 and the pty link must be gone."""
+        rc = self.stop(signal.SIGTERM)
+        assert rc == 0, f"tmcl serve exited with {rc} after SIGTERM; stderr: {self.stderr()}"
+        if self.link is not None:
+            assert not os.path.lexists(self.link), f"{self.link} still exists after SIGTERM"
+
+    def kill(self) -> None:
+        """SIGKILL (a crash): the link stays behind, the EEPROM journal is whatever was written."""
+        if self.proc is None:
+            return
+        proc, self.proc = self.proc, None
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=STOP_TIMEOUT_S)
+
+    def restart(self) -> "Server":
+        """SIGTERM (checked), then start again with the same arguments (same EEPROM file, same link)."""
+        self.terminate_checked()
+        return self.start()
+
+    def stderr(self) -> str:
+        if self._stderr_path and self._stderr_path.exists():
+            return self._stderr_path.read_text("utf-8", "replace")[-4000:]
+        return ""
+
+    # -- host-side helpers -------------------------------------------------------------------------
+    @property
+    def pytrinamic_args(self) -> str:
+        if self.kind == "pty":
+            return f"--interface serial_tmcl --port {self.link} --data-rate 115200"
+        return f"--interface socket_serial_tmcl --port 127.0.0.1:{self.port}"
+
+
+class ServerFactory:
+    """Starts servers in one test's temporary directory and cleans all of them up."""
+
+    def __init__(self, tmcl: Path, workdir: Path):
+        self.tmcl = tmcl
+        self.workdir = workdir
+        self.servers: list[Server] = []
+
+    def __call__(self, kind: str = "pty", eeprom: Path | None = None, extra: list[str] | None = None,
+                 link_name: str | None = None) -> Server:
+        name = link_name or f"tmcl-link-{len(self.servers)}"
+        server = Server(self.tmcl, self.workdir, kind, eeprom=eeprom, extra=extra, link_name=name)
+        self.servers.append(server)
+        return server.start()
+
+    def cleanup(self) -> list[str]:
+        problems = []
+        for server in self.servers:
+            if not server.running:
+                if server.proc is not None:  # exited by itself
+                    problems.append(f"server exited early with {server.proc.returncode}: {server.stderr()}")
+                    server.proc = None
+                continue
+            try:
+                server.terminate_checked()
+            except AssertionError as exc:
+                problems.append(str(exc))
+            finally:
+                server.kill()
+        return problems
+
+
+# -- pytrinamic helpers ----------------------------------------------------------------------------
+
+@contextlib.contextmanager
+def pytrinamic_connection(server: Server, tcp_timeout_s: float = 10.0):
+    """A pytrinamic ConnectionManager connection to `server`, closed afterwards.
+
+    pytrinamic's socket interface has no receive timeout; a socket timeout is set on its socket so a
+    missing reply fails the test instead of hanging it.
+    """
+    from pytrinamic.connections import ConnectionManager
+
+    conn = ConnectionManager(server.pytrinamic_args).connect()
+    try:
+        sock = getattr(conn, "_socket", None)
+        if sock is not None:
+            sock.settimeout(tcp_timeout_s)
+        yield conn
+    finally:
+        conn.close()
+
+
+def wait_until(predicate, timeout_s: float, interval_s: float = 0.02, what: str = "condition"):
+    """Polls `predicate()` until it returns a truthy value; fails after `timeout_s`."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if time.monotonic() >= deadline:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+        time.sleep(interval_s)
+
+
+# -- raw frames ------------------------------------------------------------------------------------
+
+def checksum(data: bytes) -> int:
+    return sum(data) & 0xFF
+
+
+def frame(address: int, opcode: int, kind: int, motor: int, value: int) -> bytes:
+    body = bytes([address & 0xFF, opcode & 0xFF, kind & 0xFF, motor & 0xFF]) + (value & 0xFFFFFFFF).to_bytes(4, "big")
+    return body + bytes([checksum(body)])
+
+
+class RawReply:
+    def __init__(self, data: bytes):
+        assert len(data) == 9, f"short reply: {data.hex(' ')}"
+        self.data = data
+        self.host, self.module, self.status, self.opcode = data[0], data[1], data[2], data[3]
+        self.value = int.from_bytes(data[4:8], "big", signed=True)
+        self.checksum_ok = checksum(data[:8]) == data[8]
+
+    def __repr__(self):
+        return (f"RawReply(host={self.host}, module={self.module}, status={self.status}, opcode={self.opcode}, "
+                f"value={self.value}, bytes={self.data.hex(' ')})")
