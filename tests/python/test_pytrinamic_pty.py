@@ -1,8 +1,10 @@
 """Unchanged pytrinamic over the pty link: `--interface serial_tmcl --port LINK`."""
 
+import time
+
 import pytest
 from pytrinamic.connections import ConnectionManager
-from pytrinamic.tmcl import TMCLReplyStatusError
+from pytrinamic.tmcl import GetInfoNotAvailableError, GetInfoRequestError, TMCLReplyStatusError
 
 from tmcltest import DEFAULT_AP, DEFAULT_GP, pytrinamic_connection, wait_until
 
@@ -245,3 +247,19 @@ def test_connect_disconnect_many_times(pty_server):
         finally:
             manager.disconnect()
     assert pty_server.running
+
+
+def test_get_info_is_not_a_pd28_command(conn):
+    """Newer pytrinamic tools probe with command 157; the PD28-1021 rejects it and stays in sync."""
+    with pytest.raises((GetInfoRequestError, GetInfoNotAvailableError)):
+        conn.get_info("FWVersion")
+    assert conn.get_axis_parameter(4, 0) == 51200
+
+
+def test_tick_timer_runs_in_milliseconds(conn):
+    conn.set_global_parameter(132, 0, 0)
+    t0 = time.monotonic()
+    time.sleep(0.3)
+    ticks = conn.get_global_parameter(132, 0)
+    elapsed_ms = (time.monotonic() - t0) * 1000
+    assert 250 <= ticks <= elapsed_ms + 50, (ticks, elapsed_ms)

@@ -40,6 +40,8 @@ class Server:
         self.host = ""
         self.port = 0
         self.starts = 0
+        self.module_address = 0
+        self.expect_address: int | None = 1  # checked against the ready line; None = any
         self._lines: queue.Queue = queue.Queue()
         self._stderr_path: Path | None = None
 
@@ -88,7 +90,9 @@ class Server:
                 break
         self.ready_line = line
         assert m.group(1) == "PD28-1021", line
-        assert m.group(2) == "1", line
+        self.module_address = int(m.group(2))
+        if self.expect_address is not None:
+            assert self.module_address == self.expect_address, line
         self.address = m.group(3)
         if self.kind == "pty":
             assert self.address == str(self.link), line
@@ -154,9 +158,10 @@ class Server:
     # -- host-side helpers -------------------------------------------------------------------------
     @property
     def pytrinamic_args(self) -> str:
+        module = f" --module-id {self.module_address}" if self.module_address not in (0, 1) else ""
         if self.kind == "pty":
-            return f"--interface serial_tmcl --port {self.link} --data-rate 115200"
-        return f"--interface socket_serial_tmcl --port 127.0.0.1:{self.port}"
+            return f"--interface serial_tmcl --port {self.link} --data-rate 115200{module}"
+        return f"--interface socket_serial_tmcl --port 127.0.0.1:{self.port}{module}"
 
 
 class ServerFactory:
@@ -168,9 +173,10 @@ class ServerFactory:
         self.servers: list[Server] = []
 
     def __call__(self, kind: str = "pty", eeprom: Path | None = None, extra: list[str] | None = None,
-                 link_name: str | None = None) -> Server:
+                 link_name: str | None = None, expect_address: int | None = 1) -> Server:
         name = link_name or f"tmcl-link-{len(self.servers)}"
         server = Server(self.tmcl, self.workdir, kind, eeprom=eeprom, extra=extra, link_name=name)
+        server.expect_address = expect_address
         self.servers.append(server)
         return server.start()
 
