@@ -292,7 +292,7 @@ impl<B: Board> Module<B> {
                 let on = matches!(command, C::Ei { .. });
                 if interrupt == 255 {
                     self.st.irq_global = on;
-                } else if self.spec.interrupts.iter().any(|(n, _)| *n == interrupt) {
+                } else if self.spec.interrupts.iter().any(|d| d.number == interrupt) {
                     let bit = 1u64 << interrupt;
                     self.st.irq_enabled = if on { self.st.irq_enabled | bit } else { self.st.irq_enabled & !bit };
                 } else {

@@ -36,6 +36,20 @@ pub struct PortDesc {
     pub name: &'static str,
 }
 
+/// One interrupt vector (manual §3.6.6 Table 12).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct InterruptDesc {
+    /// The interrupt number (EI/DI/VECT type byte; priority: lower first).
+    pub number: u8,
+    /// The manual's name.
+    pub name: &'static str,
+    /// The assembler symbol (`Interrupts.inc`).
+    pub symbol: &'static str,
+}
+
+/// The global interrupt switch of EI/DI (§3.7.32).
+pub const GLOBAL_INTERRUPTS: u8 = 255;
+
 /// Everything that distinguishes one module from another.
 #[derive(Debug)]
 pub struct ModelSpec {
@@ -65,8 +79,8 @@ pub struct ModelSpec {
     pub program_memory: u16,
     /// I/O ports.
     pub ports: &'static [PortDesc],
-    /// Interrupt vectors: number and name.
-    pub interrupts: &'static [(u8, &'static str)],
+    /// Interrupt vectors.
+    pub interrupts: &'static [InterruptDesc],
     /// Number of digital outputs.
     pub outputs: u8,
     /// The manual this model follows.

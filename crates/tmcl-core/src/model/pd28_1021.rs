@@ -21,7 +21,7 @@
 //! store and restore AP 6, and the firmware history (§10, V1.21 and V1.34) says AP 140 is "taken over from
 //! the EEPROM". We therefore make AP 6, 7 and 140 storable (E), as they are on the real module.
 
-use super::{ModelSpec, PortDesc, PortKind};
+use super::{InterruptDesc, ModelSpec, PortDesc, PortKind};
 use crate::param::{Access, ParamDesc, Range, Role, Table};
 
 const A: &str = "§4 Table 15";
@@ -201,20 +201,21 @@ pub static PORTS: [PortDesc; 11] = [
     PortDesc { bank: 2, port: 255, kind: PortKind::AllOutputs, name: "all outputs" },
 ];
 
-/// Interrupt vectors (manual §3.6.6, Table 12).
-pub static INTERRUPTS: [(u8, &str); 12] = [
-    (0, "Timer 0"),
-    (1, "Timer 1"),
-    (2, "Timer 2"),
-    (3, "Target position reached 0"),
-    (15, "stallGuard axis 0"),
-    (21, "Deviation axis 0"),
-    (27, "Left stop switch 0"),
-    (28, "Right stop switch 0"),
-    (39, "Input change 0"),
-    (40, "Input change 1"),
-    (41, "Input change 2"),
-    (42, "Input change 3"),
+/// Interrupt vectors (manual §3.6.6, Table 12). The symbols are those of TMCL-IDE's `Interrupts.inc`
+/// (the manual shows `TI_TIMER0` and `TI_GLOBAL`, §3.6.6.4).
+pub static INTERRUPTS: [InterruptDesc; 12] = [
+    InterruptDesc { number: 0, name: "Timer 0", symbol: "TI_TIMER0" },
+    InterruptDesc { number: 1, name: "Timer 1", symbol: "TI_TIMER1" },
+    InterruptDesc { number: 2, name: "Timer 2", symbol: "TI_TIMER2" },
+    InterruptDesc { number: 3, name: "Target position reached 0", symbol: "TI_TARGET0" },
+    InterruptDesc { number: 15, name: "stallGuard axis 0", symbol: "TI_STALLGUARD0" },
+    InterruptDesc { number: 21, name: "Deviation axis 0", symbol: "TI_DEVIATION0" },
+    InterruptDesc { number: 27, name: "Left stop switch 0", symbol: "TI_STOPLEFT0" },
+    InterruptDesc { number: 28, name: "Right stop switch 0", symbol: "TI_STOPRIGHT0" },
+    InterruptDesc { number: 39, name: "Input change 0", symbol: "TI_INPUT0" },
+    InterruptDesc { number: 40, name: "Input change 1", symbol: "TI_INPUT1" },
+    InterruptDesc { number: 41, name: "Input change 2", symbol: "TI_INPUT2" },
+    InterruptDesc { number: 42, name: "Input change 3", symbol: "TI_INPUT3" },
 ];
 
 /// The PD28-1021 with firmware V1.42.
