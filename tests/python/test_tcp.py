@@ -59,9 +59,6 @@ def test_raw_socket_frames_split(tcp_server):
         assert (second.status, second.opcode, second.value) == (100, 6, 777), second
 
 
-@pytest.mark.xfail(reason="server bug: the framer is not reset when a new TCP connection is accepted; a partial "
-                          "frame left by the previous connection joins the next connection's first frame when it "
-                          "arrives within the 5 ms inter-byte timeout", strict=False)
 def test_partial_frame_does_not_leak_into_next_connection(tcp_server):
     request = frame(1, 6, 140, 0, 0)  # GAP 140
     first = socket.create_connection(("127.0.0.1", tcp_server.port), timeout=5)

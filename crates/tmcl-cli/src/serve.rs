@@ -133,6 +133,8 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
                             eprintln!("[{}] connection from {from}", clock());
                         }
                         *peer = Some(stream);
+                        // A partial frame of the previous connection must not join this one's.
+                        module.reset_link();
                     }
                     0
                 }
@@ -142,6 +144,7 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
                             eprintln!("[{}] connection closed", clock());
                         }
                         *peer = None;
+                        module.reset_link();
                         0
                     }
                     Ok(n) => n,

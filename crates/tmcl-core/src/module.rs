@@ -303,6 +303,12 @@ impl<B: Board> Module<B> {
         self.st.outbox.flush(now, sink);
     }
 
+    /// Drops a partial frame: the link was interrupted (a new TCP connection, a host that went away), so
+    /// bytes from before cannot belong to the next request.
+    pub fn reset_link(&mut self) {
+        self.st.framer.clear();
+    }
+
     /// Advances the module to `now` and returns when it next needs to run: the next motion tick while the
     /// motor moves, else the next timer (standby current, freewheeling, heartbeat, a delayed reply), or
     /// `None` when nothing will happen until the next command.
