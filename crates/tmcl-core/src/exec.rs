@@ -14,14 +14,14 @@
 
 use crate::hal::Board;
 use crate::model::PortKind;
-use crate::module::{flags, Module, Outcome};
+use crate::module::{flags, Module, Origin, Outcome, Registers};
 use crate::motion::reference::Action;
 use crate::motion::{Mode, SearchMode};
 use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
-    CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, VersionFormat, FRAME_LEN,
+    CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
 };
 
 type Exec = Result<Outcome, Status>;
@@ -33,6 +33,19 @@ fn value(v: i32) -> Exec {
 impl<B: Board> Module<B> {
     /// Executes one validated command sent by the host at `now`.
     pub fn execute(&mut self, command: Command, now: Instant) -> Exec {
+        self.exec(command, now, Origin::Host)
+    }
+
+    /// The registers a command works on: the program's or the host's (see [`crate::vm`]).
+    fn regs(&mut self, origin: Origin) -> &mut Registers {
+        match origin {
+            Origin::Host => &mut self.st.host_regs,
+            Origin::Program => &mut self.st.regs,
+        }
+    }
+
+    /// Executes one validated command from the host or the program at `now`.
+    pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
         match command {
             // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
@@ -153,7 +166,7 @@ impl<B: Board> Module<B> {
                         _ => return Err(Status::InvalidValue),
                     },
                     PortKind::AllOutputs => match v {
-                        -1 => self.st.regs.accumulator as u8,
+                        -1 => self.regs(origin).accumulator as u8,
                         0..=255 => v as u8,
                         _ => return Err(Status::InvalidValue),
                     },
@@ -174,7 +187,7 @@ impl<B: Board> Module<B> {
             }
             // §3.7.16 CALC: A ← A op operand; the reply carries the operand (example reply §3.7.16).
             C::Calc { op, operand } => {
-                let a = self.st.regs.accumulator;
+                let a = self.regs(origin).accumulator;
                 let r = match op {
                     CalcOp::Add => a.wrapping_add(operand),
                     CalcOp::Sub => a.wrapping_sub(operand),
@@ -192,13 +205,14 @@ impl<B: Board> Module<B> {
                     CalcOp::Not => !a,
                     CalcOp::Load => operand,
                 };
-                self.load_accumulator(r);
+                self.load_accumulator(origin, r);
                 value(operand)
             }
             // §3.7.28 CALCX: A ← A op X; LOAD copies A to X, SWAP exchanges them, NOT inverts X (Table of
             // §3.7.28; AMB-23).
             C::Calcx { op } => {
-                let (a, x) = (self.st.regs.accumulator, self.st.regs.x);
+                let regs = *self.regs(origin);
+                let (a, x) = (regs.accumulator, regs.x);
                 let r = match op {
                     CalcxOp::Add => a.wrapping_add(x),
                     CalcxOp::Sub => a.wrapping_sub(x),
@@ -211,31 +225,31 @@ impl<B: Board> Module<B> {
                     CalcxOp::Or => a | x,
                     CalcxOp::Xor => a ^ x,
                     CalcxOp::Not => {
-                        self.st.regs.x = !x;
+                        self.regs(origin).x = !x;
                         return value(0);
                     }
                     CalcxOp::Load => {
-                        self.st.regs.x = a;
+                        self.regs(origin).x = a;
                         return value(0);
                     }
                     CalcxOp::Swap => {
-                        self.st.regs.x = a;
+                        self.regs(origin).x = a;
                         x
                     }
                 };
-                self.load_accumulator(r);
+                self.load_accumulator(origin, r);
                 value(0)
             }
             // §3.7.29 AAP: axis parameter ← A.
             C::Aap { param, motor } => {
                 self.motor(motor)?;
-                let a = self.st.regs.accumulator;
+                let a = self.regs(origin).accumulator;
                 self.set_axis(param, a, now)?;
                 value(a)
             }
             // §3.7.30 AGP: global parameter ← A.
             C::Agp { param, bank } => {
-                let a = self.st.regs.accumulator;
+                let a = self.regs(origin).accumulator;
                 self.set_global(param, bank, a, now)?;
                 value(a)
             }
@@ -268,7 +282,7 @@ impl<B: Board> Module<B> {
             // §3.7.27 ACO: coordinate ← accumulator (AMB-12: the accumulator, not the actual position).
             C::Aco { coord, motor } => {
                 self.motor(motor)?;
-                let a = self.st.regs.accumulator;
+                let a = self.regs(origin).accumulator;
                 self.write_coordinate(coord, a)?;
                 value(a)
             }
@@ -284,17 +298,20 @@ impl<B: Board> Module<B> {
                     ErrorFlag::PositionError => flags::POSITION,
                     ErrorFlag::Shutdown => flags::SHUTDOWN,
                 };
-                self.st.regs.flags &= !mask;
+                self.regs(origin).flags &= !mask;
                 value(0)
             }
             // §3.7.32 EI / §3.7.33 DI: interrupt n (Table 12) or 255 = global.
             C::Ei { interrupt } | C::Di { interrupt } => {
                 let on = matches!(command, C::Ei { .. });
-                if interrupt == 255 {
-                    self.st.irq_global = on;
+                if interrupt == crate::model::GLOBAL_INTERRUPTS {
+                    self.vm.global = on;
                 } else if self.spec.interrupts.iter().any(|d| d.number == interrupt) {
                     let bit = 1u64 << interrupt;
-                    self.st.irq_enabled = if on { self.st.irq_enabled | bit } else { self.st.irq_enabled & !bit };
+                    self.vm.enabled = if on { self.vm.enabled | bit } else { self.vm.enabled & !bit };
+                    if !on {
+                        self.vm.pending &= !bit;
+                    }
                 } else {
                     return Err(Status::WrongType);
                 }
@@ -311,16 +328,44 @@ impl<B: Board> Module<B> {
             | C::Vect { .. }
             | C::Reti
             | C::UserFunction { .. } => Err(Status::NotAvailable),
-            // §3.7.38 128..135: the TMCL program machine (standalone mode) is not part of this firmware
-            // build yet; the host is told the commands are not available rather than given false answers.
-            C::StopApplication
-            | C::RunApplication { .. }
-            | C::StepApplication
-            | C::ResetApplication
-            | C::StartDownload { .. }
-            | C::QuitDownload
-            | C::ReadMemory { .. }
-            | C::GetStatus { .. } => Err(Status::NotAvailable),
+            // §3.7.38 128: stop the program.
+            C::StopApplication => {
+                self.stop_application();
+                value(0)
+            }
+            // §3.7.38 129: run from the current address (type 0) or a given one (type 1, §8.6).
+            C::RunApplication { from } => {
+                self.run_application(from, now)?;
+                value(from.unwrap_or(0))
+            }
+            // §3.7.38 130: one instruction.
+            C::StepApplication => {
+                self.step_application(now);
+                value(0)
+            }
+            // §3.7.38 131: stop, PC 0, stack, A, X and flags cleared.
+            C::ResetApplication => {
+                self.reset_application();
+                value(0)
+            }
+            // §3.7.38 132/133: download mode.
+            C::StartDownload { address } => {
+                self.start_download(address)?;
+                value(address)
+            }
+            C::QuitDownload => {
+                self.quit_download();
+                value(0)
+            }
+            // §3.7.38 134: read program memory (special reply).
+            C::ReadMemory { address } => Ok(Outcome::Raw(self.read_memory(address)?)),
+            // §3.7.38 135: application status.
+            C::GetStatus { kind } => value(match kind {
+                StatusKind::MemoryPointer => self.application_status(false),
+                StatusKind::ProgramCounter => self.application_status(true),
+                StatusKind::Accumulator => self.st.regs.accumulator,
+                StatusKind::XRegister => self.st.regs.x,
+            }),
             // §3.4.1 command 139: ASCII mode is not part of this build yet.
             C::EnterAscii => Err(Status::NotAvailable),
             // §3.7.38 136: type 0 = host address + 8 characters, no checksum; type 1 = binary.
@@ -388,14 +433,11 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Loads the accumulator and sets the zero flag from it (inventory AMB-1).
-    pub(crate) fn load_accumulator(&mut self, v: i32) {
-        self.st.regs.accumulator = v;
-        if v == 0 {
-            self.st.regs.flags |= flags::ZERO;
-        } else {
-            self.st.regs.flags &= !flags::ZERO;
-        }
+    /// Loads the accumulator and sets the comparison flags from it, as a comparison with 0 (AMB-1).
+    pub(crate) fn load_accumulator(&mut self, origin: Origin, v: i32) {
+        let regs = self.regs(origin);
+        regs.accumulator = v;
+        crate::vm::run::set_compare(regs, v.cmp(&0));
     }
 
     fn axis_desc(
@@ -486,7 +528,9 @@ impl<B: Board> Module<B> {
             0 => {
                 let (i, d) = self.global_desc(number, |d| d.access.read)?;
                 Ok(match d.role {
-                    Role::ApplicationStatus | Role::DownloadMode | Role::ProgramCounter => 0,
+                    Role::ApplicationStatus => self.vm.state.code(),
+                    Role::DownloadMode => i32::from(self.vm.download.is_some()),
+                    Role::ProgramCounter => i32::from(self.vm.pc),
                     // GP 132: "incremented every 1 ms" (§5.1).
                     Role::TickTimer => {
                         let (at, base) = self.st.tick_base;
@@ -525,6 +569,9 @@ impl<B: Board> Module<B> {
                     // Stored first: if the EEPROM refuses, nothing changes.
                     persist::store_global(&mut self.board, self.spec, i, v)?;
                 }
+                if number == 81 {
+                    self.protection_changed(self.st.global[i], v)?;
+                }
                 match d.role {
                     Role::TickTimer => self.st.tick_base = (now, v as u32),
                     // A written value seeds the generator (0 would stick; it becomes the start seed).
@@ -544,6 +591,7 @@ impl<B: Board> Module<B> {
                     return Err(ParamError::OutOfRange.into());
                 }
                 self.st.interrupt[i] = v;
+                self.restart_timer(number, now);
                 Ok(())
             }
             _ => Err(ParamError::NoSuchMotor.into()),

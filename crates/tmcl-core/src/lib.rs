@@ -24,8 +24,9 @@ pub mod module;
 pub mod motion;
 pub mod param;
 pub mod time;
+pub mod vm;
 
-pub use module::{Module, Outcome, Registers, State};
+pub use module::{Module, Origin, Outcome, Registers, State};
 pub use time::{Duration, Instant};
 
 #[cfg(test)]

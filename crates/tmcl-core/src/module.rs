@@ -12,6 +12,8 @@ use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Limits, Mode, Ramp, RampParams, Reference, TICK};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
+use crate::vm::run::BUDGET;
+use crate::vm::{Program, RunState, Vm};
 use tmcl_wire::{Command, EventMode, Frame, Opcode, Reply, Request, Status, FRAME_LEN};
 
 /// Axis parameter slots in RAM (the PD28-1021 has 58).
@@ -92,10 +94,11 @@ pub struct State {
     pub(crate) coords: [i32; MAX_COORDINATES],
     pub(crate) ramp: Ramp,
     pub(crate) reference: Reference,
+    /// The program's registers.
     pub(crate) regs: Registers,
-    /// Interrupt enables: bit n = EI n; `irq_global` = EI 255.
-    pub(crate) irq_enabled: u64,
-    pub(crate) irq_global: bool,
+    /// The host's registers (direct-mode CALC and friends), kept apart so that a host never disturbs a
+    /// running program's accumulator, X register or flags (§8.5).
+    pub(crate) host_regs: Registers,
     pub(crate) event: EventRequest,
     pub(crate) framer: Framer,
     pub(crate) outbox: Outbox,
@@ -139,8 +142,7 @@ impl State {
             ramp: Ramp::default(),
             reference: Reference::Idle,
             regs: Registers::default(),
-            irq_enabled: 0,
-            irq_global: false,
+            host_regs: Registers::default(),
             event: EventRequest::default(),
             framer: Framer::new(),
             outbox: Outbox::new(),
@@ -166,6 +168,15 @@ impl State {
 /// GP 133's generator starts from this seed at every start (a write to GP 133 reseeds it).
 const RNG_SEED: u32 = 0x2545_F491;
 
+/// Who sent a command: the host (direct mode) or the stored program (standalone mode, §3.6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Origin {
+    /// Direct mode: a frame from the host.
+    Host,
+    /// Standalone mode: an instruction of the running program.
+    Program,
+}
+
 /// What executing one command produced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Outcome {
@@ -184,13 +195,15 @@ pub struct Module<B: Board> {
     pub(crate) board: B,
     pub(crate) spec: &'static ModelSpec,
     pub(crate) st: State,
+    pub(crate) vm: Vm,
+    pub(crate) program: Program,
 }
 
 impl<B: Board> Module<B> {
     /// Powers the module up at `now`: loads the configuration from the board's EEPROM, formatting it with
     /// factory defaults if it holds no valid image for this model.
     pub fn new(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
-        let mut module = Module { board, spec, st: State::new(now) };
+        let mut module = Module { board, spec, st: State::new(now), vm: Vm::default(), program: Program::default() };
         module.start(now);
         module
     }
@@ -215,9 +228,14 @@ impl<B: Board> Module<B> {
         &self.st
     }
 
-    /// The registers.
+    /// The program's registers.
     pub fn registers(&self) -> Registers {
         self.st.regs
+    }
+
+    /// The host's registers (direct-mode calculations).
+    pub fn host_registers(&self) -> Registers {
+        self.st.host_regs
     }
 
     /// The ramp generator (positions, velocity).
@@ -281,6 +299,10 @@ impl<B: Board> Module<B> {
         self.st.encoder = EncoderBase { counts: self.logical_counts(counts), value: 0 };
         self.board.set_outputs(0);
         self.update_board(now);
+        self.vm = Vm::default();
+        self.vm.time = now;
+        self.load_program();
+        self.auto_start(now);
     }
 
     /// Feeds bytes that arrived at `now`. Complete frames are executed; replies go to `sink` (at once, or
@@ -348,6 +370,15 @@ impl<B: Board> Module<B> {
         let (opcode, reply) = match Request::parse(&frame) {
             // §3.2.1 status 1; the reply carries opcode 0 and value 0, as Trinamic's TMCL code does.
             Err(_) => (frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8))),
+            Ok(request) if self.vm.download.is_some() && !request.instruction.opcode.is_control() => {
+                // §3.7.38 132: in download mode every command but the control commands is stored.
+                let i = request.instruction;
+                let op = u8::from(i.opcode);
+                match self.download(i) {
+                    Ok(()) => (op, Ok((Status::Loaded, i.value, op))),
+                    Err(status) => (op, Ok((status, i.value, op))),
+                }
+            }
             Ok(request) => {
                 let i = request.instruction;
                 let op = u8::from(i.opcode);
@@ -493,17 +524,37 @@ impl<B: Board> Module<B> {
         self.st.now = now;
         let params = self.ramp_params();
         let mut ticked = false;
-        while self.st.motion_time + TICK <= now {
-            if self.st.ramp.is_idle() {
-                // Nothing moves: jump to the last tick boundary at or before `now` in one step.
-                let ticks = (now - self.st.motion_time).micros() / TICK.micros();
-                self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
-                self.st.ramping = false;
+        let mut budget = BUDGET;
+        // Instructions up to and including `now`.
+        let horizon = now + Duration::from_micros(1);
+        loop {
+            let tick_at = self.st.motion_time + TICK;
+            if self.vm.state == RunState::Running {
+                self.run_program(tick_at.min(horizon), &mut budget);
+                if budget == 0 {
+                    break; // the rest at the next poll (its deadline is now)
+                }
+            }
+            if tick_at > now {
                 break;
             }
-            self.st.motion_time += TICK;
+            if self.st.ramp.is_idle() && !self.st.reference.is_active() && !self.needs_every_tick() {
+                // Nothing moves: jump to the last tick boundary before the next timed event (or `now`).
+                let until =
+                    [self.program_deadline(), self.timer_deadline()].into_iter().flatten().fold(now, Instant::min);
+                if until >= tick_at {
+                    let ticks = (until - self.st.motion_time).micros() / TICK.micros();
+                    self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
+                    self.st.ramping = false;
+                    if self.vm.enabled != 0 {
+                        self.sample_interrupts(self.st.motion_time);
+                    }
+                    continue;
+                }
+            }
+            self.st.motion_time = tick_at;
             ticked = true;
-            let t = self.st.motion_time;
+            let t = tick_at;
             let limits = self.limits();
             let r = self.st.ramp.tick(TICK, &params, limits);
             self.st.ramping = r.ramping;
@@ -519,6 +570,9 @@ impl<B: Board> Module<B> {
                 self.step_reference();
             }
             self.check_event(t);
+            if self.vm.enabled != 0 {
+                self.sample_interrupts(t);
+            }
         }
         self.check_event(now);
         self.check_heartbeat(now);
@@ -526,6 +580,12 @@ impl<B: Board> Module<B> {
             self.update_board(now);
         }
         self.st.outbox.flush(now, sink);
+    }
+
+    /// Whether interrupts that watch switches or inputs are enabled: then every tick is sampled.
+    fn needs_every_tick(&self) -> bool {
+        const WATCHED: u64 = 1 << 27 | 1 << 28 | 0xF << 39;
+        self.vm.enabled & WATCHED != 0
     }
 
     /// One step of the reference search after a motion tick (§7.1).
@@ -587,8 +647,12 @@ impl<B: Board> Module<B> {
     fn next_deadline(&self) -> Option<Instant> {
         let mut next: Option<Instant> = self.st.outbox.next_due();
         let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
-        if !self.st.ramp.is_idle() || self.st.event.pending || self.st.reference.is_active() {
+        if !self.st.ramp.is_idle() || self.st.event.pending || self.st.reference.is_active() || self.needs_every_tick()
+        {
             consider(self.st.motion_time + TICK);
+        }
+        for t in [self.program_deadline(), self.timer_deadline()].into_iter().flatten() {
+            consider(t.max(self.st.now));
         }
         if let Some(since) = self.st.standstill_since {
             for delay in [self.axis_value(214), self.axis_value(204)] {

@@ -20,6 +20,7 @@
 use crate::hal::Nvm;
 use crate::model::ModelSpec;
 use crate::param::{slot, ParamError};
+use tmcl_wire::{checksum, Instruction};
 
 /// The layout version this firmware writes and reads.
 pub const LAYOUT_VERSION: u16 = 1;
@@ -101,13 +102,7 @@ pub fn format<N: Nvm>(nvm: &mut N, spec: &ModelSpec, erase_program: bool) -> Res
     nvm.write(USER, &zeros).map_err(|_| ParamError::Storage)?;
     nvm.write(COORDS, &zeros[..SLOTS * 4]).map_err(|_| ParamError::Storage)?;
     if erase_program {
-        let end = capacity(spec);
-        let mut at = PROGRAM;
-        while at < end {
-            let n = zeros.len().min(end - at);
-            nvm.write(at, &zeros[..n]).map_err(|_| ParamError::Storage)?;
-            at += n;
-        }
+        self::erase_program(nvm, spec)?;
     }
     nvm.write(HEADER, &header(spec)).map_err(|_| ParamError::Storage)
 }
@@ -170,6 +165,51 @@ pub fn load_coordinate<N: Nvm>(nvm: &mut N, spec: &ModelSpec, n: u8) -> Result<i
 /// Stores coordinate `n` (1..=20).
 pub fn store_coordinate<N: Nvm>(nvm: &mut N, spec: &ModelSpec, n: u8, value: i32) -> Result<(), ParamError> {
     write_i32(nvm, coord_offset(spec, n)?, value)
+}
+
+/// Reads program-memory cell `address`: `None` if it is outside the model's memory; an empty cell (opcode 0)
+/// if its checksum is wrong (an interrupted or foreign write).
+pub fn load_program_cell<N: Nvm>(nvm: &mut N, spec: &ModelSpec, address: usize) -> Option<Instruction> {
+    if address >= usize::from(spec.program_memory) {
+        return None;
+    }
+    let mut b = [0u8; PROGRAM_CELL];
+    nvm.read(PROGRAM + address * PROGRAM_CELL, &mut b).ok()?;
+    let mut seven = [0u8; 7];
+    seven.copy_from_slice(&b[..7]);
+    if checksum(&seven) != b[7] {
+        return Some(Instruction::new(0.into(), 0, 0, 0));
+    }
+    Some(Instruction::from_bytes(seven))
+}
+
+/// Writes program-memory cell `address` (one atomic write of the 8-byte cell).
+pub fn store_program_cell<N: Nvm>(
+    nvm: &mut N,
+    spec: &ModelSpec,
+    address: usize,
+    instruction: &Instruction,
+) -> Result<(), ParamError> {
+    if address >= usize::from(spec.program_memory) {
+        return Err(ParamError::OutOfRange);
+    }
+    let mut b = [0u8; PROGRAM_CELL];
+    b[..7].copy_from_slice(&instruction.to_bytes());
+    b[7] = checksum(&b[..7]);
+    nvm.write(PROGRAM + address * PROGRAM_CELL, &b).map_err(|_| ParamError::Storage)
+}
+
+/// Erases the program memory (GP 81: leaving protection against disassembly erases the program).
+pub fn erase_program<N: Nvm>(nvm: &mut N, spec: &ModelSpec) -> Result<(), ParamError> {
+    let zeros = [0u8; 256];
+    let end = capacity(spec);
+    let mut at = PROGRAM;
+    while at < end {
+        let n = zeros.len().min(end - at);
+        nvm.write(at, &zeros[..n]).map_err(|_| ParamError::Storage)?;
+        at += n;
+    }
+    Ok(())
 }
 
 const _: () = assert!(AXIS + SLOTS * 4 <= GLOBAL);

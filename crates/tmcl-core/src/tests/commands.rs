@@ -270,30 +270,30 @@ fn calc_calcx_aap_agp() {
     let calc = |b: &mut Bench, op, v| b.cmd(Command::Calc { op, operand: v });
     calc(&mut b, CalcOp::Load, 10);
     calc(&mut b, CalcOp::Mul, -5000);
-    assert_eq!(b.module.registers().accumulator, -50000);
+    assert_eq!(b.module.host_registers().accumulator, -50000);
     calc(&mut b, CalcOp::Div, 7);
-    assert_eq!(b.module.registers().accumulator, -7142);
+    assert_eq!(b.module.host_registers().accumulator, -7142);
     calc(&mut b, CalcOp::Mod, 1000);
-    assert_eq!(b.module.registers().accumulator, -142);
+    assert_eq!(b.module.host_registers().accumulator, -142);
     assert_eq!(calc(&mut b, CalcOp::Div, 0).0, Status::InvalidValue);
-    assert_eq!(b.module.registers().accumulator, -142, "unchanged after a division by zero");
+    assert_eq!(b.module.host_registers().accumulator, -142, "unchanged after a division by zero");
     calc(&mut b, CalcOp::Load, i32::MIN);
     assert_eq!(calc(&mut b, CalcOp::Div, -1).0, Status::Ok, "wraps, never panics");
     calc(&mut b, CalcOp::Load, 0b1100);
     calc(&mut b, CalcOp::And, 0b1010);
     calc(&mut b, CalcOp::Or, 1);
     calc(&mut b, CalcOp::Xor, 0xFF);
-    assert_eq!(b.module.registers().accumulator, 0b1111_0110);
+    assert_eq!(b.module.host_registers().accumulator, 0b1111_0110);
     calc(&mut b, CalcOp::Not, 0);
-    assert_eq!(b.module.registers().accumulator, !0b1111_0110);
+    assert_eq!(b.module.host_registers().accumulator, !0b1111_0110);
     // CALCX.
     calc(&mut b, CalcOp::Load, 6);
     b.cmd(Command::Calcx { op: CalcxOp::Load });
     calc(&mut b, CalcOp::Load, 7);
     b.cmd(Command::Calcx { op: CalcxOp::Mul });
-    assert_eq!(b.module.registers().accumulator, 42);
+    assert_eq!(b.module.host_registers().accumulator, 42);
     b.cmd(Command::Calcx { op: CalcxOp::Swap });
-    assert_eq!((b.module.registers().accumulator, b.module.registers().x), (6, 42));
+    assert_eq!((b.module.host_registers().accumulator, b.module.host_registers().x), (6, 42));
     // AAP 4, AGP 42, 2: the accumulator into parameters, range-checked.
     calc(&mut b, CalcOp::Load, 12345);
     assert_eq!(b.cmd(Command::Aap { param: 4, motor: 0 }).0, Status::Ok);
@@ -305,7 +305,7 @@ fn calc_calcx_aap_agp() {
     assert_eq!(b.gap(4), 12345);
     // GAP in direct mode never touches the accumulator (§3.6.1).
     b.gap(1);
-    assert_eq!(b.module.registers().accumulator, 0);
+    assert_eq!(b.module.host_registers().accumulator, 0);
 }
 
 #[test]
@@ -336,9 +336,9 @@ fn cle_ei_di() {
     // F33 CLE ETO, F34 EI 255, F35 DI 255.
     assert_eq!(b.bytes(&[0x01, 0x24, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x26])[2], 100);
     assert_eq!(b.bytes(&[0x01, 0x19, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x19])[2], 100);
-    assert!(b.module.state().irq_global);
+    assert!(b.module.vm().interrupt_enabled(255));
     assert_eq!(b.bytes(&[0x01, 0x1A, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1A])[2], 100);
-    assert!(!b.module.state().irq_global);
+    assert!(!b.module.vm().interrupt_enabled(255));
     assert_eq!(b.cmd(Command::Ei { interrupt: 15 }).0, Status::Ok);
     assert_eq!(b.cmd(Command::Ei { interrupt: 4 }).0, Status::WrongType, "no interrupt 4 (Table 12)");
 }

@@ -4,6 +4,7 @@
 mod commands;
 mod params;
 mod reference;
+mod vm;
 mod wire;
 
 use crate::hal::{Drive, DriveState, Feedback, Io, Nvm, Switches};

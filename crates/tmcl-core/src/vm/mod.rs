@@ -1,0 +1,226 @@
+//! The TMCL program machine: standalone mode (PD28-1021 manual §3.3, §3.6.3–3.6.6, §3.7.16–3.7.38,
+//! chapter 8).
+//!
+//! Data lives here ([`Vm`], [`Program`]); the stepping is in `run.rs` as methods of the module, because
+//! instructions act on the whole module (motion, parameters, I/O).
+//!
+//! The machine (STYLE.md §3.8): `step` fetches the instruction at the PC, decodes it to a command, runs
+//! it, then checks the interrupts. Waiting is a state ([`Wait`]), never a loop. It runs a bounded number of
+//! instructions per poll, each taking [`INSTRUCTION_TIME`] of simulated time.
+//!
+//! Decisions (the manual is silent; see docs/decisions.md):
+//! - **Instruction time.** Each instruction takes 20 µs of module time (about 50 000 commands per second,
+//!   the order of Trinamic's EEPROM-executing TMCL firmware), so a busy loop in a program advances
+//!   simulated time, and timings such as `WAIT TICKS` relative to other code behave as on a module.
+//! - **An instruction that fails** (a parameter out of range, a bad port) is skipped: the program goes on,
+//!   as the firmware gives a program no status. An instruction that does not decode (an unknown opcode,
+//!   empty memory = opcode 0) stops the program.
+//! - **Registers.** A program has its own accumulator, X register and flags; direct-mode CALC, CALCX,
+//!   AAP, AGP, ACO and `SIO 255, 2, -1` work on a separate host register set, so a host never disturbs a
+//!   running program (manual §8.5).
+//! - **Flags (AMB-1).** COMP sets zero/greater/lower from `A − operand`; every instruction that loads the
+//!   accumulator (GAP, GGP, GIO, GCO, RFS STATUS, CALC, CALCX) sets them from `A − 0`. ZE ≡ EQ, NZ ≡ NE.
+//! - **Interrupts (AMB-26).** One pending bit per source, set when its event occurs while the interrupt
+//!   is enabled (EI n) and has a vector; serviced between instructions, lowest number first, when
+//!   interrupts are globally on (EI 255) and no handler runs (no nesting). A handler interrupts a WAIT;
+//!   RETI resumes the WAIT where it was. DI n clears its pending bit. A timer fires every period (bank 3,
+//!   ms) from the moment its period is set; period 0 = off.
+
+pub(crate) mod run;
+
+pub use run::vector;
+
+use crate::time::Instant;
+use tmcl_wire::{Instruction, Opcode, WaitCondition};
+
+/// Program memory of the largest model, in commands.
+pub const MAX_PROGRAM: usize = 2048;
+/// Subroutine stack depth (§3.7.20: "8 nesting levels").
+pub const STACK_DEPTH: usize = 8;
+/// Interrupt numbers are below this (Table 12: 0..42, plus 255 = global).
+pub const MAX_VECTORS: usize = 64;
+/// Module time one instruction takes.
+pub const INSTRUCTION_TIME: crate::time::Duration = crate::time::Duration::from_micros(20);
+/// One WAIT tick (§3.7.22: "1 tick = 10 milliseconds").
+pub const WAIT_TICK: crate::time::Duration = crate::time::Duration::from_millis(10);
+
+const NO_VECTOR: u16 = u16::MAX;
+
+/// An empty program-memory cell: opcode 0, which marks the end of a program for host tools.
+pub const EMPTY: Instruction = Instruction::new(Opcode::Unknown(0), 0, 0, 0);
+
+/// The TMCL program memory, in RAM (a copy of the EEPROM's program area, written through on download).
+#[derive(Debug, Clone)]
+pub struct Program {
+    pub(crate) cells: [Instruction; MAX_PROGRAM],
+}
+
+impl Default for Program {
+    fn default() -> Program {
+        Program { cells: [EMPTY; MAX_PROGRAM] }
+    }
+}
+
+impl Program {
+    /// The instruction at `address`, if inside memory.
+    pub fn get(&self, address: usize) -> Option<&Instruction> {
+        self.cells.get(address)
+    }
+
+    /// The whole memory.
+    pub fn cells(&self) -> &[Instruction] {
+        &self.cells
+    }
+
+    /// Number of cells up to and including the last non-empty one.
+    pub fn len(&self) -> usize {
+        self.cells.iter().rposition(|c| *c != EMPTY).map_or(0, |i| i + 1)
+    }
+
+    /// Whether no cell is programmed.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Whether the program runs (GP 128: 0 stop, 1 run, 2 step, 3 reset).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RunState {
+    /// Stopped (STOP, command 128, an instruction that does not decode, power-up without auto start).
+    #[default]
+    Stopped,
+    /// Running (command 129, auto start).
+    Running,
+    /// Executed one instruction with command 130 and stopped again.
+    Stepped,
+    /// Reset with command 131, not started since.
+    Reset,
+}
+
+impl RunState {
+    /// GP 128's value.
+    pub fn code(self) -> i32 {
+        match self {
+            RunState::Stopped => 0,
+            RunState::Running => 1,
+            RunState::Stepped => 2,
+            RunState::Reset => 3,
+        }
+    }
+}
+
+/// A WAIT in progress (§3.7.22).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Wait {
+    /// What it waits for.
+    pub condition: WaitCondition,
+    /// TICKS: when the wait ends; others: when the timeout expires (ETO), if there is one.
+    pub until: Option<Instant>,
+}
+
+/// What an interrupt handler saves (§3.6.6: "accumulator register, X register, flags"; RETI restores
+/// them and the PC). A WAIT that the interrupt preempted is saved too.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Context {
+    /// PC to return to.
+    pub pc: u16,
+    /// Registers.
+    pub regs: crate::module::Registers,
+    /// A WAIT in progress.
+    pub wait: Option<Wait>,
+}
+
+/// The program machine's state.
+#[derive(Debug, Clone)]
+pub struct Vm {
+    /// Run state.
+    pub state: RunState,
+    /// Program counter: the address of the next instruction (GP 130).
+    pub pc: u16,
+    pub(crate) stack: [u16; STACK_DEPTH],
+    pub(crate) sp: u8,
+    /// A WAIT in progress.
+    pub wait: Option<Wait>,
+    /// Module time of the next instruction.
+    pub(crate) time: Instant,
+    pub(crate) vectors: [u16; MAX_VECTORS],
+    /// EI n bits.
+    pub(crate) enabled: u64,
+    /// EI 255.
+    pub(crate) global: bool,
+    /// Pending interrupt bits.
+    pub(crate) pending: u64,
+    /// The interrupted context while a handler runs.
+    pub(crate) handler: Option<Context>,
+    /// Next firing of timers 0..2.
+    pub(crate) timers: [Option<Instant>; 3],
+    /// Download mode (command 132): the next address to store at (GP 129 = 1 while set).
+    pub(crate) download: Option<u16>,
+    /// Input and switch levels at the last sample (for the change interrupts 27, 28, 39..42).
+    pub(crate) last_levels: Option<u16>,
+    /// The position-reached state at the last sample (interrupt 3).
+    pub(crate) was_reached: bool,
+}
+
+impl Default for Vm {
+    fn default() -> Vm {
+        Vm {
+            state: RunState::Stopped,
+            pc: 0,
+            stack: [0; STACK_DEPTH],
+            sp: 0,
+            wait: None,
+            time: Instant::ZERO,
+            vectors: [NO_VECTOR; MAX_VECTORS],
+            enabled: 0,
+            global: false,
+            pending: 0,
+            handler: None,
+            timers: [None; 3],
+            download: None,
+            last_levels: None,
+            was_reached: true,
+        }
+    }
+}
+
+impl Vm {
+    /// Whether instructions execute (running, not waiting).
+    pub fn is_running(&self) -> bool {
+        self.state == RunState::Running
+    }
+
+    /// Subroutine stack depth in use.
+    pub fn stack_depth(&self) -> usize {
+        usize::from(self.sp)
+    }
+
+    /// The subroutine stack, oldest first.
+    pub fn stack(&self) -> &[u16] {
+        &self.stack[..usize::from(self.sp)]
+    }
+
+    /// The vector of interrupt `n`, if defined.
+    pub fn vector(&self, n: u8) -> Option<u16> {
+        self.vectors.get(usize::from(n)).copied().filter(|v| *v != NO_VECTOR)
+    }
+
+    /// Whether interrupt `n` is enabled (EI n), or for 255 whether interrupts are globally on.
+    pub fn interrupt_enabled(&self, n: u8) -> bool {
+        if n == crate::model::GLOBAL_INTERRUPTS {
+            self.global
+        } else {
+            n < MAX_VECTORS as u8 && self.enabled & (1 << n) != 0
+        }
+    }
+
+    /// Whether an interrupt handler runs.
+    pub fn in_handler(&self) -> bool {
+        self.handler.is_some()
+    }
+
+    /// Download mode's next address.
+    pub fn download_address(&self) -> Option<u16> {
+        self.download
+    }
+}

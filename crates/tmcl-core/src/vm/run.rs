@@ -1,0 +1,470 @@
+//! Running programs: the step, the waits, the interrupts, and the control commands 128–135.
+
+use super::{Context, RunState, Wait, INSTRUCTION_TIME, MAX_VECTORS, NO_VECTOR, STACK_DEPTH, WAIT_TICK};
+use crate::hal::Board;
+use crate::module::{flags, Module, Origin, Registers};
+use crate::param::persist;
+use crate::time::{Duration, Instant};
+use tmcl_wire::{Command, Condition, Instruction, Status, WaitCondition, FRAME_LEN};
+
+/// Interrupt numbers (manual §3.6.6 Table 12).
+pub mod vector {
+    /// Timers 0, 1, 2.
+    pub const TIMERS: [u8; 3] = [0, 1, 2];
+    /// Target position reached, axis 0.
+    pub const TARGET_REACHED: u8 = 3;
+    /// stallGuard, axis 0.
+    pub const STALL: u8 = 15;
+    /// Deviation, axis 0.
+    pub const DEVIATION: u8 = 21;
+    /// Left stop switch 0.
+    pub const STOP_LEFT: u8 = 27;
+    /// Right stop switch 0.
+    pub const STOP_RIGHT: u8 = 28;
+    /// Input changes 0..3.
+    pub const INPUTS: [u8; 4] = [39, 40, 41, 42];
+}
+
+/// How many instructions one call may run at most, so that a poll always returns.
+pub const BUDGET: u32 = 1 << 20;
+
+impl<B: Board> Module<B> {
+    /// The program machine.
+    pub fn vm(&self) -> &super::Vm {
+        &self.vm
+    }
+
+    /// Program memory.
+    pub fn program(&self) -> &super::Program {
+        &self.program
+    }
+
+    /// Loads program memory from the EEPROM (start-up).
+    pub(crate) fn load_program(&mut self) {
+        let n = usize::from(self.spec.program_memory).min(super::MAX_PROGRAM);
+        for address in 0..n {
+            self.program.cells[address] =
+                persist::load_program_cell(&mut self.board, self.spec, address).unwrap_or(super::EMPTY);
+        }
+    }
+
+    /// Runs the program up to (not including) `limit`, at most `budget` instructions. Returns the number
+    /// of instructions executed.
+    pub(crate) fn run_program(&mut self, limit: Instant, budget: &mut u32) {
+        while self.vm.state == RunState::Running && self.vm.time < limit && *budget > 0 {
+            let t = self.vm.time;
+            self.service_interrupts();
+            if let Some(wait) = self.vm.wait {
+                match self.wait_done(wait, t) {
+                    Some(timeout) => {
+                        if timeout {
+                            self.st.regs.flags |= flags::TIMEOUT;
+                        }
+                        self.vm.wait = None;
+                        self.vm.pc = self.vm.pc.wrapping_add(1);
+                    }
+                    None => {
+                        // Sleep until the wait can end by time, or to the limit (motion may end it).
+                        let wake = wait.until.unwrap_or(limit).min(limit).max(t + INSTRUCTION_TIME);
+                        self.vm.time = wake;
+                        continue;
+                    }
+                }
+            }
+            *budget -= 1;
+            self.step_instruction(t);
+            self.vm.time = self.vm.time.max(t) + INSTRUCTION_TIME;
+        }
+    }
+
+    /// Executes the instruction at the PC (fetch, decode, execute).
+    fn step_instruction(&mut self, now: Instant) {
+        let pc = self.vm.pc;
+        let Some(&instruction) = self.program.get(usize::from(pc)) else {
+            self.vm.state = RunState::Stopped; // ran off the end of memory
+            return;
+        };
+        let Ok(command) = Command::decode(instruction) else {
+            self.vm.state = RunState::Stopped; // opcode 0 (empty memory) or garbage: the program ends
+            return;
+        };
+        let mut next = pc.wrapping_add(1);
+        match command {
+            // §3.7.17 COMP: flags from A − operand.
+            Command::Comp { operand } => {
+                let a = self.st.regs.accumulator;
+                set_compare(&mut self.st.regs, a.cmp(&operand));
+            }
+            // §3.7.18 JC.
+            Command::Jc { condition, address } => {
+                if self.condition(condition) {
+                    next = jump(address);
+                }
+            }
+            // §3.7.19 JA.
+            Command::Ja { address } => next = jump(address),
+            // §3.7.20 CSUB: ignored when the stack is full.
+            Command::Csub { address } => {
+                if usize::from(self.vm.sp) < STACK_DEPTH {
+                    self.vm.stack[usize::from(self.vm.sp)] = next;
+                    self.vm.sp += 1;
+                    next = jump(address);
+                }
+            }
+            // §3.7.21 RSUB: ignored when the stack is empty.
+            Command::Rsub => {
+                if self.vm.sp > 0 {
+                    self.vm.sp -= 1;
+                    next = self.vm.stack[usize::from(self.vm.sp)];
+                }
+            }
+            // §3.7.22 WAIT: waiting is a state; the PC stays on the WAIT until it ends.
+            Command::Wait { condition, ticks, .. } => {
+                let ticks = if ticks == -1 { self.st.regs.accumulator } else { ticks };
+                // AMB-25: −1 takes the value from A for every condition; a negative value waits no time
+                // (TICKS) or has no timeout (the others).
+                let span = Duration::from_micros(WAIT_TICK.micros() * ticks.max(0) as u64);
+                let until = match condition {
+                    WaitCondition::Ticks => Some(now + span),
+                    _ if ticks > 0 => Some(now + span),
+                    _ => None,
+                };
+                let wait = Wait { condition, until };
+                match self.wait_done(wait, now) {
+                    Some(timeout) => {
+                        if timeout {
+                            self.st.regs.flags |= flags::TIMEOUT;
+                        }
+                    }
+                    None => {
+                        self.vm.wait = Some(wait);
+                        return;
+                    }
+                }
+            }
+            // §3.7.23 STOP.
+            Command::Stop => {
+                self.vm.state = RunState::Stopped;
+                return;
+            }
+            // §3.7.34 VECT.
+            Command::Vect { interrupt, address } => {
+                if let Some(v) = self.vm.vectors.get_mut(usize::from(interrupt)) {
+                    *v = u16::try_from(address).unwrap_or(NO_VECTOR);
+                }
+            }
+            // §3.7.35 RETI: restores A, X, flags and the PC (and a preempted WAIT).
+            Command::Reti => {
+                if let Some(ctx) = self.vm.handler.take() {
+                    self.st.regs = ctx.regs;
+                    self.vm.wait = ctx.wait;
+                    next = ctx.pc;
+                }
+            }
+            // Control commands and 242 are direct-mode only: in memory they end the program.
+            c if instruction.opcode.is_control() => {
+                let _ = c;
+                self.vm.state = RunState::Stopped;
+                return;
+            }
+            other => {
+                if let Ok(crate::module::Outcome::Value(v)) = self.exec(other, now, Origin::Program) {
+                    // §3.6.1: in standalone mode a command that reads a value loads the accumulator
+                    // (FW V1.35: RFS STATUS too, setting the flags).
+                    if other.reads_value() {
+                        self.load_accumulator(Origin::Program, v);
+                    }
+                }
+            }
+        }
+        self.vm.pc = next;
+    }
+
+    /// Whether a wait has ended at `now`: `Some(false)` met, `Some(true)` timed out (ETO), `None` not yet.
+    fn wait_done(&mut self, wait: Wait, now: Instant) -> Option<bool> {
+        let met = match wait.condition {
+            WaitCondition::Ticks => return wait.until.is_some_and(|u| now >= u).then_some(false),
+            WaitCondition::Pos => self.st.ramp.position_reached() && self.st.ramp.velocity() == 0,
+            // WAIT REFSW: the reference (home) switch; WAIT LIMSW: a stop switch (inventory §2.6).
+            WaitCondition::RefSw => self.switches().2,
+            WaitCondition::LimSw => {
+                let (l, r, _) = self.switches();
+                l || r
+            }
+            WaitCondition::Rfs => !self.st.reference.is_active(),
+        };
+        if met {
+            Some(false)
+        } else if wait.until.is_some_and(|u| now >= u) {
+            Some(true)
+        } else {
+            None
+        }
+    }
+
+    fn condition(&self, c: Condition) -> bool {
+        let f = self.st.regs.flags;
+        match c {
+            Condition::Zero | Condition::Equal => f & flags::ZERO != 0,
+            Condition::NotZero | Condition::NotEqual => f & flags::ZERO == 0,
+            Condition::Greater => f & flags::GREATER != 0,
+            Condition::GreaterOrEqual => f & (flags::GREATER | flags::ZERO) != 0,
+            Condition::Lower => f & flags::LOWER != 0,
+            Condition::LowerOrEqual => f & (flags::LOWER | flags::ZERO) != 0,
+            Condition::Timeout => f & flags::TIMEOUT != 0,
+            Condition::ExternalAlarm => f & flags::ALARM != 0,
+            Condition::Deviation => f & flags::DEVIATION != 0,
+            Condition::PositionError => f & flags::POSITION != 0,
+        }
+    }
+
+    /// Raises interrupt `n` if it is enabled and has a vector (see the module docs).
+    pub(crate) fn raise_interrupt(&mut self, n: u8) {
+        if usize::from(n) < MAX_VECTORS && self.vm.enabled & (1 << n) != 0 && self.vm.vector(n).is_some() {
+            self.vm.pending |= 1 << n;
+        }
+    }
+
+    /// Enters the handler of the highest-priority pending interrupt, if allowed (between instructions).
+    fn service_interrupts(&mut self) {
+        if self.vm.pending == 0 || !self.vm.global || self.vm.handler.is_some() {
+            return;
+        }
+        let n = self.vm.pending.trailing_zeros() as u8; // lower number = higher priority (§3.7.34)
+        self.vm.pending &= !(1 << n);
+        let Some(address) = self.vm.vector(n) else { return };
+        self.vm.handler = Some(Context { pc: self.vm.pc, regs: self.st.regs, wait: self.vm.wait.take() });
+        self.vm.pc = address;
+    }
+
+    /// Samples the interrupt sources at a motion tick (timers, target reached, switch and input changes).
+    pub(crate) fn sample_interrupts(&mut self, t: Instant) {
+        for (i, &n) in vector::TIMERS.iter().enumerate() {
+            if let Some(due) = self.vm.timers[i] {
+                if t >= due {
+                    self.raise_interrupt(n);
+                    let period = self.interrupt_value(n) as u32;
+                    self.vm.timers[i] =
+                        (period > 0).then(|| due + Duration::from_millis(u64::from(period))).map(|d| d.max(t));
+                }
+            }
+        }
+        let reached = self.st.ramp.mode == crate::motion::Mode::Position && self.st.ramp.is_idle();
+        if reached && !self.vm.was_reached {
+            self.raise_interrupt(vector::TARGET_REACHED);
+        }
+        self.vm.was_reached = reached;
+        if self.vm.enabled & (1 << vector::STOP_LEFT | 1 << vector::STOP_RIGHT | 0xF << vector::INPUTS[0]) == 0 {
+            self.vm.last_levels = None;
+            return;
+        }
+        let (left, right, _) = self.switches();
+        let inputs = self.board.digital_inputs();
+        let levels = u16::from(inputs & 0xF) | u16::from(left) << 4 | u16::from(right) << 5;
+        if let Some(last) = self.vm.last_levels {
+            let sources = [
+                (vector::INPUTS[0], 0),
+                (vector::INPUTS[1], 1),
+                (vector::INPUTS[2], 2),
+                (vector::INPUTS[3], 3),
+                (vector::STOP_LEFT, 4),
+                (vector::STOP_RIGHT, 5),
+            ];
+            for (n, bit) in sources {
+                let (was, is) = (last >> bit & 1 == 1, levels >> bit & 1 == 1);
+                // Bank 3 trigger transition: 0 off, 1 low→high, 2 high→low, 3 both (§5.4).
+                let fire = match self.interrupt_value(n) {
+                    1 => !was && is,
+                    2 => was && !is,
+                    3 => was != is,
+                    _ => false,
+                };
+                if fire {
+                    self.raise_interrupt(n);
+                }
+            }
+        }
+        self.vm.last_levels = Some(levels);
+    }
+
+    /// A bank 3 parameter by number (0 if absent).
+    fn interrupt_value(&self, n: u8) -> i32 {
+        self.spec.interrupt.index(n).map_or(0, |i| self.st.interrupt[i])
+    }
+
+    /// A bank 3 timer period was written: the timer restarts from now.
+    pub(crate) fn restart_timer(&mut self, n: u8, now: Instant) {
+        if let Some(i) = vector::TIMERS.iter().position(|&t| t == n) {
+            let period = self.interrupt_value(n) as u32;
+            self.vm.timers[i] = (period > 0).then(|| now + Duration::from_millis(u64::from(period)));
+        }
+    }
+
+    /// When the program next needs to run, if it is running.
+    pub(crate) fn program_deadline(&self) -> Option<Instant> {
+        if self.vm.state != RunState::Running {
+            return None;
+        }
+        match self.vm.wait {
+            // A wait that motion or switches can end is checked at every motion tick anyway.
+            Some(w) => w.until,
+            None => Some(self.vm.time),
+        }
+    }
+
+    /// The next timer interrupt.
+    pub(crate) fn timer_deadline(&self) -> Option<Instant> {
+        if self.vm.enabled & 0b111 == 0 {
+            return None;
+        }
+        self.vm.timers.iter().flatten().min().copied()
+    }
+
+    // ---- control commands (§3.7.38) -------------------------------------------------------------
+
+    /// 128: stop the program.
+    pub(crate) fn stop_application(&mut self) {
+        if self.vm.state == RunState::Running {
+            self.vm.state = RunState::Stopped;
+        }
+    }
+
+    /// 129: run from the current address (type 0) or from `from` (type 1).
+    pub(crate) fn run_application(&mut self, from: Option<i32>, now: Instant) -> Result<(), Status> {
+        if let Some(a) = from {
+            let a = u16::try_from(a).ok().filter(|a| *a < self.spec.program_memory).ok_or(Status::InvalidValue)?;
+            self.vm.pc = a;
+            self.vm.wait = None;
+        }
+        self.vm.state = RunState::Running;
+        self.vm.time = self.vm.time.max(now);
+        Ok(())
+    }
+
+    /// 130: execute one instruction.
+    pub(crate) fn step_application(&mut self, now: Instant) {
+        self.vm.state = RunState::Running;
+        self.vm.time = self.vm.time.max(now);
+        let mut budget = 1;
+        let limit = self.vm.time + INSTRUCTION_TIME;
+        // A waiting instruction is checked once; a step never blocks.
+        if let Some(wait) = self.vm.wait {
+            if let Some(timeout) = self.wait_done(wait, now) {
+                if timeout {
+                    self.st.regs.flags |= flags::TIMEOUT;
+                }
+                self.vm.wait = None;
+                self.vm.pc = self.vm.pc.wrapping_add(1);
+            }
+        } else {
+            self.run_program(limit, &mut budget);
+        }
+        if self.vm.state == RunState::Running {
+            self.vm.state = RunState::Stepped;
+        }
+    }
+
+    /// 131: stop, PC = 0, stack empty, A = X = 0, flags cleared.
+    pub(crate) fn reset_application(&mut self) {
+        self.vm.state = RunState::Reset;
+        self.vm.pc = 0;
+        self.vm.sp = 0;
+        self.vm.wait = None;
+        self.vm.handler = None;
+        self.vm.pending = 0;
+        self.st.regs = Registers::default();
+    }
+
+    /// GP 81 bits: 1 = no read-back (disassembly), 2 = no overwrite.
+    fn protection(&self) -> i32 {
+        self.global_value(81)
+    }
+
+    /// 132: download mode from `address`. Refused with status 5 when the program is protected against
+    /// overwriting (GP 81 = 2 or 3, AMB-31).
+    pub(crate) fn start_download(&mut self, address: i32) -> Result<(), Status> {
+        if self.protection() & 2 != 0 {
+            return Err(Status::EepromLocked);
+        }
+        let a = u16::try_from(address).ok().filter(|a| *a < self.spec.program_memory).ok_or(Status::InvalidValue)?;
+        self.stop_application();
+        self.vm.download = Some(a);
+        Ok(())
+    }
+
+    /// 133: leave download mode.
+    pub(crate) fn quit_download(&mut self) {
+        self.vm.download = None;
+    }
+
+    /// In download mode: stores one instruction at the next address (status 101, §3.2.1).
+    pub(crate) fn download(&mut self, instruction: Instruction) -> Result<(), Status> {
+        let Some(address) = self.vm.download else { return Err(Status::InvalidCommand) };
+        // Only what a program can execute is stored; anything else is refused and not stored.
+        Command::decode(instruction)?;
+        persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
+        self.program.cells[usize::from(address)] = instruction;
+        self.vm.download = address.checked_add(1).filter(|a| *a < self.spec.program_memory).or(Some(address));
+        Ok(())
+    }
+
+    /// 134: the special reply `[host, opcode, type, motor, value (4, MSB first), checksum]`
+    /// (host-expectations.md: pytrinamic's `tmcl_read_script`). Refused with status 6 when the program
+    /// is protected against disassembly (GP 81 = 1 or 3, AMB-31).
+    pub(crate) fn read_memory(&mut self, address: i32) -> Result<[u8; FRAME_LEN], Status> {
+        if self.protection() & 1 != 0 {
+            return Err(Status::NotAvailable);
+        }
+        let a = usize::try_from(address).ok().filter(|a| *a < usize::from(self.spec.program_memory));
+        let cell = self.program.cells[a.ok_or(Status::InvalidValue)?];
+        let mut raw = [0u8; FRAME_LEN];
+        raw[0] = self.global_value(76) as u8;
+        raw[1..8].copy_from_slice(&cell.to_bytes());
+        raw[8] = tmcl_wire::checksum(&raw[..8]);
+        Ok(raw)
+    }
+
+    /// 135 types 0/1: mode in bits 31..24 (GP 128), wait flag in bits 23..16 (1 = a WAIT is pending),
+    /// and the download pointer (type 0) or the PC (type 1) in bits 15..0. The manual names the three
+    /// fields but not their packing (AMB-6); this is ours.
+    pub(crate) fn application_status(&self, program_counter: bool) -> i32 {
+        let pointer = if program_counter { self.vm.pc } else { self.vm.download.unwrap_or(0) };
+        (self.vm.state.code() << 24) | (i32::from(self.vm.wait.is_some()) << 16) | i32::from(pointer)
+    }
+
+    /// GP 81 written: leaving protection against disassembly (1 or 3 → 0 or 2) erases the program first
+    /// (§5.1).
+    pub(crate) fn protection_changed(&mut self, old: i32, new: i32) -> Result<(), Status> {
+        if old & 1 != 0 && new & 1 == 0 {
+            persist::erase_program(&mut self.board, self.spec)?;
+            self.program = super::Program::default();
+            self.reset_application();
+            self.vm.state = RunState::Stopped;
+        }
+        Ok(())
+    }
+
+    /// After a start: GP 77 = 1 runs the program from address 0 (§8.7).
+    pub(crate) fn auto_start(&mut self, now: Instant) {
+        if self.global_value(77) == 1 && !self.program.is_empty() {
+            self.vm.pc = 0;
+            self.vm.state = RunState::Running;
+            self.vm.time = now;
+        }
+    }
+}
+
+/// A jump target from a value: out-of-range targets land past memory, which stops the program.
+fn jump(address: i32) -> u16 {
+    u16::try_from(address).unwrap_or(u16::MAX)
+}
+
+/// Sets zero/greater/lower from a comparison.
+pub(crate) fn set_compare(regs: &mut Registers, ord: core::cmp::Ordering) {
+    regs.flags &= !(flags::ZERO | flags::GREATER | flags::LOWER);
+    regs.flags |= match ord {
+        core::cmp::Ordering::Equal => flags::ZERO,
+        core::cmp::Ordering::Greater => flags::GREATER,
+        core::cmp::Ordering::Less => flags::LOWER,
+    };
+}
