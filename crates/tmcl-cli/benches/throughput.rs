@@ -86,13 +86,91 @@ fn pty_latency(n: usize) {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Instructions per second of the program machine on an ALU loop (CALC, COMP, JC), and how much faster
+/// than real time that is (each instruction takes 20 µs of module time).
+fn vm_rate(virtual_secs: u64) {
+    use tmcl_wire::{CalcOp, Command, Condition};
+    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut sink = |_: &[u8]| {};
+    let program = [
+        Command::StartDownload { address: 0 },
+        Command::Calc { op: CalcOp::Add, operand: 1 },
+        Command::Comp { operand: i32::MAX },
+        Command::Jc { condition: Condition::Lower, address: 0 },
+        Command::Stop,
+        Command::QuitDownload,
+        Command::RunApplication { from: Some(0) },
+    ];
+    for c in program {
+        let f = Request { address: 1, instruction: c.encode() }.to_bytes();
+        module.receive(Instant::ZERO, &f, &mut sink);
+    }
+    let start = StdInstant::now();
+    let end = Instant::from_secs(virtual_secs);
+    let mut t = Instant::ZERO;
+    while t < end {
+        t = module.poll(t, &mut sink).unwrap_or(end).max(t + tmcl_core::Duration::from_millis(100)).min(end);
+    }
+    module.poll(end, &mut sink);
+    let secs = start.elapsed().as_secs_f64();
+    let executed = (virtual_secs * 1_000_000 / 20) as f64;
+    println!(
+        "vm ALU loop (CALC/COMP/JC)            {:>8.2} M instructions/s  ({:.1} ns/instruction; {:.0}x real time)",
+        executed / secs / 1e6,
+        secs * 1e9 / executed,
+        virtual_secs as f64 / secs
+    );
+    assert!(module.registers().accumulator > 0);
+}
+
+/// The §2.4 program (moves between ±512000 with WAIT POS) for an hour of module time.
+fn motion_program_ratio(virtual_secs: u64) {
+    use tmcl_wire::{Command, MoveTarget, WaitCondition};
+    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut sink = |_: &[u8]| {};
+    let program = [
+        Command::StartDownload { address: 0 },
+        Command::Mvp { motor: 0, target: MoveTarget::Abs(512_000) },
+        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
+        Command::Mvp { motor: 0, target: MoveTarget::Abs(-512_000) },
+        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
+        Command::Ja { address: 0 },
+        Command::QuitDownload,
+        Command::RunApplication { from: Some(0) },
+    ];
+    for c in program {
+        let f = Request { address: 1, instruction: c.encode() }.to_bytes();
+        module.receive(Instant::ZERO, &f, &mut sink);
+    }
+    let start = StdInstant::now();
+    let end = Instant::from_secs(virtual_secs);
+    let mut t = Instant::ZERO;
+    while t < end {
+        t = module.poll(t, &mut sink).unwrap_or(end).max(t + tmcl_core::Duration::from_millis(100)).min(end);
+    }
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "motion program (§2.4 loop), {virtual_secs} s      {:.0}x real time ({:.3} s wall)",
+        virtual_secs as f64 / secs,
+        secs
+    );
+}
+
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
     let n = if quick { 1_000_000 } else { 20_000_000 };
-    println!("size_of::<State>() (all firmware RAM but program memory) = {} bytes", std::mem::size_of::<State>());
+    let core_ram = std::mem::size_of::<State>() + std::mem::size_of::<tmcl_core::vm::Vm>();
+    println!(
+        "firmware RAM but program memory: State {} + Vm {} = {core_ram} bytes (goal <= 4096)",
+        std::mem::size_of::<State>(),
+        std::mem::size_of::<tmcl_core::vm::Vm>()
+    );
+    println!("program memory: {} bytes", std::mem::size_of::<tmcl_core::vm::Program>());
     println!("size_of::<Module<SimBoard>>() = {} bytes", std::mem::size_of::<Module<SimBoard>>());
     core_rate("GAP 1 (actual position)", &[frame(Opcode::Gap, 1, 0)], n);
     core_rate("SAP 4 (max speed)", &[frame(Opcode::Sap, 4, 51200)], n);
     core_rate("MVP ABS (alternating)", &[frame(Opcode::Mvp, 0, 100_000), frame(Opcode::Mvp, 0, -100_000)], n);
+    vm_rate(if quick { 20 } else { 200 });
+    motion_program_ratio(3600);
     pty_latency(if quick { 2_000 } else { 20_000 });
 }
