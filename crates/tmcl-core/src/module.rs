@@ -301,7 +301,7 @@ impl<B: Board> Module<B> {
         self.update_board(now);
         self.vm = Vm::default();
         self.vm.time = now;
-        self.load_program();
+        self.read_program();
         self.auto_start(now);
     }
 

@@ -438,3 +438,31 @@ fn direct_mode_works_while_a_program_runs() {
     let a = b.module.registers().accumulator;
     assert!((1700..=1800).contains(&a), "{a}");
 }
+
+#[test]
+fn load_program_and_breakpoints() {
+    let mut b = Bench::new();
+    let program: Vec<Instruction> = [
+        C::Calc { op: CalcOp::Load, operand: 1 },
+        C::Calc { op: CalcOp::Add, operand: 1 },
+        C::Calc { op: CalcOp::Add, operand: 1 },
+        C::Stop,
+    ]
+    .iter()
+    .map(Command::encode)
+    .collect();
+    b.module.load_program(&program).unwrap();
+    b.module.vm_mut().set_breakpoint(2, true);
+    run_from(&mut b, 0);
+    b.run(Duration::from_millis(1));
+    assert!(b.module.vm().at_breakpoint());
+    assert_eq!((b.module.vm().pc, b.module.registers().accumulator, b.ggp(128, 0)), (2, 2, 0));
+    // Continue: the breakpoint's instruction runs, then on to STOP.
+    b.cmd(C::RunApplication { from: None });
+    b.run(Duration::from_millis(1));
+    assert_eq!((b.module.vm().pc, b.module.registers().accumulator), (3, 3));
+    assert_eq!(b.module.vm().executed(), 4);
+    // The program went to the EEPROM too.
+    b.power_cycle();
+    assert_eq!(b.module.program().len(), 4);
+}

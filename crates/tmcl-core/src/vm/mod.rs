@@ -160,6 +160,12 @@ pub struct Vm {
     pub(crate) last_levels: Option<u16>,
     /// The position-reached state at the last sample (interrupt 3).
     pub(crate) was_reached: bool,
+    /// Debugger breakpoints: bit n = stop before executing address n.
+    pub(crate) breakpoints: [u64; MAX_PROGRAM / 64],
+    /// The program stopped at a breakpoint (cleared when it runs again).
+    pub(crate) at_breakpoint: bool,
+    /// Instructions executed since power-up (for traces and benchmarks).
+    pub(crate) executed: u64,
 }
 
 impl Default for Vm {
@@ -180,6 +186,9 @@ impl Default for Vm {
             download: None,
             last_levels: None,
             was_reached: true,
+            breakpoints: [0; MAX_PROGRAM / 64],
+            at_breakpoint: false,
+            executed: 0,
         }
     }
 }
@@ -222,5 +231,36 @@ impl Vm {
     /// Download mode's next address.
     pub fn download_address(&self) -> Option<u16> {
         self.download
+    }
+
+    /// Sets or clears a breakpoint (a debugger feature; the program stops before executing `address`).
+    pub fn set_breakpoint(&mut self, address: u16, on: bool) {
+        let a = usize::from(address);
+        if a < MAX_PROGRAM {
+            let bit = 1u64 << (a % 64);
+            let word = &mut self.breakpoints[a / 64];
+            *word = if on { *word | bit } else { *word & !bit };
+        }
+    }
+
+    /// Whether `address` has a breakpoint.
+    pub fn has_breakpoint(&self, address: u16) -> bool {
+        let a = usize::from(address);
+        a < MAX_PROGRAM && self.breakpoints[a / 64] & (1 << (a % 64)) != 0
+    }
+
+    /// Whether the program stopped at a breakpoint.
+    pub fn at_breakpoint(&self) -> bool {
+        self.at_breakpoint
+    }
+
+    /// Instructions executed since power-up.
+    pub fn executed(&self) -> u64 {
+        self.executed
+    }
+
+    /// The flags of the program (see [`crate::module::flags`]).
+    pub fn saved_context(&self) -> Option<&Context> {
+        self.handler.as_ref()
     }
 }

@@ -40,7 +40,7 @@ impl<B: Board> Module<B> {
     }
 
     /// Loads program memory from the EEPROM (start-up).
-    pub(crate) fn load_program(&mut self) {
+    pub(crate) fn read_program(&mut self) {
         let n = usize::from(self.spec.program_memory).min(super::MAX_PROGRAM);
         for address in 0..n {
             self.program.cells[address] =
@@ -48,8 +48,7 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Runs the program up to (not including) `limit`, at most `budget` instructions. Returns the number
-    /// of instructions executed.
+    /// Runs the program up to (not including) `limit`, at most `budget` instructions.
     pub(crate) fn run_program(&mut self, limit: Instant, budget: &mut u32) {
         while self.vm.state == RunState::Running && self.vm.time < limit && *budget > 0 {
             let t = self.vm.time;
@@ -71,7 +70,14 @@ impl<B: Board> Module<B> {
                     }
                 }
             }
+            if self.vm.has_breakpoint(self.vm.pc) && !core::mem::take(&mut self.vm.at_breakpoint) {
+                // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
+                self.vm.state = RunState::Stopped;
+                self.vm.at_breakpoint = true;
+                return;
+            }
             *budget -= 1;
+            self.vm.executed += 1;
             self.step_instruction(t);
             self.vm.time = self.vm.time.max(t) + INSTRUCTION_TIME;
         }
@@ -339,6 +345,34 @@ impl<B: Board> Module<B> {
         self.vm.state = RunState::Running;
         self.vm.time = self.vm.time.max(now);
         Ok(())
+    }
+
+    /// Loads a whole program into memory and the EEPROM from address 0 and clears the rest, as a
+    /// download of it would (for tools: `tmcl run`, the debugger). Refused like command 132 when the
+    /// program is protected against overwriting.
+    pub fn load_program(&mut self, instructions: &[Instruction]) -> Result<(), Status> {
+        if self.protection() & 2 != 0 {
+            return Err(Status::EepromLocked);
+        }
+        if instructions.len() > usize::from(self.spec.program_memory) {
+            return Err(Status::InvalidValue);
+        }
+        self.reset_application();
+        self.vm.state = RunState::Stopped;
+        let memory = usize::from(self.spec.program_memory).min(super::MAX_PROGRAM);
+        for address in 0..memory {
+            let i = instructions.get(address).copied().unwrap_or(super::EMPTY);
+            if self.program.cells[address] != i {
+                persist::store_program_cell(&mut self.board, self.spec, address, &i)?;
+                self.program.cells[address] = i;
+            }
+        }
+        Ok(())
+    }
+
+    /// Mutable access to the program machine (debuggers: breakpoints).
+    pub fn vm_mut(&mut self) -> &mut super::Vm {
+        &mut self.vm
     }
 
     /// 130: execute one instruction.
