@@ -312,5 +312,8 @@ fn check_status(reply: Reply) -> Result<Reply, HostError> {
     }
 }
 
+mod program;
 #[cfg(test)]
 mod tests;
+
+pub use program::ApplicationStatus;

@@ -32,7 +32,7 @@ mod tcp;
 mod transport;
 mod version;
 
-pub use client::{Client, DEFAULT_MODULE_ADDRESS, DEFAULT_TIMEOUT};
+pub use client::{ApplicationStatus, Client, DEFAULT_MODULE_ADDRESS, DEFAULT_TIMEOUT};
 pub use error::HostError;
 pub use serial::SerialTransport;
 pub use tcp::TcpTransport;
