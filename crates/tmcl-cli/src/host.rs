@@ -165,7 +165,7 @@ pub fn run(conn: &Connection, cmd: HostCommand) -> ExitCode {
 
 /// Why a host command failed.
 #[derive(Debug, thiserror::Error)]
-enum CliError {
+pub(crate) enum CliError {
     /// Bad arguments that clap could not catch.
     #[error("{0}")]
     Usage(String),
@@ -178,7 +178,8 @@ enum CliError {
 }
 
 impl CliError {
-    fn exit_code(&self) -> u8 {
+    /// The process exit code for this failure (see [`EXIT_CODES`]).
+    pub(crate) fn exit_code(&self) -> u8 {
         match self {
             CliError::Usage(_) => EXIT_USAGE,
             CliError::Host(err) if err.is_reply_error() => EXIT_REPLY,
@@ -189,7 +190,7 @@ impl CliError {
 
 impl Connection {
     /// Opens the one connection the options name.
-    fn open(&self) -> Result<Client<Box<dyn Transport>>, CliError> {
+    pub(crate) fn open(&self) -> Result<Client<Box<dyn Transport>>, CliError> {
         let transport: Box<dyn Transport> = match (&self.port, &self.tcp) {
             (Some(path), None) => Box::new(SerialTransport::open(path, self.baud)?),
             (None, Some(addr)) => Box::new(TcpTransport::connect(addr)?),

@@ -1,6 +1,8 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
+mod asm;
 mod host;
+mod program;
 mod pty;
 mod serve;
 
@@ -21,14 +23,23 @@ struct Cli {
 enum Command {
     /// Run a virtual module on a pty (--pty LINK) or a TCP port (--tcp HOST:PORT) until SIGINT/SIGTERM.
     Serve(serve::ServeArgs),
+    /// Assemble a TMCL source file into a .bin image (8 bytes per instruction).
+    Asm(asm::AsmArgs),
+    /// Disassemble a .bin image into TMCL source.
+    Disasm(asm::DisasmArgs),
     #[command(flatten)]
     Host(host::HostCommand),
+    #[command(flatten)]
+    Program(program::ProgramCommand),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Serve(args) => serve::run(&cli.connection, args),
+        Command::Asm(args) => asm::run_asm(args),
+        Command::Disasm(args) => asm::run_disasm(args),
         Command::Host(command) => host::run(&cli.connection, command),
+        Command::Program(command) => program::run(&cli.connection, command),
     }
 }
