@@ -12,6 +12,7 @@
 //! - [`instruction`]: one raw command ([`Instruction`]): what a frame carries and what one program-memory
 //!   cell holds.
 //! - [`command`]: the validated form ([`Command`]) that the firmware executes.
+//! - [`ascii`]: one instruction as mnemonic text (`MVP ABS, 0, 50000`), for the assembler and ASCII mode.
 //!
 //! # Panics
 //!
@@ -24,6 +25,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod ascii;
 pub mod command;
 pub mod frame;
 pub mod instruction;
@@ -31,6 +33,7 @@ pub mod opcode;
 pub mod reply;
 pub mod status;
 
+pub use ascii::{format_instruction, parse_instruction, ParseError, ParseErrorKind};
 pub use command::{
     CalcOp, CalcxOp, Command, Condition, ErrorFlag, EventMode, MoveTarget, RfsAction, StatusKind, VersionFormat,
     WaitCondition,
