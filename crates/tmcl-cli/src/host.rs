@@ -359,7 +359,7 @@ fn parse_instruction(opcode: &str, kind: &str, motor: u8, value: i32) -> Result<
     };
     let kind = match parse_number(kind) {
         Some(n) => u8::try_from(n).map_err(|_| CliError::Usage(format!("type {kind} is out of range 0..255")))?,
-        None => type_word(opcode, kind).ok_or_else(|| {
+        None => tmcl_wire::ascii::type_word(opcode, kind).ok_or_else(|| {
             CliError::Usage(format!(
                 "{kind:?} is not a type word of {opcode}: give a number or one of {}",
                 words(opcode)
@@ -367,23 +367,6 @@ fn parse_instruction(opcode: &str, kind: &str, motor: u8, value: i32) -> Result<
         })?,
     };
     Ok(Instruction::new(opcode, kind, motor, value))
-}
-
-/// The type number a word names for `opcode` (PD28-1021 TMCL manual §3.7).
-fn type_word(opcode: Opcode, word: &str) -> Option<u8> {
-    match opcode {
-        Opcode::Mvp => MoveKind::from_word(word).map(MoveKind::code),
-        Opcode::Rfs => RfsAction::from_word(word).map(RfsAction::code),
-        Opcode::Calc => CalcOp::from_word(word).map(CalcOp::code),
-        Opcode::Calcx => CalcxOp::from_word(word).map(CalcxOp::code),
-        Opcode::Jc => Condition::from_word(word).map(Condition::code),
-        Opcode::Wait => WaitCondition::from_word(word).map(WaitCondition::code),
-        Opcode::Cle => ErrorFlag::from_word(word).map(ErrorFlag::code),
-        Opcode::GetStatus => StatusKind::from_word(word).map(StatusKind::code),
-        Opcode::GetVersion => VersionFormat::from_word(word).map(VersionFormat::code),
-        Opcode::RequestTargetReachedEvent => EventMode::from_word(word).map(EventMode::code),
-        _ => None,
-    }
 }
 
 /// The type words of `opcode`, for error messages.

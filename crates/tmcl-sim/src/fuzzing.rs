@@ -48,6 +48,38 @@ pub fn one_frame(data: &[u8]) {
     check_replies(&out);
 }
 
+/// Runs an arbitrary program: the bytes are 8-byte cells (opcode, type, motor, value, and one byte that
+/// the host sends as an extra direct-mode command's type), loaded as they are, then run for 2 s of
+/// module time while a host pokes at the module.
+/// The machine must stay bounded: every poll returns, and the program never panics the core.
+pub fn program(data: &[u8]) {
+    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut cells = Vec::new();
+    let mut inputs = Vec::new();
+    for chunk in data.chunks_exact(8).take(usize::from(SPEC.program_memory)) {
+        let mut seven = [0u8; 7];
+        seven.copy_from_slice(&chunk[..7]);
+        cells.push(tmcl_wire::Instruction::from_bytes(seven));
+        inputs.push(chunk[7]);
+    }
+    if module.load_program(&cells).is_err() {
+        return;
+    }
+    let _ = module.execute(Command::RunApplication { from: Some(0) }, Instant::ZERO);
+    let mut now = Instant::ZERO;
+    let mut out = Vec::new();
+    for poke in inputs.iter().cycle().take(200) {
+        // A host reading and writing beside the program (GAP, SGP to a user variable, SIO).
+        let _ = module.execute(Command::Gap { param: *poke, motor: 0 }, now);
+        let _ = module.execute(Command::Sgp { param: *poke, bank: 2, value: i32::from(*poke) }, now);
+        let _ = module.execute(Command::Sio { port: *poke & 1, bank: 2, value: i32::from(*poke >> 7) }, now);
+        now += Duration::from_millis(10);
+        let next = module.poll(now, &mut |b: &[u8]| out.extend_from_slice(b));
+        assert!(next.is_none_or(|t| t >= now), "a deadline in the past: {next:?} at {now}");
+    }
+    check_replies(&out);
+}
+
 fn check_replies(out: &[u8]) {
     assert_eq!(out.len() % FRAME_LEN, 0, "replies come as whole frames");
     for chunk in out.chunks(FRAME_LEN) {
@@ -70,6 +102,11 @@ mod tests {
         #[test]
         fn one_frame_never_panics(data in proptest::array::uniform9(proptest::num::u8::ANY)) {
             one_frame(&data);
+        }
+
+        #[test]
+        fn arbitrary_programs_stay_bounded(data in proptest::collection::vec(proptest::num::u8::ANY, 0..400)) {
+            program(&data);
         }
 
         #[test]
