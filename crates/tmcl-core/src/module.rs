@@ -415,7 +415,7 @@ impl<B: Board> Module<B> {
         };
         // §5.1 GP 75: the telegram pause before a reply (milliseconds, inventory AMB-17).
         let pause = Duration::from_millis(self.global_value(75).max(0) as u64);
-        self.st.outbox.push(bytes, now + pause);
+        self.st.outbox.push(&bytes, now + pause);
     }
 
     pub(crate) fn reply_bytes(&self, status: Status, opcode: u8, value: i32) -> [u8; FRAME_LEN] {
@@ -629,7 +629,7 @@ impl<B: Board> Module<B> {
             self.st.event.pending = false;
             let bytes =
                 self.reply_bytes(Status::TargetReached, Opcode::RequestTargetReachedEvent.into(), self.st.event.mask);
-            self.st.outbox.push(bytes, now);
+            self.st.outbox.push(&bytes, now);
         }
     }
 

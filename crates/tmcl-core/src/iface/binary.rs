@@ -66,16 +66,21 @@ impl Framer {
     }
 }
 
-/// How many frames the outbox holds. A module has at most one reply and one event pending at a time;
-/// the rest is margin for a host that ignores the one-request-in-flight rule.
-pub const OUTBOX_FRAMES: usize = 8;
+/// Bytes the outbox holds: a few replies, or an ASCII line with its echo (a module has at most one reply
+/// and one event pending; the rest is margin for a host that ignores the one-request-in-flight rule).
+pub const OUTBOX_BYTES: usize = 256;
+/// How many separately timed messages it holds.
+pub const OUTBOX_MESSAGES: usize = 16;
 
-/// Frames waiting for their time to be sent.
+/// Messages waiting for their time to be sent: a byte ring with one mark (length, due time) per message.
 #[derive(Debug, Clone)]
 pub struct Outbox {
-    frames: [([u8; FRAME_LEN], Instant); OUTBOX_FRAMES],
-    head: usize,
+    bytes: [u8; OUTBOX_BYTES],
+    start: usize,
     len: usize,
+    marks: [(u16, Instant); OUTBOX_MESSAGES],
+    first: usize,
+    count: usize,
 }
 
 impl Default for Outbox {
@@ -87,49 +92,83 @@ impl Default for Outbox {
 impl Outbox {
     /// An empty outbox.
     pub const fn new() -> Outbox {
-        Outbox { frames: [([0; FRAME_LEN], Instant::ZERO); OUTBOX_FRAMES], head: 0, len: 0 }
-    }
-
-    /// Queues a frame to be sent at or after `due`. Frames leave in the order they were queued. When the
-    /// outbox is full the oldest frame is dropped (a host that floods the module loses replies, as on a
-    /// real bus, but the module never blocks or panics).
-    pub fn push(&mut self, frame: [u8; FRAME_LEN], due: Instant) {
-        if self.len == OUTBOX_FRAMES {
-            self.head = (self.head + 1) % OUTBOX_FRAMES;
-            self.len -= 1;
+        Outbox {
+            bytes: [0; OUTBOX_BYTES],
+            start: 0,
+            len: 0,
+            marks: [(0, Instant::ZERO); OUTBOX_MESSAGES],
+            first: 0,
+            count: 0,
         }
-        let tail = (self.head + self.len) % OUTBOX_FRAMES;
-        // Keep the order: a frame is never due before the one queued ahead of it.
-        let due = match self.len {
-            0 => due,
-            n => due.max(self.frames[(self.head + n - 1) % OUTBOX_FRAMES].1),
-        };
-        self.frames[tail] = (frame, due);
-        self.len += 1;
     }
 
-    /// Sends every frame due at `now`.
+    /// Queues a message to be sent at or after `due`. Messages leave in the order they were queued (a
+    /// message is never due before the one ahead of it); one with the same due time as the last one
+    /// joins it. When the outbox is full the oldest messages are dropped whole (a host that floods the
+    /// module loses replies, as on a real bus, but the module never blocks or panics). A message longer
+    /// than the outbox is dropped.
+    pub fn push(&mut self, message: &[u8], due: Instant) {
+        if message.len() > OUTBOX_BYTES {
+            return;
+        }
+        let last = (self.count > 0).then(|| (self.first + self.count - 1) % OUTBOX_MESSAGES);
+        let due = last.map_or(due, |l| due.max(self.marks[l].1));
+        let joins = last
+            .is_some_and(|l| self.marks[l].1 == due && usize::from(self.marks[l].0) + message.len() <= OUTBOX_BYTES);
+        while self.len + message.len() > OUTBOX_BYTES || (!joins && self.count == OUTBOX_MESSAGES) {
+            self.drop_first();
+        }
+        for &b in message {
+            self.bytes[(self.start + self.len) % OUTBOX_BYTES] = b;
+            self.len += 1;
+        }
+        match last {
+            Some(l) if joins && self.count > 0 && (self.first + self.count - 1) % OUTBOX_MESSAGES == l => {
+                self.marks[l].0 += message.len() as u16;
+            }
+            _ => {
+                self.marks[(self.first + self.count) % OUTBOX_MESSAGES] = (message.len() as u16, due);
+                self.count += 1;
+            }
+        }
+    }
+
+    fn drop_first(&mut self) {
+        let n = usize::from(self.marks[self.first].0);
+        self.start = (self.start + n) % OUTBOX_BYTES;
+        self.len -= n;
+        self.first = (self.first + 1) % OUTBOX_MESSAGES;
+        self.count -= 1;
+    }
+
+    /// Sends every message due at `now`.
     pub fn flush(&mut self, now: Instant, sink: &mut impl Sink) {
-        while self.len > 0 && self.frames[self.head].1 <= now {
-            sink.send(&self.frames[self.head].0);
-            self.head = (self.head + 1) % OUTBOX_FRAMES;
-            self.len -= 1;
+        while self.count > 0 && self.marks[self.first].1 <= now {
+            let n = usize::from(self.marks[self.first].0);
+            let end = self.start + n;
+            if end <= OUTBOX_BYTES {
+                sink.send(&self.bytes[self.start..end]);
+            } else {
+                sink.send(&self.bytes[self.start..]);
+                sink.send(&self.bytes[..end - OUTBOX_BYTES]);
+            }
+            self.drop_first();
         }
     }
 
-    /// When the next frame is due.
+    /// When the next message is due.
     pub fn next_due(&self) -> Option<Instant> {
-        (self.len > 0).then(|| self.frames[self.head].1)
+        (self.count > 0).then(|| self.marks[self.first].1)
     }
 
-    /// Number of frames waiting.
+    /// Number of messages waiting.
     pub fn len(&self) -> usize {
-        self.len
+        self.count
     }
 
     /// Whether nothing is waiting.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.count == 0
     }
 }
 
@@ -174,26 +213,42 @@ mod tests {
     fn outbox_keeps_order_and_time() {
         let mut o = Outbox::new();
         let t = Instant::from_millis(1);
-        o.push([1; 9], t + Duration::from_millis(5));
-        o.push([2; 9], t);
+        o.push(&[1; 9], t + Duration::from_millis(5));
+        o.push(&[2; 9], t);
         let mut out = Vec::new();
-        o.flush(t, &mut |b: &[u8]| out.push(b[0]));
+        o.flush(t, &mut |b: &[u8]| out.extend_from_slice(b));
         assert!(out.is_empty(), "frame 2 waits behind frame 1");
         assert_eq!(o.next_due(), Some(t + Duration::from_millis(5)));
-        o.flush(t + Duration::from_millis(5), &mut |b: &[u8]| out.push(b[0]));
-        assert_eq!(out, [1, 2]);
+        o.flush(t + Duration::from_millis(5), &mut |b: &[u8]| out.extend_from_slice(b));
+        assert_eq!((out.len(), out[0], out[9]), (18, 1, 2));
         assert!(o.is_empty());
     }
 
     #[test]
-    fn outbox_overflow_drops_oldest() {
+    fn outbox_overflow_drops_oldest_whole() {
         let mut o = Outbox::new();
-        for i in 0..(OUTBOX_FRAMES as u8 + 2) {
-            o.push([i; 9], Instant::ZERO);
+        for i in 0..40u8 {
+            o.push(&[i; 9], Instant::from_micros(u64::from(i)));
         }
         let mut out = Vec::new();
-        o.flush(Instant::ZERO, &mut |b: &[u8]| out.push(b[0]));
-        assert_eq!(out.len(), OUTBOX_FRAMES);
-        assert_eq!(out[0], 2);
+        o.flush(Instant::from_secs(1), &mut |b: &[u8]| out.extend_from_slice(b));
+        assert_eq!(out.len() % 9, 0, "only whole messages");
+        assert!(out.len() <= OUTBOX_BYTES);
+        assert_eq!(*out.last().unwrap(), 39, "the newest survive");
+        assert!(out.chunks(9).all(|c| c.iter().all(|b| *b == c[0])));
+    }
+
+    #[test]
+    fn messages_with_the_same_time_join_and_wrap() {
+        let mut o = Outbox::new();
+        let mut out = Vec::new();
+        for round in 0..100u8 {
+            for c in b"AGAP 1, 0" {
+                o.push(&[*c ^ round], Instant::ZERO);
+            }
+            o.flush(Instant::ZERO, &mut |b: &[u8]| out.extend_from_slice(b));
+        }
+        assert_eq!(out.len(), 900);
+        assert_eq!(out[9], b'A' ^ 1);
     }
 }
