@@ -366,8 +366,8 @@ impl<B: Board> Module<B> {
                 StatusKind::Accumulator => self.st.regs.accumulator,
                 StatusKind::XRegister => self.st.regs.x,
             }),
-            // §3.4.1 command 139: ASCII mode is not part of this build yet.
-            C::EnterAscii => Err(Status::NotAvailable),
+            // §3.4.1 command 139: ASCII mode. The reply (binary) goes out first, then the mode changes.
+            C::EnterAscii => Ok(Outcome::EnterAscii),
             // §3.7.38 136: type 0 = host address + 8 characters, no checksum; type 1 = binary.
             C::GetVersion { format: VersionFormat::String } => {
                 let mut raw = [0u8; FRAME_LEN];

@@ -109,6 +109,19 @@ impl Default for Feedback {
     }
 }
 
+/// TMC262 settings besides the current, passed to [`Drive::configure`] (PD28-1021 manual chapter 4,
+/// Table 15). The default is the module's factory setting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DriverSettings {
+    /// AP 173: stallGuard2 filter; `true` = one measurement per 4 full steps (filtered mode).
+    pub stall_filter: bool,
+    /// AP 174: stallGuard2 threshold, −64..=63; higher = less sensitive (the load value reads higher).
+    pub stall_threshold: i8,
+    /// AP 179 = 0: high current range, 2 A peak / 1.4 A RMS at current 255. `false` (AP 179 = 1, the
+    /// default) = low range, 1 A peak / 0.7 A RMS.
+    pub high_range: bool,
+}
+
 /// The motor driver and its sensors.
 pub trait Drive {
     /// Called after every motion tick with the state the motor should now be in.
@@ -116,6 +129,19 @@ pub trait Drive {
 
     /// Sensor readings as of the last update.
     fn feedback(&mut self) -> Feedback;
+
+    /// Applies driver settings that change rarely (AP 173, 174, 179). A board without them ignores
+    /// the call (the default).
+    fn configure(&mut self, settings: &DriverSettings) {
+        let _ = settings;
+    }
+
+    /// How many stallGuard2 measurements the driver has taken since power-up (wrapping). Each new one is
+    /// a new [`Feedback::load`] reading: the core runs one coolStep step per measurement
+    /// ([`crate::drive::coolstep`]). A board without stallGuard2 never measures (the default, 0).
+    fn load_measurements(&mut self) -> u32 {
+        0
+    }
 }
 
 /// Everything a module needs from its board.

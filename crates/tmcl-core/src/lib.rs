@@ -7,6 +7,7 @@
 //! - [`model`]: each product's static description (parameters, ports, interrupts, limits).
 //! - [`param`]: parameter descriptors, ranges, access, and the EEPROM image ([`param::persist`]).
 //! - [`motion`]: the ramp generator.
+//! - [`drive`]: coolStep, stop on stall and the encoder checks, as pure functions of the readings.
 //! - [`iface`]: the byte-fed framer and the reply outbox.
 //! - [`module`] and the dispatcher in `exec`: [`Module`], which ties it together.
 //!
@@ -17,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 mod exec;
+pub mod drive;
 pub mod hal;
 pub mod iface;
 pub mod model;

@@ -6,6 +6,7 @@
 //! a caller can sleep until then or, in simulation, jump straight to it. The module never reads a clock.
 
 use crate::hal::{Board, DriveState};
+use crate::iface::ascii::AsciiLine;
 use crate::iface::{Framer, Outbox, Sink};
 use crate::model::ModelSpec;
 use crate::motion::reference::{Action, SwitchLevels};
@@ -188,6 +189,8 @@ pub enum Outcome {
     Silent,
     /// Reply with this value, then restart as after a power cycle (255).
     Restart(i32),
+    /// Reply, then switch to ASCII mode (139).
+    EnterAscii,
 }
 
 /// A TMCL module: firmware state on a board.
@@ -197,13 +200,14 @@ pub struct Module<B: Board> {
     pub(crate) st: State,
     pub(crate) vm: Vm,
     pub(crate) program: Program,
+    pub(crate) ascii: AsciiLine,
 }
 
 impl<B: Board> Module<B> {
     /// Powers the module up at `now`: loads the configuration from the board's EEPROM, formatting it with
     /// factory defaults if it holds no valid image for this model.
     pub fn new(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
-        let mut module = Module { board, spec, st: State::new(now), vm: Vm::default(), program: Program::default() };
+        let mut module = Module { board, spec, st: State::new(now), vm: Vm::default(), program: Program::default(), ascii: AsciiLine::default() };
         module.start(now);
         module
     }
@@ -303,6 +307,11 @@ impl<B: Board> Module<B> {
         self.vm.time = now;
         self.read_program();
         self.auto_start(now);
+        // §3.4.4: GP 67 bit 0 = start up in ASCII mode.
+        self.ascii = AsciiLine::default();
+        if self.global_value(67) & 1 == 1 {
+            self.enter_ascii();
+        }
     }
 
     /// Feeds bytes that arrived at `now`. Complete frames are executed; replies go to `sink` (at once, or
@@ -310,6 +319,10 @@ impl<B: Board> Module<B> {
     pub fn receive(&mut self, now: Instant, bytes: &[u8], sink: &mut impl Sink) {
         self.advance(now, sink);
         for &b in bytes {
+            if self.ascii.active {
+                self.ascii_byte(b, now);
+                continue;
+            }
             if let Some(frame) = self.st.framer.push(b, now) {
                 self.handle_frame(frame, now);
                 // Reads change nothing the driver sees; anything else may (currents, direction, ...).
@@ -348,10 +361,14 @@ impl<B: Board> Module<B> {
     ) -> Result<Outcome, Status> {
         self.advance(now, &mut |_: &[u8]| {});
         let result = Command::decode(instruction).and_then(|c| self.execute(c, now));
-        if let Ok(Outcome::Restart(_)) | Ok(Outcome::Silent) = result {
-            if matches!(instruction.opcode, Opcode::SoftwareReset | Opcode::FactoryDefault) {
-                self.start(now);
+        match result {
+            Ok(Outcome::Restart(_)) | Ok(Outcome::Silent)
+                if matches!(instruction.opcode, Opcode::SoftwareReset | Opcode::FactoryDefault) =>
+            {
+                self.start(now)
             }
+            Ok(Outcome::EnterAscii) => self.enter_ascii(),
+            _ => {}
         }
         self.update_board(now);
         result
@@ -394,6 +411,11 @@ impl<B: Board> Module<B> {
                     Ok(Outcome::Restart(v)) => {
                         self.queue_reply(op, Ok((Status::Ok, v, op)), now);
                         self.start(now);
+                        return;
+                    }
+                    Ok(Outcome::EnterAscii) => {
+                        self.queue_reply(op, Ok((Status::Ok, 0, op)), now);
+                        self.enter_ascii();
                         return;
                     }
                     Err(status) => (op, Ok((status, i.value, op))),

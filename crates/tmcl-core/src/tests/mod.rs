@@ -1,6 +1,7 @@
 //! Fixtures and state tests of the whole module (STYLE.md §3.12 b): a module on a test board, driven with
 //! frames and time exactly as a host would.
 
+mod ascii;
 mod commands;
 mod params;
 mod reference;

@@ -1,0 +1,219 @@
+//! The ASCII command interface (PD28-1021 manual §3.4): entered with command 139 or at start-up when
+//! GP 67 bit 0 is set, left with `BIN`.
+//!
+//! A line is the address character (`A` = address 1, …), optional spaces, a command in the assembler's
+//! syntax, and `<CR>`. Only the direct-mode commands §3.4 lists are executed; `RUN` and `STOP` control
+//! the stored program. The reply is `<host char><module char> <status> <value><CR>`, e.g. `BA 100 -5000`.
+//! Echo follows GP 67 bits 4/5 (§3.4.4).
+//!
+//! Decisions (the manual is silent; docs/decisions.md):
+//! - Lines for another address are ignored whole: no echo, no reply. A lower-case address character
+//!   counts as the upper-case one. Addresses above 26 have no character and cannot be reached in ASCII.
+//! - Echo mode `00` echoes each character once the line's address character matched, a backspace as
+//!   `BS SP BS` (erasing it on a terminal), and the closing `<CR>`; `01` echoes the whole line and `<CR>`
+//!   after `<CR>`; `10` and the undefined `11` do not echo. `<LF>` is ignored (terminals that send CR LF).
+//! - Every line addressed to the module gets a reply: a command that is not allowed in ASCII mode gets
+//!   status 6 (command not available), a line that does not parse gets the parser's status (2 unknown
+//!   command, 3 bad type word, 4 bad value or operand), a line longer than [`LINE_MAX`] gets status 2.
+//! - `BIN` is answered (`BA 100 0`) before the module returns to binary mode; the 139 that enters ASCII
+//!   mode is answered in binary before the switch. `RUN` is command 129 type 0 (from the current PC,
+//!   address 0 after a start or reset), `STOP` is command 128.
+
+use crate::hal::Board;
+use crate::module::{Module, Origin, Outcome};
+use crate::time::{Duration, Instant};
+use tmcl_wire::ascii::{address_char, ascii_allowed, char_address, parse_ascii_command, write_reply, AsciiCommand};
+use tmcl_wire::{Command, Opcode, Status};
+
+/// The longest line the module takes (after the address character).
+pub const LINE_MAX: usize = 64;
+
+const CR: u8 = b'\r';
+const LF: u8 = b'\n';
+const BACKSPACE: u8 = 0x08;
+const DELETE: u8 = 0x7F;
+
+/// The line being typed.
+#[derive(Debug, Clone)]
+pub struct AsciiLine {
+    /// ASCII mode is on.
+    pub active: bool,
+    buf: [u8; LINE_MAX],
+    len: usize,
+    /// The line's first character, if any (0 = none yet).
+    first: u8,
+    overflow: bool,
+}
+
+impl Default for AsciiLine {
+    fn default() -> AsciiLine {
+        AsciiLine { active: false, buf: [0; LINE_MAX], len: 0, first: 0, overflow: false }
+    }
+}
+
+impl AsciiLine {
+    fn clear(&mut self) {
+        self.len = 0;
+        self.first = 0;
+        self.overflow = false;
+    }
+}
+
+/// A small fixed-capacity text buffer for building replies without a heap.
+struct Text<const N: usize> {
+    buf: [u8; N],
+    len: usize,
+}
+
+impl<const N: usize> Text<N> {
+    fn new() -> Self {
+        Text { buf: [0; N], len: 0 }
+    }
+    fn bytes(&self) -> &[u8] {
+        &self.buf[..self.len]
+    }
+}
+
+impl<const N: usize> core::fmt::Write for Text<N> {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        let b = s.as_bytes();
+        let end = self.len + b.len();
+        if end > N {
+            return Err(core::fmt::Error);
+        }
+        self.buf[self.len..end].copy_from_slice(b);
+        self.len = end;
+        Ok(())
+    }
+}
+
+impl<B: Board> Module<B> {
+    /// Whether the module talks ASCII (§3.4).
+    pub fn ascii_mode(&self) -> bool {
+        self.ascii.active
+    }
+
+    /// Echo mode from GP 67 bits 5 and 4: 0 each character, 1 whole line, 2 and 3 none.
+    fn echo_mode(&self) -> i32 {
+        (self.global_value(67) >> 4) & 3
+    }
+
+    /// Whether `c` is this module's address character (primary or secondary, GP 66/87).
+    fn is_my_address(&self, c: u8) -> bool {
+        let Some(a) = char_address(c.to_ascii_uppercase()) else { return false };
+        let secondary = self.global_value(87) as u8;
+        a == self.address() || (secondary != 0 && a == secondary)
+    }
+
+    /// One byte of input in ASCII mode.
+    pub(crate) fn ascii_byte(&mut self, b: u8, now: Instant) {
+        let echo_each = self.echo_mode() == 0;
+        match b {
+            LF => {}
+            CR => {
+                let addressed = self.ascii.first != 0 && self.is_my_address(self.ascii.first);
+                if addressed {
+                    if echo_each {
+                        self.st.outbox.push(&[CR], now);
+                    } else if self.echo_mode() == 1 {
+                        let mut line = [0u8; LINE_MAX + 2];
+                        line[0] = self.ascii.first;
+                        let n = self.ascii.len;
+                        line[1..=n].copy_from_slice(&self.ascii.buf[..n]);
+                        line[n + 1] = CR;
+                        self.st.outbox.push(&line[..n + 2], now);
+                    }
+                    self.ascii_line(now);
+                }
+                self.ascii.clear();
+            }
+            BACKSPACE | DELETE => {
+                let addressed = self.ascii.first != 0 && self.is_my_address(self.ascii.first);
+                if self.ascii.len > 0 {
+                    self.ascii.len -= 1;
+                } else {
+                    self.ascii.first = 0;
+                }
+                if addressed && echo_each {
+                    self.st.outbox.push(&[BACKSPACE, b' ', BACKSPACE], now);
+                }
+            }
+            _ => {
+                if self.ascii.first == 0 {
+                    self.ascii.first = b;
+                } else if self.ascii.len < LINE_MAX {
+                    self.ascii.buf[self.ascii.len] = b;
+                    self.ascii.len += 1;
+                } else {
+                    self.ascii.overflow = true;
+                }
+                if echo_each && self.is_my_address(self.ascii.first) {
+                    self.st.outbox.push(&[b], now);
+                }
+            }
+        }
+    }
+
+    /// Executes a complete line addressed to this module and queues its reply.
+    fn ascii_line(&mut self, now: Instant) {
+        self.st.last_command = now;
+        self.st.heartbeat_tripped = false;
+        let n = self.ascii.len;
+        let mut buf = [0u8; LINE_MAX];
+        buf[..n].copy_from_slice(&self.ascii.buf[..n]);
+        let (status, value, opcode, leave) = if self.ascii.overflow {
+            (Status::InvalidCommand, 0, Opcode::Unknown(0), false)
+        } else {
+            match core::str::from_utf8(&buf[..n]).map_err(|_| Status::InvalidCommand).and_then(|text| {
+                parse_ascii_command(text, &mut |_| None).map_err(|e| {
+                    // An empty line after the address character is a command missing: invalid command.
+                    Status::from(e)
+                })
+            }) {
+                Err(status) => (status, 0, Opcode::Unknown(0), false),
+                Ok(AsciiCommand::Binary) => (Status::Ok, 0, Opcode::Unknown(0), true),
+                Ok(AsciiCommand::Run) => self.ascii_exec(Command::RunApplication { from: None }, now),
+                Ok(AsciiCommand::Stop) => self.ascii_exec(Command::StopApplication, now),
+                Ok(AsciiCommand::Instruction(i)) if !ascii_allowed(i.opcode) => {
+                    (Status::NotAvailable, i.value, i.opcode, false)
+                }
+                Ok(AsciiCommand::Instruction(i)) => match Command::decode(i) {
+                    Ok(c) => self.ascii_exec(c, now),
+                    Err(status) => (status, i.value, i.opcode, false),
+                },
+            }
+        };
+        // §5.1 GP 255 applies to ASCII replies as well (GAP, GGP, GIO always answer).
+        let exempt = matches!(opcode, Opcode::Gap | Opcode::Ggp | Opcode::Gio);
+        if self.global_value(255) != 1 || exempt {
+            let mut text: Text<32> = Text::new();
+            let _ = write_reply(&mut text, self.global_value(76) as u8, self.address(), status, value);
+            let pause = Duration::from_millis(self.global_value(75).max(0) as u64);
+            self.st.outbox.push(text.bytes(), now + pause);
+        }
+        if leave {
+            self.ascii.active = false;
+            self.st.framer.clear();
+        }
+    }
+
+    fn ascii_exec(&mut self, c: Command, now: Instant) -> (Status, i32, Opcode, bool) {
+        let opcode = c.encode().opcode;
+        match self.exec(c, now, Origin::Host) {
+            Ok(Outcome::Value(v)) | Ok(Outcome::Restart(v)) => (Status::Ok, v, opcode, false),
+            Ok(Outcome::Raw(_)) | Ok(Outcome::Silent) | Ok(Outcome::EnterAscii) => (Status::Ok, 0, opcode, false),
+            Err(s) => (s, c.encode().value, opcode, false),
+        }
+    }
+
+    /// Switches to ASCII mode (command 139, or GP 67 bit 0 at start-up).
+    pub(crate) fn enter_ascii(&mut self) {
+        self.ascii = AsciiLine { active: true, ..AsciiLine::default() };
+        self.st.framer.clear();
+    }
+}
+
+/// The address character of this module, for messages (`?` above 26).
+pub fn module_char(address: u8) -> char {
+    address_char(address).map_or('?', char::from)
+}
