@@ -38,6 +38,9 @@ pub struct ServeArgs {
     /// lives in memory and is lost when the server stops.
     #[arg(long, value_name = "FILE")]
     pub eeprom: Option<PathBuf>,
+    /// Put the motor into the world described by FILE (docs/world.md); default: a free axis.
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
     /// Log every request and reply to stderr.
     #[arg(short, long)]
     pub verbose: bool,
@@ -76,7 +79,12 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
     };
     let start = std::time::Instant::now();
     let clock = move || Instant::from_micros(start.elapsed().as_micros() as u64);
-    let mut module = Module::new(SimBoard::new(eeprom), spec, clock());
+    let world = match &args.world {
+        Some(path) => tmcl_sim::World::load(path).map_err(|e| e.to_string())?,
+        None => tmcl_sim::World::default(),
+    };
+    let board = SimBoard::new(eeprom).with_world(world).map_err(|e| e.to_string())?.with_clock(clock);
+    let mut module = Module::new(board, spec, clock());
     if let Some(address) = conn.address {
         // --address: the module answers at N (GP 66, stored like any SGP 66).
         module

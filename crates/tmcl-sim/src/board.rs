@@ -1,15 +1,25 @@
-//! The simulated board: an ideal stepper on a free axis, switches at positions, settable inputs, and an
-//! EEPROM in memory or in a crash-safe file.
+//! The simulated board: a stepper on an axis described by a [`World`] (switches, loads, inputs on a
+//! timeline, faults), the TMC262 driver's sensors, and an EEPROM in memory or in a crash-safe file.
 //!
 //! Positions in the world are physical: 1/256 microsteps of the motor shaft (51200 per revolution with a
 //! 200-step motor, the PD28-1021's motor, manual §6.1). The firmware's step counter is at the resolution
 //! AP 140 selects; [`SimBoard`] converts every move it is told about ([`DriveState::moved`]) and applies
 //! the reverse-shaft setting, so a reset or a `SAP 1` that changes the counter does not move the shaft.
+//!
+//! # Time
+//!
+//! The world's times (timeline, faults) are on the module's clock: `Instant::ZERO` is power-up, as in
+//! `tmcl run` and `tmcl serve`. The board moves its world forward whenever the firmware updates the
+//! driver ([`Drive::update`]), when [`SimBoard::advance`] is called, and — if it has a clock
+//! ([`SimBoard::with_clock`]) — before every sensor or input read, so a timeline runs on while the motor
+//! stands still and the core does not call the board.
 
+use crate::driver::{self, Driver};
+use crate::motor::{self, Mechanics, USTEPS_PER_FULL_STEP};
 use crate::nvm::{FileNvm, MemNvm, NvmError};
-use core::ops::RangeInclusive;
-use tmcl_core::hal::{Drive, DriveState, Feedback, Io, Nvm, Switches};
-use tmcl_core::Instant;
+use crate::world::{Active, DriverFlag, Invalid, World, WorldError};
+use tmcl_core::hal::{Drive, DriveState, DriverSettings, Feedback, Io, Nvm, Switches};
+use tmcl_core::{Duration, Instant};
 
 /// Physical 1/256 microsteps per revolution of the simulated 200-step motor.
 pub const MICROSTEPS_PER_REV: i64 = 200 * 256;
@@ -57,27 +67,173 @@ impl Eeprom {
     }
 }
 
-/// The mechanical world around the motor: where the switches are, what the inputs read.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct World {
-    /// Positions (physical 1/256 microsteps) where the left stop switch is pressed.
-    pub left_switch: Option<RangeInclusive<i64>>,
-    /// Where the right stop switch is pressed.
-    pub right_switch: Option<RangeInclusive<i64>>,
-    /// Where the home switch is pressed.
-    pub home_switch: Option<RangeInclusive<i64>>,
+/// A switch zone in µsteps with its polarity and bounce.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Switch {
+    lo: f64,
+    hi: f64,
+    active_high: bool,
+    /// (bounce time, falls back this many times).
+    bounce: Option<(Duration, u32)>,
+    /// Pressed now (ideal contact).
+    pressed: bool,
+    /// The last edge: when, and the level before it.
+    edge: Option<(Instant, bool)>,
+}
+
+impl Switch {
+    /// Tracks the ideal contact at rotor position `x` and time `now`.
+    fn track(&mut self, x: f64, now: Instant) {
+        let pressed = (self.lo..=self.hi).contains(&x);
+        if pressed != self.pressed {
+            self.edge = Some((now, self.pressed));
+            self.pressed = pressed;
+        }
+    }
+
+    /// The input level at `now`: `true` = active with normal polarity.
+    fn level(&self, now: Instant) -> bool {
+        let mut contact = self.pressed;
+        if let (Some((time, count)), Some((at, before))) = (self.bounce, self.edge) {
+            let since = now.saturating_duration_since(at).micros();
+            if since < time.micros() {
+                // 2·count + 1 equal slots: the new level in even slots, the old one in odd slots.
+                let slot = since * (2 * u64::from(count) + 1) / time.micros().max(1);
+                if slot % 2 == 1 {
+                    contact = before;
+                }
+            }
+        }
+        contact == self.active_high
+    }
+}
+
+/// Something that happens at a time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Event {
+    /// `inputs.timeline[n]`.
+    Inputs(usize),
+    /// The scripted load steps to this torque.
+    Script(f64),
+    /// The encoder gains this many counts.
+    Slip(i64),
+    /// A fault window opens or closes.
+    Faults,
+}
+
+/// A world compiled for the board: everything converted to µsteps and `Instant`s.
+#[derive(Debug, Clone)]
+pub(crate) struct Plan {
+    mech: Mechanics,
+    switches: [Option<Switch>; 3],
+    events: Vec<(Instant, Event)>,
+    /// Seizure points with their windows.
+    seizures: Vec<(f64, Instant, Option<Instant>)>,
+    encoder_zero: f64,
+    min_speed: f64,
+    undervoltage: f64,
+    supply: f64,
+}
+
+impl Plan {
+    /// Checks and compiles a world.
+    pub(crate) fn compile(world: &World) -> Result<Plan, Invalid> {
+        let mech = Mechanics::compile(world)?;
+        let zone = |spec: &Option<crate::world::SwitchSpec>, key| -> Result<Option<Switch>, Invalid> {
+            let Some(s) = spec else { return Ok(None) };
+            let (lo, hi) = motor::range(world, &s.at, key)?;
+            Ok(Some(Switch {
+                lo,
+                hi,
+                active_high: s.active == Active::High,
+                bounce: s.bounce.map(|b| (Duration::from_micros(b.time.0.micros()), b.count)),
+                pressed: false,
+                edge: None,
+            }))
+        };
+        let sw = &world.switches;
+        let switches = [
+            zone(&sw.left, "switches.left.at")?,
+            zone(&sw.right, "switches.right.at")?,
+            zone(&sw.home, "switches.home.at")?,
+        ];
+        let mut events = Vec::new();
+        for (n, c) in world.inputs.timeline.iter().enumerate() {
+            if let Some(a) = &c.analog {
+                if *a.get_ref() > 4095 {
+                    return Err(Invalid::new(a.span(), "inputs.timeline.analog", "must be 0..=4095"));
+                }
+            }
+            events.push((c.at.0, Event::Inputs(n)));
+        }
+        for s in &world.load.script {
+            events.push((s.at.0, Event::Script(s.torque)));
+        }
+        for s in &world.faults.encoder_slip {
+            events.push((s.at.0, Event::Slip(s.counts)));
+        }
+        let mut seizures = Vec::new();
+        for s in &world.faults.stall {
+            seizures.push((motor::usteps(world, &s.at, "faults.stall.at")?, s.from.0, s.until.map(|t| t.0)));
+            events.push((s.from.0, Event::Faults));
+            events.extend(s.until.map(|t| (t.0, Event::Faults)));
+        }
+        for d in &world.faults.driver {
+            events.push((d.from.0, Event::Faults));
+            events.extend(d.until.map(|t| (t.0, Event::Faults)));
+        }
+        for d in &world.faults.supply_drop {
+            motor::positive(&d.voltage, "faults.supply_drop.voltage", 0.0, false)?;
+            events.push((d.from.0, Event::Faults));
+            events.extend(d.until.map(|t| (t.0, Event::Faults)));
+        }
+        // Stable: events at the same time keep the file's order.
+        events.sort_by_key(|(t, _)| *t);
+        let inputs = &world.inputs;
+        if *inputs.analog.get_ref() > 4095 {
+            return Err(Invalid::new(inputs.analog.span(), "inputs.analog", "must be 0..=4095"));
+        }
+        let d = &world.driver;
+        let full_steps = f64::from(*world.motor.full_steps.get_ref());
+        Ok(Plan {
+            encoder_zero: motor::usteps(world, &d.encoder_zero, "driver.encoder_zero")?,
+            min_speed: motor::positive(&d.stallguard_min_speed, "driver.stallguard_min_speed", 0.0, false)?
+                * full_steps,
+            undervoltage: motor::positive(&d.undervoltage, "driver.undervoltage", 0.0, false)?,
+            supply: motor::positive(&d.supply_voltage, "driver.supply_voltage", 0.0, true)?,
+            mech,
+            switches,
+            events,
+            seizures,
+        })
+    }
+}
+
+/// The module's inputs as they are now. The world's timeline sets them; a test or tool may too, at any
+/// time (`board.world.inputs = 0b101`), until the timeline's next change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Levels {
     /// Digital input levels (bit n = INn).
     pub inputs: u8,
-    /// ADC reading of analog input 0, 0..=4095.
+    /// ADC reading of analog input 0, 0..=4095 (larger values read as 4095).
     pub analog: u16,
     /// Module temperature in °C.
     pub temperature: i32,
 }
 
-impl World {
-    /// A free axis: no switches, inputs low, 25 °C.
-    pub fn free() -> World {
-        World { temperature: 25, ..World::default() }
+impl From<&World> for Levels {
+    fn from(world: &World) -> Levels {
+        let i = &world.inputs;
+        Levels { inputs: i.digital, analog: *i.analog.get_ref(), temperature: i.temperature }
+    }
+}
+
+/// A clock the board reads before sensor and input reads.
+struct Clock(Box<dyn FnMut() -> Instant + Send>);
+
+impl std::fmt::Debug for Clock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Clock")
     }
 }
 
@@ -85,26 +241,51 @@ impl World {
 #[derive(Debug)]
 pub struct SimBoard {
     eeprom: Eeprom,
-    /// The world around the motor; change it at any time.
-    pub world: World,
-    /// Shaft position in physical 1/256 microsteps.
-    shaft: i64,
+    /// The inputs now; change them at any time.
+    pub world: Levels,
+    spec: World,
+    plan: Plan,
+    /// Index of the next event in `plan.events`.
+    next_event: usize,
+    driver: Driver,
+    clock: Option<Clock>,
+    /// Time up to which the world has been simulated.
+    now: Instant,
+    supply: f64,
+    /// AP 208 bits 1..6 from fault windows.
+    fault_flags: u8,
+    encoder_slip: i64,
+    /// Coil peak current now (A).
+    coil: f64,
     outputs: u8,
     drive: DriveState,
     updated: Instant,
 }
 
 impl SimBoard {
-    /// A board on a free axis with the given EEPROM.
+    /// A board on a free axis (the default [`World`]) with the given EEPROM.
     pub fn new(eeprom: Eeprom) -> SimBoard {
-        SimBoard {
+        let world = World::default();
+        let plan = Plan::compile(&world).expect("the default world is valid");
+        let mut board = SimBoard {
             eeprom,
-            world: World::free(),
-            shaft: 0,
+            driver: Driver::new(plan.min_speed),
+            next_event: 0,
+            clock: None,
+            now: Instant::ZERO,
+            world: Levels::from(&world),
+            supply: plan.supply,
+            fault_flags: 0,
+            encoder_slip: 0,
+            coil: 0.0,
             outputs: 0,
             drive: DriveState::default(),
             updated: Instant::ZERO,
-        }
+            spec: world,
+            plan,
+        };
+        board.fire(Instant::ZERO);
+        board
     }
 
     /// A board with an in-memory EEPROM of `capacity` bytes.
@@ -112,14 +293,102 @@ impl SimBoard {
         SimBoard::new(Eeprom::Memory(MemNvm::new(capacity)))
     }
 
+    /// The same board in `world`, at power-up (the rotor at `axis.start`, time 0).
+    pub fn with_world(mut self, world: World) -> Result<SimBoard, WorldError> {
+        self.set_world(world)?;
+        Ok(self)
+    }
+
+    /// Puts the board into `world`, as at power-up: the rotor at `axis.start`, inputs and faults as at
+    /// time 0, the energy figure and stallGuard2 reset. The EEPROM and the outputs are kept.
+    pub fn set_world(&mut self, world: World) -> Result<(), WorldError> {
+        world.check()?;
+        let fresh = SimBoard::new(Eeprom::Memory(MemNvm::new(0)));
+        let eeprom = std::mem::replace(&mut self.eeprom, fresh.eeprom);
+        let clock = self.clock.take();
+        let outputs = self.outputs;
+        let plan = Plan::compile(&world).expect("checked");
+        *self = SimBoard {
+            eeprom,
+            driver: Driver::new(plan.min_speed),
+            clock,
+            outputs,
+            world: Levels::from(&world),
+            supply: plan.supply,
+            spec: world,
+            plan,
+            ..fresh
+        };
+        self.fire(Instant::ZERO);
+        Ok(())
+    }
+
+    /// The same board, reading `clock` before every sensor and input read so the world runs on between
+    /// driver updates (`tmcl serve` passes its wall clock).
+    pub fn with_clock(mut self, clock: impl FnMut() -> Instant + Send + 'static) -> SimBoard {
+        self.clock = Some(Clock(Box::new(clock)));
+        self
+    }
+
+    /// The description of the world the board is in.
+    pub fn description(&self) -> &World {
+        &self.spec
+    }
+
     /// The EEPROM.
     pub fn eeprom(&mut self) -> &mut Eeprom {
         &mut self.eeprom
     }
 
-    /// Shaft position in physical 1/256 microsteps.
+    /// Rotor (shaft) position since power-up in physical 1/256 microsteps, rounded.
     pub fn shaft(&self) -> i64 {
-        self.shaft
+        (self.plan.mech.rotor() - self.plan.mech.start()).round() as i64
+    }
+
+    /// Where the driver's field is since power-up in physical 1/256 microsteps: the step counter's
+    /// position in the motor's physical direction (the shaft of an ideal motor).
+    pub fn commanded(&self) -> i64 {
+        self.plan.mech.field() - self.plan.mech.start().round() as i64
+    }
+
+    /// Full steps the rotor has fallen behind the field (a multiple of 4; negative = ahead).
+    pub fn lost_full_steps(&self) -> i64 {
+        self.plan.mech.lost_full_steps()
+    }
+
+    /// The axis position in its unit (mm on a linear axis, degrees on a rotary one).
+    pub fn axis_position(&self) -> f64 {
+        self.plan.mech.rotor() / self.plan.mech.usteps_per_unit()
+    }
+
+    /// The load the motor holds or moves against now (N·m).
+    pub fn load_torque(&self) -> f64 {
+        self.plan.mech.load_torque()
+    }
+
+    /// The torque the motor can give now (N·m; 0 = freewheeling).
+    pub fn available_torque(&self) -> f64 {
+        self.plan.mech.available()
+    }
+
+    /// Coil peak current now (A; 0 = off).
+    pub fn coil_current(&self) -> f64 {
+        self.coil
+    }
+
+    /// The energy figure ∫ I_peak² dt so far, in A²·s (see [`crate::driver`]).
+    pub fn energy(&self) -> f64 {
+        self.driver.energy()
+    }
+
+    /// The supply voltage now (V).
+    pub fn supply_voltage(&self) -> f64 {
+        self.supply
+    }
+
+    /// The driver settings last configured (AP 173, 174, 179).
+    pub fn driver_settings(&self) -> &DriverSettings {
+        &self.driver.settings
     }
 
     /// Output levels (bit n = OUTn).
@@ -137,8 +406,160 @@ impl SimBoard {
         self.updated
     }
 
-    fn pressed(zone: &Option<RangeInclusive<i64>>, at: i64) -> bool {
-        zone.as_ref().is_some_and(|z| z.contains(&at))
+    /// Time up to which the world has been simulated.
+    pub fn now(&self) -> Instant {
+        self.now
+    }
+
+    /// Runs the world forward to `now` (timeline, faults, a freewheeling rotor, the energy figure) with
+    /// the driver as last updated. Earlier times are ignored.
+    pub fn advance(&mut self, now: Instant) {
+        if now <= self.now {
+            return;
+        }
+        while let Some(&(at, _)) = self.plan.events.get(self.next_event) {
+            if at > now {
+                break;
+            }
+            self.run_to(at);
+            self.fire(at);
+        }
+        self.run_to(now);
+    }
+
+    fn sync(&mut self) {
+        if let Some(clock) = &mut self.clock {
+            let now = (clock.0)();
+            self.advance(now);
+        }
+    }
+
+    /// Integrates from `self.now` to `t` with nothing changing but the freewheeling rotor.
+    fn run_to(&mut self, t: Instant) {
+        if t <= self.now {
+            return;
+        }
+        let dt = t - self.now;
+        self.driver.integrate(self.coil, dt);
+        self.plan.mech.coast(dt.micros() as f64 * 1e-6);
+        self.now = t;
+        self.track_switches();
+    }
+
+    /// Applies every event due at or before `t` (the board is at `t`).
+    fn fire(&mut self, t: Instant) {
+        let mut faults = self.next_event == 0;
+        while let Some(&(at, event)) = self.plan.events.get(self.next_event) {
+            if at > t {
+                break;
+            }
+            self.next_event += 1;
+            match event {
+                Event::Inputs(n) => {
+                    let c = &self.spec.inputs.timeline[n];
+                    let levels = &mut self.world;
+                    if let Some(d) = c.digital {
+                        levels.inputs = d;
+                    }
+                    for (bit, level) in [c.in0, c.in1, c.in2, c.in3].into_iter().enumerate() {
+                        match level {
+                            Some(true) => levels.inputs |= 1 << bit,
+                            Some(false) => levels.inputs &= !(1 << bit),
+                            None => {}
+                        }
+                    }
+                    if let Some(a) = &c.analog {
+                        levels.analog = *a.get_ref();
+                    }
+                    if let Some(temp) = c.temperature {
+                        levels.temperature = temp;
+                    }
+                }
+                Event::Script(torque) => self.plan.mech.set_script(torque),
+                Event::Slip(counts) => self.encoder_slip += counts,
+                Event::Faults => faults = true,
+            }
+        }
+        if faults {
+            self.apply_faults(t);
+        }
+        self.power();
+        self.track_switches();
+    }
+
+    /// Recomputes the fault windows' effect at `t`.
+    fn apply_faults(&mut self, t: Instant) {
+        let open = |from: Instant, until: Option<Instant>| from <= t && until.is_none_or(|u| t < u);
+        let seized = self.plan.seizures.iter().filter(|(_, f, u)| open(*f, *u)).map(|(p, _, _)| *p).collect();
+        self.plan.mech.set_seized(seized);
+        let f = &self.spec.faults;
+        self.fault_flags = f
+            .driver
+            .iter()
+            .filter(|d| open(d.from.0, d.until.map(|u| u.0)))
+            .flat_map(|d| d.flags.iter())
+            .fold(0, |acc, flag| acc | flag.bit());
+        self.supply = f
+            .supply_drop
+            .iter()
+            .filter(|d| open(d.from.0, d.until.map(|u| u.0)))
+            .map(|d| *d.voltage.get_ref())
+            .fold(self.plan.supply, f64::min);
+    }
+
+    /// AP 208 bits 1..6 now: fault windows plus the module temperature.
+    fn error_flags(&self) -> u8 {
+        let mut f = self.fault_flags;
+        if self.world.temperature >= 100 {
+            f |= DriverFlag::Prewarning.bit();
+        }
+        if self.world.temperature >= 150 {
+            f |= DriverFlag::Overtemperature.bit();
+        }
+        f
+    }
+
+    /// Sets the coil current and the motor's available torque from the drive state, supply and faults.
+    fn power(&mut self) {
+        const SHUTDOWN: u8 = (1 << 1) | (1 << 3) | (1 << 4);
+        let off = self.error_flags() & SHUTDOWN != 0 || self.supply < self.plan.undervoltage;
+        self.coil = if off { 0.0 } else { driver::coil_current(&self.drive, &self.driver.settings) };
+        // A crude supply model: below the nominal 24 V the chopper reaches proportionally less current
+        // at speed; only the torque is scaled.
+        let supply = (self.supply / 24.0).min(1.0);
+        let torque = self.plan.mech.torque_per_amp() * self.coil * std::f64::consts::FRAC_1_SQRT_2 * supply;
+        let speed = f64::from(self.drive.velocity) * self.per_step() as f64 * self.sign() as f64;
+        self.plan.mech.set_available(torque, speed);
+        self.plan.mech.settle();
+    }
+
+    fn per_step(&self) -> i64 {
+        1i64 << (8 - self.drive.resolution.min(8))
+    }
+
+    fn sign(&self) -> i64 {
+        if self.drive.reverse {
+            -1
+        } else {
+            1
+        }
+    }
+
+    fn track_switches(&mut self) {
+        let x = self.plan.mech.rotor();
+        let now = self.now;
+        for s in self.plan.switches.iter_mut().flatten() {
+            s.track(x, now);
+        }
+    }
+
+    fn level(&self, n: usize) -> bool {
+        self.plan.switches[n].as_ref().is_some_and(|s| s.level(self.now))
+    }
+
+    fn encoder_counts(&self) -> i64 {
+        let turns = (self.plan.mech.rotor() - self.plan.encoder_zero) / self.plan.mech.usteps_per_rev();
+        (turns * ENCODER_COUNTS_PER_REV as f64).floor() as i64 + self.encoder_slip
     }
 }
 
@@ -157,9 +578,11 @@ impl Nvm for SimBoard {
 
 impl Io for SimBoard {
     fn digital_inputs(&mut self) -> u8 {
+        self.sync();
         self.world.inputs
     }
     fn analog_input(&mut self, channel: u8) -> u16 {
+        self.sync();
         if channel == 0 {
             self.world.analog.min(4095)
         } else {
@@ -167,36 +590,63 @@ impl Io for SimBoard {
         }
     }
     fn temperature(&mut self) -> i32 {
+        self.sync();
         self.world.temperature
     }
     fn set_outputs(&mut self, bits: u8) {
         self.outputs = bits;
     }
     fn switches(&mut self) -> Switches {
-        Switches {
-            left: Self::pressed(&self.world.left_switch, self.shaft),
-            right: Self::pressed(&self.world.right_switch, self.shaft),
-            home: Self::pressed(&self.world.home_switch, self.shaft),
-        }
+        self.sync();
+        Switches { left: self.level(0), right: self.level(1), home: self.level(2) }
     }
 }
 
 impl Drive for SimBoard {
     fn update(&mut self, now: Instant, state: &DriveState) {
-        // An ideal motor: the shaft follows every step (a free axis never loses one).
-        let per_step = 1i64 << (8 - state.resolution.min(8));
-        let moved = state.moved.saturating_mul(per_step);
-        self.shaft = self.shaft.saturating_add(if state.reverse { -moved } else { moved });
+        self.advance(now);
         self.drive = *state;
+        self.power();
+        let moved = state.moved.saturating_mul(self.per_step()).saturating_mul(self.sign());
+        if moved != 0 {
+            self.driver.stepped(self.now);
+            let old = self.plan.mech.field();
+            let new = old.saturating_add(moved);
+            let rotor = self.plan.mech.rotor();
+            let mut stalled = self.plan.mech.drive_to(new);
+            // Not following: the rotor went less than half as far as the field, in the field's direction.
+            let followed = (self.plan.mech.rotor() - rotor) * moved.signum() as f64;
+            stalled |= followed * 2.0 < moved.unsigned_abs() as f64;
+            let full = |p: i64| p.div_euclid(USTEPS_PER_FULL_STEP);
+            let crossings = full(new).abs_diff(full(old));
+            let speed = f64::from(state.velocity).abs() / f64::from(1u32 << state.resolution.min(8));
+            let angle = self.plan.mech.load_angle().abs();
+            let ratio = if angle >= std::f64::consts::FRAC_PI_2 { 1.0 } else { angle.sin() };
+            if state.enabled {
+                self.driver.measure(crossings, speed, ratio, stalled);
+            }
+            self.track_switches();
+        }
         self.updated = now;
     }
 
     fn feedback(&mut self) -> Feedback {
+        self.sync();
         Feedback {
-            encoder_counts: (self.shaft * ENCODER_COUNTS_PER_REV).div_euclid(MICROSTEPS_PER_REV),
-            load: 1023,
-            driver_flags: 0,
+            encoder_counts: self.encoder_counts(),
+            load: self.driver.load(),
+            driver_flags: self.driver.flags(self.now, self.error_flags()),
         }
+    }
+
+    fn configure(&mut self, settings: &DriverSettings) {
+        self.driver.settings = *settings;
+        self.power();
+    }
+
+    fn load_measurements(&mut self) -> u32 {
+        self.sync();
+        self.driver.measurements()
     }
 }
 
@@ -224,8 +674,9 @@ mod tests {
 
     #[test]
     fn switch_zones() {
+        let world = World::from_toml_str("[switches.right]\nat = [\"10000 usteps\", \"20000 usteps\"]").unwrap();
         let mut m = module();
-        m.board_mut().world.right_switch = Some(10_000..=20_000);
+        m.board_mut().set_world(world).unwrap();
         let t = Instant::ZERO;
         m.execute(Command::Ror { motor: 0, velocity: 5000 }, t).unwrap();
         m.poll(t + Duration::from_secs(4), &mut |_: &[u8]| {});

@@ -2,11 +2,18 @@
 //! on a PC.
 //!
 //! - [`nvm`]: the EEPROM, in memory ([`MemNvm`]) or in a crash-safe file ([`FileNvm`]).
-//! - [`board`]: [`SimBoard`], the board the firmware core runs on, and its [`World`].
+//! - [`board`]: [`SimBoard`], the board the firmware core runs on.
+//! - [`world`]: the [`World`] around the motor, from a TOML world file (`docs/world.md`).
+//! - [`motor`]: the stepper and its load (load angle, lost steps, freewheeling).
+//! - [`driver`]: the TMC262 as the firmware sees it (current, stallGuard2, flags, energy).
 
 pub mod board;
+pub mod driver;
 pub mod fuzzing;
+pub mod motor;
 pub mod nvm;
+pub mod world;
 
-pub use board::{Eeprom, SimBoard, World};
+pub use board::{Eeprom, SimBoard};
 pub use nvm::{FileNvm, MemNvm, NvmError, Options};
+pub use world::{World, WorldError};

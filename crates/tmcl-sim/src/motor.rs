@@ -1,0 +1,561 @@
+//! The stepper motor and its load: where the rotor is, given where the driver's field is.
+//!
+//! # The model
+//!
+//! Positions are in 1/256 microsteps of the motor ("µsteps", 256 per full step, manual §6.1) in the axis
+//! frame: the axis's 0 mm or 0° is 0, and the rotor starts at the world's `axis.start`. One electrical
+//! period of a hybrid stepper is 4 full steps = 1024 µsteps.
+//!
+//! - **Powered** (driver on, current > 0): the field at electrical angle θ pulls the rotor with
+//!   `T_avail · sin(θ − θ_rotor)`, where `T_avail` is the holding torque scaled by the coil current. The
+//!   model is quasi-static: after each move of the field (in sub-steps of at most 128 µsteps, half a full
+//!   step or 45° electrical, so the rotor never jumps to the wrong period), the rotor moves along
+//!   the direction of the net torque (motor + load) until the net torque no longer overcomes friction.
+//!   A load below `T_avail` makes the rotor lag the field by the load angle `asin(T_load / T_avail)`
+//!   (at most one full step, 90°). A load above it stops the rotor while the field runs on: once the field
+//!   is more than half a period ahead, the rotor falls into the next stable point, 4 full steps behind —
+//!   the steps a real stepper loses. Inertia is not a load while powered (quasi-static).
+//! - **Freewheeling** (driver off, no current, bridges shut down): only the load, detent torque, friction
+//!   and damping act; the rotor and load inertia integrate the motion (semi-implicit Euler, 0.1 ms
+//!   steps), so a spring back-drives the shaft and a coasting rotor slows down.
+//! - **Loads**: Coulomb friction (opposes motion, holds below its value), a constant torque, a spring
+//!   toward a rest position, a scripted external torque (set by the board's timeline), jam regions
+//!   (friction of their torque inside), hard end stops (`axis.travel`, the rotor cannot pass them) and
+//!   seizures (a point the rotor cannot pass either way while the fault is active).
+//! - A world with none of these loads is **trivial**: the powered rotor then sits exactly on the field
+//!   (or a whole number of periods from it after freewheeling), in integer µsteps, at the cost of two
+//!   additions per update.
+
+use crate::world::{AxisKind, Invalid, Pos, World};
+use std::f64::consts::{PI, TAU};
+use toml::Spanned;
+
+/// µsteps per full step.
+pub const USTEPS_PER_FULL_STEP: i64 = 256;
+/// µsteps per electrical period (4 full steps).
+pub const USTEPS_PER_PERIOD: i64 = 4 * USTEPS_PER_FULL_STEP;
+const PERIOD: f64 = USTEPS_PER_PERIOD as f64;
+/// Largest field move between two settles (µsteps): 45° electrical, so a rotor at the 90° limit still
+/// sees the field less than 180° ahead and is pulled forward, not back.
+const SUBSTEP: i64 = 128;
+/// March step of the settle search (µsteps) and its bisection depth (16 / 2^8 = 1/16 µstep).
+const MARCH: f64 = 16.0;
+const BISECT: u32 = 8;
+/// Longest settle march (µsteps): 64 periods. A longer slide continues at the next settle.
+const MARCH_LIMIT: u32 = (64 * USTEPS_PER_PERIOD as u32) / MARCH as u32;
+/// Freewheeling integration step (s), and the most steps one call integrates (10 s).
+const COAST_STEP: f64 = 1e-4;
+const COAST_LIMIT: u32 = 100_000;
+
+/// A jam region in µsteps with its torque.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct JamZone {
+    lo: f64,
+    hi: f64,
+    torque: f64,
+}
+
+/// The motor and its load: constants compiled from the world, and the rotor's state.
+#[derive(Debug, Clone)]
+pub struct Mechanics {
+    /// µsteps per motor revolution.
+    upr: f64,
+    /// µsteps per axis unit (mm or degree).
+    per_unit: f64,
+    /// Radians of the motor shaft per µstep.
+    rad: f64,
+    /// N·m per A RMS.
+    torque_per_amp: f64,
+    inertia: f64,
+    detent: f64,
+    damping: f64,
+    friction: f64,
+    constant: f64,
+    /// (N·m per µstep, rest position in µsteps).
+    spring: Option<(f64, f64)>,
+    jams: Vec<JamZone>,
+    travel: (f64, f64),
+    /// Where the rotor was at power-up (µsteps).
+    start: f64,
+    /// Freewheeling integration step (s), shortened for stiff springs.
+    coast_step: f64,
+    trivial: bool,
+    /// The rotor position (µsteps, axis frame).
+    rotor: f64,
+    /// Rotor speed while freewheeling (rad/s).
+    omega: f64,
+    /// The field position (µsteps, axis frame): where an unloaded rotor would be.
+    field: i64,
+    /// The scripted external torque now (N·m).
+    script: f64,
+    /// Active seizure points (µsteps).
+    seized: Vec<f64>,
+    /// The torque the motor can give now (N·m); 0 = freewheeling.
+    available: f64,
+}
+
+/// Converts a world position to µsteps; `key` names it in errors.
+pub(crate) fn usteps(world: &World, pos: &Spanned<Pos>, key: &'static str) -> Result<f64, Invalid> {
+    let full_steps = f64::from(*world.motor.full_steps.get_ref());
+    let upr = full_steps * USTEPS_PER_FULL_STEP as f64;
+    let linear = world.axis.kind == AxisKind::Linear;
+    let lead = *world.axis.lead.get_ref();
+    let wrong = |unit: &str| {
+        let kind = if linear { "linear" } else { "rotary" };
+        Err(Invalid::new(pos.span(), key, format!("`{unit}` is not a unit of a {kind} axis")))
+    };
+    Ok(match *pos.get_ref() {
+        Pos::Axis(v) if linear => v / lead * upr,
+        Pos::Axis(v) => v / 360.0 * upr,
+        Pos::Mm(v) if linear => v / lead * upr,
+        Pos::Mm(_) => return wrong("mm"),
+        Pos::Deg(v) if !linear => v / 360.0 * upr,
+        Pos::Deg(_) => return wrong("deg"),
+        Pos::Rev(v) => v * upr,
+        Pos::FullSteps(v) => v * USTEPS_PER_FULL_STEP as f64,
+        Pos::Usteps(v) => v,
+    })
+}
+
+/// Checks that a number is finite and at least `min` (or above it if `strict`).
+pub(crate) fn positive(v: &Spanned<f64>, key: &'static str, min: f64, strict: bool) -> Result<f64, Invalid> {
+    let x = *v.get_ref();
+    if !x.is_finite() || x < min || (strict && x == min) {
+        let rel = if strict { "above" } else { "at least" };
+        return Err(Invalid::new(v.span(), key, format!("{x} must be a finite number {rel} {min}")));
+    }
+    Ok(x)
+}
+
+/// Checks a `[from, to]` pair and converts it to µsteps.
+pub(crate) fn range(world: &World, at: &Spanned<[Pos; 2]>, key: &'static str) -> Result<(f64, f64), Invalid> {
+    let [a, b] = at.get_ref();
+    let lo = usteps(world, &Spanned::new(at.span(), *a), key)?;
+    let hi = usteps(world, &Spanned::new(at.span(), *b), key)?;
+    if lo > hi {
+        return Err(Invalid::new(at.span(), key, "the range must be [low, high]"));
+    }
+    Ok((lo, hi))
+}
+
+impl Mechanics {
+    /// Checks the mechanical part of a world and compiles it; the rotor starts at `axis.start`.
+    pub(crate) fn compile(world: &World) -> Result<Mechanics, Invalid> {
+        let m = &world.motor;
+        let full_steps = *m.full_steps.get_ref();
+        if full_steps == 0 || !full_steps.is_multiple_of(4) || full_steps > 100_000 {
+            return Err(Invalid::new(m.full_steps.span(), "motor.full_steps", "must be a positive multiple of 4"));
+        }
+        let upr = f64::from(full_steps) * USTEPS_PER_FULL_STEP as f64;
+        let holding = positive(&m.holding_torque, "motor.holding_torque", 0.0, true)?;
+        let rated = positive(&m.rated_current, "motor.rated_current", 0.0, true)?;
+        let rotor_inertia = positive(&m.rotor_inertia, "motor.rotor_inertia", 0.0, true)?;
+        let detent = positive(&m.detent_torque, "motor.detent_torque", 0.0, false)?;
+        let damping = positive(&m.damping, "motor.damping", 0.0, false)?;
+        let a = &world.axis;
+        let lead = positive(&a.lead, "axis.lead", 0.0, true)?;
+        let per_unit = if a.kind == AxisKind::Linear { upr / lead } else { upr / 360.0 };
+        let load_inertia = positive(&a.load_inertia, "axis.load_inertia", 0.0, false)?;
+        let start = usteps(world, &a.start, "axis.start")?;
+        let travel = match &a.travel {
+            Some(t) => {
+                let (lo, hi) = range(world, t, "axis.travel")?;
+                if !(lo..=hi).contains(&start) {
+                    return Err(Invalid::new(a.start.span(), "axis.start", "must lie within axis.travel"));
+                }
+                (lo, hi)
+            }
+            None => (f64::NEG_INFINITY, f64::INFINITY),
+        };
+        let l = &world.load;
+        let friction = positive(&l.friction, "load.friction", 0.0, false)?;
+        if !l.constant.is_finite() {
+            return Err(Invalid::new(0..0, "load.constant", "must be finite"));
+        }
+        let spring = match &l.spring {
+            Some(s) => {
+                let rate = positive(&s.rate, "load.spring.rate", 0.0, false)?;
+                Some((rate / per_unit, usteps(world, &s.rest, "load.spring.rest")?))
+            }
+            None => None,
+        };
+        let mut jams = Vec::new();
+        for j in &l.jam {
+            let (lo, hi) = range(world, &j.at, "load.jam.at")?;
+            let torque = positive(&j.torque, "load.jam.torque", 0.0, false)?;
+            jams.push(JamZone { lo, hi, torque });
+        }
+        for s in &l.script {
+            if !s.torque.is_finite() {
+                return Err(Invalid::new(0..0, "load.script.torque", "must be finite"));
+            }
+        }
+        for s in &world.faults.stall {
+            usteps(world, &s.at, "faults.stall.at")?;
+        }
+        let inertia = rotor_inertia + load_inertia;
+        let rad = TAU / upr;
+        // Stiffest restoring rate (N·m/rad): spring and detent; keep ω_n · step below 0.5.
+        let k = spring.map_or(0.0, |(k, _)| k / rad) + detent * TAU / (USTEPS_PER_FULL_STEP as f64 * rad);
+        let coast_step = if k > 0.0 { COAST_STEP.min(0.5 / (k / inertia).sqrt()) } else { COAST_STEP };
+        let trivial = friction == 0.0
+            && l.constant == 0.0
+            && spring.is_none_or(|(k, _)| k == 0.0)
+            && jams.is_empty()
+            && l.script.iter().all(|s| s.torque == 0.0)
+            && world.faults.stall.is_empty()
+            && a.travel.is_none()
+            && detent == 0.0;
+        let field = start.round() as i64;
+        Ok(Mechanics {
+            upr,
+            per_unit,
+            rad,
+            torque_per_amp: holding / rated,
+            inertia,
+            detent,
+            damping,
+            friction,
+            constant: l.constant,
+            spring,
+            jams,
+            travel,
+            start,
+            coast_step,
+            trivial,
+            rotor: field as f64,
+            omega: 0.0,
+            field,
+            script: 0.0,
+            seized: Vec::new(),
+            available: 0.0,
+        })
+    }
+
+    /// µsteps per motor revolution.
+    pub fn usteps_per_rev(&self) -> f64 {
+        self.upr
+    }
+
+    /// µsteps per axis unit (mm or degree).
+    pub fn usteps_per_unit(&self) -> f64 {
+        self.per_unit
+    }
+
+    /// Where the rotor started (µsteps, axis frame).
+    pub fn start(&self) -> f64 {
+        self.start
+    }
+
+    /// The rotor position (µsteps, axis frame).
+    pub fn rotor(&self) -> f64 {
+        self.rotor
+    }
+
+    /// The field position (µsteps, axis frame).
+    pub fn field(&self) -> i64 {
+        self.field
+    }
+
+    /// Whether the world has no load at all (the exact fast path).
+    pub fn is_trivial(&self) -> bool {
+        self.trivial
+    }
+
+    /// The torque the motor can give now (N·m).
+    pub fn available(&self) -> f64 {
+        self.available
+    }
+
+    /// N·m of holding torque per A RMS of coil current.
+    pub fn torque_per_amp(&self) -> f64 {
+        self.torque_per_amp
+    }
+
+    /// Sets the scripted external torque (N·m).
+    pub fn set_script(&mut self, torque: f64) {
+        self.script = torque;
+    }
+
+    /// Sets the active seizure points (µsteps).
+    pub fn set_seized(&mut self, points: Vec<f64>) {
+        self.seized = points;
+    }
+
+    /// Electrical load angle (field − rotor) in radians, wrapped to (−π, π].
+    pub fn load_angle(&self) -> f64 {
+        let d = (self.field as f64 - self.rotor).rem_euclid(PERIOD);
+        let d = if d > PERIOD / 2.0 { d - PERIOD } else { d };
+        d * TAU / PERIOD
+    }
+
+    /// Full steps the rotor has fallen behind the field, in whole electrical periods (4 full steps each).
+    pub fn lost_full_steps(&self) -> i64 {
+        let periods = ((self.field as f64 - self.rotor) / PERIOD).round() as i64;
+        periods * 4
+    }
+
+    /// The external torque on the rotor at `x` (N·m, positive pushes toward +), without friction.
+    fn external(&self, x: f64) -> f64 {
+        let mut t = self.constant + self.script;
+        if let Some((k, rest)) = self.spring {
+            t -= k * (x - rest);
+        }
+        if self.detent != 0.0 {
+            t -= self.detent * (TAU * (x - self.start) / USTEPS_PER_FULL_STEP as f64).sin();
+        }
+        t
+    }
+
+    /// The friction magnitude at `x` (N·m).
+    fn resist(&self, x: f64) -> f64 {
+        let mut f = self.friction;
+        for j in &self.jams {
+            if (j.lo..=j.hi).contains(&x) {
+                f += j.torque;
+            }
+        }
+        f
+    }
+
+    /// The load the motor has to hold or move against at the rotor now, in N·m (its magnitude): the
+    /// external torque plus friction opposing the direction the field pulls.
+    pub fn load_torque(&self) -> f64 {
+        let x = self.rotor;
+        let ext = self.external(x);
+        let pull = self.load_angle();
+        let f = self.resist(x);
+        if pull > 0.0 {
+            (f - ext).max(0.0)
+        } else if pull < 0.0 {
+            (f + ext).max(0.0)
+        } else {
+            (ext.abs() - f).max(0.0)
+        }
+    }
+
+    /// Net torque at `x` with the field on (N·m).
+    fn net(&self, x: f64) -> f64 {
+        let m = self.available * (TAU * (self.field as f64 - x) / PERIOD).sin();
+        m + self.external(x)
+    }
+
+    /// The nearest point the rotor cannot pass moving from `x` in direction `s` (±1), if any.
+    fn barrier(&self, x: f64, s: f64) -> f64 {
+        let mut limit = if s > 0.0 { self.travel.1 } else { self.travel.0 };
+        for &p in &self.seized {
+            if s * (p - x) >= 0.0 && s * (limit - p) > 0.0 {
+                limit = p;
+            }
+        }
+        limit
+    }
+
+    /// Sets the torque the motor can give (N·m; 0 = freewheeling). `speed` is the field's speed in µsteps
+    /// per second, handed to the freewheeling rotor when the power goes off.
+    pub fn set_available(&mut self, torque: f64, speed: f64) {
+        if self.available > 0.0 && torque == 0.0 && !self.trivial {
+            self.omega = speed * self.rad;
+        } else if torque > 0.0 {
+            self.omega = 0.0;
+        }
+        self.available = torque;
+    }
+
+    /// Moves the field to `field` (µsteps), letting the rotor follow. Returns whether the rotor fell more
+    /// than a full step (90°) behind the field at some point: a stall.
+    pub fn drive_to(&mut self, field: i64) -> bool {
+        let delta = field - self.field;
+        if self.available <= 0.0 {
+            self.field = field;
+            return false;
+        }
+        if self.trivial {
+            // Nothing holds the rotor back: it follows the field's continuous motion exactly.
+            self.snap();
+            self.field = field;
+            self.rotor += delta as f64;
+            return false;
+        }
+        let mut stalled = false;
+        let n = (delta.unsigned_abs() as i64 + SUBSTEP - 1) / SUBSTEP;
+        let from = self.field;
+        for i in 1..=n.max(1) {
+            self.field = from + delta * i / n.max(1);
+            self.settle();
+            stalled |= self.load_angle().abs() > PI / 2.0 + 1e-9;
+        }
+        stalled
+    }
+
+    /// A trivial world, powered: the rotor sits on the nearest stable point of the field.
+    fn snap(&mut self) {
+        let behind = self.field as f64 - self.rotor;
+        self.rotor = self.field as f64 - (behind / PERIOD).round() * PERIOD;
+    }
+
+    /// Powered: moves the rotor along the net torque until friction holds it (quasi-static).
+    pub fn settle(&mut self) {
+        if self.available <= 0.0 {
+            return;
+        }
+        if self.trivial {
+            self.snap();
+            return;
+        }
+        let mut x = self.rotor;
+        let d = self.net(x);
+        let tolerance = 1e-12 * self.available;
+        if d.abs() <= self.resist(x) + tolerance {
+            return;
+        }
+        let s = d.signum();
+        let limit = self.barrier(x, s);
+        if s * (limit - x) <= 0.0 {
+            return; // against a stop
+        }
+        if let Some(y) = self.solve(x, s, limit) {
+            self.rotor = y;
+            return;
+        }
+        let moving = |m: &Mechanics, y: f64| s * m.net(y) - m.resist(y) > tolerance;
+        for _ in 0..MARCH_LIMIT {
+            let mut next = x + s * MARCH;
+            let hit = s * (next - limit) >= 0.0;
+            if hit {
+                next = limit;
+            }
+            if !moving(self, next) {
+                let (mut a, mut b) = (x, next);
+                for _ in 0..BISECT {
+                    let mid = 0.5 * (a + b);
+                    if moving(self, mid) {
+                        a = mid;
+                    } else {
+                        b = mid;
+                    }
+                }
+                // The middle of the last interval, unless that is inside a jam the rotor stopped at.
+                let mid = 0.5 * (a + b);
+                x = if self.resist(mid) > self.resist(a) { a } else { mid };
+                break;
+            }
+            x = next;
+            if hit {
+                break;
+            }
+        }
+        self.rotor = x;
+    }
+
+    /// The quick way to the stop point moving from `x` in direction `s`: solve
+    /// `T_avail · sin(θ) = s · friction − external` for the load angle with the loads at the current
+    /// estimate, twice (Newton-like on the slowly varying loads). `None` when that is not reliable (the
+    /// load exceeds the torque, a barrier or a friction change lies on the way, no convergence): then the
+    /// march decides.
+    fn solve(&self, x: f64, s: f64, limit: f64) -> Option<f64> {
+        let mut y = x;
+        let f0 = self.resist(x);
+        for _ in 0..3 {
+            let need = (s * self.resist(y) - self.external(y)) / self.available;
+            if need.abs() > 0.999 {
+                return None;
+            }
+            let next = self.field as f64 - need.asin() * PERIOD / TAU;
+            let converged = (next - y).abs() < 1e-3;
+            y = next;
+            if converged {
+                let forward = s * (y - x) >= 0.0;
+                let clear = s * (limit - y) > 0.0 && self.resist(y) == f0;
+                return (forward && clear && self.jams_clear(x, y)).then_some(y);
+            }
+        }
+        None
+    }
+
+    /// Whether no jam region begins or ends between `a` and `b`.
+    fn jams_clear(&self, a: f64, b: f64) -> bool {
+        let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+        self.jams.iter().all(|j| !(lo..=hi).contains(&j.lo) && !(lo..=hi).contains(&j.hi))
+    }
+
+    /// Freewheeling for `dt` seconds: the load back-drives the rotor against inertia, friction, damping.
+    pub fn coast(&mut self, dt: f64) {
+        if self.available > 0.0 || self.trivial || dt <= 0.0 {
+            return;
+        }
+        let mut left = dt;
+        for _ in 0..COAST_LIMIT {
+            if left <= 0.0 {
+                break;
+            }
+            let x = self.rotor;
+            let ext = self.external(x);
+            let f = self.resist(x);
+            if self.omega == 0.0 && ext.abs() <= f {
+                return; // held by friction: nothing changes until the loads do
+            }
+            let h = self.coast_step.min(left);
+            let push = if self.omega != 0.0 { self.omega.signum() } else { ext.signum() };
+            let a = (ext - self.damping * self.omega - f * push) / self.inertia;
+            let mut omega = self.omega + a * h;
+            if f > 0.0 && self.omega != 0.0 && omega.signum() != self.omega.signum() {
+                omega = 0.0; // friction stopped it
+            }
+            let mut next = x + omega * h / self.rad;
+            if omega != 0.0 {
+                let s = omega.signum();
+                let limit = self.barrier(x, s);
+                if s * (next - limit) >= 0.0 {
+                    next = limit;
+                    omega = 0.0;
+                }
+            }
+            self.rotor = next;
+            self.omega = omega;
+            left -= h;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn world(toml: &str) -> Mechanics {
+        Mechanics::compile(&World::from_toml_str(toml).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn unloaded_rotor_sits_on_the_field() {
+        let mut m = world("");
+        assert!(m.is_trivial());
+        m.set_available(0.03, 0.0);
+        for f in [1, 1000, -5000, 123_456] {
+            m.drive_to(f);
+            assert_eq!(m.rotor(), f as f64);
+        }
+    }
+
+    #[test]
+    fn load_angle_follows_asin_of_the_load() {
+        let mut m = world("[load]\nconstant = -0.015");
+        m.set_available(0.03, 0.0);
+        m.drive_to(10_000);
+        // sin(φ) = 0.5 → φ = 30° = 1024/12 µsteps behind.
+        let lag = m.field() as f64 - m.rotor();
+        assert!((lag - PERIOD / 12.0).abs() < 0.2, "lag {lag}");
+        assert!((m.load_torque() - 0.015).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_load_above_the_torque_loses_steps_in_periods() {
+        let mut m = world("[load]\nconstant = -0.05");
+        m.set_available(0.03, 0.0);
+        let stalled = m.drive_to(5_000);
+        assert!(stalled);
+        // The rotor slides back under the constant load: a whole number of periods lost.
+        assert_eq!(m.lost_full_steps() % 4, 0);
+        assert!(m.lost_full_steps() > 0);
+    }
+}
