@@ -91,6 +91,19 @@ pub enum HostCommand {
         #[arg(value_parser = parse_value)]
         value: i32,
     },
+    /// List the modules answering on the line: every address from --first to --last is asked for its
+    /// version string (command 136), each with a short timeout.
+    Scan {
+        /// First address to ask.
+        #[arg(long, default_value_t = 1)]
+        first: u8,
+        /// Last address to ask.
+        #[arg(long, default_value_t = 255)]
+        last: u8,
+        /// How long to wait for each address, in milliseconds.
+        #[arg(long, value_name = "MS", default_value_t = 40)]
+        wait: u64,
+    },
 }
 
 /// Which parameter: `ap N [--motor M]` or `gp N [BANK]`.
@@ -210,6 +223,7 @@ fn execute(conn: &Connection, cmd: HostCommand, out: &mut dyn Write) -> Result<(
     let json = conn.json;
     match cmd {
         HostCommand::Version => version(&mut conn.open()?, json, out),
+        HostCommand::Scan { first, last, wait } => scan(&mut conn.open()?, first, last, wait, json, out),
         HostCommand::Get(p) => {
             let mut client = conn.open()?;
             let (reply, label) = match p {
@@ -295,6 +309,40 @@ fn version(client: &mut Client<Box<dyn Transport>>, json: bool, out: &mut dyn Wr
     } else {
         writeln!(out, "{text}")?;
         writeln!(out, "firmware {decoded}, binary {binary:#010x}")?;
+    }
+    Ok(())
+}
+
+/// `tmcl scan`: the modules on the line, by address.
+fn scan(
+    client: &mut Client<Box<dyn Transport>>,
+    first: u8,
+    last: u8,
+    wait_ms: u64,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<(), CliError> {
+    let mut found = Vec::new();
+    let timeout = std::time::Duration::from_millis(wait_ms.max(1));
+    for address in first..=last {
+        client.module_address = address;
+        client.timeout = timeout;
+        match client.version_string() {
+            Ok(text) => {
+                if json {
+                    writeln!(out, "{}", json!({ "address": address, "version": text }))?;
+                } else {
+                    writeln!(out, "{address:>3}  {text}")?;
+                }
+                found.push(address);
+            }
+            // No module at this address (timeout), or something that is no answer to us: go on.
+            Err(HostError::Io(e)) => return Err(HostError::Io(e).into()),
+            Err(_) => client.clear_input(),
+        }
+    }
+    if !json {
+        writeln!(out, "{} module(s) found", found.len())?;
     }
     Ok(())
 }

@@ -4,6 +4,7 @@
 //! OS and [`Module::receive`]/[`Module::poll`], and sleeps until the module's next deadline or the next
 //! byte, whichever comes first.
 
+use crate::bus::{Bus, Node};
 use crate::host::Connection;
 use crate::pty::Pty;
 use clap::Args;
@@ -28,16 +29,24 @@ const MAX_SLEEP: std::time::Duration = std::time::Duration::from_millis(50);
 /// `--address`).
 #[derive(Debug, Args)]
 pub struct ServeArgs {
-    /// The module to simulate.
-    #[arg(long, value_name = "MODEL", default_value = "pd28-1021")]
-    pub module: String,
+    /// The module to simulate, as MODEL or MODEL@ADDRESS. Give it several times to put several
+    /// independent modules on one line (an RS485 bus), e.g. `--module pd28-1021@1 --module pd28-1021@2`.
+    #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
+    pub module: Vec<String>,
     /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
     #[arg(long, value_name = "LINK", conflicts_with = "tcp")]
     pub pty: Option<PathBuf>,
     /// Keep the module's EEPROM in FILE (crash-safe; FILE.journal sits beside it). Without it the EEPROM
-    /// lives in memory and is lost when the server stops.
-    #[arg(long, value_name = "FILE")]
+    /// lives in memory and is lost when the server stops. One module only: for a bus use --eeprom-dir.
+    #[arg(long, value_name = "FILE", conflicts_with = "eeprom_dir")]
     pub eeprom: Option<PathBuf>,
+    /// Keep each module's EEPROM in DIR, as MODEL@ADDRESS.eeprom (the address it was started with).
+    #[arg(long, value_name = "DIR")]
+    pub eeprom_dir: Option<PathBuf>,
+    /// Send and receive every byte at the byte time of each module's baud rate (GP 65), as on the real
+    /// wire; without it the line is as fast as the pty.
+    #[arg(long)]
+    pub wire_timing: bool,
     /// Put the motor into the world described by FILE (docs/world.md); default: a free axis.
     #[arg(long, value_name = "FILE")]
     pub world: Option<PathBuf>,
@@ -63,34 +72,77 @@ pub fn run(conn: &Connection, args: ServeArgs) -> ExitCode {
     }
 }
 
-fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
-    let spec: &'static ModelSpec = model::by_id(&args.module).ok_or_else(|| {
+/// One `--module MODEL[@ADDR]`.
+fn parse_module(text: &str) -> Result<(&'static ModelSpec, Option<u8>), String> {
+    let (id, address) = match text.split_once('@') {
+        Some((id, a)) => (
+            id,
+            Some(
+                a.parse::<u8>()
+                    .ok()
+                    .filter(|a| *a >= 1)
+                    .ok_or_else(|| format!("`{a}` in `{text}` is no address (1-255)"))?,
+            ),
+        ),
+        None => (text, None),
+    };
+    let spec = model::by_id(id).ok_or_else(|| {
         let known: Vec<&str> = model::MODELS.iter().map(|m| m.id).collect();
-        format!("unknown module `{}`; known: {}", args.module, known.join(", "))
+        format!("unknown module `{id}`; known: {}", known.join(", "))
     })?;
+    Ok((spec, address))
+}
+
+fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
+    let mut wanted = Vec::new();
+    for text in &args.module {
+        wanted.push(parse_module(text)?);
+    }
+    if wanted.len() > 1 && (args.eeprom.is_some() || conn.address.is_some()) {
+        return Err("with several modules give each its address as MODEL@ADDR and use --eeprom-dir".into());
+    }
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop)).map_err(|e| format!("cannot handle signals: {e}"))?;
     }
-    let capacity = persist::capacity(spec);
-    let eeprom = match &args.eeprom {
-        Some(path) => Eeprom::File(FileNvm::open(path, capacity).map_err(|e| e.to_string())?),
-        None => Eeprom::Memory(MemNvm::new(capacity)),
-    };
     let start = std::time::Instant::now();
     let clock = move || Instant::from_micros(start.elapsed().as_micros() as u64);
     let world = match &args.world {
         Some(path) => tmcl_sim::World::load(path).map_err(|e| e.to_string())?,
         None => tmcl_sim::World::default(),
     };
-    let board = SimBoard::new(eeprom).with_world(world).map_err(|e| e.to_string())?.with_clock(clock);
-    let mut module = Module::new(board, spec, clock());
-    if let Some(address) = conn.address {
-        // --address: the module answers at N (GP 66, stored like any SGP 66).
-        module
-            .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
-            .map_err(|s| format!("--address {address}: {s}"))?;
+    if let Some(dir) = &args.eeprom_dir {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
+    let mut nodes = Vec::new();
+    for (n, (spec, address)) in wanted.into_iter().enumerate() {
+        let address = address.or(conn.address);
+        let name = format!("{}@{}", spec.id, address.unwrap_or(1));
+        let capacity = persist::capacity(spec);
+        let path = match (&args.eeprom, &args.eeprom_dir) {
+            (Some(file), _) => Some(file.clone()),
+            (None, Some(dir)) => Some(dir.join(format!("{name}.eeprom"))),
+            (None, None) => None,
+        };
+        let eeprom = match path {
+            Some(path) => Eeprom::File(FileNvm::open(&path, capacity).map_err(|e| e.to_string())?),
+            None => Eeprom::Memory(MemNvm::new(capacity)),
+        };
+        let board = SimBoard::new(eeprom).with_world(world.clone()).map_err(|e| e.to_string())?.with_clock(clock);
+        let mut module = Module::new(board, spec, clock());
+        // A module's address: --address, or MODEL@ADDR, or (on a bus without either) its position.
+        let address = address.or((n > 0).then_some(n as u8 + 1));
+        if let Some(address) = address {
+            // The module answers at N (GP 66, stored like any SGP 66).
+            if module.address() != address {
+                module
+                    .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
+                    .map_err(|s| format!("address {address}: {s}"))?;
+            }
+        }
+        nodes.push(Node::new(module, name));
+    }
+    let mut bus = Bus::new(nodes, args.wire_timing);
     let mut link = match (&args.pty, &conn.tcp) {
         (Some(path), None) => {
             Link::Pty(Pty::open(path).map_err(|e| format!("cannot open a pty at {}: {e}", path.display()))?)
@@ -107,7 +159,9 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
         Link::Pty(pty) => pty.link.display().to_string(),
         Link::Tcp { listener, .. } => listener.local_addr().map(|a| a.to_string()).unwrap_or_default(),
     };
-    println!("serving {} at address {} on {place}", spec.name, module.address());
+    let modules: Vec<String> =
+        bus.nodes.iter().map(|n| format!("{} at address {}", n.module.spec().name, n.module.address())).collect();
+    println!("serving {} on {place}", modules.join(", "));
     let _ = io::stdout().flush();
     if args.verbose {
         if let Link::Pty(pty) = &link {
@@ -120,7 +174,7 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
         let now = clock();
         let deadline = {
             let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
-            module.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
+            bus.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
         };
         let sleep = deadline
             .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
@@ -142,7 +196,7 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
                         }
                         *peer = Some(stream);
                         // A partial frame of the previous connection must not join this one's.
-                        module.reset_link();
+                        bus.reset_link();
                     }
                     0
                 }
@@ -152,7 +206,7 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
                             eprintln!("[{}] connection closed", clock());
                         }
                         *peer = None;
-                        module.reset_link();
+                        bus.reset_link();
                         0
                     }
                     Ok(n) => n,
@@ -166,10 +220,12 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
                 log_request(now, &buf[..received]);
             }
             let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
-            module.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
+            bus.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
         }
     }
-    module.board_mut().eeprom().sync().map_err(|e| format!("EEPROM not flushed: {e}"))?;
+    for node in &mut bus.nodes {
+        node.module.board_mut().eeprom().sync().map_err(|e| format!("{}: EEPROM not flushed: {e}", node.name))?;
+    }
     if args.verbose {
         eprintln!("[{}] stopped", clock());
     }

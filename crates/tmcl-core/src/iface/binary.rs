@@ -77,7 +77,7 @@ pub const OUTBOX_MESSAGES: usize = 16;
 pub struct Outbox {
     bytes: [u8; OUTBOX_BYTES],
     start: usize,
-    len: usize,
+    used: usize,
     marks: [(u16, Instant); OUTBOX_MESSAGES],
     first: usize,
     count: usize,
@@ -95,7 +95,7 @@ impl Outbox {
         Outbox {
             bytes: [0; OUTBOX_BYTES],
             start: 0,
-            len: 0,
+            used: 0,
             marks: [(0, Instant::ZERO); OUTBOX_MESSAGES],
             first: 0,
             count: 0,
@@ -115,12 +115,12 @@ impl Outbox {
         let due = last.map_or(due, |l| due.max(self.marks[l].1));
         let joins = last
             .is_some_and(|l| self.marks[l].1 == due && usize::from(self.marks[l].0) + message.len() <= OUTBOX_BYTES);
-        while self.len + message.len() > OUTBOX_BYTES || (!joins && self.count == OUTBOX_MESSAGES) {
+        while self.used + message.len() > OUTBOX_BYTES || (!joins && self.count == OUTBOX_MESSAGES) {
             self.drop_first();
         }
         for &b in message {
-            self.bytes[(self.start + self.len) % OUTBOX_BYTES] = b;
-            self.len += 1;
+            self.bytes[(self.start + self.used) % OUTBOX_BYTES] = b;
+            self.used += 1;
         }
         match last {
             Some(l) if joins && self.count > 0 && (self.first + self.count - 1) % OUTBOX_MESSAGES == l => {
@@ -136,7 +136,7 @@ impl Outbox {
     fn drop_first(&mut self) {
         let n = usize::from(self.marks[self.first].0);
         self.start = (self.start + n) % OUTBOX_BYTES;
-        self.len -= n;
+        self.used -= n;
         self.first = (self.first + 1) % OUTBOX_MESSAGES;
         self.count -= 1;
     }

@@ -1,0 +1,210 @@
+//! An RS485 line with one or more virtual modules on it (PD28-1021 manual §3.1, §5.1 GP 65–87).
+//!
+//! Every module hears every byte the host sends and answers only its own address (GP 66) or secondary
+//! address (GP 87), after its telegram pause (GP 75). Their replies share the one line back to the host.
+//!
+//! **Wire timing** (`--wire-timing`): each byte takes 10 bit times (8N1) at the module's baud rate (GP 65
+//! as it was at the module's last start, manual §5.1). A module receives the host's bytes one byte time
+//! apart, so a 9-byte request completes 9 byte times after it was written; a reply occupies the line for
+//! 9 byte times, and a reply that is ready while the line is busy waits for it. Without wire timing the
+//! line is as fast as the pty.
+//!
+//! **Decisions.** Two modules answering at once (a shared secondary address) would garble each other on
+//! a real bus; here the line sends the replies one after the other, whole, in the order they became due.
+//! A module in ASCII mode on the line reads binary frames for others as text lines, which it ignores
+//! unless a line starts with its address character; its text replies travel on the same line (a host
+//! mixing modes must expect them), see docs/decisions.md.
+
+use std::collections::VecDeque;
+use tmcl_core::{Duration, Instant, Module};
+use tmcl_sim::SimBoard;
+
+/// GP 65 values → baud (manual §5.1 Table 17).
+pub const BAUD_RATES: [u32; 9] = [9600, 14400, 19200, 28800, 38400, 57600, 76800, 115200, 230400];
+
+/// One module on the line.
+pub struct Node {
+    /// The module.
+    pub module: Module<SimBoard>,
+    /// A name for logs (model@address as started).
+    pub name: String,
+    /// Bytes on their way to this module (due time, byte), with wire timing.
+    inbound: VecDeque<(Instant, u8)>,
+}
+
+impl Node {
+    /// A module on the line.
+    pub fn new(module: Module<SimBoard>, name: String) -> Node {
+        Node { module, name, inbound: VecDeque::new() }
+    }
+
+    /// Time of one byte (10 bits) at the module's baud rate.
+    pub fn byte_time(&self) -> Duration {
+        let baud = BAUD_RATES.get(usize::from(self.module.active_baud())).copied().unwrap_or(9600);
+        Duration::from_micros(10_000_000 / u64::from(baud))
+    }
+}
+
+/// The line and the modules on it.
+pub struct Bus {
+    /// The modules, in command-line order.
+    pub nodes: Vec<Node>,
+    wire_timing: bool,
+    /// Bytes waiting to go to the host (with wire timing): (byte, its byte time).
+    outbound: VecDeque<(u8, Duration)>,
+    /// When the line back to the host is free again.
+    line_free: Instant,
+}
+
+impl Bus {
+    /// A line with these modules.
+    pub fn new(nodes: Vec<Node>, wire_timing: bool) -> Bus {
+        Bus { nodes, wire_timing, outbound: VecDeque::new(), line_free: Instant::ZERO }
+    }
+
+    /// Bytes from the host, written at `now`.
+    pub fn receive(&mut self, now: Instant, bytes: &[u8], sink: &mut dyn FnMut(&[u8])) {
+        for i in 0..self.nodes.len() {
+            if self.wire_timing {
+                let node = &mut self.nodes[i];
+                let byte = node.byte_time();
+                let start = node.inbound.back().map_or(now, |(t, _)| (*t).max(now));
+                for (k, &b) in bytes.iter().enumerate() {
+                    node.inbound.push_back((start + Duration::from_micros(byte.micros() * (k as u64 + 1)), b));
+                }
+            } else {
+                let mut out = Vec::new();
+                self.nodes[i].module.receive(now, bytes, &mut |b: &[u8]| out.extend_from_slice(b));
+                self.emit(i, now, &out, sink);
+            }
+        }
+        self.poll(now, sink);
+    }
+
+    /// Drops partial frames everywhere (a host connection ended or began).
+    pub fn reset_link(&mut self) {
+        for node in &mut self.nodes {
+            node.module.reset_link();
+            node.inbound.clear();
+        }
+    }
+
+    /// Advances every module and the line to `now`; returns the next deadline.
+    pub fn poll(&mut self, now: Instant, sink: &mut dyn FnMut(&[u8])) -> Option<Instant> {
+        let mut next: Option<Instant> = None;
+        let mut consider = |t: Option<Instant>| {
+            if let Some(t) = t {
+                next = Some(next.map_or(t, |n: Instant| n.min(t)));
+            }
+        };
+        for i in 0..self.nodes.len() {
+            // Deliver the bytes due, each at its own time.
+            while let Some(&(t, b)) = self.nodes[i].inbound.front() {
+                if t > now {
+                    break;
+                }
+                self.nodes[i].inbound.pop_front();
+                let mut out = Vec::new();
+                self.nodes[i].module.receive(t, &[b], &mut |x: &[u8]| out.extend_from_slice(x));
+                self.emit(i, t, &out, sink);
+            }
+            let mut out = Vec::new();
+            let deadline = self.nodes[i].module.poll(now, &mut |x: &[u8]| out.extend_from_slice(x));
+            self.emit(i, now, &out, sink);
+            consider(deadline);
+            consider(self.nodes[i].inbound.front().map(|(t, _)| *t));
+        }
+        consider(self.drain(now, sink));
+        next
+    }
+
+    /// What module `i` sent at `at`: straight to the host, or onto the timed line.
+    fn emit(&mut self, i: usize, at: Instant, bytes: &[u8], sink: &mut dyn FnMut(&[u8])) {
+        if bytes.is_empty() {
+            return;
+        }
+        if !self.wire_timing {
+            sink(bytes);
+            return;
+        }
+        let byte = self.nodes[i].byte_time();
+        if self.outbound.is_empty() {
+            self.line_free = self.line_free.max(at);
+        }
+        self.outbound.extend(bytes.iter().map(|&b| (b, byte)));
+    }
+
+    /// Sends the bytes whose transmission has ended by `now`; returns when the next one will have.
+    fn drain(&mut self, now: Instant, sink: &mut dyn FnMut(&[u8])) -> Option<Instant> {
+        let mut ready = Vec::new();
+        while let Some(&(b, time)) = self.outbound.front() {
+            let done = self.line_free + time;
+            if done > now {
+                break;
+            }
+            self.line_free = done;
+            self.outbound.pop_front();
+            ready.push(b);
+        }
+        if !ready.is_empty() {
+            sink(&ready);
+        }
+        self.outbound.front().map(|(_, time)| self.line_free + *time)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tmcl_core::model::pd28_1021::SPEC;
+    use tmcl_core::param::persist;
+    use tmcl_wire::{Command, Instruction, Opcode, Reply, ReplyFrame, Request};
+
+    fn bus(addresses: &[u8], wire: bool) -> Bus {
+        let nodes = addresses
+            .iter()
+            .map(|&a| {
+                let mut m = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+                m.execute(Command::Sgp { param: 66, bank: 0, value: i32::from(a) }, Instant::ZERO).unwrap();
+                Node::new(m, format!("pd28-1021@{a}"))
+            })
+            .collect();
+        Bus::new(nodes, wire)
+    }
+
+    fn gap(address: u8) -> [u8; 9] {
+        Request { address, instruction: Instruction::new(Opcode::Gap, 4, 0, 0) }.to_bytes()
+    }
+
+    #[test]
+    fn each_module_answers_its_address() {
+        let mut b = bus(&[1, 2, 3], false);
+        for a in 1..=3 {
+            let mut out = Vec::new();
+            b.receive(Instant::ZERO, &gap(a), &mut |x: &[u8]| out.extend_from_slice(x));
+            let r = Reply::parse(&ReplyFrame::new_checked(&out[..]).unwrap()).unwrap();
+            assert_eq!((out.len(), r.module), (9, a));
+        }
+        let mut out = Vec::new();
+        b.receive(Instant::ZERO, &gap(4), &mut |x: &[u8]| out.extend_from_slice(x));
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn wire_timing_at_9600_baud() {
+        let mut b = bus(&[1, 2], true);
+        let mut out = Vec::new();
+        let t0 = Instant::from_secs(1);
+        b.receive(t0, &gap(2), &mut |x: &[u8]| out.extend_from_slice(x));
+        assert!(out.is_empty());
+        // 9 bytes in (9 × 1.041 ms), then 9 bytes out.
+        let (mut t, mut done) = (t0, t0);
+        while out.len() < 9 {
+            done = t;
+            t = b.poll(t, &mut |x: &[u8]| out.extend_from_slice(x)).expect("something pending");
+        }
+        let elapsed = (done - t0).micros();
+        assert!((18 * 1041..=18 * 1041 + 20).contains(&elapsed), "{elapsed} µs");
+        assert_eq!(out[1], 2);
+    }
+}
