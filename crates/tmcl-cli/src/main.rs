@@ -1,6 +1,7 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
 mod asm;
+mod bus;
 mod host;
 mod program;
 mod pty;
