@@ -17,8 +17,8 @@
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 
-mod exec;
 pub mod drive;
+mod exec;
 pub mod hal;
 pub mod iface;
 pub mod model;

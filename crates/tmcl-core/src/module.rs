@@ -207,7 +207,14 @@ impl<B: Board> Module<B> {
     /// Powers the module up at `now`: loads the configuration from the board's EEPROM, formatting it with
     /// factory defaults if it holds no valid image for this model.
     pub fn new(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
-        let mut module = Module { board, spec, st: State::new(now), vm: Vm::default(), program: Program::default(), ascii: AsciiLine::default() };
+        let mut module = Module {
+            board,
+            spec,
+            st: State::new(now),
+            vm: Vm::default(),
+            program: Program::default(),
+            ascii: AsciiLine::default(),
+        };
         module.start(now);
         module
     }
