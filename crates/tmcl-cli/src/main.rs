@@ -2,10 +2,13 @@
 
 mod asm;
 mod bus;
+mod debug;
 mod host;
 mod program;
 mod pty;
+mod run;
 mod serve;
+mod sim;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -28,6 +31,12 @@ enum Command {
     Asm(asm::AsmArgs),
     /// Disassemble a .bin image into TMCL source.
     Disasm(asm::DisasmArgs),
+    /// Run a program on a simulated module in simulated time: trace (CSV), plot (SVG), summary.
+    #[command(after_help = run::TRACE_HELP)]
+    Run(run::RunArgs),
+    /// Debug a program on a simulated module: breakpoints, stepping, registers (commands from stdin).
+    #[command(after_help = debug::COMMANDS_HELP)]
+    Debug(debug::DebugArgs),
     #[command(flatten)]
     Host(host::HostCommand),
     #[command(flatten)]
@@ -40,6 +49,8 @@ fn main() -> ExitCode {
         Command::Serve(args) => serve::run(&cli.connection, args),
         Command::Asm(args) => asm::run_asm(args),
         Command::Disasm(args) => asm::run_disasm(args),
+        Command::Run(args) => run::run(&cli.connection, args),
+        Command::Debug(args) => debug::run(args),
         Command::Host(command) => host::run(&cli.connection, command),
         Command::Program(command) => program::run(&cli.connection, command),
     }

@@ -1,0 +1,383 @@
+//! `tmcl run`: assemble a program, load it into a simulated module and run it in simulated time.
+//!
+//! The module never reads a clock (STYLE.md §3.4): [`Module::poll`] is told the time and answers with its
+//! next deadline, so the run jumps from deadline to deadline and finishes far faster than real time, with
+//! the same result every time.
+//!
+//! With a trace or a plot, the run polls at every deadline (each motion tick while the motor moves, each
+//! instruction while the program computes, the next timer or wait otherwise) and at every sample time,
+//! so every event is seen at the instruction that causes it. When no instruction can run before the next
+//! sample (the program is stopped or in a WAIT TICKS, and no interrupt can be entered), it skips the
+//! motion ticks in between. It records a row at each sample and at each event:
+//! - **interrupt N**: the program enters the handler of interrupt N. Every address a VECT names gets a
+//!   breakpoint, so the run stops exactly there, notes the event and goes on at once;
+//! - **stop** / **end**: the program stopped at a STOP, or at a cell it cannot execute;
+//! - **outN=V**: output N changed;
+//! - **target=N**: a new target position (MVP, SAP 0): the row still shows where the motor stands,
+//!   so a program that waits for each position shows each arrival.
+//!
+//! Without a trace or a plot, it polls every 100 ms of simulated time (the core catches up on
+//! everything in between).
+
+use crate::host::{CliError, Connection};
+use crate::sim::plot;
+use crate::sim::trace::Trace;
+use crate::sim::{SimOptions, Source};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::collections::BTreeSet;
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant as WallInstant;
+use tmcl_core::model::GLOBAL_INTERRUPTS;
+use tmcl_core::motion::{Mode, TICK};
+use tmcl_core::vm::{RunState, MAX_VECTORS};
+use tmcl_core::{Duration, Instant, Module};
+use tmcl_sim::SimBoard;
+use tmcl_wire::{Command, WaitCondition};
+
+/// The trace columns, for `tmcl run --help`.
+pub const TRACE_HELP: &str = "\
+Trace columns (--trace OUT.csv), one row every --every ms and one at each event:
+  time_s            simulated time in seconds (6 decimals)
+  target_position   AP 0, microsteps
+  actual_position   AP 1, microsteps
+  velocity          AP 3, actual speed in pps (signed)
+  accumulator, x    the program's accumulator and X register
+  pc                program counter (next instruction)
+  outputs           digital outputs as a number, bit n = OUTn
+  varN              user variable N (bank 2), for each variable the program or --set names
+  event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
+                    execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
+                    MVP; the row shows where the motor was then); several are joined with `;`
+
+The plot (--plot OUT.svg) shows target and actual position, velocity, and the events over time.
+The run is deterministic: the same program and options give byte-identical traces.";
+
+/// Without a trace, how far one poll may jump at most (for the progress bar).
+const COARSE_STEP: Duration = Duration::from_millis(100);
+
+/// Options of `tmcl run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The program: TMCL source (.tmc) or an image (.bin).
+    pub file: PathBuf,
+    #[command(flatten)]
+    pub sim: SimOptions,
+    /// How long to run, in simulated seconds (fractions allowed, down to µs).
+    #[arg(long = "for", value_name = "SECONDS", value_parser = parse_seconds)]
+    pub duration: Duration,
+    /// Write the trace to this CSV file (columns below).
+    #[arg(long, value_name = "OUT.csv")]
+    pub trace: Option<PathBuf>,
+    /// Draw position, velocity and events over time into this SVG file.
+    #[arg(long, value_name = "OUT.svg")]
+    pub plot: Option<PathBuf>,
+    /// Sample the trace every MS milliseconds of simulated time.
+    #[arg(long, value_name = "MS", default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..))]
+    pub every: u64,
+}
+
+/// Seconds as text to a [`Duration`], exactly (no floating point): `3600`, `0.5`, `1.000001`.
+pub(crate) fn parse_seconds(s: &str) -> Result<Duration, String> {
+    let bad = || format!("`{s}` is not a number of seconds (e.g. 60 or 0.5)");
+    let (whole, fraction) = s.trim().split_once('.').unwrap_or((s.trim(), ""));
+    if fraction.len() > 6 || !fraction.chars().all(|c| c.is_ascii_digit()) || (whole.is_empty() && fraction.is_empty())
+    {
+        return Err(bad());
+    }
+    let whole: u64 = if whole.is_empty() { 0 } else { whole.parse().map_err(|_| bad())? };
+    let fraction: u64 = format!("{fraction:0<6}").parse().map_err(|_| bad())?;
+    whole
+        .checked_mul(1_000_000)
+        .and_then(|w| w.checked_add(fraction))
+        .filter(|m| *m <= 1_000_000 * 1_000_000_000)
+        .map(Duration::from_micros)
+        .ok_or_else(bad)
+}
+
+/// Runs `tmcl run`.
+pub fn run(conn: &Connection, args: RunArgs) -> ExitCode {
+    match execute(conn, &args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("tmcl run: {err}");
+            ExitCode::from(err.exit_code())
+        }
+    }
+}
+
+/// What a run did, for the summary line.
+struct Summary {
+    simulated: Duration,
+    wall: std::time::Duration,
+    executed: u64,
+    pc: u16,
+    state: RunState,
+    rows: u64,
+}
+
+fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
+    let source = Source::load(&args.file)?;
+    let mut module = args.sim.build(&source)?;
+    let bar = progress_bar(args.duration);
+    let started = WallInstant::now();
+    module
+        .execute(Command::RunApplication { from: Some(0) }, Instant::ZERO)
+        .map_err(|status| CliError::Usage(format!("the module refused to start the program: status {status}")))?;
+    let rows = if args.trace.is_none() && args.plot.is_none() {
+        run_coarse(&mut module, args.duration, &bar);
+        0
+    } else {
+        let csv = match &args.trace {
+            Some(path) => Some(BufWriter::new(
+                File::create(path).map_err(|e| CliError::Usage(format!("cannot create {}: {e}", path.display())))?,
+            )),
+            None => None,
+        };
+        let mut variables: BTreeSet<u8> = source.user_variables();
+        variables.extend(args.sim.set.iter().filter_map(|s| match *s {
+            crate::sim::Setting::Global { number, bank: crate::sim::USER_BANK, .. } => Some(number),
+            _ => None,
+        }));
+        let mut trace = Trace::new(csv, args.plot.is_some(), variables.into_iter().collect())?;
+        let run = Traced { every: Duration::from_millis(args.every), end: Instant::ZERO + args.duration };
+        run.run(&mut module, &source, &mut trace, &bar)?;
+        trace.finish()?;
+        if let Some(path) = &args.plot {
+            let title = format!("{} on a simulated {}", args.file.display(), module.spec().name);
+            plot::draw(path, &title, &trace.samples, &trace.events)
+                .map_err(|e| CliError::Usage(format!("cannot draw {}: {e}", path.display())))?;
+        }
+        trace.rows
+    };
+    bar.finish_and_clear();
+    let summary = Summary {
+        simulated: args.duration,
+        wall: started.elapsed(),
+        executed: module.vm().executed(),
+        pc: module.vm().pc,
+        state: module.vm().state,
+        rows,
+    };
+    println!("{}", summary.line(conn.json));
+    Ok(())
+}
+
+impl Summary {
+    fn line(&self, json: bool) -> String {
+        let simulated = self.simulated.micros() as f64 / 1e6;
+        let wall = self.wall.as_secs_f64();
+        let ratio = simulated / wall.max(1e-9);
+        let state = state_name(self.state);
+        if json {
+            format!(
+                "{{\"simulated_s\":{simulated},\"wall_s\":{wall:.6},\"ratio\":{ratio:.0},\"executed\":{},\"pc\":{},\
+                 \"state\":\"{state}\",\"rows\":{}}}",
+                self.executed, self.pc, self.rows
+            )
+        } else {
+            format!(
+                "simulated {simulated} s in {wall:.3} s wall ({ratio:.0}x real time), {} instructions executed, \
+                 pc {}, program {state}",
+                self.executed, self.pc
+            )
+        }
+    }
+}
+
+/// The program's run state in words.
+pub(crate) fn state_name(state: RunState) -> &'static str {
+    match state {
+        RunState::Stopped => "stopped",
+        RunState::Running => "running",
+        RunState::Stepped => "stepped",
+        RunState::Reset => "reset",
+    }
+}
+
+/// A progress bar on stderr if it is a terminal, hidden otherwise (tests, pipes).
+fn progress_bar(duration: Duration) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(duration.millis()), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("run [{bar:30}] {msg} simulated, {elapsed} wall")
+            .unwrap_or(ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+fn show_progress(bar: &ProgressBar, now: Instant) {
+    bar.set_position(now.millis());
+    bar.set_message(format!("{} s", now.millis() / 1000));
+}
+
+/// Runs without recording: as few polls as the module needs, at most [`COARSE_STEP`] apart.
+fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, bar: &ProgressBar) {
+    let end = Instant::ZERO + duration;
+    let mut t = Instant::ZERO;
+    loop {
+        module.poll(t, &mut |_: &[u8]| {});
+        if t.millis() % 1000 < COARSE_STEP.millis() {
+            show_progress(bar, t);
+        }
+        if t >= end {
+            break;
+        }
+        // The module catches up on every tick and instruction up to `t` by itself.
+        t = (t + COARSE_STEP).min(end);
+    }
+}
+
+/// Whether the program can execute no instruction before `until`, so that the module may be polled
+/// straight at `until` without missing or delaying an event: no interrupt can be entered (interrupts
+/// off, or none enabled with a vector), and the program is stopped or in a WAIT TICKS that lasts.
+fn quiet_until(module: &Module<SimBoard>, until: Instant) -> bool {
+    let vm = module.vm();
+    if vm.interrupt_enabled(GLOBAL_INTERRUPTS)
+        && (0..MAX_VECTORS as u8).any(|n| vm.interrupt_enabled(n) && vm.vector(n).is_some())
+    {
+        return false;
+    }
+    match vm.wait {
+        _ if vm.state != RunState::Running => true,
+        Some(w) if w.condition == WaitCondition::Ticks => w.until.is_some_and(|u| u >= until),
+        _ => false,
+    }
+}
+
+/// The first motion tick after `t` (ticks are [`TICK`] apart from time 0).
+fn next_tick(t: Instant) -> Instant {
+    Instant::from_micros((t.micros() / TICK.micros() + 1) * TICK.micros())
+}
+
+/// A recorded run.
+struct Traced {
+    every: Duration,
+    end: Instant,
+}
+
+/// What the last poll left behind, to see what changed.
+#[derive(Clone, Copy)]
+struct Watch {
+    outputs: u8,
+    running: bool,
+    target: i32,
+}
+
+impl Watch {
+    fn of(module: &Module<SimBoard>) -> Watch {
+        Watch {
+            outputs: module.board().outputs(),
+            running: module.vm().is_running(),
+            target: module.ramp().target_position,
+        }
+    }
+}
+
+impl Traced {
+    fn run(
+        &self,
+        module: &mut Module<SimBoard>,
+        source: &Source,
+        trace: &mut Trace<BufWriter<File>>,
+        bar: &ProgressBar,
+    ) -> Result<(), CliError> {
+        let handlers = source.handler_addresses();
+        for &address in &handlers {
+            module.vm_mut().set_breakpoint(address, true);
+        }
+        let mut watch = Watch::of(module);
+        let mut events: Vec<String> = Vec::new();
+        let mut t = Instant::ZERO;
+        let mut next_sample = Instant::ZERO;
+        let mut stuck = 0u32;
+        let mut last_executed = module.vm().executed();
+        loop {
+            let deadline = module.poll(t, &mut |_: &[u8]| {});
+            events.clear();
+            if module.vm().at_breakpoint() && module.vm().state == RunState::Stopped {
+                // A handler's first instruction: name the interrupt(s) whose vector points here, go on.
+                let pc = module.vm().pc;
+                if module.vm().in_handler() {
+                    let vm = module.vm();
+                    events.extend(
+                        (0..MAX_VECTORS as u8).filter(|&n| vm.vector(n) == Some(pc)).map(|n| format!("interrupt {n}")),
+                    );
+                }
+                module
+                    .execute(Command::RunApplication { from: None }, t)
+                    .map_err(|status| CliError::Usage(format!("cannot resume the program: status {status}")))?;
+                watch.running = true;
+                if !events.is_empty() {
+                    trace.record(module, t, &events)?;
+                }
+                continue; // the program goes on at the same time
+            }
+            self.changes(module, &mut watch, &mut events);
+            let sample = t == next_sample;
+            if sample || !events.is_empty() {
+                trace.record(module, t, &events)?;
+            }
+            if sample {
+                next_sample += self.every;
+                if next_sample.millis() % 1000 < self.every.millis() {
+                    show_progress(bar, t);
+                }
+            }
+            if t >= self.end {
+                return Ok(());
+            }
+            let mut next = deadline.unwrap_or(self.end).max(t).min(next_sample).min(self.end);
+            if next < next_sample && quiet_until(module, next_sample) {
+                next = next_sample.min(self.end); // nothing can happen but motion: skip its ticks
+            }
+            // A deadline that is already due and brings nothing new (a timer that falls between motion
+            // ticks is only sampled at the next tick): go on at the next tick.
+            let executed = module.vm().executed();
+            stuck = if next == t && executed == last_executed { stuck + 1 } else { 0 };
+            last_executed = executed;
+            t = if stuck > 1 { next_tick(t).min(next_sample).min(self.end) } else { next };
+        }
+    }
+
+    /// Events since the last poll: a new target position, output changes, the end of the program.
+    fn changes(&self, module: &Module<SimBoard>, watch: &mut Watch, events: &mut Vec<String>) {
+        let now = Watch::of(module);
+        if now.target != watch.target && module.ramp().mode == Mode::Position {
+            events.push(format!("target={}", now.target));
+        }
+        let changed = now.outputs ^ watch.outputs;
+        for n in 0..8 {
+            if changed >> n & 1 == 1 {
+                events.push(format!("out{n}={}", now.outputs >> n & 1));
+            }
+        }
+        if watch.running && !now.running {
+            let vm = module.vm();
+            let at_stop = module.program().get(usize::from(vm.pc)).is_some_and(|i| i.opcode == tmcl_wire::Opcode::Stop);
+            events.push(if at_stop { "stop" } else { "end" }.to_string());
+        }
+        *watch = now;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seconds_parse_exactly() {
+        assert_eq!(parse_seconds("3600"), Ok(Duration::from_secs(3600)));
+        assert_eq!(parse_seconds("0.5"), Ok(Duration::from_millis(500)));
+        assert_eq!(parse_seconds(".25"), Ok(Duration::from_millis(250)));
+        assert_eq!(parse_seconds("1.000001"), Ok(Duration::from_micros(1_000_001)));
+        for bad in ["", ".", "-1", "1e3", "1.0000001", "x", "99999999999999999999"] {
+            assert!(parse_seconds(bad).is_err(), "{bad}");
+        }
+    }
+}
