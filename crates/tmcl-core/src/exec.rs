@@ -481,7 +481,7 @@ impl<B: Board> Module<B> {
             Role::HomeSwitch => i32::from(self.switches().2),
             Role::RightSwitch => i32::from(self.switches().1),
             Role::LeftSwitch => i32::from(self.switches().0),
-            // AP 180: the current scale 0..31 in use (current / 8, Table 22).
+            // AP 180: the current scale 0..31 in use (current / 8, Table 22), after coolStep.
             Role::ActualCurrent => i32::from(self.current(self.st.now).0 >> 3),
             Role::LoadValue => i32::from(self.board.feedback().load.min(1023)),
             // AP 207: "cleared automatically when read".
@@ -511,13 +511,17 @@ impl<B: Board> Module<B> {
             Role::RampMode => {
                 self.st.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
             }
-            Role::EncoderPosition => self.set_encoder(v, self.st.axis[i_prescaler(self)]),
+            Role::EncoderPosition => self.set_encoder(v),
             Role::EncoderPrescaler => {
                 let now_value = self.encoder_position();
                 self.st.axis[i] = v;
-                self.set_encoder(now_value, v);
+                self.set_encoder(now_value);
             }
             _ => self.st.axis[i] = v,
+        }
+        // The driver's own settings (stallGuard2 filter and threshold, current range).
+        if matches!(number, 173 | 174 | 179) {
+            self.configure_driver();
         }
         Ok(())
     }
@@ -642,33 +646,20 @@ impl<B: Board> Module<B> {
         Ok(())
     }
 
-    /// The prescaler without its function bits: p = prescaler × 512, bit 2 (value 4) = clear on null
-    /// (§6.2; inventory AMB-34: only bit 2 is a function bit, so Table 20's p = 200 keeps its value).
-    fn prescaler_value(p: i32) -> i64 {
-        i64::from(p & !4)
-    }
-
-    fn encoder_counts(&mut self) -> i64 {
-        let physical = self.board.feedback().encoder_counts;
-        self.logical_counts(physical)
-    }
-
     /// AP 209 = value at the reference + counts since × p / 512 (§6.2).
     fn encoder_position(&mut self) -> i32 {
-        let counts = self.encoder_counts();
-        let p = Self::prescaler_value(self.axis_value(210));
-        let delta = i128::from(counts - self.st.encoder.counts) * i128::from(p) / 512;
-        (i128::from(self.st.encoder.value) + delta) as i32
+        let counts = self.encoder_counts_now();
+        self.encoder_value(counts)
     }
 
-    fn set_encoder(&mut self, v: i32, _prescaler: i32) {
-        let counts = self.encoder_counts();
+    fn set_encoder(&mut self, v: i32) {
+        let counts = self.encoder_counts_now();
         self.st.encoder = crate::module::EncoderBase { counts, value: v };
     }
 
     /// AP 215: the absolute single-turn value 0..1023, independent of the prescaler (§6.2).
     fn encoder_absolute(&mut self) -> i32 {
-        self.encoder_counts().rem_euclid(1024) as i32
+        self.encoder_counts_now().rem_euclid(1024) as i32
     }
 
     /// GIO 11, 0: the encoder is within ±4 counts (±1.4°) of its absolute zero (our tolerance; §6.2 gives
@@ -707,8 +698,4 @@ impl<B: Board> Module<B> {
             RfsAction::Status => Ok(self.st.reference.status()),
         }
     }
-}
-
-fn i_prescaler<B: Board>(m: &Module<B>) -> usize {
-    m.spec.axis.find(210).map(|(i, _)| i).unwrap_or(0)
 }

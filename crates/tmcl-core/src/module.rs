@@ -5,6 +5,7 @@
 //! [`Sink`], and `poll` returns the next instant at which the module needs to run again (the deadline), so
 //! a caller can sleep until then or, in simulation, jump straight to it. The module never reads a clock.
 
+use crate::drive::coolstep::CoolStep;
 use crate::hal::{Board, DriveState};
 use crate::iface::ascii::AsciiLine;
 use crate::iface::{Framer, Outbox, Sink};
@@ -80,8 +81,10 @@ pub(crate) struct EventRequest {
 
 /// The encoder counter's reference point: AP 209 = `value` + (counts − `counts`) × prescaler.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub(crate) struct EncoderBase {
+pub struct EncoderBase {
+    /// Encoder counts (logical direction) at the reference.
     pub counts: i64,
+    /// AP 209 at the reference.
     pub value: i32,
 }
 
@@ -130,6 +133,12 @@ pub struct State {
     pub(crate) last_drive: Option<DriveState>,
     /// When the driver current next changes on its own (standby, freewheeling), if it will.
     pub(crate) drive_due: Option<Instant>,
+    /// The coolStep regulator (AP 168–183).
+    pub(crate) coolstep: CoolStep,
+    /// The board's stallGuard2 measurement count at the last look.
+    pub(crate) load_measurements: u32,
+    /// Encoder counts at the last look (clear-on-null).
+    pub(crate) last_counts: i64,
 }
 
 impl State {
@@ -162,6 +171,9 @@ impl State {
             unreported_steps: 0,
             last_drive: None,
             drive_due: None,
+            coolstep: CoolStep::new(),
+            load_measurements: 0,
+            last_counts: 0,
         }
     }
 }
@@ -308,6 +320,8 @@ impl<B: Board> Module<B> {
         }
         self.st.active_baud = self.global_value(65) as u8;
         self.st.encoder = EncoderBase { counts: self.logical_counts(counts), value: 0 };
+        self.st.last_counts = self.st.encoder.counts;
+        self.configure_driver();
         self.board.set_outputs(0);
         self.update_board(now);
         self.vm = Vm::default();
@@ -498,8 +512,8 @@ impl<B: Board> Module<B> {
         match self.st.standstill_since {
             None => {
                 let boost = self.axis_value(200);
-                let c = if self.st.ramping && boost != 0 { boost } else { self.axis_value(6) };
-                (c as u8, true)
+                let run = if self.st.ramping && boost != 0 { boost } else { self.axis_value(6) };
+                (self.regulated_current(run), true)
             }
             Some(since) => {
                 let still = now - since;
@@ -595,6 +609,7 @@ impl<B: Board> Module<B> {
                 _ => {}
             }
             self.update_board(t);
+            self.drive_tick();
             if self.st.reference.is_active() {
                 self.step_reference();
             }

@@ -144,6 +144,15 @@ impl CoolStep {
         scale
     }
 
+    /// The scale [`CoolStep::current`] would return, without resetting anything (for reads).
+    pub fn peek(&self, params: CoolStepParams) -> u8 {
+        match params.regime() {
+            Regime::Off => params.cs(),
+            Regime::SlowRun => params.slow_run_current >> 3,
+            Regime::Regulating => self.scale.unwrap_or(params.cs()).clamp(params.min_scale(), params.cs()),
+        }
+    }
+
     /// The current scale now, without a new reading (AP 180).
     pub fn current(&mut self, params: CoolStepParams) -> u8 {
         match params.regime() {

@@ -12,3 +12,4 @@
 pub mod coolstep;
 pub mod encoder;
 pub mod stall;
+mod wiring;

@@ -1,0 +1,105 @@
+//! How the module uses the drive models at every motion tick: coolStep, stop on stall, the encoder's
+//! deviation check and clear-on-null (PD28-1021 manual §6.2, §7.2, §7.3; AP 168–183, 206–215), and the
+//! driver settings the board needs (AP 173, 174, 179).
+
+use super::coolstep::{CoolStepParams, Regime};
+use super::{encoder, stall};
+use crate::hal::{Board, DriverSettings};
+use crate::module::{error_flags, flags, EncoderBase, Module};
+use crate::vm::vector;
+
+impl<B: Board> Module<B> {
+    /// Tells the board the stallGuard2 settings and the current range (start-up, and after a write to
+    /// AP 173, 174 or 179).
+    pub(crate) fn configure_driver(&mut self) {
+        let settings = DriverSettings {
+            stall_filter: self.axis_value(173) == 1,
+            stall_threshold: self.axis_value(174).clamp(-64, 63) as i8,
+            high_range: self.axis_value(179) == 0,
+        };
+        self.board.configure(&settings);
+    }
+
+    /// The coolStep parameters for a run-current setting `run` (AP 6, or AP 200 while boosting).
+    pub(crate) fn coolstep_params(&self, run: i32) -> CoolStepParams {
+        CoolStepParams {
+            cs: (run.clamp(0, 255) >> 3) as u8,
+            min_quarter: self.axis_value(168) == 1,
+            down_step: self.axis_value(169) as u8,
+            hysteresis: self.axis_value(170) as u8,
+            up_step: self.axis_value(171) as u8,
+            hysteresis_start: self.axis_value(172) as u8,
+            speed: self.st.ramp.velocity().unsigned_abs(),
+            threshold_speed: self.axis_value(182).max(0) as u32,
+            slow_run_current: self.axis_value(183).clamp(0, 255) as u8,
+        }
+    }
+
+    /// The running current after coolStep (AP 180 is this / 8): `run` itself when coolStep is off.
+    pub(crate) fn regulated_current(&self, run: i32) -> u8 {
+        let params = self.coolstep_params(run);
+        match params.regime() {
+            Regime::Off => run.clamp(0, 255) as u8,
+            _ => self.st.coolstep.peek(params) << 3,
+        }
+    }
+
+    /// After each motion tick: new stallGuard2 readings (coolStep, stop on stall), and the encoder.
+    pub(crate) fn drive_tick(&mut self) {
+        let measurements = self.board.load_measurements();
+        if measurements != self.st.load_measurements {
+            self.st.load_measurements = measurements;
+            let load = self.board.feedback().load.min(1023);
+            let boost = self.axis_value(200);
+            let run = if self.st.ramping && boost != 0 { boost } else { self.axis_value(6) };
+            let params = self.coolstep_params(run);
+            self.st.coolstep.update(load, params);
+            // §7.2 / AP 181: stop when the load value reaches 0 above the stop-on-stall speed.
+            if stall::stall_stop(load, self.st.ramp.velocity(), self.axis_value(181)) {
+                self.fault_stop(error_flags::STALL, vector::STALL);
+            }
+        }
+        let prescaler = self.axis_value(210);
+        let deviation = self.axis_value(212);
+        if deviation == 0 && !encoder::clear_on_null_enabled(prescaler) {
+            return;
+        }
+        let counts = self.encoder_counts_now();
+        // §6.2: AP 210 + 4 clears the encoder position each time it passes its absolute zero.
+        if encoder::clear_on_null_enabled(prescaler) {
+            if let Some(zero) = encoder::null_crossing(self.st.last_counts, counts) {
+                self.st.encoder = EncoderBase { counts: zero, value: 0 };
+            }
+        }
+        self.st.last_counts = counts;
+        // §6.2 / AP 212: stop when AP 1 and AP 209 differ by more than AP 212 while the motor is driven.
+        if deviation > 0 && !self.st.ramp.is_idle() {
+            let e = self.encoder_value(counts);
+            if encoder::deviation_exceeded(self.st.ramp.position, e, deviation) {
+                self.st.regs.flags |= flags::DEVIATION;
+                self.fault_stop(error_flags::DEVIATION, vector::DEVIATION);
+            }
+        }
+    }
+
+    /// Stops the motor at once for a stall or a deviation: AP 207 bit, interrupt, no 138 event.
+    fn fault_stop(&mut self, flag: u8, interrupt: u8) {
+        self.st.ramp.hard_stop();
+        self.st.reference.stop();
+        self.st.event.pending = false;
+        self.st.error_flags |= flag;
+        self.raise_interrupt(interrupt);
+    }
+
+    /// Encoder counts now, in the logical direction.
+    pub(crate) fn encoder_counts_now(&mut self) -> i64 {
+        let physical = self.board.feedback().encoder_counts;
+        self.logical_counts(physical)
+    }
+
+    /// AP 209 for the given counts: the reference value plus the counts since, through the prescaler.
+    pub(crate) fn encoder_value(&self, counts: i64) -> i32 {
+        let delta = encoder::scale_counts(counts - self.st.encoder.counts, self.axis_value(210));
+        (i64::from(self.st.encoder.value) + delta) as i32
+    }
+}
