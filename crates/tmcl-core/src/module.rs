@@ -595,24 +595,36 @@ impl<B: Board> Module<B> {
                     continue;
                 }
             }
-            self.st.motion_time = tick_at;
             ticked = true;
+            // A reference search looks at its switch after every microstep (sub-ticks), so that the
+            // switching points, and with them the zero point, are exact to the microstep (§7.1).
+            let parts = if self.st.reference.is_active() {
+                (u64::from(self.st.ramp.velocity().unsigned_abs()) / 1000 + 1).min(TICK.micros())
+            } else {
+                1
+            };
+            let step = TICK.micros() / parts;
+            for k in 1..=parts {
+                let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
+                let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
+                let limits = self.limits();
+                let r = self.st.ramp.tick(Duration::from_micros(dt), &params, limits);
+                self.st.ramping = r.ramping;
+                self.st.unreported_steps += r.steps;
+                let moving = self.st.ramp.velocity() != 0;
+                match (moving, self.st.standstill_since) {
+                    (true, Some(_)) => self.st.standstill_since = None,
+                    (false, None) => self.st.standstill_since = Some(t),
+                    _ => {}
+                }
+                self.update_board(t);
+                if self.st.reference.is_active() {
+                    self.step_reference();
+                }
+            }
+            self.st.motion_time = tick_at;
             let t = tick_at;
-            let limits = self.limits();
-            let r = self.st.ramp.tick(TICK, &params, limits);
-            self.st.ramping = r.ramping;
-            self.st.unreported_steps += r.steps;
-            let moving = self.st.ramp.velocity() != 0;
-            match (moving, self.st.standstill_since) {
-                (true, Some(_)) => self.st.standstill_since = None,
-                (false, None) => self.st.standstill_since = Some(t),
-                _ => {}
-            }
-            self.update_board(t);
             self.drive_tick();
-            if self.st.reference.is_active() {
-                self.step_reference();
-            }
             self.check_event(t);
             if self.vm.enabled != 0 {
                 self.sample_interrupts(t);

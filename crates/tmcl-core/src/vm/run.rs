@@ -63,9 +63,10 @@ impl<B: Board> Module<B> {
                         self.vm.pc = self.vm.pc.wrapping_add(1);
                     }
                     None => {
-                        // Sleep until the wait can end by time, or to the limit (motion may end it).
-                        let wake = wait.until.unwrap_or(limit).min(limit).max(t + INSTRUCTION_TIME);
-                        self.vm.time = wake;
+                        // Sleep until the wait can end by time, or to the limit (motion may end it). A
+                        // wait that has not ended has its end after `t`, so this always moves on.
+                        self.vm.time =
+                            wait.until.unwrap_or(limit).min(limit).max(t + crate::time::Duration::from_micros(1));
                         continue;
                     }
                 }
@@ -306,24 +307,34 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// When the program next needs to run, if it is running.
-    pub(crate) fn program_deadline(&self) -> Option<Instant> {
+    /// When the program next needs to run, if it is running: its next instruction, the end of its WAIT,
+    /// or at once when an interrupt is waiting to be serviced.
+    pub fn program_deadline(&self) -> Option<Instant> {
         if self.vm.state != RunState::Running {
             return None;
         }
+        let serviceable = self.vm.pending != 0 && self.vm.global && self.vm.handler.is_none();
         match self.vm.wait {
             // A wait that motion or switches can end is checked at every motion tick anyway.
-            Some(w) => w.until,
-            None => Some(self.vm.time),
+            Some(w) if !serviceable => w.until,
+            _ => Some(self.vm.time),
         }
     }
 
-    /// The next timer interrupt.
-    pub(crate) fn timer_deadline(&self) -> Option<Instant> {
+    /// The next timer interrupt, at the motion tick that samples it (timers are sampled at ticks).
+    pub fn timer_deadline(&self) -> Option<Instant> {
         if self.vm.enabled & 0b111 == 0 {
             return None;
         }
-        self.vm.timers.iter().flatten().min().copied()
+        let due = self.vm.timers.iter().flatten().min().copied()?;
+        let from = self.st.motion_time;
+        let ticks = (due - from).micros().div_ceil(crate::motion::TICK.micros());
+        Some(from + crate::time::Duration::from_micros(ticks * crate::motion::TICK.micros()))
+    }
+
+    /// Module time of the program's next instruction.
+    pub fn program_time(&self) -> Instant {
+        self.vm.time
     }
 
     // ---- control commands (§3.7.38) -------------------------------------------------------------
