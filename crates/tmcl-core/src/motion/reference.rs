@@ -5,8 +5,9 @@
 //! the reference point is the centre of the two switching points; the counter is set to zero there") and
 //! the per-mode table. Our decisions, each written beside its mode below:
 //!
-//! - Switching points are taken at the tick the switch changes; the motor stops at once at each one (as at
-//!   an end switch) and starts the next phase from standstill with AP 5.
+//! - The switch is looked at after every microstep; a switching point is the last microstep at which the
+//!   switch was pressed. The motor stops at once at each one (as at an end switch) and starts the next
+//!   phase from standstill with AP 5.
 //! - After the search the motor stands where the last phase stopped (it does not drive to 0); the counter
 //!   is shifted so that the reference point reads 0. AP 197 keeps the counter value just before.
 //! - The limit-switch disables AP 12/13 do not affect the search (§7.1); while a search runs it handles
@@ -238,6 +239,10 @@ impl Reference {
         if level != p.until {
             return Action::Continue;
         }
+        // A switching point is the last microstep at which the switch was pressed: the position where it
+        // closed, or the one before the position where it opened. So the middle of a switch from both
+        // sides, or the centre of its two switching points, is exact to the microstep.
+        let position = if p.until { position } else { position.wrapping_sub(i32::from(*dir)) };
         match p.mark {
             Mark::A => *a = position,
             Mark::Far => *far = Some(position),
