@@ -37,6 +37,9 @@ impl<B: Board> Module<B> {
 
     /// The running current after coolStep (AP 180 is this / 8): `run` itself when coolStep is off.
     pub(crate) fn regulated_current(&self, run: i32) -> u8 {
+        if self.axis_value(172) == 0 {
+            return run.clamp(0, 255) as u8; // coolStep off (SEMIN = 0): the common case, no more lookups
+        }
         let params = self.coolstep_params(run);
         match params.regime() {
             Regime::Off => run.clamp(0, 255) as u8,
@@ -50,10 +53,12 @@ impl<B: Board> Module<B> {
         if measurements != self.st.load_measurements {
             self.st.load_measurements = measurements;
             let load = self.board.feedback().load.min(1023);
-            let boost = self.axis_value(200);
-            let run = if self.st.ramping && boost != 0 { boost } else { self.axis_value(6) };
-            let params = self.coolstep_params(run);
-            self.st.coolstep.update(load, params);
+            if self.axis_value(172) != 0 {
+                let boost = self.axis_value(200);
+                let run = if self.st.ramping && boost != 0 { boost } else { self.axis_value(6) };
+                let params = self.coolstep_params(run);
+                self.st.coolstep.update(load, params);
+            }
             // §7.2 / AP 181: stop when the load value reaches 0 above the stop-on-stall speed.
             if stall::stall_stop(load, self.st.ramp.velocity(), self.axis_value(181)) {
                 self.fault_stop(error_flags::STALL, vector::STALL);
