@@ -78,6 +78,10 @@ pub struct RunArgs {
     /// Sample the trace every MS milliseconds of simulated time.
     #[arg(long, value_name = "MS", default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..))]
     pub every: u64,
+    /// Also trace and plot the drive: stallGuard2 load value (AP 206), coolStep current scale (AP 180),
+    /// encoder position (AP 209) beside the step position, and the motor's energy (A²·s).
+    #[arg(long)]
+    pub drive: bool,
 }
 
 /// Seconds as text to a [`Duration`], exactly (no floating point): `3600`, `0.5`, `1.000001`.
@@ -142,13 +146,13 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
             crate::sim::Setting::Global { number, bank: crate::sim::USER_BANK, .. } => Some(number),
             _ => None,
         }));
-        let mut trace = Trace::new(csv, args.plot.is_some(), variables.into_iter().collect())?;
+        let mut trace = Trace::new(csv, args.plot.is_some(), variables.into_iter().collect(), args.drive)?;
         let run = Traced { every: Duration::from_millis(args.every), end: Instant::ZERO + args.duration };
         run.run(&mut module, &source, &mut trace, &bar)?;
         trace.finish()?;
         if let Some(path) = &args.plot {
             let title = format!("{} on a simulated {}", args.file.display(), module.spec().name);
-            plot::draw(path, &title, &trace.samples, &trace.events)
+            plot::draw(path, &title, &trace.samples, &trace.events, args.drive)
                 .map_err(|e| CliError::Usage(format!("cannot draw {}: {e}", path.display())))?;
         }
         trace.rows

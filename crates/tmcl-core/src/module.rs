@@ -582,6 +582,12 @@ impl<B: Board> Module<B> {
                 break;
             }
             if self.st.ramp.is_idle() && !self.st.reference.is_active() && !self.needs_every_tick() {
+                // A stop outside the ramp (a stall, a deviation, the end of a reference search) leaves
+                // the motor standing: the standby and freewheeling delays run from the last tick.
+                if self.st.standstill_since.is_none() {
+                    self.st.standstill_since = Some(self.st.motion_time);
+                    ticked = true; // the board hears of it (and of the standby timer) below
+                }
                 // Nothing moves: jump to the last tick boundary before the next timed event (or `now`).
                 let until =
                     [self.program_deadline(), self.timer_deadline()].into_iter().flatten().fold(now, Instant::min);

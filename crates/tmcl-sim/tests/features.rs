@@ -188,3 +188,17 @@ fn table_20_prescalers_follow_a_free_axis() {
         assert!((e - target).abs() <= (1 << res) / 4 + 1, "AP 140 = {res}: encoder {e}, steps {target}");
     }
 }
+
+#[test]
+fn after_a_stall_stop_the_motor_holds_then_goes_to_standby() {
+    let mut b = Bench::new(JAM);
+    b.sap(181, 20_000);
+    b.sap(6, 200);
+    b.sap(7, 40);
+    b.cmd(Command::Ror { motor: 0, velocity: 51_200 });
+    b.run(2500);
+    assert_eq!(b.gap(3), 0, "stopped by stallGuard2");
+    assert_eq!(b.m.board().drive().current, 200, "holding with the run current after the stop");
+    b.run(2100);
+    assert_eq!(b.m.board().drive().current, 40, "standby current after AP 214");
+}

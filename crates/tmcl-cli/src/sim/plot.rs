@@ -3,7 +3,9 @@
 //! Three panels share the time axis:
 //! 1. target (AP 0) and actual (AP 1) position in microsteps;
 //! 2. actual velocity (AP 3) in pps;
-//! 3. an event lane per kind of event (`interrupt 0`, `out0=1`, `stop`, ...), a tick for each one.
+//! 3. with `--drive`: the stallGuard2 load value (AP 206) and the coolStep current scale × 32 (AP 180) on
+//!    one scale 0..1023, and the encoder position (AP 209) minus the step position (AP 1): lost steps;
+//! 4. an event lane per kind of event (`interrupt 0`, `out0=1`, `stop`, ...), a tick for each one.
 //!
 //! With few events (up to [`MAX_EVENT_LINES`]) each also gets a vertical line across the position and
 //! velocity panels, labelled in the position panel. Long traces are thinned to at most [`MAX_POINTS`]
@@ -32,11 +34,20 @@ const SPEED: RGBColor = RGBColor(20, 150, 70);
 pub(crate) type PlotError = Box<dyn std::error::Error>;
 
 /// Draws `samples` and `events` into an SVG file at `path`.
-pub(crate) fn draw(path: &Path, title: &str, samples: &[Sample], events: &[Event]) -> Result<(), PlotError> {
-    let root = SVGBackend::new(path, SIZE).into_drawing_area();
+pub(crate) fn draw(
+    path: &Path,
+    title: &str,
+    samples: &[Sample],
+    events: &[Event],
+    drive: bool,
+) -> Result<(), PlotError> {
+    let size = if drive { (SIZE.0, SIZE.1 + 440) } else { SIZE };
+    let root = SVGBackend::new(path, size).into_drawing_area();
     root.fill(&WHITE)?;
     let root = root.titled(title, ("sans-serif", 22))?;
-    let (upper, lanes_area) = root.split_vertically(SIZE.1 - 40 - lane_height(events));
+    let (upper, lanes_area) = root.split_vertically(size.1 - 40 - lane_height(events));
+    let (upper, drive_area) =
+        if drive { upper.split_vertically(size.1 - 480 - lane_height(events)) } else { (upper.clone(), upper) };
     let (position_area, velocity_area) = upper.split_vertically((SIZE.1 - 40 - lane_height(events)) * 55 / 100);
 
     let end = samples.last().map_or(1, |s| s.micros).max(events.last().map_or(0, |e| e.micros)).max(1);
@@ -104,8 +115,75 @@ pub(crate) fn draw(path: &Path, title: &str, samples: &[Sample], events: &[Event
         .border_style(BLACK.mix(0.3))
         .draw()?;
 
+    if drive {
+        draw_drive(&drive_area, time.clone(), samples, lines)?;
+    }
     draw_lanes(&lanes_area, time, events)?;
     root.present()?;
+    Ok(())
+}
+
+const LOAD: RGBColor = RGBColor(150, 40, 160);
+const SCALE: RGBColor = RGBColor(200, 60, 40);
+const SLIP: RGBColor = RGBColor(60, 60, 60);
+
+/// The drive panels: load value and current scale, then encoder minus step position.
+fn draw_drive<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    time: Range<f64>,
+    samples: &[Sample],
+    lines: &[Event],
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let (load_area, slip_area) = area.split_vertically(240);
+    let field = |f: fn((i32, i32, i32)) -> i32| move |s: &Sample| s.drive.map_or(0.0, |d| f64::from(f(d)));
+    let mut chart = ChartBuilder::on(&load_area)
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(90)
+        .build_cartesian_2d(time.clone(), -20.0..1060.0)?;
+    chart.configure_mesh().y_desc("load / current").x_desc("time [s]").light_line_style(WHITE.mix(0.0)).draw()?;
+    event_lines(&mut chart, lines)?;
+    chart
+        .draw_series(LineSeries::new(thin(samples, field(|d| d.0)), LOAD.stroke_width(1)))?
+        .label("stallGuard2 load value (AP 206)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], LOAD.stroke_width(2)));
+    chart
+        .draw_series(LineSeries::new(thin(samples, field(|d| d.1 * 32)), SCALE.stroke_width(2)))?
+        .label("coolStep current scale × 32 (AP 180)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], SCALE.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .draw()?;
+    let slip: Vec<(f64, f64)> = thin(samples, |s| s.drive.map_or(0.0, |d| f64::from(d.2) - f64::from(s.actual)));
+    let mut chart = ChartBuilder::on(&slip_area)
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(90)
+        .build_cartesian_2d(time, padded(slip.iter().map(|p| p.1)))?;
+    chart
+        .configure_mesh()
+        .y_desc("encoder − steps [µsteps]")
+        .x_desc("time [s]")
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    event_lines(&mut chart, lines)?;
+    chart
+        .draw_series(LineSeries::new(slip, SLIP.stroke_width(1)))?
+        .label("encoder position (AP 209) − step position (AP 1)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], SLIP.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .draw()?;
     Ok(())
 }
 
@@ -233,7 +311,13 @@ mod tests {
     #[test]
     fn thinning_keeps_the_extremes() {
         let samples: Vec<Sample> = (0..100_000u64)
-            .map(|i| Sample { micros: i * 1000, target: 0, actual: if i == 54_321 { 7 } else { 0 }, velocity: 0 })
+            .map(|i| Sample {
+                micros: i * 1000,
+                target: 0,
+                actual: if i == 54_321 { 7 } else { 0 },
+                velocity: 0,
+                drive: None,
+            })
             .collect();
         let points = thin(&samples, |s| f64::from(s.actual));
         assert!(points.len() <= MAX_POINTS);

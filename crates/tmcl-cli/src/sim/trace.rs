@@ -12,6 +12,7 @@
 //! | `pc` | the program counter (GP 130): the next instruction |
 //! | `outputs` | the digital outputs as a number, bit n = OUTn |
 //! | `varN` | user variable N (bank 2), one column per variable the program names or `--set` writes |
+//! | `load`, `current_scale`, `encoder`, `energy_mas2` | with `--drive`: AP 206, AP 180, AP 209, and the motor's energy in mA²·s |
 //! | `event` | what happened at this time: `interrupt N`, `stop`, `end`, `out0=1`, `target=N`, … (`;`-separated) |
 //!
 //! Every value is an integer and the time is formatted from integer microseconds, so the same run gives
@@ -37,6 +38,8 @@ pub(crate) struct Sample {
     pub actual: i32,
     /// AP 3.
     pub velocity: i32,
+    /// With `--drive`: AP 206, AP 180, AP 209.
+    pub drive: Option<(i32, i32, i32)>,
 }
 
 /// One program event kept for the plot.
@@ -53,6 +56,7 @@ pub(crate) struct Trace<W: Write> {
     csv: Option<W>,
     keep: bool,
     variables: Vec<u8>,
+    drive: bool,
     line: String,
     /// Samples, when kept.
     pub samples: Vec<Sample>,
@@ -65,13 +69,24 @@ pub(crate) struct Trace<W: Write> {
 impl<W: Write> Trace<W> {
     /// A trace of `variables` (user variable numbers, ascending) that writes CSV to `csv` and keeps
     /// samples and events in memory if `keep`.
-    pub fn new(csv: Option<W>, keep: bool, variables: Vec<u8>) -> io::Result<Trace<W>> {
-        let mut trace =
-            Trace { csv, keep, variables, line: String::new(), samples: Vec::new(), events: Vec::new(), rows: 0 };
+    pub fn new(csv: Option<W>, keep: bool, variables: Vec<u8>, drive: bool) -> io::Result<Trace<W>> {
+        let mut trace = Trace {
+            csv,
+            keep,
+            variables,
+            drive,
+            line: String::new(),
+            samples: Vec::new(),
+            events: Vec::new(),
+            rows: 0,
+        };
         if let Some(out) = &mut trace.csv {
             let mut header = FIXED_COLUMNS.join(",");
             for n in &trace.variables {
                 let _ = write!(header, ",var{n}");
+            }
+            if trace.drive {
+                header.push_str(",load,current_scale,encoder,energy_mas2");
             }
             header.push_str(",event\n");
             out.write_all(header.as_bytes())?;
@@ -83,12 +98,17 @@ impl<W: Write> Trace<W> {
     pub fn record(&mut self, module: &mut Module<SimBoard>, now: Instant, events: &[String]) -> io::Result<()> {
         let ramp = *module.ramp();
         let micros = now.micros();
+        let drive = self.drive.then(|| {
+            let mut ap = |n| module.get_axis(n).unwrap_or(0);
+            (ap(206), ap(180), ap(209))
+        });
         if self.keep {
             self.samples.push(Sample {
                 micros,
                 target: ramp.target_position,
                 actual: ramp.position,
                 velocity: ramp.velocity(),
+                drive,
             });
             self.events.extend(events.iter().map(|text| Event { micros, text: text.clone() }));
         }
@@ -111,6 +131,11 @@ impl<W: Write> Trace<W> {
         for &n in &self.variables {
             let v = module.get_global(n, super::USER_BANK, now).unwrap_or(0);
             let _ = write!(line, ",{v}");
+        }
+        if let Some((load, scale, encoder)) = drive {
+            // Energy in mA²·s, rounded to an integer so traces stay byte-identical everywhere.
+            let energy = (module.board().energy() * 1e6).round() as i64;
+            let _ = write!(line, ",{load},{scale},{encoder},{energy}");
         }
         line.push(',');
         line.push_str(&events.join(";"));

@@ -114,7 +114,9 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
     // AMB-29: 0 = stop on stall off (the TMCL convention; "below this speed the motor is never stopped").
     ParamDesc::plain(181, "Stop on stall", "StopOnStall", SPEED, Access::RW, 0, A),
     ParamDesc::plain(182, "smartEnergy threshold speed", "SmartEnergyThresholdSpeed", SPEED, Access::RW, 0, A),
-    ParamDesc::plain(183, "smartEnergy slow run current", "SmartEnergySlowRunCurrent", CURRENT, Access::RW, 0, A),
+    // Our default: the run current's default, so that switching coolStep on (AP 172) does not leave the
+    // motor without current below the threshold speed AP 182.
+    ParamDesc::plain(183, "smartEnergy slow run current", "SmartEnergySlowRunCurrent", CURRENT, Access::RW, 128, A),
     ParamDesc::plain(184, "Random TOff mode", "RandomTOffMode", Range::FLAG, Access::RW, 0, A),
     ParamDesc::plain(193, "Reference search mode", "ReferenceSearchMode", RFS_MODES, Access::RW, 1, A),
     ParamDesc::plain(194, "Reference search speed", "ReferenceSearchSpeed", SPEED, Access::RW, 51200, A),
