@@ -167,3 +167,53 @@ proptest::proptest! {
         proptest::prop_assert!(max_v <= vmax.max(vmin.min(vmax)));
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+    /// Position mode with targets changed at random times: the speed never exceeds AP 4 (nor the start
+    /// speed AP 130 where that is higher) and changes by at most AP 5 per second, except for the final
+    /// stop from the speed of the last microstep.
+    #[test]
+    fn position_ramps_respect_ap4_and_ap5(
+        targets in proptest::collection::vec((-300_000i32..300_000, 1u32..3000), 1..6),
+        vmax in 500i32..200_000,
+        amax in 1000i32..500_000,
+        vmin in 0i32..1000,
+    ) {
+        let p = RampParams { max_speed: vmax, max_accel: amax, min_speed: vmin };
+        let mut ramp = Ramp::default();
+        let step = i64::from(amax) * 1000 + 1; // µpps per 1 ms tick
+        let last_step = ((2.0 * f64::from(amax)).sqrt() as i64 + 2 * i64::from(amax) / 1000 + 1) * MICRO;
+        for (target, ticks) in targets {
+            ramp.move_to(target);
+            for _ in 0..ticks {
+                let before = ramp.velocity;
+                let r = ramp.tick(TICK, &p, Limits::default());
+                let dv = (ramp.velocity - before).abs();
+                proptest::prop_assert!(ramp.velocity.abs() <= i64::from(vmax.max(vmin)) * MICRO);
+                if r.arrived {
+                    proptest::prop_assert!(dv <= last_step.max(i64::from(vmin) * MICRO + 2 * step), "arrival step {dv}");
+                } else if before != 0 && ramp.velocity != 0 && before.signum() == ramp.velocity.signum() {
+                    proptest::prop_assert!(dv <= step, "dv {dv} > {step}");
+                }
+            }
+        }
+    }
+
+    /// Velocity mode: the speed approaches AP 2 with AP 5 and never overshoots it.
+    #[test]
+    fn velocity_ramps_respect_ap5(v1 in -300_000i32..300_000, v2 in -300_000i32..300_000, amax in 1000i32..500_000) {
+        let p = RampParams { max_speed: 51200, max_accel: amax, min_speed: 0 };
+        let mut ramp = Ramp::default();
+        let step = i64::from(amax) * 1000 + 1;
+        for v in [v1, v2] {
+            ramp.rotate(v);
+            for _ in 0..2000 {
+                let before = ramp.velocity;
+                ramp.tick(TICK, &p, Limits::default());
+                proptest::prop_assert!((ramp.velocity - before).abs() <= step);
+                proptest::prop_assert!(ramp.velocity.abs() <= i64::from(v1.unsigned_abs().max(v2.unsigned_abs())) * MICRO);
+            }
+        }
+    }
+}
