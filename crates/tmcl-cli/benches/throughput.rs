@@ -21,15 +21,15 @@ fn frame(op: Opcode, t: u8, v: i32) -> [u8; 9] {
 /// and timers run as they would).
 fn core_rate(name: &str, frames: &[[u8; 9]], n: u64) {
     let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
-    let mut replies = 0u64;
-    let mut sink = |b: &[u8]| replies += b.len() as u64 / 9;
+    let mut reply_bytes = 0u64;
+    let mut sink = |b: &[u8]| reply_bytes += b.len() as u64;
     let start = StdInstant::now();
     for i in 0..n {
         let f = &frames[(i % frames.len() as u64) as usize];
         module.receive(Instant::from_micros(i), black_box(f), &mut sink);
     }
     let secs = start.elapsed().as_secs_f64();
-    assert_eq!(replies, n, "every frame answered");
+    assert_eq!(reply_bytes, n * 9, "every frame answered");
     println!(
         "core {name:<28} {:>8.2} M frames/s  ({:.0} ns/frame, {n} frames)",
         n as f64 / secs / 1e6,
@@ -86,25 +86,25 @@ fn pty_latency(n: usize) {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Instructions per second of the program machine on an ALU loop (CALC, COMP, JC), and how much faster
-/// than real time that is (each instruction takes 20 µs of module time).
-fn vm_rate(virtual_secs: u64) {
-    use tmcl_wire::{CalcOp, Command, Condition};
+/// A module with `program` downloaded (132, the commands, 133) and started at 0 (129 type 1), as a host
+/// would do it.
+fn module_running(program: &[tmcl_wire::Command]) -> Module<SimBoard> {
+    use tmcl_wire::Command;
     let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
-    let mut sink = |_: &[u8]| {};
-    let program = [
-        Command::StartDownload { address: 0 },
-        Command::Calc { op: CalcOp::Add, operand: 1 },
-        Command::Comp { operand: i32::MAX },
-        Command::Jc { condition: Condition::Lower, address: 0 },
-        Command::Stop,
-        Command::QuitDownload,
-        Command::RunApplication { from: Some(0) },
-    ];
-    for c in program {
+    let frames = std::iter::once(Command::StartDownload { address: 0 })
+        .chain(program.iter().copied())
+        .chain([Command::QuitDownload, Command::RunApplication { from: Some(0) }]);
+    for c in frames {
         let f = Request { address: 1, instruction: c.encode() }.to_bytes();
-        module.receive(Instant::ZERO, &f, &mut sink);
+        module.receive(Instant::ZERO, &f, &mut |_: &[u8]| {});
     }
+    module
+}
+
+/// Runs a module for `virtual_secs` of module time, jumping from deadline to deadline (at least 100 ms
+/// at a time, as `tmcl run` without a trace does); returns the wall time.
+fn run_for(module: &mut Module<SimBoard>, virtual_secs: u64) -> f64 {
+    let mut sink = |_: &[u8]| {};
     let start = StdInstant::now();
     let end = Instant::from_secs(virtual_secs);
     let mut t = Instant::ZERO;
@@ -112,7 +112,20 @@ fn vm_rate(virtual_secs: u64) {
         t = module.poll(t, &mut sink).unwrap_or(end).max(t + tmcl_core::Duration::from_millis(100)).min(end);
     }
     module.poll(end, &mut sink);
-    let secs = start.elapsed().as_secs_f64();
+    start.elapsed().as_secs_f64()
+}
+
+/// Instructions per second of the program machine on an ALU loop (CALC, COMP, JC), and how much faster
+/// than real time that is (each instruction takes 20 µs of module time).
+fn vm_rate(virtual_secs: u64) {
+    use tmcl_wire::{CalcOp, Command, Condition};
+    let mut module = module_running(&[
+        Command::Calc { op: CalcOp::Add, operand: 1 },
+        Command::Comp { operand: i32::MAX },
+        Command::Jc { condition: Condition::Lower, address: 0 },
+        Command::Stop,
+    ]);
+    let secs = run_for(&mut module, virtual_secs);
     let executed = (virtual_secs * 1_000_000 / 20) as f64;
     println!(
         "vm ALU loop (CALC/COMP/JC)            {:>8.2} M instructions/s  ({:.1} ns/instruction; {:.0}x real time)",
@@ -126,29 +139,14 @@ fn vm_rate(virtual_secs: u64) {
 /// The §2.4 program (moves between ±512000 with WAIT POS) for an hour of module time.
 fn motion_program_ratio(virtual_secs: u64) {
     use tmcl_wire::{Command, MoveTarget, WaitCondition};
-    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
-    let mut sink = |_: &[u8]| {};
-    let program = [
-        Command::StartDownload { address: 0 },
+    let mut module = module_running(&[
         Command::Mvp { motor: 0, target: MoveTarget::Abs(512_000) },
         Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
         Command::Mvp { motor: 0, target: MoveTarget::Abs(-512_000) },
         Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
         Command::Ja { address: 0 },
-        Command::QuitDownload,
-        Command::RunApplication { from: Some(0) },
-    ];
-    for c in program {
-        let f = Request { address: 1, instruction: c.encode() }.to_bytes();
-        module.receive(Instant::ZERO, &f, &mut sink);
-    }
-    let start = StdInstant::now();
-    let end = Instant::from_secs(virtual_secs);
-    let mut t = Instant::ZERO;
-    while t < end {
-        t = module.poll(t, &mut sink).unwrap_or(end).max(t + tmcl_core::Duration::from_millis(100)).min(end);
-    }
-    let secs = start.elapsed().as_secs_f64();
+    ]);
+    let secs = run_for(&mut module, virtual_secs);
     println!(
         "motion program (§2.4 loop), {virtual_secs} s      {:.0}x real time ({:.3} s wall)",
         virtual_secs as f64 / secs,

@@ -56,64 +56,22 @@ pub(crate) fn draw(
 
     let positions: Vec<(f64, f64)> =
         thin(samples, |s| f64::from(s.target)).into_iter().chain(thin(samples, |s| f64::from(s.actual))).collect();
-    let mut chart = ChartBuilder::on(&position_area)
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(90)
-        .build_cartesian_2d(time.clone(), padded(positions.iter().map(|p| p.1)))?;
-    chart
-        .configure_mesh()
-        .y_desc("position [µsteps]")
-        .x_desc("time [s]")
-        .y_label_formatter(&|v| format!("{v:.0}"))
-        .light_line_style(WHITE.mix(0.0))
-        .draw()?;
-    event_lines(&mut chart, lines)?;
-    chart
-        .draw_series(LineSeries::new(thin(samples, |s| f64::from(s.target)), TARGET.stroke_width(2)))?
-        .label("target position (AP 0)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], TARGET.stroke_width(2)));
-    chart
-        .draw_series(LineSeries::new(thin(samples, |s| f64::from(s.actual)), ACTUAL.stroke_width(1)))?
-        .label("actual position (AP 1)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], ACTUAL.stroke_width(2)));
+    let mut chart =
+        panel(&position_area, time.clone(), padded(positions.iter().map(|p| p.1)), "position [µsteps]", lines)?;
+    series(&mut chart, thin(samples, |s| f64::from(s.target)), TARGET, 2, "target position (AP 0)")?;
+    series(&mut chart, thin(samples, |s| f64::from(s.actual)), ACTUAL, 1, "actual position (AP 1)")?;
     if lines.len() <= MAX_EVENT_LABELS {
         let top = chart.y_range().end;
         chart.draw_series(
             lines.iter().map(|e| Text::new(e.text.clone(), (seconds(e.micros), top), ("sans-serif", 12).into_font())),
         )?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .draw()?;
+    legend(&mut chart)?;
 
     let speeds = thin(samples, |s| f64::from(s.velocity));
-    let mut chart = ChartBuilder::on(&velocity_area)
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(90)
-        .build_cartesian_2d(time.clone(), padded(speeds.iter().map(|p| p.1)))?;
-    chart
-        .configure_mesh()
-        .y_desc("velocity [pps]")
-        .x_desc("time [s]")
-        .y_label_formatter(&|v| format!("{v:.0}"))
-        .light_line_style(WHITE.mix(0.0))
-        .draw()?;
-    event_lines(&mut chart, lines)?;
-    chart
-        .draw_series(LineSeries::new(speeds, SPEED.stroke_width(1)))?
-        .label("actual velocity (AP 3)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], SPEED.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .draw()?;
+    let mut chart = panel(&velocity_area, time.clone(), padded(speeds.iter().map(|p| p.1)), "velocity [pps]", lines)?;
+    series(&mut chart, speeds, SPEED, 1, "actual velocity (AP 3)")?;
+    legend(&mut chart)?;
 
     if drive {
         draw_drive(&drive_area, time.clone(), samples, lines)?;
@@ -139,45 +97,66 @@ where
 {
     let (load_area, slip_area) = area.split_vertically(240);
     let field = |f: fn((i32, i32, i32)) -> i32| move |s: &Sample| s.drive.map_or(0.0, |d| f64::from(f(d)));
-    let mut chart = ChartBuilder::on(&load_area)
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(90)
-        .build_cartesian_2d(time.clone(), -20.0..1060.0)?;
-    chart.configure_mesh().y_desc("load / current").x_desc("time [s]").light_line_style(WHITE.mix(0.0)).draw()?;
-    event_lines(&mut chart, lines)?;
-    chart
-        .draw_series(LineSeries::new(thin(samples, field(|d| d.0)), LOAD.stroke_width(1)))?
-        .label("stallGuard2 load value (AP 206)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], LOAD.stroke_width(2)));
-    chart
-        .draw_series(LineSeries::new(thin(samples, field(|d| d.1 * 32)), SCALE.stroke_width(2)))?
-        .label("coolStep current scale × 32 (AP 180)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], SCALE.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .draw()?;
-    let slip: Vec<(f64, f64)> = thin(samples, |s| s.drive.map_or(0.0, |d| f64::from(d.2) - f64::from(s.actual)));
-    let mut chart = ChartBuilder::on(&slip_area)
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(90)
-        .build_cartesian_2d(time, padded(slip.iter().map(|p| p.1)))?;
+    let mut chart = panel(&load_area, time.clone(), -20.0..1060.0, "load / current", lines)?;
+    series(&mut chart, thin(samples, field(|d| d.0)), LOAD, 1, "stallGuard2 load value (AP 206)")?;
+    series(&mut chart, thin(samples, field(|d| d.1 * 32)), SCALE, 2, "coolStep current scale × 32 (AP 180)")?;
+    legend(&mut chart)?;
+    let slip = thin(samples, |s| s.drive.map_or(0.0, |d| f64::from(d.2) - f64::from(s.actual)));
+    let mut chart = panel(&slip_area, time, padded(slip.iter().map(|p| p.1)), "encoder − steps [µsteps]", lines)?;
+    series(&mut chart, slip, SLIP, 1, "encoder position (AP 209) − step position (AP 1)")?;
+    legend(&mut chart)
+}
+
+type Chart<'a, DB> =
+    ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>;
+
+/// A panel over `time` with a y axis `y` described as `what`, with the events' vertical lines.
+fn panel<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, plotters::coord::Shift>,
+    time: Range<f64>,
+    y: Range<f64>,
+    what: &str,
+    lines: &[Event],
+) -> Result<Chart<'a, DB>, PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let mut chart =
+        ChartBuilder::on(area).margin(10).x_label_area_size(30).y_label_area_size(90).build_cartesian_2d(time, y)?;
     chart
         .configure_mesh()
-        .y_desc("encoder − steps [µsteps]")
+        .y_desc(what)
         .x_desc("time [s]")
         .y_label_formatter(&|v| format!("{v:.0}"))
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
     event_lines(&mut chart, lines)?;
+    Ok(chart)
+}
+
+/// One line series with its legend entry.
+fn series<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    points: Vec<(f64, f64)>,
+    color: RGBColor,
+    width: u32,
+    label: &str,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
     chart
-        .draw_series(LineSeries::new(slip, SLIP.stroke_width(1)))?
-        .label("encoder position (AP 209) − step position (AP 1)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], SLIP.stroke_width(2)));
+        .draw_series(LineSeries::new(points, color.stroke_width(width)))?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    Ok(())
+}
+
+/// The legend box, lower right.
+fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::LowerRight)
