@@ -26,6 +26,9 @@ pub const MICROSTEPS_PER_REV: i64 = 200 * 256;
 /// sensOstep counts per revolution (manual §6.2).
 pub const ENCODER_COUNTS_PER_REV: i64 = 1024;
 
+/// 2^−r for r = 0..=8: multiplying by these is exact, as dividing by 2^r is.
+const INVERSE_POWERS_OF_TWO: [f64; 9] = [1.0, 0.5, 0.25, 0.125, 0.0625, 0.031_25, 0.015_625, 0.007_812_5, 0.003_906_25];
+
 /// The EEPROM behind a simulated board.
 #[derive(Debug)]
 pub enum Eeprom {
@@ -228,6 +231,12 @@ impl From<&World> for Levels {
     }
 }
 
+/// The torque factor of a supply voltage: below the nominal 24 V the chopper reaches proportionally less
+/// current at speed (a crude model, see [`SimBoard::power`]).
+fn supply_factor(supply: f64) -> f64 {
+    (supply / 24.0).min(1.0)
+}
+
 /// A clock the board reads before sensor and input reads.
 struct Clock(Box<dyn FnMut() -> Instant + Send>);
 
@@ -252,6 +261,9 @@ pub struct SimBoard {
     /// Time up to which the world has been simulated.
     now: Instant,
     supply: f64,
+    /// `(supply / 24).min(1)`, the supply's torque factor in [`SimBoard::power`], kept with `supply` (spares
+    /// a division per update).
+    supply_factor: f64,
     /// AP 208 bits 1..6 from fault windows.
     fault_flags: u8,
     encoder_slip: i64,
@@ -275,6 +287,7 @@ impl SimBoard {
             now: Instant::ZERO,
             world: Levels::from(&world),
             supply: plan.supply,
+            supply_factor: supply_factor(plan.supply),
             fault_flags: 0,
             encoder_slip: 0,
             coil: 0.0,
@@ -315,6 +328,7 @@ impl SimBoard {
             outputs,
             world: Levels::from(&world),
             supply: plan.supply,
+            supply_factor: supply_factor(plan.supply),
             spec: world,
             plan,
             ..fresh
@@ -505,6 +519,7 @@ impl SimBoard {
             .filter(|d| open(d.from.0, d.until.map(|u| u.0)))
             .map(|d| *d.voltage.get_ref())
             .fold(self.plan.supply, f64::min);
+        self.supply_factor = supply_factor(self.supply);
     }
 
     /// AP 208 bits 1..6 now: fault windows plus the module temperature.
@@ -526,7 +541,7 @@ impl SimBoard {
         self.coil = if off { 0.0 } else { driver::coil_current(&self.drive, &self.driver.settings) };
         // A crude supply model: below the nominal 24 V the chopper reaches proportionally less current
         // at speed; only the torque is scaled.
-        let supply = (self.supply / 24.0).min(1.0);
+        let supply = self.supply_factor;
         let torque = self.plan.mech.torque_per_amp() * self.coil * std::f64::consts::FRAC_1_SQRT_2 * supply;
         let speed = f64::from(self.drive.velocity) * self.per_step() as f64 * self.sign() as f64;
         self.plan.mech.set_available(torque, speed);
@@ -619,9 +634,18 @@ impl Drive for SimBoard {
             stalled |= followed * 2.0 < moved.unsigned_abs() as f64;
             let full = |p: i64| p.div_euclid(USTEPS_PER_FULL_STEP);
             let crossings = full(new).abs_diff(full(old));
-            let speed = f64::from(state.velocity).abs() / f64::from(1u32 << state.resolution.min(8));
-            let angle = self.plan.mech.load_angle().abs();
-            let ratio = if angle >= std::f64::consts::FRAC_PI_2 { 1.0 } else { angle.sin() };
+            // Full steps per second: x / 2^r, as x · 2^−r (the same number exactly, without a division).
+            let speed = f64::from(state.velocity).abs() * INVERSE_POWERS_OF_TWO[usize::from(state.resolution.min(8))];
+            let ratio = if self.plan.mech.locked() {
+                0.0 // the rotor exactly on the field (trivial world): load angle ±0, sin(0) = 0
+            } else {
+                let angle = self.plan.mech.load_angle().abs();
+                if angle >= std::f64::consts::FRAC_PI_2 {
+                    1.0
+                } else {
+                    angle.sin()
+                }
+            };
             if state.enabled {
                 self.driver.measure(crossings, speed, ratio, stalled);
             }

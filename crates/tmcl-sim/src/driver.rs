@@ -46,7 +46,15 @@ pub fn coil_current(state: &DriveState, settings: &DriverSettings) -> f64 {
 
 /// The stallGuard2 value for a load ratio (0 = unloaded, 1 = at the torque limit) and threshold.
 pub fn load_value(ratio: f64, threshold: i8) -> u16 {
-    let raw = (1023.0 * (1.0 - ratio.clamp(0.0, 1.0))).round() as i32 + 16 * i32::from(threshold);
+    // The ends without the `round` call (unloaded is the common case): exactly what the formula gives.
+    let base = if ratio <= 0.0 {
+        1023
+    } else if ratio >= 1.0 {
+        0
+    } else {
+        (1023.0 * (1.0 - ratio.clamp(0.0, 1.0))).round() as i32
+    };
+    let raw = base + 16 * i32::from(threshold);
     raw.clamp(0, 1023) as u16
 }
 

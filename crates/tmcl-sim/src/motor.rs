@@ -92,7 +92,17 @@ pub struct Mechanics {
     seized: Vec<f64>,
     /// The torque the motor can give now (N·m); 0 = freewheeling.
     available: f64,
+    /// A trivial world only: the rotor sits on a stable point of the field — `field − rotor` is exactly a
+    /// whole number of periods, both below [`EXACT`] in magnitude — so [`Mechanics::snap`] would change
+    /// nothing and the load angle is ±0. Set by a snap, kept by a powered trivial
+    /// [`Mechanics::drive_to`] (the rotor then moves by exactly the field's move), cleared by an
+    /// unpowered one (the field moves alone). Nothing else moves the rotor of a trivial world.
+    locked: bool,
 }
+
+/// Below this magnitude (2⁵² µsteps) integer positions and their sums are exact in `f64`; beyond it the
+/// [`Mechanics::locked`] shortcut steps aside and the full computation runs.
+const EXACT: f64 = (1u64 << 52) as f64;
 
 /// Converts a world position to µsteps; `key` names it in errors.
 pub(crate) fn usteps(world: &World, pos: &Spanned<Pos>, key: &'static str) -> Result<f64, Invalid> {
@@ -229,6 +239,7 @@ impl Mechanics {
             script: 0.0,
             seized: Vec::new(),
             available: 0.0,
+            locked: false,
         })
     }
 
@@ -243,31 +254,37 @@ impl Mechanics {
     }
 
     /// Where the rotor started (µsteps, axis frame).
+    #[inline]
     pub fn start(&self) -> f64 {
         self.start
     }
 
     /// The rotor position (µsteps, axis frame).
+    #[inline]
     pub fn rotor(&self) -> f64 {
         self.rotor
     }
 
     /// The field position (µsteps, axis frame).
+    #[inline]
     pub fn field(&self) -> i64 {
         self.field
     }
 
     /// Whether the world has no load at all (the exact fast path).
+    #[inline]
     pub fn is_trivial(&self) -> bool {
         self.trivial
     }
 
     /// The torque the motor can give now (N·m).
+    #[inline]
     pub fn available(&self) -> f64 {
         self.available
     }
 
     /// N·m of holding torque per A RMS of coil current.
+    #[inline]
     pub fn torque_per_amp(&self) -> f64 {
         self.torque_per_amp
     }
@@ -282,9 +299,29 @@ impl Mechanics {
         self.seized = points;
     }
 
+    /// Whether the rotor is known to sit exactly on a stable point of the powered field in a trivial
+    /// world (see [`Mechanics::is_trivial`]): the load angle is then ±0 and the rotor follows every move of
+    /// the field exactly. A shortcut for the board; `false` only means "compute it".
+    #[inline]
+    pub fn locked(&self) -> bool {
+        self.locked && self.available > 0.0
+    }
+
+    /// Whether rotor and field are both small enough for exact integer arithmetic in `f64`.
+    #[inline]
+    fn exact(&self) -> bool {
+        self.rotor.abs() < EXACT && (self.field as f64).abs() < EXACT
+    }
+
     /// Electrical load angle (field − rotor) in radians, wrapped to (−π, π].
     pub fn load_angle(&self) -> f64 {
-        let d = (self.field as f64 - self.rotor).rem_euclid(PERIOD);
+        let diff = self.field as f64 - self.rotor;
+        if diff == 0.0 {
+            // The rotor on the field (the common case): what the lines below give for +0 (x − x is +0),
+            // without the `fmod` call of `rem_euclid`.
+            return 0.0;
+        }
+        let d = diff.rem_euclid(PERIOD);
         let d = if d > PERIOD / 2.0 { d - PERIOD } else { d };
         d * TAU / PERIOD
     }
@@ -353,6 +390,7 @@ impl Mechanics {
 
     /// Sets the torque the motor can give (N·m; 0 = freewheeling). `speed` is the field's speed in µsteps
     /// per second, handed to the freewheeling rotor when the power goes off.
+    #[inline]
     pub fn set_available(&mut self, torque: f64, speed: f64) {
         if self.available > 0.0 && torque == 0.0 && !self.trivial {
             self.omega = speed * self.rad;
@@ -364,10 +402,12 @@ impl Mechanics {
 
     /// Moves the field to `field` (µsteps), letting the rotor follow. Returns whether the rotor fell more
     /// than a full step (90°) behind the field at some point: a stall.
+    #[inline]
     pub fn drive_to(&mut self, field: i64) -> bool {
         let delta = field - self.field;
         if self.available <= 0.0 {
             self.field = field;
+            self.locked = false;
             return false;
         }
         if self.trivial {
@@ -375,8 +415,19 @@ impl Mechanics {
             self.snap();
             self.field = field;
             self.rotor += delta as f64;
+            // Still exactly on a stable point: `rotor + delta` is exact while the true sum is below 2⁵³,
+            // and a rounded sum would be at least that, so the check also catches any inexact one.
+            self.locked &= self.exact();
             return false;
         }
+        self.drive_loaded(field)
+    }
+
+    /// [`Mechanics::drive_to`] in a world with loads, powered (out of line: the common cases above stay
+    /// small enough to inline).
+    #[inline(never)]
+    fn drive_loaded(&mut self, field: i64) -> bool {
+        let delta = field - self.field;
         let mut stalled = false;
         let n = (delta.unsigned_abs() as i64 + SUBSTEP - 1) / SUBSTEP;
         let from = self.field;
@@ -389,12 +440,20 @@ impl Mechanics {
     }
 
     /// A trivial world, powered: the rotor sits on the nearest stable point of the field.
+    #[inline]
     fn snap(&mut self) {
+        if self.locked() {
+            // Already on a stable point: `behind` is a whole number of periods, so the lines below would
+            // give back the same rotor (sparing the `round` call, once per update).
+            return;
+        }
         let behind = self.field as f64 - self.rotor;
         self.rotor = self.field as f64 - (behind / PERIOD).round() * PERIOD;
+        self.locked = self.exact();
     }
 
     /// Powered: moves the rotor along the net torque until friction holds it (quasi-static).
+    #[inline]
     pub fn settle(&mut self) {
         if self.available <= 0.0 {
             return;
@@ -403,6 +462,12 @@ impl Mechanics {
             self.snap();
             return;
         }
+        self.settle_loaded();
+    }
+
+    /// [`Mechanics::settle`] in a world with loads (out of line, as [`Mechanics::drive_loaded`]).
+    #[inline(never)]
+    fn settle_loaded(&mut self) {
         let mut x = self.rotor;
         let d = self.net(x);
         let tolerance = 1e-12 * self.available;
@@ -480,10 +545,17 @@ impl Mechanics {
     }
 
     /// Freewheeling for `dt` seconds: the load back-drives the rotor against inertia, friction, damping.
+    #[inline]
     pub fn coast(&mut self, dt: f64) {
         if self.available > 0.0 || self.trivial || dt <= 0.0 {
             return;
         }
+        self.coast_loaded(dt);
+    }
+
+    /// [`Mechanics::coast`] when something can move the unpowered rotor (out of line).
+    #[inline(never)]
+    fn coast_loaded(&mut self, dt: f64) {
         let mut left = dt;
         for _ in 0..COAST_LIMIT {
             if left <= 0.0 {
