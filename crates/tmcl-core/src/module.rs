@@ -609,7 +609,8 @@ impl<B: Board> Module<B> {
             } else {
                 1
             };
-            let step = TICK.micros() / parts;
+            // (Most ticks are one part: no 64-bit division for them.)
+            let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
             for k in 1..=parts {
                 let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
                 let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };

@@ -87,11 +87,13 @@ pub struct Ramp {
 
 impl Ramp {
     /// AP 3: the present velocity in pps (truncated towards zero).
+    #[inline]
     pub fn velocity(&self) -> i32 {
         (self.velocity / MICRO) as i32
     }
 
     /// Whether the axis stands still and will stay so without a new command.
+    #[inline]
     pub fn is_idle(&self) -> bool {
         self.velocity == 0
             && match self.mode {
@@ -101,6 +103,7 @@ impl Ramp {
     }
 
     /// AP 8: target and actual position are equal ("always set when ... equal", Table 15).
+    #[inline]
     pub fn position_reached(&self) -> bool {
         self.position == self.target_position
     }
@@ -224,7 +227,24 @@ impl Ramp {
 /// (pps²) to `v_min` within the `distance` (microsteps) left after the tick: the largest `v` with
 /// `v² ≤ 2·a·(d − v·dt) + vmin²`, i.e. `v = sqrt((a·dt)² + 2·a·d + vmin²) − a·dt`. This discrete form keeps
 /// the deceleration at AP 5 to the last tick. Returns `cap` when the bound is higher (skips the root).
+#[inline]
 fn braking_speed(distance: i64, accel: i32, v_min: i64, cap: i64) -> i64 {
+    // Fast path, in u64 (most ticks: far from the target, the bound is far above `cap`). With
+    // c = ⌈cap/10⁶⌉ and e = ⌈a·dt/10⁶⌉ (pps), c·(c + 2e) ≤ 2·a·d gives
+    // cap² + 2·cap·a·dt ≤ 10¹²·(c² + 2·c·e) ≤ 2·a·d·10¹², so (cap + a·dt)² ≤ `sq` below and the exact
+    // test would return `cap` too. Otherwise (near the braking point) the exact test decides.
+    let a = u64::from(accel.max(1) as u32);
+    let c = (cap.max(0) as u64).div_ceil(1_000_000);
+    let e = (a * TICK.micros()).div_ceil(1_000_000);
+    if c.checked_mul(c + 2 * e).is_some_and(|lhs| lhs <= (2 * a).saturating_mul(distance.unsigned_abs())) {
+        return cap;
+    }
+    braking_speed_exact(distance, accel, v_min, cap)
+}
+
+/// [`braking_speed`] without the fast path, in u128 (kept out of line so the fast path stays small).
+#[inline(never)]
+fn braking_speed_exact(distance: i64, accel: i32, v_min: i64, cap: i64) -> i64 {
     let a_dt = u128::from(accel.max(1) as u32) * TICK.micros() as u128; // µpps per tick
     let v_min = v_min.max(0) as u128;
     // In µpps²: (a·dt)² + 2·a·d·10¹² + vmin².

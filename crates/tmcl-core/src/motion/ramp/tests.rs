@@ -217,3 +217,36 @@ proptest::proptest! {
         }
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(4096))]
+    /// The u64 fast path of `braking_speed` answers exactly as the u128 computation, over the whole input
+    /// range (distances up to 2³², speeds up to AP 4's i32 range and the `i64::MAX` cap of arrivals).
+    #[test]
+    fn braking_speed_fast_path_is_exact(
+        distance in proptest::prop_oneof![0i64..100_000, 0i64..(1i64 << 33)],
+        accel in proptest::prop_oneof![-5i32..100_000, proptest::num::i32::ANY],
+        v_min in proptest::prop_oneof![0i64..2_000_000_000, -5i64..(i64::from(i32::MAX) * MICRO)],
+        cap in proptest::prop_oneof![-5i64..(i64::from(i32::MAX) * MICRO), 0i64..300_000_000_000, proptest::strategy::Just(i64::MAX)],
+    ) {
+        proptest::prop_assert_eq!(braking_speed(distance, accel, v_min, cap), braking_speed_exact(distance, accel, v_min, cap));
+    }
+}
+
+/// Around the braking point, where the fast path gives way to the exact test.
+#[test]
+fn braking_speed_fast_path_at_the_boundary() {
+    for accel in [1, 7, 999, 1000, 1001, 51_200, 2_000_000, i32::MAX] {
+        for v_min in [0, 1, MICRO * 100, MICRO * 51_200] {
+            for distance in [0, 1, 2, 3, 100, 25_600, 1 << 20, 1 << 31] {
+                let exact = braking_speed_exact(distance, accel, v_min, i64::MAX);
+                for cap in [0, 1, exact - 1_000_001, exact - 1, exact, exact + 1, exact + 999_999, exact + 2_000_000] {
+                    assert_eq!(
+                        braking_speed(distance, accel, v_min, cap),
+                        braking_speed_exact(distance, accel, v_min, cap)
+                    );
+                }
+            }
+        }
+    }
+}
