@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tmcltest import REPO_ROOT, Server, ServerFactory
+from tmcltest import BUS_MODULES, REPO_ROOT, Server, ServerFactory
 
 
 def _target_dir() -> Path:
@@ -67,3 +67,9 @@ def tcp_server(serve) -> Server:
 def eeprom_server(serve, tmp_path) -> Server:
     """A pty server on a file-backed EEPROM; `.restart()` brings it back on the same file."""
     return serve("pty", eeprom=tmp_path / "eeprom.bin")
+
+
+@pytest.fixture
+def bus_server(serve) -> Server:
+    """Three PD28-1021 at addresses 1, 2 and 3 on one pty, state in memory."""
+    return serve("pty", modules=BUS_MODULES)

@@ -7,6 +7,7 @@ import contextlib
 import os
 import queue
 import re
+import select
 import signal
 import subprocess
 import threading
@@ -17,18 +18,26 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 READY_TIMEOUT_S = 20.0
 STOP_TIMEOUT_S = 10.0
 READY_RE = re.compile(r"^serving (\S+) at address (\d+) on (.+)$")
+# The ready line of one or more modules: `serving PD28-1021 at address 1, PD28-1021 at address 2 on LINK`.
+BUS_READY_RE = re.compile(r"^serving (.+?) on (.+)$")
+BUS_MODULE_RE = re.compile(r"^(\S+) at address (\d+)$")
 
 # Factory defaults of the PD28-1021 (manual and inventory §3/§4).
 DEFAULT_AP = {4: 51200, 5: 51200, 140: 8, 214: 200}
 DEFAULT_GP = {66: 1, 76: 2}
+# The `--module` arguments of the three-module bus (`bus_server` fixture).
+BUS_MODULES = ["pd28-1021@1", "pd28-1021@2", "pd28-1021@3"]
 
 
 class Server:
     """One `tmcl serve` process. `start()` waits for its ready line; `stop()` sends SIGTERM."""
 
     def __init__(self, tmcl: Path, workdir: Path, kind: str, eeprom: Path | None = None,
-                 extra: list[str] | None = None, link_name: str = "tmcl-link"):
+                 extra: list[str] | None = None, link_name: str = "tmcl-link",
+                 modules: list[str] | None = None):
         self.tmcl = tmcl
+        # `--module` arguments (e.g. ["pd28-1021@1", "pd28-1021@2"]); None: the single default module.
+        self.modules = list(modules) if modules else None
         self.workdir = workdir
         self.kind = kind
         self.eeprom = eeprom
@@ -42,12 +51,20 @@ class Server:
         self.starts = 0
         self.module_address = 0
         self.expect_address: int | None = 1  # checked against the ready line; None = any
+        # Every module's address from the ready line, in command-line order (one entry for one module).
+        self.addresses: list[int] = []
+        # With `modules`: the addresses the ready line must show (default: those of MODEL@ADDR); None = any.
+        self.expect_addresses: list[int] | None = None
+        if self.modules:
+            self.expect_addresses = [int(m.partition("@")[2] or n + 1) for n, m in enumerate(self.modules)]
         self._lines: queue.Queue = queue.Queue()
         self._stderr_path: Path | None = None
 
     # -- lifecycle ---------------------------------------------------------------------------------
     def args(self) -> list[str]:
-        args = [str(self.tmcl), "serve", "--module", "pd28-1021"]
+        args = [str(self.tmcl), "serve"]
+        for module in self.modules or ["pd28-1021"]:
+            args += ["--module", module]
         if self.kind == "pty":
             args += ["--pty", str(self.link)]
         else:
@@ -85,15 +102,24 @@ class Server:
                 continue
             if line is None:
                 continue
-            m = READY_RE.match(line)
+            m = BUS_READY_RE.match(line)
             if m:
                 break
         self.ready_line = line
-        assert m.group(1) == "PD28-1021", line
-        self.module_address = int(m.group(2))
-        if self.expect_address is not None:
-            assert self.module_address == self.expect_address, line
-        self.address = m.group(3)
+        self.addresses = []
+        for part in m.group(1).split(", "):
+            module = BUS_MODULE_RE.match(part)
+            assert module, line
+            assert module.group(1) == "PD28-1021", line
+            self.addresses.append(int(module.group(2)))
+        self.module_address = self.addresses[0]
+        if self.modules is None:
+            assert len(self.addresses) == 1, line
+            if self.expect_address is not None:
+                assert self.module_address == self.expect_address, line
+        elif self.expect_addresses is not None:
+            assert self.addresses == self.expect_addresses, line
+        self.address = m.group(2)
         if self.kind == "pty":
             assert self.address == str(self.link), line
             assert self.link.is_symlink(), f"{self.link} is not a symlink"
@@ -158,7 +184,11 @@ class Server:
     # -- host-side helpers -------------------------------------------------------------------------
     @property
     def pytrinamic_args(self) -> str:
-        module = f" --module-id {self.module_address}" if self.module_address not in (0, 1) else ""
+        return self.pytrinamic_args_for(self.module_address)
+
+    def pytrinamic_args_for(self, module_id: int) -> str:
+        """ConnectionManager arguments for the module at `module_id` (pytrinamic's `--module-id`)."""
+        module = f" --module-id {module_id}" if module_id not in (0, 1) else ""
         if self.kind == "pty":
             return f"--interface serial_tmcl --port {self.link} --data-rate 115200{module}"
         return f"--interface socket_serial_tmcl --port 127.0.0.1:{self.port}{module}"
@@ -173,9 +203,11 @@ class ServerFactory:
         self.servers: list[Server] = []
 
     def __call__(self, kind: str = "pty", eeprom: Path | None = None, extra: list[str] | None = None,
-                 link_name: str | None = None, expect_address: int | None = 1) -> Server:
+                 link_name: str | None = None, expect_address: int | None = 1,
+                 modules: list[str] | None = None) -> Server:
         name = link_name or f"tmcl-link-{len(self.servers)}"
-        server = Server(self.tmcl, self.workdir, kind, eeprom=eeprom, extra=extra, link_name=name)
+        server = Server(self.tmcl, self.workdir, kind, eeprom=eeprom, extra=extra, link_name=name,
+                        modules=modules)
         server.expect_address = expect_address
         self.servers.append(server)
         return server.start()
@@ -200,15 +232,17 @@ class ServerFactory:
 # -- pytrinamic helpers ----------------------------------------------------------------------------
 
 @contextlib.contextmanager
-def pytrinamic_connection(server: Server, tcp_timeout_s: float = 10.0):
-    """A pytrinamic ConnectionManager connection to `server`, closed afterwards.
+def pytrinamic_connection(server: Server, tcp_timeout_s: float = 10.0, module_id: int | None = None):
+    """A pytrinamic ConnectionManager connection to `server`, closed afterwards; `module_id` selects a
+    module on a bus (pytrinamic's `--module-id`; default: the server's first module).
 
     pytrinamic's socket interface has no receive timeout; a socket timeout is set on its socket so a
     missing reply fails the test instead of hanging it.
     """
     from pytrinamic.connections import ConnectionManager
 
-    conn = ConnectionManager(server.pytrinamic_args).connect()
+    args = server.pytrinamic_args if module_id is None else server.pytrinamic_args_for(module_id)
+    conn = ConnectionManager(args).connect()
     try:
         sock = getattr(conn, "_socket", None)
         if sock is not None:
@@ -252,3 +286,102 @@ class RawReply:
     def __repr__(self):
         return (f"RawReply(host={self.host}, module={self.module}, status={self.status}, opcode={self.opcode}, "
                 f"value={self.value}, bytes={self.data.hex(' ')})")
+
+
+# -- a raw line with timestamps (bus and ASCII tests) ----------------------------------------------
+
+class LinePort:
+    """A host on the line with raw pyserial: writes whole frames or text, reads with bounded waits and
+    with the monotonic time at which the bytes arrived (`select` on the pty, then `os.read`)."""
+
+    def __init__(self, link, baud: int = 115200):
+        import serial
+
+        self.ser = serial.Serial(str(link), baud, timeout=0)
+        self.fd = self.ser.fileno()
+        self.pending = b""  # bytes read but not yet consumed
+
+    def close(self):
+        self.ser.close()
+
+    def __enter__(self) -> "LinePort":
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def write(self, data: bytes) -> float:
+        """Writes `data`; returns the time right before the write (nothing can answer earlier, so delays
+        measured from it are never too short, even if this process is descheduled after the write)."""
+        t = time.monotonic()
+        self.ser.write(data)
+        self.ser.flush()
+        return t
+
+    def _fill(self, deadline: float) -> float | None:
+        """Reads whatever arrives before `deadline`; returns its arrival time (None: nothing came)."""
+        left = deadline - time.monotonic()
+        readable, _, _ = select.select([self.fd], [], [], max(left, 0))
+        if not readable:
+            return None
+        t = time.monotonic()
+        data = os.read(self.fd, 4096)
+        self.pending += data
+        return t
+
+    def read_timed(self, n: int, timeout: float = 5.0) -> tuple[bytes, float | None, float | None]:
+        """Up to `n` bytes within `timeout`, with the arrival times of the first and the last of them."""
+        deadline = time.monotonic() + timeout
+        first = last = time.monotonic() if self.pending else None
+        while len(self.pending) < n:
+            t = self._fill(deadline)
+            if t is None:
+                break
+            first = first or t
+            last = t
+        data, self.pending = self.pending[:n], self.pending[n:]
+        return data, first, last
+
+    def read_exact(self, n: int, timeout: float = 5.0) -> bytes:
+        data, _, _ = self.read_timed(n, timeout)
+        assert len(data) == n, f"expected {n} bytes within {timeout} s, got {data.hex(' ') or 'nothing'}"
+        return data
+
+    def read_until(self, end: bytes = b"\r", timeout: float = 5.0) -> bytes:
+        """Bytes up to and including `end` (an ASCII reply line)."""
+        deadline = time.monotonic() + timeout
+        while end not in self.pending:
+            if self._fill(deadline) is None:
+                raise AssertionError(f"no {end!r} within {timeout} s; got {self.pending!r}")
+        i = self.pending.index(end) + len(end)
+        data, self.pending = self.pending[:i], self.pending[i:]
+        return data
+
+    def read_quiet(self, quiet_s: float = 0.2, timeout: float = 5.0) -> bytes:
+        """Everything that arrives until the line has been quiet for `quiet_s`."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self._fill(min(deadline, time.monotonic() + quiet_s)) is None:
+                break
+        data, self.pending = self.pending, b""
+        return data
+
+    def reply(self, timeout: float = 5.0) -> RawReply:
+        return RawReply(self.read_exact(9, timeout))
+
+    def request(self, address: int, opcode: int, kind: int, motor: int, value: int,
+                timeout: float = 5.0) -> RawReply:
+        self.write(frame(address, opcode, kind, motor, value))
+        return self.reply(timeout)
+
+    def ok(self, address: int, opcode: int, kind: int, motor: int, value: int, host: int = 2) -> RawReply:
+        """A request answered with status 100 by the module at `address`."""
+        reply = self.request(address, opcode, kind, motor, value)
+        assert reply.checksum_ok, reply
+        assert (reply.host, reply.module, reply.status, reply.opcode) == (host, address, 100, opcode), reply
+        return reply
+
+    def silence(self, seconds: float = 0.3):
+        """Nothing arrives within `seconds`."""
+        data, _, _ = self.read_timed(1, seconds)
+        assert data == b"", f"expected no bytes within {seconds} s, got {(data + self.pending).hex(' ')}"
