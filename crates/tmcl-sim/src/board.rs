@@ -237,6 +237,10 @@ fn supply_factor(supply: f64) -> f64 {
     (supply / 24.0).min(1.0)
 }
 
+/// The inputs of the coil current and torque in [`SimBoard::power`]: driver on, current setting, range
+/// (AP 179), error flags (faults, temperature), supply voltage (bits). The rest is fixed per world.
+type PowerInputs = (bool, u8, bool, u8, u64);
+
 /// A clock the board reads before sensor and input reads.
 struct Clock(Box<dyn FnMut() -> Instant + Send>);
 
@@ -264,6 +268,9 @@ pub struct SimBoard {
     /// `(supply / 24).min(1)`, the supply's torque factor in [`SimBoard::power`], kept with `supply` (spares
     /// a division per update).
     supply_factor: f64,
+    /// Everything [`SimBoard::power`] computed the coil current and torque from, when it last did: the
+    /// same inputs give the same figures, so it skips to the settle (see there).
+    powered_by: Option<PowerInputs>,
     /// AP 208 bits 1..6 from fault windows.
     fault_flags: u8,
     encoder_slip: i64,
@@ -288,6 +295,7 @@ impl SimBoard {
             world: Levels::from(&world),
             supply: plan.supply,
             supply_factor: supply_factor(plan.supply),
+            powered_by: None,
             fault_flags: 0,
             encoder_slip: 0,
             coil: 0.0,
@@ -329,6 +337,7 @@ impl SimBoard {
             world: Levels::from(&world),
             supply: plan.supply,
             supply_factor: supply_factor(plan.supply),
+            powered_by: None, // new mechanics (torque per amp, undervoltage): compute the power afresh
             spec: world,
             plan,
             ..fresh
@@ -537,7 +546,18 @@ impl SimBoard {
     /// Sets the coil current and the motor's available torque from the drive state, supply and faults.
     fn power(&mut self) {
         const SHUTDOWN: u8 = (1 << 1) | (1 << 3) | (1 << 4);
-        let off = self.error_flags() & SHUTDOWN != 0 || self.supply < self.plan.undervoltage;
+        let flags = self.error_flags();
+        let inputs =
+            (self.drive.enabled, self.drive.current, self.driver.settings.high_range, flags, self.supply.to_bits());
+        if self.powered_by == Some(inputs) {
+            // Same inputs, same coil current and torque (bit for bit), and `set_available` with an
+            // unchanged torque changes nothing: the speed only counts when the power goes off, and ω is
+            // already 0 while powered (only that call and freewheeling, which needs no power, set it).
+            self.plan.mech.settle();
+            return;
+        }
+        self.powered_by = Some(inputs);
+        let off = flags & SHUTDOWN != 0 || self.supply < self.plan.undervoltage;
         self.coil = if off { 0.0 } else { driver::coil_current(&self.drive, &self.driver.settings) };
         // A crude supply model: below the nominal 24 V the chopper reaches proportionally less current
         // at speed; only the torque is scaled.
@@ -574,7 +594,20 @@ impl SimBoard {
 
     fn encoder_counts(&self) -> i64 {
         let turns = (self.plan.mech.rotor() - self.plan.encoder_zero) / self.plan.mech.usteps_per_rev();
-        (turns * ENCODER_COUNTS_PER_REV as f64).floor() as i64 + self.encoder_slip
+        floor_i64(turns * ENCODER_COUNTS_PER_REV as f64) + self.encoder_slip
+    }
+}
+
+/// `x.floor() as i64` without the `floor` library call (x86-64 has no rounding instruction before
+/// SSE4.1): truncate, and step down when that went up. The same for every `x`: saturating at the ends
+/// (then `t as f64 > x` only for `x` below `i64::MIN`, where `t` stays `i64::MIN`), 0 for NaN.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if t as f64 > x {
+        t.saturating_sub(1)
+    } else {
+        t
     }
 }
 
@@ -628,15 +661,20 @@ impl Drive for SimBoard {
             let old = self.plan.mech.field();
             let new = old.saturating_add(moved);
             let rotor = self.plan.mech.rotor();
+            let was_locked = self.plan.mech.locked();
             let mut stalled = self.plan.mech.drive_to(new);
-            // Not following: the rotor went less than half as far as the field, in the field's direction.
-            let followed = (self.plan.mech.rotor() - rotor) * moved.signum() as f64;
-            stalled |= followed * 2.0 < moved.unsigned_abs() as f64;
+            // Locked on the field before and after, the rotor went exactly as far as the field: following.
+            let locked = was_locked && self.plan.mech.locked();
+            if !locked {
+                // Not following: the rotor went less than half as far as the field, in its direction.
+                let followed = (self.plan.mech.rotor() - rotor) * moved.signum() as f64;
+                stalled |= followed * 2.0 < moved.unsigned_abs() as f64;
+            }
             let full = |p: i64| p.div_euclid(USTEPS_PER_FULL_STEP);
             let crossings = full(new).abs_diff(full(old));
             // Full steps per second: x / 2^r, as x · 2^−r (the same number exactly, without a division).
             let speed = f64::from(state.velocity).abs() * INVERSE_POWERS_OF_TWO[usize::from(state.resolution.min(8))];
-            let ratio = if self.plan.mech.locked() {
+            let ratio = if locked {
                 0.0 // the rotor exactly on the field (trivial world): load angle ±0, sin(0) = 0
             } else {
                 let angle = self.plan.mech.load_angle().abs();
@@ -694,6 +732,19 @@ mod tests {
         m.poll(t + Duration::from_secs(3), &mut |_: &[u8]| {});
         assert_eq!(m.board().shaft(), MICROSTEPS_PER_REV);
         assert_eq!(m.board_mut().feedback().encoder_counts, 1024);
+    }
+
+    #[test]
+    fn floor_i64_is_floor_as_i64() {
+        let mut xs = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5, 1e300, -1e300, f64::NAN, f64::INFINITY];
+        xs.extend([f64::NEG_INFINITY, f64::MIN_POSITIVE, -f64::MIN_POSITIVE, 4503599627370495.5, -4503599627370495.5]);
+        xs.extend([9.223372036854776e18, -9.223372036854776e18, -9.223372036854778e18, 1023.9999999999999]);
+        for k in -3000..3000 {
+            xs.push(f64::from(k) * 0.37 + 1e-9 * f64::from(k));
+        }
+        for x in xs {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+        }
     }
 
     #[test]
