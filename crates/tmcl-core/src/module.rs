@@ -505,14 +505,16 @@ impl<B: Board> Module<B> {
     }
 
     /// The current setting now (AP 6, 7, 200, 204, 214, 167) and whether the driver is on.
+    #[inline]
     pub(crate) fn current(&self, now: Instant) -> (u8, bool) {
         if self.axis_value(167) == 0 {
             return (0, false); // AP 167 = 0 "completely disables all driver transistors"
         }
         match self.st.standstill_since {
             None => {
-                let boost = self.axis_value(200);
-                let run = if self.st.ramping && boost != 0 { boost } else { self.axis_value(6) };
+                // AP 200 only matters while the speed changes: not looked up while cruising.
+                let boost = if self.st.ramping { self.axis_value(200) } else { 0 };
+                let run = if boost != 0 { boost } else { self.axis_value(6) };
                 (self.regulated_current(run), true)
             }
             Some(since) => {

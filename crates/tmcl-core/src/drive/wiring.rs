@@ -36,6 +36,7 @@ impl<B: Board> Module<B> {
     }
 
     /// The running current after coolStep (AP 180 is this / 8): `run` itself when coolStep is off.
+    #[inline]
     pub(crate) fn regulated_current(&self, run: i32) -> u8 {
         if self.axis_value(172) == 0 {
             return run.clamp(0, 255) as u8; // coolStep off (SEMIN = 0): the common case, no more lookups
