@@ -179,8 +179,6 @@ def test_address_change_takes_effect_at_once(line, bus_server, tmcl_bin):
     assert scan(tmcl_bin, bus_server, 1, 10) == [1, 2, 7]
 
 
-@pytest.mark.xfail(strict=True, reason="server bug: `--module pd28-1021@3` re-applies SGP 66 = 3 at every "
-                   "start, overwriting the address stored in pd28-1021@3.eeprom (serve.rs)")
 def test_address_change_survives_a_restart(serve, tmp_path):
     """GP 66 is stored automatically (§5.1 access RWA): after a restart on the same EEPROM files the
     module is at its new address; the secondary address GP 87 (also RWA) is kept too."""

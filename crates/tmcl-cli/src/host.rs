@@ -42,7 +42,8 @@ pub struct Connection {
     /// TCP address of the module, HOST:PORT (e.g. 127.0.0.1:2323 for `tmcl serve --tcp`).
     #[arg(long, global = true, value_name = "HOST:PORT", help_heading = "Connection")]
     pub tcp: Option<String>,
-    /// Module address (global parameter 66; default 1). For `serve`: the address the module answers at.
+    /// Module address (global parameter 66; default 1). For `serve`: the address a module with a new
+    /// EEPROM answers at (a module keeps the address stored in its EEPROM).
     #[arg(long, global = true, value_name = "N", help_heading = "Connection")]
     pub address: Option<u8>,
     /// How long to wait for each reply, in seconds (fractions allowed).

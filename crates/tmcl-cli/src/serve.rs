@@ -8,7 +8,7 @@ use crate::bus::{Bus, Node};
 use crate::host::Connection;
 use crate::pty::Pty;
 use clap::Args;
-use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+use nix::poll::{ppoll, PollFd, PollFlags};
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::os::fd::AsFd;
@@ -116,7 +116,9 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
     }
     let mut nodes = Vec::new();
     for (n, (spec, address)) in wanted.into_iter().enumerate() {
-        let address = address.or(conn.address);
+        // The address a module is started with: --address, MODEL@ADDR, or (on a bus without either) its
+        // position on the line. It names the module's EEPROM file in --eeprom-dir.
+        let address = address.or(conn.address).or((n > 0).then_some(n as u8 + 1));
         let name = format!("{}@{}", spec.id, address.unwrap_or(1));
         let capacity = persist::capacity(spec);
         let path = match (&args.eeprom, &args.eeprom_dir) {
@@ -124,20 +126,25 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
             (None, Some(dir)) => Some(dir.join(format!("{name}.eeprom"))),
             (None, None) => None,
         };
+        // Only a new EEPROM takes the start address: a module keeps the address it stored (GP 66 is
+        // stored automatically, §5.1), as a real module keeps its address across power cycles.
+        let fresh = path.as_ref().is_none_or(|p| std::fs::metadata(p).map_or(true, |m| m.len() == 0));
         let eeprom = match path {
             Some(path) => Eeprom::File(FileNvm::open(&path, capacity).map_err(|e| e.to_string())?),
             None => Eeprom::Memory(MemNvm::new(capacity)),
         };
         let board = SimBoard::new(eeprom).with_world(world.clone()).map_err(|e| e.to_string())?.with_clock(clock);
         let mut module = Module::new(board, spec, clock());
-        // A module's address: --address, or MODEL@ADDR, or (on a bus without either) its position.
-        let address = address.or((n > 0).then_some(n as u8 + 1));
         if let Some(address) = address {
-            // The module answers at N (GP 66, stored like any SGP 66).
-            if module.address() != address {
+            if fresh && module.address() != address {
                 module
                     .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
                     .map_err(|s| format!("address {address}: {s}"))?;
+            } else if module.address() != address {
+                eprintln!(
+                    "tmcl serve: {name}: keeping the address {} stored in its EEPROM (a start address applies to a new EEPROM)",
+                    module.address()
+                );
             }
         }
         nodes.push(Node::new(module, name));
@@ -251,7 +258,8 @@ fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
     file.read(buf).unwrap_or_default()
 }
 
-/// Waits until the link is readable or `timeout` passes.
+/// Waits until the link is readable or `timeout` passes (with microsecond resolution: byte times at high
+/// baud rates are far below a millisecond).
 fn wait(link: &Link, timeout: std::time::Duration) -> io::Result<bool> {
     let fd = match link {
         Link::Pty(pty) => pty.master.as_fd(),
@@ -259,8 +267,8 @@ fn wait(link: &Link, timeout: std::time::Duration) -> io::Result<bool> {
         Link::Tcp { peer: Some(stream), .. } => stream.as_fd(),
     };
     let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
-    let ms = PollTimeout::try_from(timeout.as_millis().max(1) as u64).unwrap_or(PollTimeout::MAX);
-    match poll(&mut fds, ms) {
+    let timeout = nix::sys::time::TimeSpec::from_duration(timeout.max(std::time::Duration::from_micros(20)));
+    match ppoll(&mut fds, Some(timeout), None) {
         Ok(n) => Ok(n > 0),
         Err(nix::Error::EINTR) => Ok(false),
         Err(e) => Err(io::Error::from_raw_os_error(e as i32)),
