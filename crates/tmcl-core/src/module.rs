@@ -567,7 +567,15 @@ impl<B: Board> Module<B> {
             return;
         }
         self.st.now = now;
-        let params = self.ramp_params();
+        // The ramp parameters in force for this call's ticks, read at its start. When no tick is due
+        // (a frame between two ticks), none runs in this call: the loop's first pass takes `tick_at`
+        // before the program runs and breaks on it. So the three lookups are skipped and the placeholder
+        // is never used.
+        let params = if self.st.motion_time + TICK <= now {
+            self.ramp_params()
+        } else {
+            RampParams { max_speed: 0, max_accel: 0, min_speed: 0 }
+        };
         let mut ticked = false;
         let mut budget = BUDGET;
         // Instructions up to and including `now`.
