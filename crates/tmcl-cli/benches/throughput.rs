@@ -155,20 +155,37 @@ fn motion_program_ratio(virtual_secs: u64) {
 }
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    // `--only core|vm|motion|pty|memory` runs one part (for instruction counts under valgrind).
+    let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).map(String::as_str);
+    let part = |name: &str| only.is_none_or(|o| o == name);
     let n = if quick { 1_000_000 } else { 20_000_000 };
-    let core_ram = std::mem::size_of::<State>() + std::mem::size_of::<tmcl_core::vm::Vm>();
-    println!(
-        "firmware RAM but program memory: State {} + Vm {} = {core_ram} bytes (goal <= 4096)",
-        std::mem::size_of::<State>(),
-        std::mem::size_of::<tmcl_core::vm::Vm>()
-    );
-    println!("program memory: {} bytes", std::mem::size_of::<tmcl_core::vm::Program>());
-    println!("size_of::<Module<SimBoard>>() = {} bytes", std::mem::size_of::<Module<SimBoard>>());
-    core_rate("GAP 1 (actual position)", &[frame(Opcode::Gap, 1, 0)], n);
-    core_rate("SAP 4 (max speed)", &[frame(Opcode::Sap, 4, 51200)], n);
-    core_rate("MVP ABS (alternating)", &[frame(Opcode::Mvp, 0, 100_000), frame(Opcode::Mvp, 0, -100_000)], n);
-    vm_rate(if quick { 20 } else { 200 });
-    motion_program_ratio(3600);
-    pty_latency(if quick { 2_000 } else { 20_000 });
+    if part("memory") {
+        let core_ram = std::mem::size_of::<State>() + std::mem::size_of::<tmcl_core::vm::Vm>();
+        println!(
+            "firmware RAM but program memory: State {} + Vm {} = {core_ram} bytes (goal <= 4096)",
+            std::mem::size_of::<State>(),
+            std::mem::size_of::<tmcl_core::vm::Vm>()
+        );
+        println!("program memory: {} bytes", std::mem::size_of::<tmcl_core::vm::Program>());
+        println!("size_of::<Module<SimBoard>>() = {} bytes", std::mem::size_of::<Module<SimBoard>>());
+    }
+    if part("core") {
+        core_rate("GAP 1 (actual position)", &[frame(Opcode::Gap, 1, 0)], n);
+        core_rate("SAP 4 (max speed)", &[frame(Opcode::Sap, 4, 51200)], n);
+        core_rate("MVP ABS (alternating)", &[frame(Opcode::Mvp, 0, 100_000), frame(Opcode::Mvp, 0, -100_000)], n);
+    }
+    if part("gap") {
+        core_rate("GAP 1 (actual position)", &[frame(Opcode::Gap, 1, 0)], n);
+    }
+    if part("vm") {
+        vm_rate(if quick { 20 } else { 200 });
+    }
+    if part("motion") {
+        motion_program_ratio(3600);
+    }
+    if part("pty") {
+        pty_latency(if quick { 2_000 } else { 20_000 });
+    }
 }

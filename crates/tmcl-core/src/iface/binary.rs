@@ -55,6 +55,11 @@ impl Framer {
         }
     }
 
+    /// Notes a whole frame taken at `now` without pushing its bytes (the next byte's gap counts from it).
+    pub fn touch(&mut self, now: Instant) {
+        self.last = now;
+    }
+
     /// Number of bytes of a partial frame held.
     pub fn pending(&self) -> usize {
         self.len
@@ -118,10 +123,12 @@ impl Outbox {
         while self.used + message.len() > OUTBOX_BYTES || (!joins && self.count == OUTBOX_MESSAGES) {
             self.drop_first();
         }
-        for &b in message {
-            self.bytes[(self.start + self.used) % OUTBOX_BYTES] = b;
-            self.used += 1;
-        }
+        // Copy in at most two pieces (the ring may wrap).
+        let at = (self.start + self.used) % OUTBOX_BYTES;
+        let first = message.len().min(OUTBOX_BYTES - at);
+        self.bytes[at..at + first].copy_from_slice(&message[..first]);
+        self.bytes[..message.len() - first].copy_from_slice(&message[first..]);
+        self.used += message.len();
         match last {
             Some(l) if joins && self.count > 0 && (self.first + self.count - 1) % OUTBOX_MESSAGES == l => {
                 self.marks[l].0 += message.len() as u16;
