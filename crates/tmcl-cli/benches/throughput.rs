@@ -126,7 +126,7 @@ fn vm_rate(virtual_secs: u64) {
         Command::Stop,
     ]);
     let secs = run_for(&mut module, virtual_secs);
-    let executed = (virtual_secs * 1_000_000 / 20) as f64;
+    let executed = module.vm().executed() as f64;
     println!(
         "vm ALU loop (CALC/COMP/JC)            {:>8.2} M instructions/s  ({:.1} ns/instruction; {:.0}x real time)",
         executed / secs / 1e6,
