@@ -176,7 +176,7 @@ fn main() {
         core_rate("SAP 4 (max speed)", &[frame(Opcode::Sap, 4, 51200)], n);
         core_rate("MVP ABS (alternating)", &[frame(Opcode::Mvp, 0, 100_000), frame(Opcode::Mvp, 0, -100_000)], n);
     }
-    if part("gap") {
+    if only == Some("gap") {
         core_rate("GAP 1 (actual position)", &[frame(Opcode::Gap, 1, 0)], n);
     }
     if part("vm") {
