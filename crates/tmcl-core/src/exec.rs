@@ -445,12 +445,7 @@ impl<B: Board> Module<B> {
         number: u8,
         allowed: impl Fn(&ParamDesc) -> bool,
     ) -> Result<(usize, &'static ParamDesc), Status> {
-        let (i, d) = self.spec.axis.find(number)?;
-        if allowed(d) {
-            Ok((i, d))
-        } else {
-            Err(ParamError::NotPermitted.into())
-        }
+        permitted(&self.spec.axis, number, allowed)
     }
 
     fn global_desc(
@@ -458,12 +453,7 @@ impl<B: Board> Module<B> {
         number: u8,
         allowed: impl Fn(&ParamDesc) -> bool,
     ) -> Result<(usize, &'static ParamDesc), Status> {
-        let (i, d) = self.spec.global.find(number)?;
-        if allowed(d) {
-            Ok((i, d))
-        } else {
-            Err(ParamError::NotPermitted.into())
-        }
+        permitted(&self.spec.global, number, allowed)
     }
 
     /// GAP: an axis parameter's value (chapter 4, Table 15).
@@ -697,5 +687,20 @@ impl<B: Board> Module<B> {
             }
             RfsAction::Status => Ok(self.st.reference.status()),
         }
+    }
+}
+
+/// A parameter of `table` that allows what `allowed` asks (read, write, store, ...): unknown → 3, not
+/// permitted → 3 (see [`ParamError`]).
+fn permitted(
+    table: &crate::param::Table,
+    number: u8,
+    allowed: impl Fn(&ParamDesc) -> bool,
+) -> Result<(usize, &'static ParamDesc), Status> {
+    let (i, d) = table.find(number)?;
+    if allowed(d) {
+        Ok((i, d))
+    } else {
+        Err(ParamError::NotPermitted.into())
     }
 }

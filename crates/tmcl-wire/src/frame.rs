@@ -68,6 +68,52 @@ impl fmt::Display for WireError {
 #[cfg(feature = "std")]
 impl std::error::Error for WireError {}
 
+/// The common part of a 9-byte frame view (request or reply): construction, the length check that makes
+/// every accessor panic-free, and the buffer back.
+macro_rules! frame_view {
+    ($view:ident) => {
+        impl<T: AsRef<[u8]>> $view<T> {
+            /// Wraps a buffer without checking its length.
+            pub const fn new_unchecked(buffer: T) -> $view<T> {
+                $view { buffer }
+            }
+
+            /// Wraps a buffer after the length check.
+            #[inline]
+            pub fn new_checked(buffer: T) -> Result<$view<T>, $crate::frame::WireError> {
+                let frame = Self::new_unchecked(buffer);
+                frame.check_len()?;
+                Ok(frame)
+            }
+
+            /// Ensures that no accessor will panic.
+            #[inline]
+            pub fn check_len(&self) -> Result<(), $crate::frame::WireError> {
+                if self.buffer.as_ref().len() < $crate::frame::FRAME_LEN {
+                    Err($crate::frame::WireError::Truncated)
+                } else {
+                    Ok(())
+                }
+            }
+
+            /// Returns the underlying buffer.
+            pub fn into_inner(self) -> T {
+                self.buffer
+            }
+
+            /// Bytes 4..8 (the value), MSB first, as a signed 32-bit number.
+            #[inline]
+            pub fn value(&self) -> i32 {
+                let b = &self.buffer.as_ref()[4..8];
+                i32::from_be_bytes([b[0], b[1], b[2], b[3]])
+            }
+        }
+    };
+}
+pub(crate) use frame_view;
+
+frame_view!(Frame);
+
 /// A read/write view of a request frame over any byte buffer.
 ///
 /// Accessors panic if the buffer is shorter than [`FRAME_LEN`]; [`Frame::new_checked`] rules that out.
@@ -77,34 +123,6 @@ pub struct Frame<T: AsRef<[u8]>> {
 }
 
 impl<T: AsRef<[u8]>> Frame<T> {
-    /// Wraps a buffer without checking its length.
-    pub const fn new_unchecked(buffer: T) -> Frame<T> {
-        Frame { buffer }
-    }
-
-    /// Wraps a buffer after [`Frame::check_len`].
-    #[inline]
-    pub fn new_checked(buffer: T) -> Result<Frame<T>, WireError> {
-        let frame = Self::new_unchecked(buffer);
-        frame.check_len()?;
-        Ok(frame)
-    }
-
-    /// Ensures that no accessor will panic.
-    #[inline]
-    pub fn check_len(&self) -> Result<(), WireError> {
-        if self.buffer.as_ref().len() < FRAME_LEN {
-            Err(WireError::Truncated)
-        } else {
-            Ok(())
-        }
-    }
-
-    /// Returns the underlying buffer.
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
-
     /// Module (target) address, byte 0.
     #[inline]
     pub fn address(&self) -> u8 {
@@ -127,13 +145,6 @@ impl<T: AsRef<[u8]>> Frame<T> {
     #[inline]
     pub fn motor(&self) -> u8 {
         self.buffer.as_ref()[field::MOTOR]
-    }
-
-    /// The value, bytes 4..8, MSB first, as a signed 32-bit number (negative values are two's complement).
-    #[inline]
-    pub fn value(&self) -> i32 {
-        let b = &self.buffer.as_ref()[field::VALUE];
-        i32::from_be_bytes([b[0], b[1], b[2], b[3]])
     }
 
     /// The checksum byte, byte 8.

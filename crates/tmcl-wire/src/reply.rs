@@ -37,34 +37,6 @@ pub struct ReplyFrame<T: AsRef<[u8]>> {
 }
 
 impl<T: AsRef<[u8]>> ReplyFrame<T> {
-    /// Wraps a buffer without checking its length.
-    pub const fn new_unchecked(buffer: T) -> ReplyFrame<T> {
-        ReplyFrame { buffer }
-    }
-
-    /// Wraps a buffer after [`ReplyFrame::check_len`].
-    #[inline]
-    pub fn new_checked(buffer: T) -> Result<ReplyFrame<T>, WireError> {
-        let frame = Self::new_unchecked(buffer);
-        frame.check_len()?;
-        Ok(frame)
-    }
-
-    /// Ensures that no accessor will panic.
-    #[inline]
-    pub fn check_len(&self) -> Result<(), WireError> {
-        if self.buffer.as_ref().len() < FRAME_LEN {
-            Err(WireError::Truncated)
-        } else {
-            Ok(())
-        }
-    }
-
-    /// Returns the underlying buffer.
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
-
     /// Reply (host) address, byte 0.
     #[inline]
     pub fn host(&self) -> u8 {
@@ -87,13 +59,6 @@ impl<T: AsRef<[u8]>> ReplyFrame<T> {
     #[inline]
     pub fn opcode(&self) -> u8 {
         self.buffer.as_ref()[field::OPCODE]
-    }
-
-    /// Value, bytes 4..8.
-    #[inline]
-    pub fn value(&self) -> i32 {
-        let b = &self.buffer.as_ref()[field::VALUE];
-        i32::from_be_bytes([b[0], b[1], b[2], b[3]])
     }
 
     /// Checksum, byte 8.
@@ -147,6 +112,8 @@ impl<T: AsRef<[u8]> + AsMut<[u8]>> ReplyFrame<T> {
         self.buffer.as_mut()[field::CHECKSUM] = sum;
     }
 }
+
+crate::frame::frame_view!(ReplyFrame);
 
 /// A parsed normal reply.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
