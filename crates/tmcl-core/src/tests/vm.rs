@@ -466,3 +466,40 @@ fn load_program_and_breakpoints() {
     b.power_cycle();
     assert_eq!(b.module.program().len(), 4);
 }
+
+#[test]
+fn manual_copy_inputs_to_outputs() {
+    // §3.7.14 (inventory P4): GIO 255, 0 loads all inputs into A; SIO 255, 2, -1 sets the outputs from A.
+    let mut b = Bench::new();
+    download(&mut b, &[C::Gio { port: 255, bank: 0 }, C::Sio { port: 255, bank: 2, value: -1 }, C::Ja { address: 0 }]);
+    run_from(&mut b, 0);
+    for inputs in [0b01, 0b10, 0b11, 0b00] {
+        b.module.board_mut().inputs = inputs;
+        b.run(Duration::from_millis(2));
+        assert_eq!(b.module.board().outputs, inputs, "OUT0/OUT1 follow IN0/IN1");
+    }
+}
+
+#[test]
+fn manual_potentiometer_to_position() {
+    // §3.7.29 (inventory P10): GIO 0, 1; CALC MUL, 4; AAP 0, 0: the target follows the analog input × 4.
+    let mut b = Bench::new();
+    download(
+        &mut b,
+        &[
+            C::Gio { port: 0, bank: 1 },
+            C::Calc { op: CalcOp::Mul, operand: 4 },
+            C::Aap { param: 0, motor: 0 },
+            C::Ja { address: 0 },
+        ],
+    );
+    run_from(&mut b, 0);
+    b.module.board_mut().analog = 1000;
+    b.run(Duration::from_millis(2));
+    assert_eq!(b.gap(0), 4000);
+    b.run(Duration::from_secs(2));
+    assert_eq!(b.gap(1), 4000, "the motor moved there");
+    b.module.board_mut().analog = 4095;
+    b.run(Duration::from_secs(2));
+    assert_eq!(b.gap(1), 16380);
+}
