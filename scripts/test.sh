@@ -16,6 +16,9 @@ cargo fmt --all -- --check
 step "cargo clippy (all targets, warnings are errors)"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 
+step "documentation (broken links are errors)"
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
+
 step "no_std, heap-free firmware crates"
 cargo build --quiet -p tmcl-wire -p tmcl-core --no-default-features
 

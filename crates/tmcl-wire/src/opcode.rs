@@ -40,7 +40,7 @@ macro_rules! opcodes {
 
         impl Opcode {
             /// The assembler mnemonic, or `None` for commands that have none (control commands, unknown
-            /// numbers). UF0–UF7 are spelled by [`Opcode::fmt`].
+            /// numbers). UF0–UF7 are spelled by its `Display` implementation.
             pub fn mnemonic(self) -> Option<&'static str> {
                 match self {
                     $( Opcode::$variant => if $mnemonic.is_empty() { None } else { Some($mnemonic) }, )*
