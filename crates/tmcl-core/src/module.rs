@@ -527,9 +527,7 @@ impl<B: Board> Module<B> {
         }
         match self.st.standstill_since {
             None => {
-                // AP 200 only matters while the speed changes: not looked up while cruising.
-                let boost = if self.st.ramping { self.axis_value(200) } else { 0 };
-                let run = if boost != 0 { boost } else { self.axis_value(6) };
+                let run = self.run_current();
                 (self.regulated_current(run), true)
             }
             Some(since) => {
@@ -543,6 +541,18 @@ impl<B: Board> Module<B> {
                     (self.axis_value(6) as u8, true)
                 }
             }
+        }
+    }
+
+    /// The current for a moving motor before coolStep: the boost current AP 200 while the speed changes
+    /// (if not 0), else the run current AP 6 (Table 22). AP 200 is not looked up while cruising.
+    #[inline]
+    pub(crate) fn run_current(&self) -> i32 {
+        let boost = if self.st.ramping { self.axis_value(200) } else { 0 };
+        if boost != 0 {
+            boost
+        } else {
+            self.axis_value(6)
         }
     }
 

@@ -55,9 +55,7 @@ impl<B: Board> Module<B> {
             self.st.load_measurements = measurements;
             let load = self.board.feedback().load.min(1023);
             if self.axis_value(172) != 0 {
-                let boost = self.axis_value(200);
-                let run = if self.st.ramping && boost != 0 { boost } else { self.axis_value(6) };
-                let params = self.coolstep_params(run);
+                let params = self.coolstep_params(self.run_current());
                 self.st.coolstep.update(load, params);
             }
             // §7.2 / AP 181: stop when the load value reaches 0 above the stop-on-stall speed.
