@@ -1,27 +1,33 @@
 //! The one dispatcher: every command a host sends goes through [`Module::execute`] (STYLE.md §2).
 //!
-//! Each arm cites the manual section that defines the command. Statuses the manual leaves open
-//! (inventory AMB-20) are decided once, here and in [`crate::param::ParamError`]:
+//! Each arm cites the manual section that defines the command. Statuses the manual leaves open are
+//! decided once, here and in [`crate::param::ParamError`]:
 //! - an unknown parameter, port or coordinate number, or one that does not support the operation
 //!   (a write to a read-only parameter, STAP of a parameter without E): **3, wrong type** — the type byte
 //!   names it;
 //! - a value out of range, a motor other than 0, a bank the command does not know: **4, invalid value**;
 //! - an EEPROM that cannot be written: **5, configuration EEPROM locked**;
-//! - program-flow commands sent from the host (JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI, "standalone
-//!   only", manual §3.6.2 and inventory AMB-13) and UF0–UF7 (no user functions in the standard firmware,
-//!   §3.7.37): **6, command not available**. CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in
-//!   direct mode" (§3.6.3) and work on the module's registers.
+//! - a write or store of a password-protected parameter while the module is locked: **8, parameter is
+//!   password protected** (TMCM-1310 manual §3.7);
+//! - a command the model does not have: **2, invalid command** (checked before this dispatcher, by
+//!   `Module::decode`);
+//! - program-flow commands sent from the host (the table of opcode properties marks them "program only":
+//!   JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI; the manual's §3.6.2 calls them standalone only)
+//!   and UF0–UF7 (no user functions in the standard firmware, §3.7.37): **6, command not available**.
+//!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.3) and work on the
+//!   module's registers.
 
 use crate::hal::Board;
-use crate::model::PortKind;
-use crate::module::{flags, Module, Origin, Outcome, Registers};
+use crate::model::{PortKind, Setting};
+use crate::module::{flags, Module, Origin, Outcome, Registers, RNG_SEED};
 use crate::motion::reference::Action;
 use crate::motion::{Mode, SearchMode};
 use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
-    CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
+    Availability, CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind,
+    VersionFormat, FRAME_LEN,
 };
 
 type Exec = Result<Outcome, Status>;
@@ -47,18 +53,22 @@ impl<B: Board> Module<B> {
     /// Executes one validated command from the host or the program at `now`.
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
+        // Standalone-only program flow sent by the host (§3.6.2): not available.
+        if origin == Origin::Host && command.opcode().info().is_some_and(|i| i.availability == Availability::Program) {
+            return Err(Status::NotAvailable);
+        }
         match command {
             // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
             C::Ror { motor, velocity } => {
                 self.motor(motor)?;
-                self.start_rotation(velocity);
+                self.start_rotation(self.to_pps(velocity));
                 value(velocity)
             }
             // §3.7.2 ROL: as ROR to the left: AP 2 = −velocity (AMB-19: a negative velocity turns right).
             C::Rol { motor, velocity } => {
                 self.motor(motor)?;
                 let v = velocity.checked_neg().ok_or(Status::InvalidValue)?;
-                self.start_rotation(v);
+                self.start_rotation(self.to_pps(v));
                 value(velocity)
             }
             // §3.7.3 MST: velocity mode, target speed 0 (AMB-8: "#0" is AP 2), decelerating with AP 5.
@@ -99,6 +109,7 @@ impl<B: Board> Module<B> {
             C::Stap { param, motor } => {
                 self.motor(motor)?;
                 let (i, _) = self.axis_desc(param, |d| d.access.store)?;
+                self.unlocked_for(&self.spec.axis.params[i])?;
                 persist::store_axis(&mut self.board, self.spec, i, self.st.axis[i])?;
                 value(0)
             }
@@ -123,9 +134,13 @@ impl<B: Board> Module<B> {
                 match bank {
                     0 => {
                         let (i, _) = self.global_desc(param, |d| d.access.auto)?;
+                        self.unlocked_for(&self.spec.global.params[i])?;
                         persist::store_global(&mut self.board, self.spec, i, self.st.global[i])?;
                     }
-                    2 => persist::store_user(&mut self.board, self.spec, param, self.st.user[usize::from(param)])?,
+                    2 => {
+                        let v = self.st.user[self.user_index(param)?];
+                        persist::store_user(&mut self.board, self.spec, param, v)?
+                    }
                     3 => return Err(ParamError::NotPermitted.into()),
                     _ => return Err(ParamError::NoSuchMotor.into()),
                 }
@@ -140,7 +155,8 @@ impl<B: Board> Module<B> {
                         self.st.global[i] = if d.range.contains(v) { v } else { d.default };
                     }
                     2 => {
-                        self.st.user[usize::from(param)] = persist::load_user(&mut self.board, self.spec, param)?;
+                        let n = self.user_index(param)?;
+                        self.st.user[n] = persist::load_user(&mut self.board, self.spec, param)?;
                     }
                     3 => return Err(ParamError::NotPermitted.into()),
                     _ => return Err(ParamError::NoSuchMotor.into()),
@@ -172,7 +188,7 @@ impl<B: Board> Module<B> {
                     },
                     _ => return Err(Status::WrongType),
                 };
-                self.st.outputs = bits & (((1u16 << self.spec.outputs) - 1) as u8);
+                self.st.outputs = bits & (((1u16 << self.spec.outputs) - 1) as u8); // outputs ≤ 8
                 self.board.set_outputs(self.st.outputs);
                 value(v)
             }
@@ -306,7 +322,7 @@ impl<B: Board> Module<B> {
                 let on = matches!(command, C::Ei { .. });
                 if interrupt == crate::model::GLOBAL_INTERRUPTS {
                     self.vm.global = on;
-                } else if self.spec.interrupts.iter().any(|d| d.number == interrupt) {
+                } else if self.spec.interrupts.find(interrupt).is_some() {
                     let bit = 1u64 << interrupt;
                     self.vm.enabled = if on { self.vm.enabled | bit } else { self.vm.enabled & !bit };
                     if !on {
@@ -317,7 +333,8 @@ impl<B: Board> Module<B> {
                 }
                 value(0)
             }
-            // Standalone-only program flow (§3.6.2, AMB-13) and user functions (§3.7.37).
+            // Standalone-only program flow, run by the program machine (and refused from the host above),
+            // and user functions, which the standard firmware does not have (§3.7.37).
             C::Comp { .. }
             | C::Jc { .. }
             | C::Ja { .. }
@@ -371,7 +388,7 @@ impl<B: Board> Module<B> {
             // §3.7.38 136: type 0 = host address + 8 characters, no checksum; type 1 = binary.
             C::GetVersion { format: VersionFormat::String } => {
                 let mut raw = [0u8; FRAME_LEN];
-                raw[0] = self.global_value(76) as u8;
+                raw[0] = self.host_address();
                 raw[1..].copy_from_slice(&self.spec.version_string);
                 Ok(Outcome::Raw(raw))
             }
@@ -383,7 +400,7 @@ impl<B: Board> Module<B> {
                 Ok(Outcome::Silent)
             }
             // §3.7.39 138: type 0 = next MVP, type 1 = every MVP; value = motor mask. Mask 0 cancels (our
-            // decision, AMB-16: the manual gives no way to turn type 1 off).
+            // decision: the manual gives no way to turn type 1 off).
             C::RequestTargetReachedEvent { mode, mask } => {
                 let all = (1i32 << self.spec.motors) - 1;
                 if mask & !all != 0 {
@@ -401,6 +418,9 @@ impl<B: Board> Module<B> {
             C::Boot => Ok(Outcome::Silent),
             // §3.7.38 255 (value 1234): restart like a power cycle; the reply goes out first.
             C::SoftwareReset => Ok(Outcome::Restart(MAGIC_KEY)),
+            // SAC (PDx-113 manual §5.4.3): SPI access to the motion controller and driver chain. A model
+            // that lists it needs a board with that SPI chain, which no board of this core has yet.
+            C::Sac { .. } => Err(Status::NotAvailable),
         }
     }
 
@@ -464,8 +484,8 @@ impl<B: Board> Module<B> {
             Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axis[i],
             Role::TargetPosition => ramp.target_position,
             Role::ActualPosition => ramp.position,
-            Role::TargetSpeed => ramp.target_velocity,
-            Role::ActualSpeed => ramp.velocity(),
+            Role::TargetSpeed => self.from_pps(ramp.target_velocity),
+            Role::ActualSpeed => self.from_pps(ramp.velocity()),
             Role::PositionReached => i32::from(ramp.position_reached()),
             Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
             Role::HomeSwitch => i32::from(self.switches().2),
@@ -473,10 +493,10 @@ impl<B: Board> Module<B> {
             Role::LeftSwitch => i32::from(self.switches().0),
             // AP 180: the current scale 0..31 in use (current / 8, Table 22), after coolStep.
             Role::ActualCurrent => i32::from(self.current(self.st.now).0 >> 3),
-            Role::LoadValue => i32::from(self.board.feedback().load.min(1023)),
+            Role::LoadValue => i32::from(self.board.load().min(1023)),
             // AP 207: "cleared automatically when read".
             Role::ErrorFlags => i32::from(core::mem::take(&mut self.st.error_flags)),
-            Role::DriverFlags => i32::from(self.board.feedback().driver_flags),
+            Role::DriverFlags => i32::from(self.board.driver_flags()),
             Role::EncoderPosition => self.encoder_position(),
             Role::EncoderAbsolute => self.encoder_absolute(),
             _ => self.st.axis[i],
@@ -489,14 +509,15 @@ impl<B: Board> Module<B> {
         if !d.range.contains(v) {
             return Err(ParamError::OutOfRange.into());
         }
+        self.unlocked_for(d)?;
         match d.role {
             // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
             // result to target position" relies on it).
             Role::TargetPosition => self.st.ramp.move_to(v),
             Role::ActualPosition => self.st.ramp.set_position(v),
             // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
-            Role::TargetSpeed => self.st.ramp.target_velocity = v,
-            // AMB-27: accepted, no effect: the ramp generator owns the actual speed.
+            Role::TargetSpeed => self.st.ramp.target_velocity = self.to_pps(v),
+            // Listed RW in Table 15: accepted, no effect: the ramp generator owns the actual speed.
             Role::ActualSpeed => {}
             Role::RampMode => {
                 self.st.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
@@ -510,7 +531,7 @@ impl<B: Board> Module<B> {
             _ => self.st.axis[i] = v,
         }
         // The driver's own settings (stallGuard2 filter and threshold, current range).
-        if matches!(number, 173 | 174 | 179) {
+        if matches!(d.setting, Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange)) {
             self.configure_driver();
         }
         Ok(())
@@ -539,10 +560,12 @@ impl<B: Board> Module<B> {
                         self.st.rng = x;
                         (x & 0x7FFF_FFFF) as i32
                     }
+                    // The password is never read back: 1 = unlocked, 0 = locked.
+                    Role::Password => i32::from(self.st.unlocked),
                     _ => self.st.global[i],
                 })
             }
-            2 => Ok(self.st.user[usize::from(number)]),
+            2 => Ok(self.st.user[self.user_index(number)?]),
             3 => {
                 let (i, _) = self.spec.interrupt.find(number)?;
                 Ok(self.st.interrupt[i])
@@ -559,24 +582,28 @@ impl<B: Board> Module<B> {
                 if !d.range.contains(v) {
                     return Err(ParamError::OutOfRange.into());
                 }
+                self.unlocked_for(d)?;
                 if d.access.auto {
                     // Stored first: if the EEPROM refuses, nothing changes.
                     persist::store_global(&mut self.board, self.spec, i, v)?;
                 }
-                if number == 81 {
+                if d.setting == Some(Setting::CodeProtection) {
                     self.protection_changed(self.st.global[i], v)?;
                 }
                 match d.role {
                     Role::TickTimer => self.st.tick_base = (now, v as u32),
                     // A written value seeds the generator (0 would stick; it becomes the start seed).
-                    Role::RandomNumber => self.st.rng = if v == 0 { 0x2545_F491 } else { v as u32 },
+                    Role::RandomNumber => self.st.rng = if v == 0 { RNG_SEED } else { v as u32 },
+                    // The password: the model's unlocks the protected parameters, anything else locks them.
+                    Role::Password => self.st.unlocked = self.spec.password == Some(v),
                     _ => {}
                 }
                 self.st.global[i] = v;
                 Ok(())
             }
             2 => {
-                self.st.user[usize::from(number)] = v;
+                let n = self.user_index(number)?;
+                self.st.user[n] = v;
                 Ok(())
             }
             3 => {
@@ -615,7 +642,7 @@ impl<B: Board> Module<B> {
     /// Sets a coordinate; with GP 84 = 1 coordinates 1..20 also go to the EEPROM (§3.7.24).
     fn write_coordinate(&mut self, coord: u8, v: i32) -> Result<(), Status> {
         let n = self.coord_index(coord)?;
-        if n > 0 && self.global_value(84) == 1 {
+        if n > 0 && self.gp_flag(Setting::CoordinateStorage) {
             persist::store_coordinate(&mut self.board, self.spec, coord, v)?;
         }
         self.st.coords[n] = v;
@@ -647,16 +674,38 @@ impl<B: Board> Module<B> {
         self.st.encoder = crate::module::EncoderBase { counts, value: v };
     }
 
-    /// AP 215: the absolute single-turn value 0..1023, independent of the prescaler (§6.2).
+    /// AP 215: the absolute single-turn value 0..counts per revolution − 1 (0..1023 on the PD28-1021),
+    /// independent of the prescaler (§6.2).
     fn encoder_absolute(&mut self) -> i32 {
-        self.encoder_counts_now().rem_euclid(1024) as i32
+        self.encoder_counts_now().rem_euclid(i64::from(self.counts_per_rev())) as i32
     }
 
-    /// GIO 11, 0: the encoder is within ±4 counts (±1.4°) of its absolute zero (our tolerance; §6.2 gives
-    /// none).
+    /// GIO 11, 0: the encoder is within 1/256 of a revolution (±4 counts, ±1.4° on the PD28-1021) of its
+    /// absolute zero (our tolerance; §6.2 gives none).
     fn encoder_near_zero(&mut self) -> bool {
+        let per_rev = self.counts_per_rev() as i32;
+        let tolerance = (per_rev / 256).max(1);
         let a = self.encoder_absolute();
-        !(4..=1020).contains(&a)
+        !(tolerance..=per_rev - tolerance).contains(&a)
+    }
+
+    /// A bank 2 user variable's index: 0..the model's user variables (else 3, wrong type).
+    fn user_index(&self, number: u8) -> Result<usize, Status> {
+        let n = usize::from(number);
+        if n < usize::from(self.spec.user_variables) {
+            Ok(n)
+        } else {
+            Err(ParamError::Unknown.into())
+        }
+    }
+
+    /// Refuses a write or store of a password-protected parameter while the module is locked (status 8).
+    pub(crate) fn unlocked_for(&self, d: &ParamDesc) -> Result<(), Status> {
+        if d.access.protected && !self.st.unlocked {
+            Err(ParamError::Protected.into())
+        } else {
+            Ok(())
+        }
     }
 
     /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions.
@@ -664,8 +713,9 @@ impl<B: Board> Module<B> {
         match action {
             RfsAction::Start => {
                 // AP 193 is range-checked on write, so it always decodes.
-                let mode = SearchMode::decode(self.axis_value(193)).ok_or(Status::InvalidValue)?;
-                let (fast, slow) = (self.axis_value(194), self.axis_value(195));
+                let value = self.ap(Setting::ReferenceSearchMode).ok_or(Status::NotAvailable)?;
+                let mode = SearchMode::decode(value, self.spec.reference_modes).ok_or(Status::InvalidValue)?;
+                let (fast, slow) = self.reference_speeds();
                 if fast == 0 || slow == 0 {
                     // A search at speed 0 would never end: refused (our decision).
                     return Err(Status::InvalidValue);

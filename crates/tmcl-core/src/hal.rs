@@ -1,9 +1,10 @@
 //! The board behind the firmware: small capability traits (STYLE.md §3.5, after embedded-hal).
 //!
-//! The core drives a motor, reads switches and inputs, sets outputs and keeps its EEPROM through these
-//! traits only. The simulator (`tmcl-sim`) implements them; a microcontroller port would implement them
-//! over its peripherals. Errors are associated types; the simulator uses [`core::convert::Infallible`]
-//! where nothing can fail.
+//! The core keeps its EEPROM ([`Nvm`]), reads inputs ([`Inputs`]), analog values ([`Analog`]) and the
+//! stop switches ([`SwitchInputs`]), sets outputs ([`Outputs`]), drives the motor ([`StepDriver`]) and
+//! reads its load ([`LoadSensor`]) and encoder ([`EncoderCounter`]) through these traits only, each
+//! small enough for a board to implement what it has. The simulator (`tmcl-sim`) implements them; a
+//! microcontroller port implements them over its peripherals.
 
 use crate::time::Instant;
 use core::fmt::Debug;
@@ -42,7 +43,7 @@ impl<T: Nvm + ?Sized> Nvm for &mut T {
 }
 
 /// Raw levels of the reference switches. `true` = the switch input is active with normal polarity
-/// (GP 79 = 0); the core applies GP 79 itself.
+/// (GP 79 = 0); the core applies the polarity itself.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Switches {
     /// Left stop switch (negative direction).
@@ -53,25 +54,35 @@ pub struct Switches {
     pub home: bool,
 }
 
-/// Digital and analog I/O of the module (PD28-1021 manual §3.7.14–3.7.15).
-pub trait Io {
-    /// Levels of the general-purpose digital inputs; bit n = INn.
+/// General-purpose digital inputs (PD28-1021 manual §3.7.15, bank 0).
+pub trait Inputs {
+    /// Levels of the digital inputs; bit n = INn.
     fn digital_inputs(&mut self) -> u8;
+}
 
+/// General-purpose digital outputs (PD28-1021 manual §3.7.14, bank 2).
+pub trait Outputs {
+    /// Drives the outputs; bit n = OUTn.
+    fn set_outputs(&mut self, bits: u8);
+}
+
+/// Analog inputs and the temperature sensor (PD28-1021 manual §3.7.15, bank 1).
+pub trait Analog {
     /// A 12-bit ADC reading (0..=4095) of analog channel `channel`.
     fn analog_input(&mut self, channel: u8) -> u16;
 
     /// Module temperature in °C.
     fn temperature(&mut self) -> i32;
+}
 
-    /// Drives the general-purpose outputs; bit n = OUTn.
-    fn set_outputs(&mut self, bits: u8);
-
-    /// The reference switches, as they are now (the board knows where the axis is from [`Drive::update`]).
+/// The stop and home switches.
+pub trait SwitchInputs {
+    /// The reference switches, as they are now (the board knows where the axis is from
+    /// [`StepDriver::update`]).
     fn switches(&mut self) -> Switches;
 }
 
-/// What the step generator asks of the motor driver, passed to [`Drive::update`].
+/// What the step generator asks of the motor driver, passed to [`StepDriver::update`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DriveState {
     /// Microsteps (of the current resolution) moved since the previous update, signed. Setting the step
@@ -79,7 +90,7 @@ pub struct DriveState {
     pub moved: i64,
     /// The step counter (axis parameter 1) in microsteps of the current resolution.
     pub position: i32,
-    /// Signed velocity in microsteps per second (axis parameter 3).
+    /// Signed velocity in microsteps per second.
     pub velocity: i32,
     /// Microstep resolution as a power of two: microsteps per full step = 1 << resolution (AP 140).
     pub resolution: u8,
@@ -91,60 +102,85 @@ pub struct DriveState {
     pub reverse: bool,
 }
 
-/// Sensor feedback from the driver and the encoder.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Feedback {
-    /// Physical encoder counts since power-up, 1024 per revolution (sensOstep, manual §6.2), in the
-    /// motor's physical direction.
-    pub encoder_counts: i64,
-    /// stallGuard2 load value 0..=1023 (AP 206); 0 = maximum load.
-    pub load: u16,
-    /// TMC262 error flags (AP 208).
-    pub driver_flags: u8,
-}
-
-impl Default for Feedback {
-    fn default() -> Feedback {
-        Feedback { encoder_counts: 0, load: 1023, driver_flags: 0 }
-    }
-}
-
-/// TMC262 settings besides the current, passed to [`Drive::configure`] (PD28-1021 manual chapter 4,
-/// Table 15). The default is the module's factory setting.
+/// Driver settings besides the current, passed to [`StepDriver::configure`]: the load measurement
+/// (stallGuard) filter and threshold and the current range. A model without one of the parameters gets
+/// the default here. The default is the PD28-1021's factory setting (manual chapter 4, Table 15: AP 173,
+/// 174, 179).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DriverSettings {
-    /// AP 173: stallGuard2 filter; `true` = one measurement per 4 full steps (filtered mode).
+    /// Load measurement filter; `true` = one measurement per 4 full steps (filtered mode).
     pub stall_filter: bool,
-    /// AP 174: stallGuard2 threshold, −64..=63; higher = less sensitive (the load value reads higher).
+    /// Load measurement threshold, −64..=63; higher = less sensitive (the load value reads higher).
     pub stall_threshold: i8,
-    /// AP 179 = 0: high current range, 2 A peak / 1.4 A RMS at current 255. `false` (AP 179 = 1, the
-    /// default) = low range, 1 A peak / 0.7 A RMS.
+    /// The high current range (on the PD28-1021: AP 179 = 0, 2 A peak / 1.4 A RMS at current 255);
+    /// `false` (the default) = the low range, 1 A peak / 0.7 A RMS.
     pub high_range: bool,
 }
 
-/// The motor driver and its sensors.
-pub trait Drive {
+/// The motor driver, fed by the step generator.
+pub trait StepDriver {
     /// Called after every motion tick with the state the motor should now be in.
     fn update(&mut self, now: Instant, state: &DriveState);
 
-    /// Sensor readings as of the last update.
-    fn feedback(&mut self) -> Feedback;
-
-    /// Applies driver settings that change rarely (AP 173, 174, 179). A board without them ignores
-    /// the call (the default).
+    /// Applies driver settings that change rarely. A board without them ignores the call (the default).
     fn configure(&mut self, settings: &DriverSettings) {
         let _ = settings;
     }
+}
 
-    /// How many stallGuard2 measurements the driver has taken since power-up (wrapping). Each new one is
-    /// a new [`Feedback::load`] reading: the core runs one coolStep step per measurement
-    /// ([`crate::drive::coolstep`]). A board without stallGuard2 never measures (the default, 0).
+/// The driver's load measurement (stallGuard2 on the TMC262) and its error flags.
+pub trait LoadSensor {
+    /// The load value 0..=1023 of the last measurement (AP 206); 0 = maximum load. A board without a
+    /// load measurement reads 1023, no load (the default).
+    fn load(&mut self) -> u16 {
+        1023
+    }
+
+    /// How many load measurements the driver has taken since power-up (wrapping). Each new one is a new
+    /// [`LoadSensor::load`] reading: the core runs one coolStep step per measurement
+    /// ([`crate::drive::coolstep`]). A board without them never measures (the default, 0).
     fn load_measurements(&mut self) -> u32 {
+        0
+    }
+
+    /// The driver's error flags (AP 208 on the PD28-1021); none by default.
+    fn driver_flags(&mut self) -> u8 {
         0
     }
 }
 
-/// Everything a module needs from its board.
-pub trait Board: Nvm + Io + Drive {}
+/// The encoder counter.
+pub trait EncoderCounter {
+    /// Physical encoder counts since power-up, in the motor's physical direction (the model's
+    /// [`tmcl_model::Encoder::counts_per_rev`] per revolution). A board without an encoder reads 0.
+    fn encoder_counts(&mut self) -> i64 {
+        0
+    }
+}
 
-impl<T: Nvm + Io + Drive> Board for T {}
+macro_rules! forward {
+    ($($trait:ident { $(fn $name:ident(&mut self $(, $arg:ident: $ty:ty)*) $(-> $ret:ty)?;)* })*) => {
+        $(impl<T: $trait + ?Sized> $trait for &mut T {
+            $(#[inline]
+            fn $name(&mut self $(, $arg: $ty)*) $(-> $ret)? {
+                T::$name(self $(, $arg)*)
+            })*
+        })*
+    };
+}
+
+forward! {
+    Inputs { fn digital_inputs(&mut self) -> u8; }
+    Outputs { fn set_outputs(&mut self, bits: u8); }
+    Analog { fn analog_input(&mut self, channel: u8) -> u16; fn temperature(&mut self) -> i32; }
+    SwitchInputs { fn switches(&mut self) -> Switches; }
+    StepDriver { fn update(&mut self, now: Instant, state: &DriveState); fn configure(&mut self, settings: &DriverSettings); }
+    LoadSensor { fn load(&mut self) -> u16; fn load_measurements(&mut self) -> u32; fn driver_flags(&mut self) -> u8; }
+    EncoderCounter { fn encoder_counts(&mut self) -> i64; }
+}
+
+/// Everything a module needs from its board: one trait per capability, so a board implements what it
+/// has (with the defaults of [`LoadSensor`] and [`EncoderCounter`] for what it has not).
+pub trait Board: Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter {}
+
+impl<T: Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter> Board for T {}

@@ -1,33 +1,46 @@
 //! The module: a board, a model and the firmware state, fed with bytes and time.
 //!
-//! [`Module::receive`] takes bytes from the host interface with the time they arrived; [`Module::poll`]
-//! advances the motion controller and timers to a given time. Both send what the module has to say to a
-//! [`Sink`], and `poll` returns the next instant at which the module needs to run again (the deadline), so
-//! a caller can sleep until then or, in simulation, jump straight to it. The module never reads a clock.
+//! [`Module::receive_on`] takes bytes from one of the model's host interfaces with the time they arrived
+//! ([`Module::receive`] is the primary interface), [`Module::request`] takes a whole mailbox message;
+//! [`Module::poll`] advances the motion controller and timers to a given time. What the module has to say
+//! goes back to the interface that asked, through a [`Sink`], and `poll` returns the next instant at
+//! which the module needs to run again (the deadline), so a caller can sleep until then or, in
+//! simulation, jump straight to it. The module never reads a clock.
+//!
+//! # Settings a model may lack
+//!
+//! The firmware reads its settings by meaning ([`Setting`]), never by number; a model without a setting
+//! lacks the feature, and this is what that means (PD28-1021 numbers for orientation):
+//! - no serial address (GP 66): the module is module 1, the factory address; no host address (GP 76):
+//!   replies go to host 2 (manual §3.2's examples); no secondary address (GP 87), heartbeat (GP 68),
+//!   telegram pause (GP 75) or reply suppression (GP 255): none of them;
+//! - no run current (AP 6): full current; no standby current or power-down delay (AP 7, 214): the motor
+//!   keeps its run current at standstill; no freewheeling delay (AP 204) or chopper off time (AP 167):
+//!   the driver is never switched off; no boost current (AP 200): none;
+//! - no start/stop speed (AP 130): ramps start and stop at 0; no switch disables (AP 12, 13): the stop
+//!   switches always stop; no end switch polarity (GP 79) or reverse shaft (GP 90): normal ones;
+//! - no coolStep, stall or deviation settings: no coolStep, no stop on stall, no deviation check;
+//! - no ASCII mode (GP 67): binary at start-up, echo of each character; no auto start (GP 77), code
+//!   protection (GP 81), coordinate storage (GP 84): none; no "do not restore" (GP 85): user variables
+//!   are always restored.
 
 use crate::drive::coolstep::CoolStep;
 use crate::hal::{Board, DriveState};
-use crate::iface::ascii::AsciiLine;
-use crate::iface::{Framer, Outbox, Sink};
-use crate::model::ModelSpec;
+use crate::iface::{Port, Sink};
+use crate::model::{Framing, InterfaceDesc, Kinematics, ModelSpec, Setting};
 use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Limits, Mode, Ramp, RampParams, Reference, TICK};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
 use crate::vm::run::BUDGET;
 use crate::vm::{Program, RunState, Vm};
-use tmcl_wire::{Command, EventMode, Frame, Opcode, Reply, Request, Status, FRAME_LEN};
+use tmcl_model::capacity::{
+    MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES,
+};
+use tmcl_wire::{Command, EventMode, Frame, Instruction, Opcode, Reply, Request, Status, FRAME_LEN};
 
-/// Axis parameter slots in RAM (the PD28-1021 has 58).
-pub const MAX_AXIS_PARAMS: usize = 64;
-/// Bank 0 slots in RAM (19).
-pub const MAX_GLOBAL_PARAMS: usize = 32;
-/// Bank 3 slots in RAM (9).
-pub const MAX_INTERRUPT_PARAMS: usize = 16;
-/// User variables (bank 2).
-pub const MAX_USER_VARIABLES: usize = 256;
-/// Coordinates 0..=20.
-pub const MAX_COORDINATES: usize = 21;
+/// The length of a mailbox message (TMCM-1310 manual §3.6: an 8-byte command, an 8-byte reply).
+pub const MAILBOX_LEN: usize = 8;
 
 /// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
 pub mod flags {
@@ -77,6 +90,8 @@ pub(crate) struct EventRequest {
     pub mask: i32,
     /// An MVP is under way whose arrival must be reported.
     pub pending: bool,
+    /// The interface that asked: the event goes back there.
+    pub port: u8,
 }
 
 /// The encoder counter's reference point: AP 209 = `value` + (counts − `counts`) × prescaler.
@@ -88,7 +103,7 @@ pub struct EncoderBase {
     pub value: i32,
 }
 
-/// Everything the firmware keeps in RAM, except program memory: fits in 4 KiB, no heap.
+/// Everything the firmware keeps in RAM, except program memory and the program machine: no heap.
 #[derive(Debug, Clone)]
 pub struct State {
     pub(crate) axis: [i32; MAX_AXIS_PARAMS],
@@ -104,8 +119,8 @@ pub struct State {
     /// running program's accumulator, X register or flags (§8.5).
     pub(crate) host_regs: Registers,
     pub(crate) event: EventRequest,
-    pub(crate) framer: Framer,
-    pub(crate) outbox: Outbox,
+    /// Per host interface: framer, outbox, ASCII line.
+    pub(crate) ports: [Port; MAX_INTERFACES],
     /// Time up to which motion has been simulated (tick aligned).
     pub(crate) motion_time: Instant,
     /// The latest time the module has been told.
@@ -127,6 +142,8 @@ pub struct State {
     pub(crate) outputs: u8,
     /// GP 65 as it was at the last start (a new baud rate needs a restart, manual §5.1).
     pub(crate) active_baud: u8,
+    /// Password-protected parameters may be written (see [`crate::model::Role::Password`]).
+    pub(crate) unlocked: bool,
     /// Steps moved since the board was last updated.
     pub(crate) unreported_steps: i64,
     /// What the board was last told (with `moved` = 0), to skip updates that change nothing.
@@ -154,8 +171,7 @@ impl State {
             regs: Registers::default(),
             host_regs: Registers::default(),
             event: EventRequest::default(),
-            framer: Framer::new(),
-            outbox: Outbox::new(),
+            ports: Default::default(),
             motion_time: now,
             now,
             tick_base: (now, 0),
@@ -168,6 +184,7 @@ impl State {
             error_flags: 0,
             outputs: 0,
             active_baud: 0,
+            unlocked: false,
             unreported_steps: 0,
             last_drive: None,
             drive_due: None,
@@ -176,10 +193,15 @@ impl State {
             last_counts: 0,
         }
     }
+
+    /// The state of host interface `port` (framer, outbox, ASCII line), if the core has it.
+    pub fn port(&self, port: usize) -> Option<&Port> {
+        self.ports.get(port)
+    }
 }
 
 /// GP 133's generator starts from this seed at every start (a write to GP 133 reseeds it).
-const RNG_SEED: u32 = 0x2545_F491;
+pub(crate) const RNG_SEED: u32 = 0x2545_F491;
 
 /// Who sent a command: the host (direct mode) or the stored program (standalone mode, §3.6).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -195,7 +217,7 @@ pub enum Origin {
 pub enum Outcome {
     /// A normal reply with this value.
     Value(i32),
-    /// A special reply (136 type 0).
+    /// A special reply (136 type 0, 134).
     Raw([u8; FRAME_LEN]),
     /// No reply (137, 242).
     Silent,
@@ -205,6 +227,9 @@ pub enum Outcome {
     EnterAscii,
 }
 
+/// A reply to queue: a normal one (status, value, command) or a raw special one.
+pub(crate) type ReplyOf = Result<(Status, i32, u8), [u8; FRAME_LEN]>;
+
 /// A TMCL module: firmware state on a board.
 pub struct Module<B: Board> {
     pub(crate) board: B,
@@ -212,21 +237,14 @@ pub struct Module<B: Board> {
     pub(crate) st: State,
     pub(crate) vm: Vm,
     pub(crate) program: Program,
-    pub(crate) ascii: AsciiLine,
 }
 
 impl<B: Board> Module<B> {
     /// Powers the module up at `now`: loads the configuration from the board's EEPROM, formatting it with
-    /// factory defaults if it holds no valid image for this model.
+    /// factory defaults if it holds no valid image for this model. The model was checked against the
+    /// core's capacities when it was compiled ([`ModelSpec::new`]).
     pub fn new(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
-        let mut module = Module {
-            board,
-            spec,
-            st: State::new(now),
-            vm: Vm::default(),
-            program: Program::default(),
-            ascii: AsciiLine::default(),
-        };
+        let mut module = Module { board, spec, st: State::new(now), vm: Vm::default(), program: Program::default() };
         module.start(now);
         module
     }
@@ -266,14 +284,62 @@ impl<B: Board> Module<B> {
         &self.st.ramp
     }
 
-    /// The module (primary) address, GP 66.
+    /// The module (primary) address: GP 66, or 1 for a model without one.
     pub fn address(&self) -> u8 {
-        self.global_value(66) as u8
+        self.gp(Setting::SerialAddress).map_or(1, |a| a as u8)
     }
 
-    /// The baud-rate index (GP 65) in force since the last start.
+    /// The host address replies go to: GP 76, or 2 for a model without one (manual §3.2's examples).
+    pub(crate) fn host_address(&self) -> u8 {
+        self.gp(Setting::HostAddress).map_or(2, |a| a as u8)
+    }
+
+    /// The baud-rate index (GP 65) in force since the last start (0 for a model without one).
     pub fn active_baud(&self) -> u8 {
         self.st.active_baud
+    }
+
+    /// The value of the axis parameter with `setting`, if the model has one.
+    #[inline]
+    pub(crate) fn ap(&self, setting: Setting) -> Option<i32> {
+        self.spec.axis.setting(setting).map(|i| self.st.axis[i])
+    }
+
+    /// The value of the bank 0 parameter with `setting`, if the model has one.
+    #[inline]
+    pub(crate) fn gp(&self, setting: Setting) -> Option<i32> {
+        self.spec.global.setting(setting).map(|i| self.st.global[i])
+    }
+
+    /// Whether the bank 0 flag with `setting` is set (a model without it: not set).
+    #[inline]
+    pub(crate) fn gp_flag(&self, setting: Setting) -> bool {
+        self.gp(setting) == Some(1)
+    }
+
+    /// Sets the axis parameter with `setting` (results the firmware produces, e.g. AP 196/197).
+    pub(crate) fn set_ap(&mut self, setting: Setting, v: i32) {
+        if let Some(i) = self.spec.axis.setting(setting) {
+            self.st.axis[i] = v;
+        }
+    }
+
+    /// A velocity in the model's unit as microsteps per second (the ramp's unit).
+    #[inline]
+    pub(crate) fn to_pps(&self, v: i32) -> i32 {
+        match self.spec.kinematics {
+            Kinematics::Pps => v,
+            k => k.velocity_to_pps(v, self.ap(Setting::PulseDivisor).unwrap_or(0)),
+        }
+    }
+
+    /// A velocity in microsteps per second in the model's unit.
+    #[inline]
+    pub(crate) fn from_pps(&self, pps: i32) -> i32 {
+        match self.spec.kinematics {
+            Kinematics::Pps => pps,
+            k => k.pps_to_velocity(pps, self.ap(Setting::PulseDivisor).unwrap_or(0)),
+        }
     }
 
     /// Start-up, as after a power cycle (manual §3.7.38 command 255, chapter 8 "power-up restores").
@@ -283,10 +349,14 @@ impl<B: Board> Module<B> {
             // A fresh or foreign EEPROM: factory image. If even that fails, run on defaults in RAM.
             let _ = persist::format(&mut self.board, spec, true);
         }
-        let outbox = self.st.outbox.clone();
-        let counts = self.board.feedback().encoder_counts;
+        // Replies already queued (the reply of 255 itself) still go out.
+        let outboxes = self.st.ports.clone().map(|p| p.outbox);
+        let counts = self.board.encoder_counts();
         self.st = State::new(now);
-        self.st.outbox = outbox;
+        for (port, outbox) in self.st.ports.iter_mut().zip(outboxes) {
+            port.outbox = outbox;
+        }
+        self.st.ramp.set_position_bits(spec.kinematics.position_bits());
         for (i, d) in spec.axis.params.iter().enumerate() {
             self.st.axis[i] = d.default;
             if d.access.persistent() {
@@ -307,18 +377,19 @@ impl<B: Board> Module<B> {
             self.st.interrupt[i] = d.default;
         }
         // §5.3 / §8.4: user variables are restored unless GP 85 = 1.
-        if self.global_value(85) == 0 {
-            for n in 0..spec.stored_user_variables.min(MAX_USER_VARIABLES as u16) as u8 {
+        if !self.gp_flag(Setting::DoNotRestoreUserVariables) {
+            for n in 0..spec.stored_user_variables {
+                let n = n as u8; // stored_user_variables ≤ 256, checked by ModelSpec::new
                 self.st.user[usize::from(n)] = persist::load_user(&mut self.board, spec, n).unwrap_or(0);
             }
         }
         // §3.7.24: with GP 84 = 1 the coordinates are copied back at start-up.
-        if self.global_value(84) == 1 {
+        if self.gp_flag(Setting::CoordinateStorage) {
             for n in 1..=spec.coordinates {
                 self.st.coords[usize::from(n)] = persist::load_coordinate(&mut self.board, spec, n).unwrap_or(0);
             }
         }
-        self.st.active_baud = self.global_value(65) as u8;
+        self.st.active_baud = self.gp(Setting::BaudRate).unwrap_or(0) as u8;
         self.st.encoder = EncoderBase { counts: self.logical_counts(counts), value: 0 };
         self.st.last_counts = self.st.encoder.counts;
         self.configure_driver();
@@ -328,176 +399,286 @@ impl<B: Board> Module<B> {
         self.vm.time = now;
         self.read_program();
         self.auto_start(now);
-        // §3.4.4: GP 67 bit 0 = start up in ASCII mode.
-        self.ascii = AsciiLine::default();
-        if self.global_value(67) & 1 == 1 {
-            self.enter_ascii();
+        // §3.4.4: GP 67 bit 0 = start up in ASCII mode, on the first interface that has it.
+        if self.gp(Setting::AsciiMode).unwrap_or(0) & 1 == 1 {
+            if let Some(port) = spec.interfaces.iter().position(|i| i.ascii) {
+                self.enter_ascii(port);
+            }
         }
     }
 
-    /// Feeds bytes that arrived at `now`. Complete frames are executed; replies go to `sink` (at once, or
-    /// after the telegram pause GP 75).
+    /// The interface `port` of the model, if it has one.
+    #[inline]
+    pub(crate) fn interface(&self, port: usize) -> Option<&'static InterfaceDesc> {
+        self.spec.interfaces.get(port)
+    }
+
+    /// Feeds bytes that arrived at `now` on the primary interface (see [`Module::receive_on`]).
     pub fn receive(&mut self, now: Instant, bytes: &[u8], sink: &mut impl Sink) {
-        self.advance(now, sink);
+        self.receive_on(0, now, bytes, sink);
+    }
+
+    /// Feeds bytes that arrived at `now` on host interface `port` (an index into the model's interfaces).
+    /// Complete frames are executed; replies and what is due on that interface go to `sink` (at once, or
+    /// after the telegram pause GP 75). Bytes for an interface the model does not have, or for a mailbox
+    /// interface (which takes whole messages, [`Module::request`]), are dropped.
+    pub fn receive_on(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink) {
+        self.advance(now);
+        let Some(p) = self.st.ports.get_mut(port) else { return };
+        p.outbox.flush(self.st.now, sink);
+        if !self.interface(port).is_some_and(|i| i.framing == Framing::Binary) {
+            return;
+        }
         let mut rest = bytes;
         while let Some((&b, tail)) = rest.split_first() {
-            if self.ascii.active {
-                self.ascii_byte(b, now);
+            if self.st.ports[port].ascii.active {
+                self.ascii_byte(port, b, now);
                 rest = tail;
                 continue;
             }
             // A whole frame at once (the usual case: hosts write 9 bytes in one go) skips the byte-wise
             // framer; it is exactly what pushing its bytes one by one at `now` would give.
+            let framer = &mut self.st.ports[port].framer;
             let frame = match rest.first_chunk::<FRAME_LEN>() {
-                Some(whole) if self.st.framer.pending() == 0 => {
+                Some(whole) if framer.pending() == 0 => {
                     rest = &rest[FRAME_LEN..];
-                    self.st.framer.touch(now);
+                    framer.touch(now);
                     Some(*whole)
                 }
                 _ => {
                     rest = tail;
-                    self.st.framer.push(b, now)
+                    framer.push(b, now)
                 }
             };
             if let Some(frame) = frame {
-                self.handle_frame(frame, now);
-                // Reads change nothing the driver sees; anything else may (currents, direction, ...).
-                let read = matches!(
-                    Opcode::from(frame[1]),
-                    Opcode::Gap | Opcode::Ggp | Opcode::Gio | Opcode::Gco | Opcode::GetVersion
-                );
-                if !read {
+                self.handle_frame(port, frame, now);
+                // A command that only reads changes nothing the driver sees; anything else may.
+                if !Opcode::from(frame[1]).info().is_some_and(|i| i.read_only) {
                     self.update_board(now);
                 }
             }
         }
-        self.st.outbox.flush(now, sink);
+        self.st.ports[port].outbox.flush(now, sink);
     }
 
-    /// Drops a partial frame: the link was interrupted (a new TCP connection, a host that went away), so
-    /// bytes from before cannot belong to the next request.
+    /// Takes one mailbox message (an 8-byte request without checksum, TMCM-1310 manual §3.6) that
+    /// arrived at `now` on interface `port`, executes it and sends what is due on that interface, its
+    /// 8-byte reply first, to `sink`. A message for an interface that is not a mailbox is dropped.
+    pub fn request(&mut self, port: usize, now: Instant, message: &[u8; MAILBOX_LEN], sink: &mut impl Sink) {
+        self.advance(now);
+        let Some(p) = self.st.ports.get_mut(port) else { return };
+        p.outbox.flush(self.st.now, sink);
+        if !self.interface(port).is_some_and(|i| i.framing == Framing::Mailbox) {
+            return;
+        }
+        let value = i32::from_be_bytes([message[4], message[5], message[6], message[7]]);
+        let instruction = Instruction::new(message[1].into(), message[2], message[3], value);
+        self.st.last_command = now;
+        self.st.heartbeat_tripped = false;
+        self.handle_instruction(port, instruction, now);
+        if !instruction.opcode.info().is_some_and(|i| i.read_only) {
+            self.update_board(now);
+        }
+        self.st.ports[port].outbox.flush(now, sink);
+    }
+
+    /// Drops a partial frame on the primary interface: the link was interrupted (a new TCP connection, a
+    /// host that went away), so bytes from before cannot belong to the next request.
     pub fn reset_link(&mut self) {
-        self.st.framer.clear();
+        self.reset_port(0);
     }
 
-    /// Advances the module to `now` and returns when it next needs to run: the next motion tick while the
-    /// motor moves, else the next timer (standby current, freewheeling, heartbeat, a delayed reply), or
-    /// `None` when nothing will happen until the next command.
+    /// Drops a partial frame on interface `port`.
+    pub fn reset_port(&mut self, port: usize) {
+        if let Some(p) = self.st.ports.get_mut(port) {
+            p.framer.clear();
+        }
+    }
+
+    /// Advances the module to `now`, sends what is due on the primary interface to `sink`, and returns
+    /// when the module next needs to run: the next motion tick while the motor moves, else the next timer
+    /// (standby current, freewheeling, heartbeat, a delayed reply on any interface), or `None` when
+    /// nothing will happen until the next command.
     pub fn poll(&mut self, now: Instant, sink: &mut impl Sink) -> Option<Instant> {
-        self.advance(now, sink);
+        self.poll_port(0, now, sink)
+    }
+
+    /// As [`Module::poll`], sending what is due on interface `port`.
+    pub fn poll_port(&mut self, port: usize, now: Instant, sink: &mut impl Sink) -> Option<Instant> {
+        self.advance(now);
+        if let Some(p) = self.st.ports.get_mut(port) {
+            p.outbox.flush(self.st.now, sink);
+        }
         self.next_deadline()
     }
 
-    /// Executes one instruction as if a host had sent it at `now`, without the framing: for tests and
-    /// tools. Returns the reply's status and value.
-    pub fn execute_instruction(
-        &mut self,
-        now: Instant,
-        instruction: tmcl_wire::Instruction,
-    ) -> Result<Outcome, Status> {
-        self.advance(now, &mut |_: &[u8]| {});
-        let result = Command::decode(instruction).and_then(|c| self.execute(c, now));
+    /// Executes one instruction as if a host had sent it on the primary interface at `now`, without the
+    /// framing: for tests and tools. Returns the reply's status and value; what else becomes due (a 138
+    /// event, a delayed reply) stays queued for the next poll.
+    pub fn execute_instruction(&mut self, now: Instant, instruction: Instruction) -> Result<Outcome, Status> {
+        self.advance(now);
+        let result = self.decode(instruction).and_then(|c| self.exec(c, now, Origin::Host));
         match result {
             Ok(Outcome::Restart(_)) | Ok(Outcome::Silent)
                 if matches!(instruction.opcode, Opcode::SoftwareReset | Opcode::FactoryDefault) =>
             {
                 self.start(now)
             }
-            Ok(Outcome::EnterAscii) => self.enter_ascii(),
+            Ok(Outcome::EnterAscii) => self.enter_ascii(0),
             _ => {}
         }
         self.update_board(now);
         result
     }
 
-    fn handle_frame(&mut self, bytes: [u8; FRAME_LEN], now: Instant) {
+    /// Validates an instruction for this model: a command the model lacks is status 2 (invalid command),
+    /// then the command's own checks ([`Command::decode`]).
+    #[inline]
+    pub(crate) fn decode(&self, instruction: Instruction) -> Result<Command, Status> {
+        if !self.spec.commands.contains(instruction.opcode) {
+            return Err(Status::InvalidCommand);
+        }
+        Command::decode(instruction)
+    }
+
+    fn handle_frame(&mut self, port: usize, bytes: [u8; FRAME_LEN], now: Instant) {
         let frame = Frame::new_unchecked(&bytes[..]);
         let address = frame.address();
-        let secondary = self.global_value(87) as u8;
-        // §3.1 / §5.1 GP 66, GP 87: frames for other addresses get no reply at all.
-        if address != self.address() && (secondary == 0 || address != secondary) {
-            return;
+        // §3.1 / §5.1 GP 66, GP 87: on a bus, frames for other addresses get no reply at all.
+        if self.interface(port).is_some_and(|i| i.address_filter) {
+            let secondary = self.gp(Setting::SecondaryAddress).unwrap_or(0) as u8;
+            if address != self.address() && (secondary == 0 || address != secondary) {
+                return;
+            }
         }
         self.st.last_command = now;
         self.st.heartbeat_tripped = false;
-        let (opcode, reply) = match Request::parse(&frame) {
+        match Request::parse(&frame) {
             // §3.2.1 status 1; the reply carries opcode 0 and value 0, as Trinamic's TMCL code does.
-            Err(_) => (frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8))),
-            Ok(request) if self.vm.download.is_some() && !request.instruction.opcode.is_control() => {
-                // §3.7.38 132: in download mode every command but the control commands is stored.
-                let i = request.instruction;
-                let op = u8::from(i.opcode);
-                match self.download(i) {
-                    Ok(()) => (op, Ok((Status::Loaded, i.value, op))),
-                    Err(status) => (op, Ok((status, i.value, op))),
-                }
-            }
-            Ok(request) => {
-                let i = request.instruction;
-                let op = u8::from(i.opcode);
-                match Command::decode(i).and_then(|c| self.execute(c, now)) {
-                    Ok(Outcome::Value(v)) => (op, Ok((Status::Ok, v, op))),
-                    Ok(Outcome::Raw(raw)) => (op, Err(raw)),
-                    Ok(Outcome::Silent) => {
-                        if i.opcode == Opcode::FactoryDefault {
-                            self.start(now);
-                        }
-                        return;
-                    }
-                    Ok(Outcome::Restart(v)) => {
-                        self.queue_reply(op, Ok((Status::Ok, v, op)), now);
-                        self.start(now);
-                        return;
-                    }
-                    Ok(Outcome::EnterAscii) => {
-                        self.queue_reply(op, Ok((Status::Ok, 0, op)), now);
-                        self.enter_ascii();
-                        return;
-                    }
-                    Err(status) => (op, Ok((status, i.value, op))),
-                }
-            }
-        };
-        self.queue_reply(opcode, reply, now);
+            Err(_) => self.queue_reply(port, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
+            Ok(request) => self.handle_instruction(port, request.instruction, now),
+        }
     }
 
-    fn queue_reply(&mut self, opcode: u8, reply: Result<(Status, i32, u8), [u8; FRAME_LEN]>, now: Instant) {
-        // §5.1 GP 255: replies are suppressed, except for GAP, GGP and GIO.
-        let exempt = matches!(Opcode::from(opcode), Opcode::Gap | Opcode::Ggp | Opcode::Gio);
-        if self.global_value(255) == 1 && !exempt {
+    /// Executes a host's instruction (download mode stores it instead) and queues the reply on `port`.
+    fn handle_instruction(&mut self, port: usize, i: Instruction, now: Instant) {
+        let op = u8::from(i.opcode);
+        if self.vm.download.is_some() && !i.opcode.is_control() {
+            // §3.7.38 132: in download mode every command but the control commands is stored.
+            let status = match self.download(i) {
+                Ok(()) => Status::Loaded,
+                Err(status) => status,
+            };
+            self.queue_reply(port, op, Ok((status, i.value, op)), now);
             return;
         }
+        let result = self.decode(i).and_then(|c| {
+            if c == Command::EnterAscii && !self.interface(port).is_some_and(|d| d.ascii) {
+                return Err(Status::NotAvailable); // no ASCII mode on this interface
+            }
+            self.exec_on(port, c, now)
+        });
+        let reply = match result {
+            Ok(Outcome::Value(v)) => Ok((Status::Ok, v, op)),
+            Ok(Outcome::Raw(raw)) => Err(raw),
+            Ok(Outcome::Silent) => {
+                if i.opcode == Opcode::FactoryDefault {
+                    self.start(now);
+                }
+                return;
+            }
+            Ok(Outcome::Restart(v)) => {
+                self.queue_reply(port, op, Ok((Status::Ok, v, op)), now);
+                self.start(now);
+                return;
+            }
+            Ok(Outcome::EnterAscii) => {
+                self.queue_reply(port, op, Ok((Status::Ok, 0, op)), now);
+                self.enter_ascii(port);
+                return;
+            }
+            Err(status) => Ok((status, i.value, op)),
+        };
+        self.queue_reply(port, op, reply, now);
+    }
+
+    /// Executes a host command that arrived on `port` (138 remembers the port for its event).
+    fn exec_on(&mut self, port: usize, c: Command, now: Instant) -> Result<Outcome, Status> {
+        let result = self.exec(c, now, Origin::Host);
+        if matches!(c, Command::RequestTargetReachedEvent { .. }) && result.is_ok() {
+            self.st.event.port = port as u8;
+        }
+        result
+    }
+
+    /// Whether replies on `port` are suppressed for `opcode` (§5.1 GP 255; GAP, GGP and GIO always reply).
+    pub(crate) fn suppressed(&self, port: usize, opcode: Opcode) -> bool {
+        self.interface(port).is_some_and(|i| i.suppressible)
+            && self.gp_flag(Setting::SuppressReply)
+            && !opcode.info().is_some_and(|i| i.always_replies)
+    }
+
+    /// When a reply on `port` to a command at `now` is due (§5.1 GP 75: the telegram pause, in ms).
+    pub(crate) fn reply_due(&self, port: usize, now: Instant) -> Instant {
+        if !self.interface(port).is_some_and(|i| i.telegram_pause) {
+            return now;
+        }
+        now + Duration::from_millis(self.gp(Setting::TelegramPause).unwrap_or(0).max(0) as u64)
+    }
+
+    fn queue_reply(&mut self, port: usize, opcode: u8, reply: ReplyOf, now: Instant) {
+        if self.suppressed(port, Opcode::from(opcode)) {
+            return;
+        }
+        let due = self.reply_due(port, now);
+        self.push_reply(port, reply, due);
+    }
+
+    /// Queues a reply on `port` in the interface's framing: 9 bytes, or 8 in a mailbox (the frame
+    /// without its checksum; for the special 136 reply, its 8 characters without the host address).
+    fn push_reply(&mut self, port: usize, reply: ReplyOf, due: Instant) {
         let bytes = match reply {
             Ok((status, value, op)) => self.reply_bytes(status, op, value),
             Err(raw) => raw,
         };
-        // §5.1 GP 75: the telegram pause before a reply (milliseconds, inventory AMB-17).
-        let pause = Duration::from_millis(self.global_value(75).max(0) as u64);
-        self.st.outbox.push(&bytes, now + pause);
+        let framing = self.interface(port).map_or(Framing::Binary, |i| i.framing);
+        let Some(p) = self.st.ports.get_mut(port) else { return };
+        match framing {
+            Framing::Binary => p.outbox.push(&bytes, due),
+            Framing::Mailbox if reply.is_err() && bytes[1..].iter().all(|b| b.is_ascii_graphic()) => {
+                p.outbox.push(&bytes[1..], due) // 136 type 0: the version string
+            }
+            Framing::Mailbox => p.outbox.push(&bytes[..MAILBOX_LEN], due),
+        }
     }
 
     pub(crate) fn reply_bytes(&self, status: Status, opcode: u8, value: i32) -> [u8; FRAME_LEN] {
-        Reply { host: self.global_value(76) as u8, module: self.address(), status, opcode, value }.to_bytes()
-    }
-
-    /// Reads a bank 0 parameter's RAM value by number (0 if the model has no such parameter).
-    pub(crate) fn global_value(&self, number: u8) -> i32 {
-        self.spec.global.find(number).map(|(i, _)| self.st.global[i]).unwrap_or(0)
-    }
-
-    /// Reads an axis parameter's RAM value by number (0 if the model has no such parameter).
-    pub(crate) fn axis_value(&self, number: u8) -> i32 {
-        self.spec.axis.find(number).map(|(i, _)| self.st.axis[i]).unwrap_or(0)
+        Reply { host: self.host_address(), module: self.address(), status, opcode, value }.to_bytes()
     }
 
     fn ramp_params(&self) -> RampParams {
-        RampParams { max_speed: self.axis_value(4), max_accel: self.axis_value(5), min_speed: self.axis_value(130) }
+        // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
+        let (v, a) =
+            (self.ap(Setting::MaxPositioningSpeed).unwrap_or(1), self.ap(Setting::MaxAcceleration).unwrap_or(1));
+        let v_min = self.ap(Setting::MinimumSpeed).unwrap_or(0);
+        match self.spec.kinematics {
+            Kinematics::Pps => RampParams { max_speed: v, max_accel: a, min_speed: v_min },
+            k => {
+                let pulse = self.ap(Setting::PulseDivisor).unwrap_or(0);
+                let ramp = self.ap(Setting::RampDivisor).unwrap_or(0);
+                RampParams {
+                    max_speed: k.velocity_to_pps(v, pulse).max(1),
+                    max_accel: k.acceleration_to_pps2(a, pulse, ramp).max(1),
+                    min_speed: k.velocity_to_pps(v_min, pulse),
+                }
+            }
+        }
     }
 
     /// Logical switch states (AP 9, 10, 11): GP 79 reverses the polarity of the end switches.
     pub(crate) fn switches(&mut self) -> (bool, bool, bool) {
         let s = self.board.switches();
-        let invert = self.global_value(79) == 1;
+        let invert = self.gp_flag(Setting::EndSwitchPolarity);
         (s.left ^ invert, s.right ^ invert, s.home)
     }
 
@@ -507,38 +688,45 @@ impl<B: Board> Module<B> {
             return Limits::default();
         }
         let (left, right, _) = self.switches();
-        Limits { block_negative: left && self.axis_value(13) == 0, block_positive: right && self.axis_value(12) == 0 }
+        let enabled = |disable: Option<i32>| disable.unwrap_or(0) == 0;
+        Limits {
+            block_negative: left && enabled(self.ap(Setting::LeftSwitchDisable)),
+            block_positive: right && enabled(self.ap(Setting::RightSwitchDisable)),
+        }
     }
 
     /// Encoder counts in the logical direction (GP 90 reverses motor and encoder, manual §5.1).
     pub(crate) fn logical_counts(&self, physical: i64) -> i64 {
-        if self.global_value(90) == 1 {
+        if self.gp_flag(Setting::ReverseShaft) {
             -physical
         } else {
             physical
         }
     }
 
+    /// Time after the motor stopped given in `setting` (10 ms units), if the model has it and it is set.
+    #[inline]
+    fn delay(&self, setting: Setting) -> Option<Duration> {
+        self.ap(setting).filter(|d| *d > 0).map(|d| Duration::from_millis(d as u64 * 10))
+    }
+
     /// The current setting now (AP 6, 7, 200, 204, 214, 167) and whether the driver is on.
     #[inline]
     pub(crate) fn current(&self, now: Instant) -> (u8, bool) {
-        if self.axis_value(167) == 0 {
+        if self.ap(Setting::ChopperOffTime) == Some(0) {
             return (0, false); // AP 167 = 0 "completely disables all driver transistors"
         }
+        let run = self.ap(Setting::RunCurrent).unwrap_or(255);
         match self.st.standstill_since {
-            None => {
-                let run = self.run_current();
-                (self.regulated_current(run), true)
-            }
+            None => (self.regulated_current(self.run_current()), true),
             Some(since) => {
                 let still = now - since;
-                let freewheel = self.axis_value(204);
-                if freewheel != 0 && still >= Duration::from_millis(freewheel as u64 * 10) {
+                if self.delay(Setting::FreewheelingDelay).is_some_and(|d| still >= d) {
                     (0, false)
-                } else if still >= Duration::from_millis(self.axis_value(214) as u64 * 10) {
-                    (self.axis_value(7) as u8, true)
+                } else if self.delay(Setting::PowerDownDelay).is_some_and(|d| still >= d) {
+                    (self.ap(Setting::StandbyCurrent).unwrap_or(run) as u8, true)
                 } else {
-                    (self.axis_value(6) as u8, true)
+                    (run as u8, true)
                 }
             }
         }
@@ -548,30 +736,30 @@ impl<B: Board> Module<B> {
     /// (if not 0), else the run current AP 6 (Table 22). AP 200 is not looked up while cruising.
     #[inline]
     pub(crate) fn run_current(&self) -> i32 {
-        let boost = if self.st.ramping { self.axis_value(200) } else { 0 };
+        let boost = if self.st.ramping { self.ap(Setting::BoostCurrent).unwrap_or(0) } else { 0 };
         if boost != 0 {
             boost
         } else {
-            self.axis_value(6)
+            self.ap(Setting::RunCurrent).unwrap_or(255)
         }
     }
 
-    fn update_board(&mut self, now: Instant) {
+    pub(crate) fn update_board(&mut self, now: Instant) {
         let (current, enabled) = self.current(now);
         let state = DriveState {
             moved: self.st.unreported_steps,
             position: self.st.ramp.position,
             velocity: self.st.ramp.velocity(),
-            resolution: self.axis_value(140) as u8,
+            resolution: self.microstep_resolution(),
             current,
             enabled,
-            reverse: self.global_value(90) == 1,
+            reverse: self.gp_flag(Setting::ReverseShaft),
         };
         self.st.drive_due = self.st.standstill_since.and_then(|since| {
-            [self.axis_value(214), self.axis_value(204)]
+            [self.delay(Setting::PowerDownDelay), self.delay(Setting::FreewheelingDelay)]
                 .into_iter()
-                .filter(|d| *d > 0)
-                .map(|d| since + Duration::from_millis(d as u64 * 10))
+                .flatten()
+                .map(|d| since + d)
                 .filter(|t| *t > now)
                 .min()
         });
@@ -584,18 +772,23 @@ impl<B: Board> Module<B> {
         self.board.update(now, &state);
     }
 
+    /// The microstep resolution as a power of two (AP 140); 8 (256 microsteps) for a model without it.
+    #[inline]
+    fn microstep_resolution(&self) -> u8 {
+        self.spec.axis.role(crate::model::Role::MicrostepResolution).map_or(8, |i| self.st.axis[i] as u8)
+    }
+
     /// Runs the motion controller and timers up to `now`.
-    fn advance(&mut self, now: Instant, sink: &mut impl Sink) {
+    fn advance(&mut self, now: Instant) {
         if now < self.st.now {
             // Time never runs backwards for the module; a caller's late timestamp is taken as "now".
-            self.st.outbox.flush(self.st.now, sink);
             return;
         }
         self.st.now = now;
         // The ramp parameters in force for this call's ticks, read at its start. When no tick is due
         // (a frame between two ticks), none runs in this call: the loop's first pass takes `tick_at`
-        // before the program runs and breaks on it. So the three lookups are skipped and the placeholder
-        // is never used.
+        // before the program runs and breaks on it. So the lookups are skipped and the placeholder is
+        // never used.
         let params = if self.st.motion_time + TICK <= now {
             self.ramp_params()
         } else {
@@ -677,20 +870,19 @@ impl<B: Board> Module<B> {
         if ticked || self.st.drive_due.is_some_and(|t| t <= now) {
             self.update_board(now);
         }
-        self.st.outbox.flush(now, sink);
     }
 
     /// Whether interrupts that watch switches or inputs are enabled: then every tick is sampled.
+    #[inline]
     fn needs_every_tick(&self) -> bool {
-        const WATCHED: u64 = 1 << 27 | 1 << 28 | 0xF << 39;
-        self.vm.enabled & WATCHED != 0
+        self.vm.enabled & self.spec.interrupts.levels_mask != 0
     }
 
     /// One step of the reference search after a motion tick (§7.1).
     fn step_reference(&mut self) {
         let (left, right, home) = self.switches();
         let levels = SwitchLevels { left, right, home };
-        let (fast, slow) = (self.axis_value(194), self.axis_value(195));
+        let (fast, slow) = self.reference_speeds();
         let position = self.st.ramp.position;
         match self.st.reference.step(levels, position, fast, slow) {
             Action::Continue => {}
@@ -701,9 +893,9 @@ impl<B: Board> Module<B> {
             Action::Done { zero, far_distance } => {
                 self.st.ramp.hard_stop();
                 // AP 197: "position value just before the counter is zeroed"; AP 196: end switch distance.
-                self.set_axis_raw(197, position);
+                self.set_ap(Setting::LastReferencePosition, position);
                 if let Some(d) = far_distance {
-                    self.set_axis_raw(196, d);
+                    self.set_ap(Setting::EndSwitchDistance, d);
                 }
                 self.st.ramp.mode = Mode::Position;
                 self.st.ramp.set_position(position.wrapping_sub(zero));
@@ -713,28 +905,27 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Sets a parameter's RAM slot directly (results the firmware produces, e.g. AP 196/197).
-    pub(crate) fn set_axis_raw(&mut self, number: u8, v: i32) {
-        if let Ok((i, _)) = self.spec.axis.find(number) {
-            self.st.axis[i] = v;
-        }
+    /// The search and switch speeds of the reference search in microsteps per second (AP 194, 195).
+    pub(crate) fn reference_speeds(&self) -> (i32, i32) {
+        let speed = |s| self.to_pps(self.ap(s).unwrap_or(0));
+        (speed(Setting::ReferenceSearchSpeed), speed(Setting::ReferenceSwitchSpeed))
     }
 
-    /// §3.7.39: the second reply of command 138 when an MVP's target is reached.
+    /// §3.7.39: the second reply of command 138 when an MVP's target is reached, on the interface that
+    /// asked for it.
     fn check_event(&mut self, now: Instant) {
         let ramp = &self.st.ramp;
         if self.st.event.pending && ramp.mode == Mode::Position && ramp.is_idle() {
             self.st.event.pending = false;
-            let bytes =
-                self.reply_bytes(Status::TargetReached, Opcode::RequestTargetReachedEvent.into(), self.st.event.mask);
-            self.st.outbox.push(&bytes, now);
+            let op = Opcode::RequestTargetReachedEvent.into();
+            self.push_reply(usize::from(self.st.event.port), Ok((Status::TargetReached, self.st.event.mask, op)), now);
         }
     }
 
-    /// §5.1 GP 68: stop the motor when no command arrived within the heartbeat time (milliseconds,
-    /// inventory AMB-17).
+    /// §5.1 GP 68: stop the motor when no command arrived within the heartbeat time (milliseconds; the
+    /// manual gives no unit).
     fn check_heartbeat(&mut self, now: Instant) {
-        let limit = self.global_value(68);
+        let limit = self.gp(Setting::SerialHeartbeat).unwrap_or(0);
         if limit > 0 && !self.st.heartbeat_tripped && now - self.st.last_command > Duration::from_millis(limit as u64) {
             self.st.heartbeat_tripped = true;
             self.st.ramp.rotate(0);
@@ -743,7 +934,7 @@ impl<B: Board> Module<B> {
     }
 
     fn next_deadline(&self) -> Option<Instant> {
-        let mut next: Option<Instant> = self.st.outbox.next_due();
+        let mut next: Option<Instant> = self.st.ports.iter().filter_map(|p| p.outbox.next_due()).min();
         let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
         if !self.st.ramp.is_idle() || self.st.event.pending || self.st.reference.is_active() || self.needs_every_tick()
         {
@@ -753,14 +944,16 @@ impl<B: Board> Module<B> {
             consider(t.max(self.st.now));
         }
         if let Some(since) = self.st.standstill_since {
-            for delay in [self.axis_value(214), self.axis_value(204)] {
-                let t = since + Duration::from_millis(delay.max(0) as u64 * 10);
-                if delay > 0 && t > self.st.now {
+            for delay in
+                [self.delay(Setting::PowerDownDelay), self.delay(Setting::FreewheelingDelay)].into_iter().flatten()
+            {
+                let t = since + delay;
+                if t > self.st.now {
                     consider(t);
                 }
             }
         }
-        let heartbeat = self.global_value(68);
+        let heartbeat = self.gp(Setting::SerialHeartbeat).unwrap_or(0);
         if heartbeat > 0 && !self.st.heartbeat_tripped {
             consider(self.st.last_command + Duration::from_millis(heartbeat as u64 + 1));
         }

@@ -10,6 +10,7 @@
 //! | MST | `<motor>` |
 //! | MVP | `ABS\|REL\|COORD, <motor>, <value>` |
 //! | SAP, SGP, SIO, SCO | `<type>, <motor/bank>, <value>` |
+//! | SAC | `<bus number>, <number of bytes>, <send data>` |
 //! | GAP, STAP, RSAP, GGP, STGP, RSGP, GIO, GCO, CCO, ACO, AAP, AGP | `<type>, <motor/bank>[, <value>]` |
 //! | RFS | `START\|STOP\|STATUS, <motor>[, <value>]` |
 //! | CALC | `<op>, <operand>` |
@@ -331,7 +332,9 @@ fn shape(opcode: Opcode) -> Option<Shape> {
         Opcode::Ror | Opcode::Rol => s(&[Motor, Value]),
         Opcode::Mst => s(&[Motor]),
         Opcode::Mvp | Opcode::Wait => s(&[Word, Motor, Value]),
-        Opcode::Sap | Opcode::Sgp | Opcode::Sio | Opcode::Sco | Opcode::UserFunction(_) => s(&[Type, Motor, Value]),
+        Opcode::Sap | Opcode::Sgp | Opcode::Sio | Opcode::Sco | Opcode::Sac | Opcode::UserFunction(_) => {
+            s(&[Type, Motor, Value])
+        }
         Opcode::Gap
         | Opcode::Stap
         | Opcode::Rsap
@@ -601,9 +604,14 @@ pub enum AsciiCommand {
 }
 
 /// Whether an instruction may be entered in ASCII mode: ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP,
-/// GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO and UF0..UF7 (§3.4).
-pub fn ascii_allowed(opcode: Opcode) -> bool {
-    matches!(u8::from(opcode), 1..=15 | 30..=32 | 64..=71)
+/// GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO and UF0..UF7 (PD28-1021 manual §3.4), and SAC (PDx-113
+/// manual §5.6.3): the opcodes whose [`OpcodeInfo::ascii`](crate::OpcodeInfo::ascii) is set. A module
+/// takes only those of its own commands, [`CommandSet::ascii_subset`](crate::CommandSet::ascii_subset).
+pub const fn ascii_allowed(opcode: Opcode) -> bool {
+    match opcode.info() {
+        Some(info) => info.ascii,
+        None => false,
+    }
 }
 
 /// Parses the text of an ASCII-mode line after its address character (§3.4.2): `BIN`, `RUN`, `STOP`

@@ -3,8 +3,10 @@
 //! [`Command::decode`] checks what the command itself defines: a known opcode (else status 2, "invalid
 //! command") and a known type for commands whose type is an enumeration (MVP, RFS, CALC, CALCX, JC, WAIT,
 //! CLE, 129, 135, 136, 138; else status 3, "wrong type"), and the key 1234 of commands 137 and 255 (else
-//! status 4, "invalid value"). Everything that depends on the module (motor numbers, parameter numbers,
-//! ports, value ranges) is checked by the firmware core against the model's tables.
+//! status 4, "invalid value"). Everything that depends on the module (which commands it has, motor
+//! numbers, parameter numbers, ports, value ranges) is checked by the firmware core against the model's
+//! tables: `decode` accepts every named opcode, SAC (29) included, and a model without SAC rejects it with
+//! its [`CommandSet`](crate::CommandSet).
 
 use crate::instruction::Instruction;
 use crate::opcode::Opcode;
@@ -124,7 +126,7 @@ kind_enum! {
 }
 
 kind_enum! {
-    /// Command 138 types (§3.7.39).
+    /// Command 138 types (§3.7.37).
     EventMode {
         /// Report only the next MVP.
         Next = 0, "NEXT";
@@ -201,6 +203,12 @@ pub enum Command {
     Wait { condition: WaitCondition, motor: u8, ticks: i32 },
     /// STOP (§3.7.23).
     Stop,
+    /// SAC: access to an external SPI device (PDx-113 manual §5.4.3). That manual names the command but
+    /// is cut off before its own section; the operands follow TMCL's `SAC <bus number>, <number of
+    /// bytes>, <send data>`: the type byte selects the SPI bus or device, the motor/bank byte the number
+    /// of bytes to send, the value the data sent. The reply value is the data received. All fields are
+    /// passed through: what is valid depends on the module.
+    Sac { bus: u8, bytes: u8, data: i32 },
     /// SCO (§3.7.24); motor 255 = copy to EEPROM.
     Sco { coord: u8, motor: u8, position: i32 },
     /// GCO (§3.7.25); motor 255 = copy from EEPROM.
@@ -221,7 +229,7 @@ pub enum Command {
     Reti,
     /// ACO (§3.7.27).
     Aco { coord: u8, motor: u8 },
-    /// UF0–UF7 (§3.7.37): all fields passed through.
+    /// UF0–UF7 (§3.7.36): all fields passed through.
     UserFunction { function: u8, kind: u8, motor: u8, value: i32 },
     /// 128: stop application.
     StopApplication,
@@ -243,7 +251,7 @@ pub enum Command {
     GetVersion { format: VersionFormat },
     /// 137: restore factory defaults (value 1234 checked).
     FactoryDefault,
-    /// 138: request target-position-reached events for a motor mask.
+    /// 138: request target-position-reached events for a motor mask (§3.7.37).
     RequestTargetReachedEvent { mode: EventMode, mask: i32 },
     /// 139: enter ASCII mode (§3.4.1).
     EnterAscii,
@@ -295,6 +303,7 @@ impl Command {
             Opcode::Di => Command::Di { interrupt: t },
             Opcode::Wait => Command::Wait { condition: kind(WaitCondition::from_code(t))?, motor: m, ticks: v },
             Opcode::Stop => Command::Stop,
+            Opcode::Sac => Command::Sac { bus: t, bytes: m, data: v },
             Opcode::Sco => Command::Sco { coord: t, motor: m, position: v },
             Opcode::Gco => Command::Gco { coord: t, motor: m },
             Opcode::Cco => Command::Cco { coord: t, motor: m },
@@ -367,6 +376,7 @@ impl Command {
             C::Di { interrupt } => i(Opcode::Di, interrupt, 0, 0),
             C::Wait { condition, motor, ticks } => i(Opcode::Wait, condition.code(), motor, ticks),
             C::Stop => i(Opcode::Stop, 0, 0, 0),
+            C::Sac { bus, bytes, data } => i(Opcode::Sac, bus, bytes, data),
             C::Sco { coord, motor, position } => i(Opcode::Sco, coord, motor, position),
             C::Gco { coord, motor } => i(Opcode::Gco, coord, motor, 0),
             C::Cco { coord, motor } => i(Opcode::Cco, coord, motor, 0),
@@ -398,17 +408,77 @@ impl Command {
         }
     }
 
-    /// Whether the command, run in a program, loads the accumulator with what it reads (§3.6.1: "every
-    /// command that reads a value stores the result in the accumulator" in standalone mode).
-    pub fn reads_value(&self) -> bool {
-        matches!(
-            self,
-            Command::Gap { .. }
-                | Command::Ggp { .. }
-                | Command::Gio { .. }
-                | Command::Gco { .. }
-                | Command::Rfs { action: RfsAction::Status, .. }
-        )
+    /// The command's number: the opcode of [`Command::encode`].
+    pub const fn opcode(&self) -> Opcode {
+        use Command as C;
+        match *self {
+            C::Ror { .. } => Opcode::Ror,
+            C::Rol { .. } => Opcode::Rol,
+            C::Mst { .. } => Opcode::Mst,
+            C::Mvp { .. } => Opcode::Mvp,
+            C::Sap { .. } => Opcode::Sap,
+            C::Gap { .. } => Opcode::Gap,
+            C::Stap { .. } => Opcode::Stap,
+            C::Rsap { .. } => Opcode::Rsap,
+            C::Sgp { .. } => Opcode::Sgp,
+            C::Ggp { .. } => Opcode::Ggp,
+            C::Stgp { .. } => Opcode::Stgp,
+            C::Rsgp { .. } => Opcode::Rsgp,
+            C::Rfs { .. } => Opcode::Rfs,
+            C::Sio { .. } => Opcode::Sio,
+            C::Gio { .. } => Opcode::Gio,
+            C::Calc { .. } => Opcode::Calc,
+            C::Comp { .. } => Opcode::Comp,
+            C::Jc { .. } => Opcode::Jc,
+            C::Ja { .. } => Opcode::Ja,
+            C::Csub { .. } => Opcode::Csub,
+            C::Rsub => Opcode::Rsub,
+            C::Ei { .. } => Opcode::Ei,
+            C::Di { .. } => Opcode::Di,
+            C::Wait { .. } => Opcode::Wait,
+            C::Stop => Opcode::Stop,
+            C::Sac { .. } => Opcode::Sac,
+            C::Sco { .. } => Opcode::Sco,
+            C::Gco { .. } => Opcode::Gco,
+            C::Cco { .. } => Opcode::Cco,
+            C::Calcx { .. } => Opcode::Calcx,
+            C::Aap { .. } => Opcode::Aap,
+            C::Agp { .. } => Opcode::Agp,
+            C::Cle { .. } => Opcode::Cle,
+            C::Vect { .. } => Opcode::Vect,
+            C::Reti => Opcode::Reti,
+            C::Aco { .. } => Opcode::Aco,
+            C::UserFunction { function, .. } => Opcode::UserFunction(function & 7),
+            C::StopApplication => Opcode::StopApplication,
+            C::RunApplication { .. } => Opcode::RunApplication,
+            C::StepApplication => Opcode::StepApplication,
+            C::ResetApplication => Opcode::ResetApplication,
+            C::StartDownload { .. } => Opcode::StartDownload,
+            C::QuitDownload => Opcode::QuitDownload,
+            C::ReadMemory { .. } => Opcode::ReadMemory,
+            C::GetStatus { .. } => Opcode::GetStatus,
+            C::GetVersion { .. } => Opcode::GetVersion,
+            C::FactoryDefault => Opcode::FactoryDefault,
+            C::RequestTargetReachedEvent { .. } => Opcode::RequestTargetReachedEvent,
+            C::EnterAscii => Opcode::EnterAscii,
+            C::Boot => Opcode::Boot,
+            C::SoftwareReset => Opcode::SoftwareReset,
+        }
+    }
+
+    /// Whether the command, run in a program, loads the accumulator with what it reads (PD28-1021 manual
+    /// §3.6.5: "all TMCL commands that read a value store the result in the accumulator" in standalone
+    /// mode): the opcodes whose [`OpcodeInfo::reads_value`](crate::OpcodeInfo::reads_value) is set (GAP,
+    /// GGP, GIO, GCO, SAC), and RFS with type STATUS only (PD28-1021 manual §12.1, firmware V1.35: "RFS
+    /// STATUS command also copies its result to the accumulator register").
+    pub const fn reads_value(&self) -> bool {
+        match self {
+            Command::Rfs { action, .. } => matches!(action, RfsAction::Status),
+            other => match other.opcode().info() {
+                Some(info) => info.reads_value,
+                None => false,
+            },
+        }
     }
 }
 

@@ -8,7 +8,14 @@
 //! - [`reply`]: the 9-byte reply frame view ([`ReplyFrame`]), the [`Reply`] repr and [`Response`], which also
 //!   carries the raw special replies (command 136 type 0, command 134).
 //! - [`status`]: the reply status codes ([`Status`]), unknown codes kept as values.
-//! - [`opcode`]: command numbers ([`Opcode`]) with their mnemonics, unknown numbers kept as values.
+//! - [`opcode`]: command numbers ([`Opcode`]), unknown numbers kept as values, and the one table of what
+//!   each command is: mnemonic, where it may run ([`Availability`]: direct mode, programs or both), whether
+//!   it reads a value into the accumulator, whether it replies despite reply suppression, whether it only
+//!   reads, whether ASCII mode takes it, and the manual section that defines it ([`OpcodeInfo`], from
+//!   [`Opcode::info`]).
+//!   Everything else that asks such a question ([`Opcode::is_control`], [`Command::reads_value`],
+//!   [`ascii::ascii_allowed`]) reads that table.
+//! - [`command_set`]: [`CommandSet`], a constant 256-bit set of command numbers: the commands a model has.
 //! - [`instruction`]: one raw command ([`Instruction`]): what a frame carries and what one program-memory
 //!   cell holds.
 //! - [`command`]: the validated form ([`Command`]) that the firmware executes.
@@ -27,6 +34,7 @@ extern crate std;
 
 pub mod ascii;
 pub mod command;
+pub mod command_set;
 pub mod frame;
 pub mod instruction;
 pub mod opcode;
@@ -38,8 +46,9 @@ pub use command::{
     CalcOp, CalcxOp, Command, Condition, ErrorFlag, EventMode, MoveTarget, RfsAction, StatusKind, VersionFormat,
     WaitCondition,
 };
+pub use command_set::CommandSet;
 pub use frame::{checksum, Frame, Request, WireError, FRAME_LEN};
 pub use instruction::Instruction;
-pub use opcode::Opcode;
+pub use opcode::{Availability, Opcode, OpcodeInfo};
 pub use reply::{Reply, ReplyFrame, Response};
 pub use status::Status;

@@ -1,4 +1,4 @@
-//! Reply status codes (PD28-1021 TMCL manual §3.2.1, Table 4).
+//! Reply status codes (PD28-1021 TMCL manual §3.2.1, Table 4; code 8 from the TMCM-1310 manual §3.7).
 
 use core::fmt;
 
@@ -21,7 +21,10 @@ pub enum Status {
     EepromLocked,
     /// 6: command not available.
     NotAvailable,
-    /// 128: the delayed second reply of command 138, "target position reached" (§3.7.39). Not in Table 4.
+    /// 8: parameter is password protected (TMCM-1310 manual §3.7, "Status Codes" table). Not in the
+    /// PD28-1021's Table 4.
+    PasswordProtected,
+    /// 128: the delayed second reply of command 138, "target position reached" (§3.7.37). Not in Table 4.
     TargetReached,
     /// Any other code, kept as received.
     Unknown(u8),
@@ -33,7 +36,7 @@ impl Status {
         matches!(self, Status::Ok | Status::Loaded | Status::TargetReached)
     }
 
-    /// The manual's wording (Table 4).
+    /// The manual's wording (Table 4; TMCM-1310 manual §3.7 for code 8).
     pub fn description(self) -> &'static str {
         match self {
             Status::Ok => "successfully executed, no error",
@@ -44,6 +47,7 @@ impl Status {
             Status::InvalidValue => "invalid value",
             Status::EepromLocked => "configuration EEPROM locked",
             Status::NotAvailable => "command not available",
+            Status::PasswordProtected => "parameter is password protected",
             Status::TargetReached => "target position reached",
             Status::Unknown(_) => "unknown status",
         }
@@ -62,6 +66,7 @@ impl From<u8> for Status {
             4 => Status::InvalidValue,
             5 => Status::EepromLocked,
             6 => Status::NotAvailable,
+            8 => Status::PasswordProtected,
             128 => Status::TargetReached,
             other => Status::Unknown(other),
         }
@@ -80,6 +85,7 @@ impl From<Status> for u8 {
             Status::InvalidValue => 4,
             Status::EepromLocked => 5,
             Status::NotAvailable => 6,
+            Status::PasswordProtected => 8,
             Status::TargetReached => 128,
             Status::Unknown(code) => code,
         }
@@ -112,5 +118,15 @@ mod tests {
         assert_eq!(Status::from(1), Status::WrongChecksum);
         assert_eq!(Status::from(6), Status::NotAvailable);
         assert!(Status::Ok.is_success() && !Status::InvalidValue.is_success());
+    }
+
+    #[test]
+    fn tmcm_1310_code_8() {
+        assert_eq!(Status::from(8), Status::PasswordProtected);
+        assert_eq!(u8::from(Status::PasswordProtected), 8);
+        assert!(!Status::PasswordProtected.is_success());
+        assert_eq!(Status::PasswordProtected.description(), "parameter is password protected");
+        assert_eq!(std::format!("{}", Status::PasswordProtected), "8 (parameter is password protected)");
+        assert_eq!(Status::from(7), Status::Unknown(7));
     }
 }

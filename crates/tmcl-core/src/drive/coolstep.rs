@@ -2,7 +2,7 @@
 //! parameters 168–172, 180, 182, 183 in chapter 4, Table 15).
 //!
 //! The core calls [`CoolStep::update`] once per stallGuard2 measurement (a new AP 206 value, see
-//! `hal::Drive::load_measurements`) and [`CoolStep::current`] whenever it needs the scale without a new
+//! `hal::LoadSensor::load_measurements`) and [`CoolStep::current`] whenever it needs the scale without a new
 //! reading (AP 180, a speed change below the threshold). Both return the current scale 0..=31 (AP 180:
 //! "0…31: 1/32 … 32/32"); the driver's current setting is then `scale × 8` in AP 6 units.
 //!

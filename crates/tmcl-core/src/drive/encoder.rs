@@ -35,16 +35,18 @@ pub fn scale_counts(counts: i64, prescaler: i32) -> i64 {
     (i128::from(counts) * i128::from(prescaler_value(prescaler)) / 512) as i64
 }
 
-/// The absolute zero point crossed last when the raw counts (1024 per revolution) went from `previous`
-/// to `counts`, if any: a multiple of 1024. The caller sets its AP 209 reference to (that point, 0).
-pub fn null_crossing(previous: i64, counts: i64) -> Option<i64> {
-    let (before, now) = (previous.div_euclid(1024), counts.div_euclid(1024));
+/// The absolute zero point crossed last when the raw counts (`per_rev` per revolution, 1024 on the
+/// PD28-1021) went from `previous` to `counts`, if any: a multiple of `per_rev`. The caller sets its
+/// AP 209 reference to (that point, 0).
+pub fn null_crossing(previous: i64, counts: i64, per_rev: u32) -> Option<i64> {
+    let per_rev = i64::from(per_rev.max(1));
+    let (before, now) = (previous.div_euclid(per_rev), counts.div_euclid(per_rev));
     if before == now {
         None
     } else if now > before {
-        Some(now * 1024) // moving up: the last zero passed is the start of the current turn
+        Some(now * per_rev) // moving up: the last zero passed is the start of the current turn
     } else {
-        Some((now + 1) * 1024) // moving down: the end of the current turn
+        Some((now + 1) * per_rev) // moving down: the end of the current turn
     }
 }
 
@@ -82,6 +84,7 @@ mod tests {
 
     #[test]
     fn null_crossings_either_way() {
+        let null_crossing = |a, b| null_crossing(a, b, 1024);
         assert_eq!(null_crossing(1000, 1023), None);
         assert_eq!(null_crossing(1020, 1030), Some(1024));
         assert_eq!(null_crossing(1030, 1020), Some(1024));
@@ -89,5 +92,11 @@ mod tests {
         assert_eq!(null_crossing(-3, 5), Some(0));
         assert_eq!(null_crossing(0, 3000), Some(2048), "two turns at once: the last zero");
         assert_eq!(null_crossing(3000, 0), Some(1024), "down from turn 2 to turn 0: the last zero passed");
+    }
+
+    #[test]
+    fn null_crossings_of_another_resolution() {
+        assert_eq!(super::null_crossing(3990, 4100, 4096), Some(4096));
+        assert_eq!(super::null_crossing(1020, 1030, 4096), None);
     }
 }

@@ -2,7 +2,7 @@
 //!
 //! "Below this speed motor will not be stopped. Above this speed motor will stop in case stallGuard2
 //! load value reaches zero" (AP 181). The core calls [`stall_stop`] with each new stallGuard2 reading
-//! (`hal::Drive::load_measurements` changed); when it returns `true` the core stops the motor (a hard
+//! (`hal::LoadSensor::load_measurements` changed); when it returns `true` the core stops the motor (a hard
 //! stop, as on a stall the load is already holding it), sets AP 207 bit value 1
 //! ([`crate::module::error_flags::STALL`]) and raises interrupt 15 ("stallGuard axis 0").
 //!

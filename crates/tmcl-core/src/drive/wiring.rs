@@ -5,40 +5,41 @@
 use super::coolstep::{CoolStepParams, Regime};
 use super::{encoder, stall};
 use crate::hal::{Board, DriverSettings};
+use crate::model::{Role, Setting};
 use crate::module::{error_flags, flags, EncoderBase, Module};
-use crate::vm::vector;
 
 impl<B: Board> Module<B> {
     /// Tells the board the stallGuard2 settings and the current range (start-up, and after a write to
     /// AP 173, 174 or 179).
     pub(crate) fn configure_driver(&mut self) {
         let settings = DriverSettings {
-            stall_filter: self.axis_value(173) == 1,
-            stall_threshold: self.axis_value(174).clamp(-64, 63) as i8,
-            high_range: self.axis_value(179) == 0,
+            stall_filter: self.ap(Setting::StallFilter) == Some(1),
+            stall_threshold: self.ap(Setting::StallThreshold).unwrap_or(0).clamp(-64, 63) as i8,
+            high_range: self.ap(Setting::CurrentRange) == Some(0),
         };
         self.board.configure(&settings);
     }
 
     /// The coolStep parameters for a run-current setting `run` (AP 6, or AP 200 while boosting).
     pub(crate) fn coolstep_params(&self, run: i32) -> CoolStepParams {
+        let ap = |s| self.ap(s).unwrap_or(0);
         CoolStepParams {
             cs: (run.clamp(0, 255) >> 3) as u8,
-            min_quarter: self.axis_value(168) == 1,
-            down_step: self.axis_value(169) as u8,
-            hysteresis: self.axis_value(170) as u8,
-            up_step: self.axis_value(171) as u8,
-            hysteresis_start: self.axis_value(172) as u8,
+            min_quarter: ap(Setting::CoolStepMinimum) == 1,
+            down_step: ap(Setting::CoolStepDownStep) as u8,
+            hysteresis: ap(Setting::CoolStepHysteresis) as u8,
+            up_step: ap(Setting::CoolStepUpStep) as u8,
+            hysteresis_start: ap(Setting::CoolStepHysteresisStart) as u8,
             speed: self.st.ramp.velocity().unsigned_abs(),
-            threshold_speed: self.axis_value(182).max(0) as u32,
-            slow_run_current: self.axis_value(183).clamp(0, 255) as u8,
+            threshold_speed: self.to_pps(ap(Setting::CoolStepThresholdSpeed)).max(0) as u32,
+            slow_run_current: ap(Setting::SlowRunCurrent).clamp(0, 255) as u8,
         }
     }
 
     /// The running current after coolStep (AP 180 is this / 8): `run` itself when coolStep is off.
     #[inline]
     pub(crate) fn regulated_current(&self, run: i32) -> u8 {
-        if self.axis_value(172) == 0 {
+        if self.coolstep_off() {
             return run.clamp(0, 255) as u8; // coolStep off (SEMIN = 0): the common case, no more lookups
         }
         let params = self.coolstep_params(run);
@@ -53,25 +54,26 @@ impl<B: Board> Module<B> {
         let measurements = self.board.load_measurements();
         if measurements != self.st.load_measurements {
             self.st.load_measurements = measurements;
-            let load = self.board.feedback().load.min(1023);
-            if self.axis_value(172) != 0 {
+            let load = self.board.load().min(1023);
+            if !self.coolstep_off() {
                 let params = self.coolstep_params(self.run_current());
                 self.st.coolstep.update(load, params);
             }
             // §7.2 / AP 181: stop when the load value reaches 0 above the stop-on-stall speed.
-            if stall::stall_stop(load, self.st.ramp.velocity(), self.axis_value(181)) {
-                self.fault_stop(error_flags::STALL, vector::STALL);
+            let stop_speed = self.to_pps(self.ap(Setting::StopOnStall).unwrap_or(0));
+            if stall::stall_stop(load, self.st.ramp.velocity(), stop_speed) {
+                self.fault_stop(error_flags::STALL, self.spec.interrupts.stall());
             }
         }
-        let prescaler = self.axis_value(210);
-        let deviation = self.axis_value(212);
+        let prescaler = self.prescaler();
+        let deviation = self.ap(Setting::MaxEncoderDeviation).unwrap_or(0);
         if deviation == 0 && !encoder::clear_on_null_enabled(prescaler) {
             return;
         }
         let counts = self.encoder_counts_now();
         // §6.2: AP 210 + 4 clears the encoder position each time it passes its absolute zero.
         if encoder::clear_on_null_enabled(prescaler) {
-            if let Some(zero) = encoder::null_crossing(self.st.last_counts, counts) {
+            if let Some(zero) = encoder::null_crossing(self.st.last_counts, counts, self.counts_per_rev()) {
                 self.st.encoder = EncoderBase { counts: zero, value: 0 };
             }
         }
@@ -81,29 +83,50 @@ impl<B: Board> Module<B> {
             let e = self.encoder_value(counts);
             if encoder::deviation_exceeded(self.st.ramp.position, e, deviation) {
                 self.st.regs.flags |= flags::DEVIATION;
-                self.fault_stop(error_flags::DEVIATION, vector::DEVIATION);
+                self.fault_stop(error_flags::DEVIATION, self.spec.interrupts.deviation());
             }
         }
     }
 
-    /// Stops the motor at once for a stall or a deviation: AP 207 bit, interrupt, no 138 event.
-    fn fault_stop(&mut self, flag: u8, interrupt: u8) {
+    /// Whether coolStep is off: AP 172 (SEMIN) = 0, or a model without coolStep.
+    #[inline]
+    fn coolstep_off(&self) -> bool {
+        self.ap(Setting::CoolStepHysteresisStart).unwrap_or(0) == 0
+    }
+
+    /// AP 210, the encoder prescaler (512 = 1:1 for a model without one).
+    #[inline]
+    fn prescaler(&self) -> i32 {
+        self.spec.axis.role(Role::EncoderPrescaler).map_or(512, |i| self.st.axis[i])
+    }
+
+    /// The encoder's counts per revolution (1024 on the PD28-1021, §6.2); a model without an encoder
+    /// counts nothing, so any value is right: 1024.
+    pub(crate) fn counts_per_rev(&self) -> u32 {
+        self.spec.encoder.map_or(1024, |e| e.counts_per_rev.max(1))
+    }
+
+    /// Stops the motor at once for a stall or a deviation: AP 207 bit, interrupt (if the model has it),
+    /// no 138 event.
+    fn fault_stop(&mut self, flag: u8, interrupt: Option<u8>) {
         self.st.ramp.hard_stop();
         self.st.reference.stop();
         self.st.event.pending = false;
         self.st.error_flags |= flag;
-        self.raise_interrupt(interrupt);
+        if let Some(n) = interrupt {
+            self.raise_interrupt(n);
+        }
     }
 
     /// Encoder counts now, in the logical direction.
     pub(crate) fn encoder_counts_now(&mut self) -> i64 {
-        let physical = self.board.feedback().encoder_counts;
+        let physical = self.board.encoder_counts();
         self.logical_counts(physical)
     }
 
     /// AP 209 for the given counts: the reference value plus the counts since, through the prescaler.
     pub(crate) fn encoder_value(&self, counts: i64) -> i32 {
-        let delta = encoder::scale_counts(counts - self.st.encoder.counts, self.axis_value(210));
+        let delta = encoder::scale_counts(counts - self.st.encoder.counts, self.prescaler());
         (i64::from(self.st.encoder.value) + delta) as i32
     }
 }

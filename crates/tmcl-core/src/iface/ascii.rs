@@ -1,5 +1,5 @@
 //! The ASCII command interface (PD28-1021 manual §3.4): entered with command 139 or at start-up when
-//! GP 67 bit 0 is set, left with `BIN`.
+//! GP 67 bit 0 is set, left with `BIN`; per host interface, on the interfaces whose model allows it.
 //!
 //! A line is the address character (`A` = address 1, …), optional spaces, a command in the assembler's
 //! syntax, and `<CR>`. Only the direct-mode commands §3.4 lists are executed; `RUN` and `STOP` control
@@ -12,17 +12,18 @@
 //! - Echo mode `00` echoes each character once the line's address character matched, a backspace as
 //!   `BS SP BS` (erasing it on a terminal), and the closing `<CR>`; `01` echoes the whole line and `<CR>`
 //!   after `<CR>`; `10` and the undefined `11` do not echo. `<LF>` is ignored (terminals that send CR LF).
-//! - Every line addressed to the module gets a reply: a command that is not allowed in ASCII mode gets
-//!   status 6 (command not available), a line that does not parse gets the parser's status (2 unknown
+//! - Every line addressed to the module gets a reply: a command the model lacks gets status 2, one that is
+//!   not allowed in ASCII mode status 6 (command not available), a line that does not parse gets the parser's status (2 unknown
 //!   command, 3 bad type word, 4 bad value or operand), a line longer than [`LINE_MAX`] gets status 2.
 //! - `BIN` is answered (`BA 100 0`) before the module returns to binary mode; the 139 that enters ASCII
 //!   mode is answered in binary before the switch. `RUN` is command 129 type 0 (from the current PC,
 //!   address 0 after a start or reset), `STOP` is command 128.
 
 use crate::hal::Board;
+use crate::model::Setting;
 use crate::module::{Module, Origin, Outcome};
-use crate::time::{Duration, Instant};
-use tmcl_wire::ascii::{address_char, ascii_allowed, char_address, parse_ascii_command, write_reply, AsciiCommand};
+use crate::time::Instant;
+use tmcl_wire::ascii::{address_char, char_address, parse_ascii_command, write_reply, AsciiCommand};
 use tmcl_wire::{Command, Opcode, Status};
 
 /// The longest line the module takes (after the address character).
@@ -88,80 +89,87 @@ impl<const N: usize> core::fmt::Write for Text<N> {
 }
 
 impl<B: Board> Module<B> {
-    /// Whether the module talks ASCII (§3.4).
+    /// Whether the module talks ASCII on its primary interface (§3.4).
     pub fn ascii_mode(&self) -> bool {
-        self.ascii.active
+        self.ascii_mode_on(0)
+    }
+
+    /// Whether the module talks ASCII on interface `port`.
+    pub fn ascii_mode_on(&self, port: usize) -> bool {
+        self.st.ports.get(port).is_some_and(|p| p.ascii.active)
     }
 
     /// Echo mode from GP 67 bits 5 and 4: 0 each character, 1 whole line, 2 and 3 none.
     fn echo_mode(&self) -> i32 {
-        (self.global_value(67) >> 4) & 3
+        (self.gp(Setting::AsciiMode).unwrap_or(0) >> 4) & 3
     }
 
     /// Whether `c` is this module's address character (primary or secondary, GP 66/87).
     fn is_my_address(&self, c: u8) -> bool {
         let Some(a) = char_address(c.to_ascii_uppercase()) else { return false };
-        let secondary = self.global_value(87) as u8;
+        let secondary = self.gp(Setting::SecondaryAddress).unwrap_or(0) as u8;
         a == self.address() || (secondary != 0 && a == secondary)
     }
 
-    /// One byte of input in ASCII mode.
-    pub(crate) fn ascii_byte(&mut self, b: u8, now: Instant) {
+    /// One byte of input in ASCII mode on interface `port` (which exists: the caller checked).
+    pub(crate) fn ascii_byte(&mut self, port: usize, b: u8, now: Instant) {
         let echo_each = self.echo_mode() == 0;
         match b {
             LF => {}
             CR => {
-                let addressed = self.ascii.first != 0 && self.is_my_address(self.ascii.first);
+                let addressed =
+                    self.st.ports[port].ascii.first != 0 && self.is_my_address(self.st.ports[port].ascii.first);
                 if addressed {
                     if echo_each {
-                        self.st.outbox.push(&[CR], now);
+                        self.st.ports[port].outbox.push(&[CR], now);
                     } else if self.echo_mode() == 1 {
                         let mut line = [0u8; LINE_MAX + 2];
-                        line[0] = self.ascii.first;
-                        let n = self.ascii.len;
-                        line[1..=n].copy_from_slice(&self.ascii.buf[..n]);
+                        line[0] = self.st.ports[port].ascii.first;
+                        let n = self.st.ports[port].ascii.len;
+                        line[1..=n].copy_from_slice(&self.st.ports[port].ascii.buf[..n]);
                         line[n + 1] = CR;
-                        self.st.outbox.push(&line[..n + 2], now);
+                        self.st.ports[port].outbox.push(&line[..n + 2], now);
                     }
-                    self.ascii_line(now);
+                    self.ascii_line(port, now);
                 }
-                self.ascii.clear();
+                self.st.ports[port].ascii.clear();
             }
             BACKSPACE | DELETE => {
-                let addressed = self.ascii.first != 0 && self.is_my_address(self.ascii.first);
-                if self.ascii.len > 0 {
-                    self.ascii.len -= 1;
+                let addressed =
+                    self.st.ports[port].ascii.first != 0 && self.is_my_address(self.st.ports[port].ascii.first);
+                if self.st.ports[port].ascii.len > 0 {
+                    self.st.ports[port].ascii.len -= 1;
                 } else {
-                    self.ascii.first = 0;
+                    self.st.ports[port].ascii.first = 0;
                 }
                 if addressed && echo_each {
-                    self.st.outbox.push(&[BACKSPACE, b' ', BACKSPACE], now);
+                    self.st.ports[port].outbox.push(&[BACKSPACE, b' ', BACKSPACE], now);
                 }
             }
             _ => {
-                if self.ascii.first == 0 {
-                    self.ascii.first = b;
-                } else if self.ascii.len < LINE_MAX {
-                    self.ascii.buf[self.ascii.len] = b;
-                    self.ascii.len += 1;
+                if self.st.ports[port].ascii.first == 0 {
+                    self.st.ports[port].ascii.first = b;
+                } else if self.st.ports[port].ascii.len < LINE_MAX {
+                    self.st.ports[port].ascii.buf[self.st.ports[port].ascii.len] = b;
+                    self.st.ports[port].ascii.len += 1;
                 } else {
-                    self.ascii.overflow = true;
+                    self.st.ports[port].ascii.overflow = true;
                 }
-                if echo_each && self.is_my_address(self.ascii.first) {
-                    self.st.outbox.push(&[b], now);
+                if echo_each && self.is_my_address(self.st.ports[port].ascii.first) {
+                    self.st.ports[port].outbox.push(&[b], now);
                 }
             }
         }
     }
 
     /// Executes a complete line addressed to this module and queues its reply.
-    fn ascii_line(&mut self, now: Instant) {
+    fn ascii_line(&mut self, port: usize, now: Instant) {
         self.st.last_command = now;
         self.st.heartbeat_tripped = false;
-        let n = self.ascii.len;
+        let n = self.st.ports[port].ascii.len;
         let mut buf = [0u8; LINE_MAX];
-        buf[..n].copy_from_slice(&self.ascii.buf[..n]);
-        let (status, value, opcode, leave) = if self.ascii.overflow {
+        buf[..n].copy_from_slice(&self.st.ports[port].ascii.buf[..n]);
+        let (status, value, opcode, leave) = if self.st.ports[port].ascii.overflow {
             (Status::InvalidCommand, 0, Opcode::Unknown(0), false)
         } else {
             match core::str::from_utf8(&buf[..n]).map_err(|_| Status::InvalidCommand).and_then(|text| {
@@ -174,26 +182,28 @@ impl<B: Board> Module<B> {
                 Ok(AsciiCommand::Binary) => (Status::Ok, 0, Opcode::Unknown(0), true),
                 Ok(AsciiCommand::Run) => self.ascii_exec(Command::RunApplication { from: None }, now),
                 Ok(AsciiCommand::Stop) => self.ascii_exec(Command::StopApplication, now),
-                Ok(AsciiCommand::Instruction(i)) if !ascii_allowed(i.opcode) => {
+                Ok(AsciiCommand::Instruction(i)) if !self.spec.commands.contains(i.opcode) => {
+                    (Status::InvalidCommand, i.value, i.opcode, false)
+                }
+                Ok(AsciiCommand::Instruction(i)) if !self.spec.ascii_commands.contains(i.opcode) => {
                     (Status::NotAvailable, i.value, i.opcode, false)
                 }
-                Ok(AsciiCommand::Instruction(i)) => match Command::decode(i) {
+                Ok(AsciiCommand::Instruction(i)) => match self.decode(i) {
                     Ok(c) => self.ascii_exec(c, now),
                     Err(status) => (status, i.value, i.opcode, false),
                 },
             }
         };
         // §5.1 GP 255 applies to ASCII replies as well (GAP, GGP, GIO always answer).
-        let exempt = matches!(opcode, Opcode::Gap | Opcode::Ggp | Opcode::Gio);
-        if self.global_value(255) != 1 || exempt {
+        if !self.suppressed(port, opcode) {
             let mut text: Text<32> = Text::new();
-            let _ = write_reply(&mut text, self.global_value(76) as u8, self.address(), status, value);
-            let pause = Duration::from_millis(self.global_value(75).max(0) as u64);
-            self.st.outbox.push(text.bytes(), now + pause);
+            let _ = write_reply(&mut text, self.host_address(), self.address(), status, value);
+            let due = self.reply_due(port, now);
+            self.st.ports[port].outbox.push(text.bytes(), due);
         }
         if leave {
-            self.ascii.active = false;
-            self.st.framer.clear();
+            self.st.ports[port].ascii.active = false;
+            self.st.ports[port].framer.clear();
         }
     }
 
@@ -206,10 +216,12 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Switches to ASCII mode (command 139, or GP 67 bit 0 at start-up).
-    pub(crate) fn enter_ascii(&mut self) {
-        self.ascii = AsciiLine { active: true, ..AsciiLine::default() };
-        self.st.framer.clear();
+    /// Switches interface `port` to ASCII mode (command 139, or GP 67 bit 0 at start-up).
+    pub(crate) fn enter_ascii(&mut self, port: usize) {
+        if let Some(p) = self.st.ports.get_mut(port) {
+            p.ascii = AsciiLine { active: true, ..AsciiLine::default() };
+            p.framer.clear();
+        }
     }
 }
 

@@ -1,6 +1,19 @@
-//! Host interfaces: the byte-fed binary framer, the ASCII command line, and the reply outbox.
+//! Host interfaces: the byte-fed binary framer, the ASCII command line, and the reply outbox — one set per
+//! host interface of the model ([`Port`]), so that a module serves several interfaces at once and answers
+//! each on its own.
 
 pub mod ascii;
 pub mod binary;
 
 pub use binary::{Framer, Outbox, Sink, INTER_BYTE_TIMEOUT};
+
+/// The state of one host interface.
+#[derive(Debug, Clone, Default)]
+pub struct Port {
+    /// Collects bytes into frames (binary interfaces).
+    pub framer: Framer,
+    /// Replies and events waiting for their time.
+    pub outbox: Outbox,
+    /// ASCII mode and the line being typed.
+    pub ascii: ascii::AsciiLine,
+}

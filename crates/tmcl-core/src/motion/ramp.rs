@@ -9,8 +9,9 @@
 //!   start/stop speed. The braking speed for a remaining distance `d` is `sqrt(2·a·d + vmin²)`, the speed
 //!   from which a deceleration `a` ends at `vmin` exactly at the target. A new target during a move
 //!   re-plans from the present speed; if the new target is too close to stop for, the axis decelerates
-//!   with AP 5, passes it and comes back, as a real ramp generator does. Distances are 32-bit wrapping
-//!   differences: beyond 2³¹−1 microsteps the axis takes the shorter way round (§3.7.4 note).
+//!   with AP 5, passes it and comes back, as a real ramp generator does. Distances are wrapping
+//!   differences of the position counter's width (32 bits on the PD28-1021, 24 on the TMC428
+//!   generation): beyond half the counter the axis takes the shorter way round (§3.7.4 note).
 //! - **Velocity mode** (AP 128 = 1, ROR/ROL/MST): the speed approaches AP 2 with AP 5 ("the speed will be
 //!   changed using the maximum acceleration parameter", Table 15 AP 128), starting from and stopping at
 //!   AP 130.
@@ -83,9 +84,30 @@ pub struct Ramp {
     velocity: i64,
     /// Fraction of a microstep travelled, in 10⁻¹² microsteps.
     fraction: i64,
+    /// 32 − the position counter's width in bits: positions and distances are sign-extended from it.
+    shift: u32,
 }
 
 impl Ramp {
+    /// Sets the width of the position counter (the model's, 1..=32 bits); positions wrap around at it.
+    pub fn set_position_bits(&mut self, bits: u32) {
+        self.shift = 32 - bits.clamp(1, 32);
+        self.position = self.wrap(self.position);
+        self.target_position = self.wrap(self.target_position);
+    }
+
+    /// A counter value wrapped to the counter's width (sign-extended).
+    #[inline]
+    fn wrap(&self, v: i32) -> i32 {
+        (v << self.shift) >> self.shift
+    }
+
+    /// The distance from the position to the target, the shorter way round the counter.
+    #[inline]
+    fn distance(&self) -> i64 {
+        i64::from(self.wrap(self.target_position.wrapping_sub(self.position)))
+    }
+
     /// AP 3: the present velocity in pps (truncated towards zero).
     #[inline]
     pub fn velocity(&self) -> i32 {
@@ -108,10 +130,10 @@ impl Ramp {
         self.position == self.target_position
     }
 
-    /// Starts a move to `target` in position mode (MVP, SAP 0, AAP 0).
+    /// Starts a move to `target` in position mode (MVP, SAP 0, AAP 0); the target wraps to the counter.
     pub fn move_to(&mut self, target: i32) {
         self.mode = Mode::Position;
-        self.target_position = target;
+        self.target_position = self.wrap(target);
     }
 
     /// Selects velocity mode with a target velocity (ROR, ROL, MST, SAP 2 in velocity mode).
@@ -123,6 +145,7 @@ impl Ramp {
     /// Sets the step counter without moving (SAP 1). A position-mode target follows, so the axis does not
     /// start to move to the old target.
     pub fn set_position(&mut self, position: i32) {
+        let position = self.wrap(position);
         if self.mode == Mode::Position && self.velocity == 0 {
             self.target_position = position;
         }
@@ -167,7 +190,7 @@ impl Ramp {
         let steps = self.fraction / PICO;
         self.fraction -= steps * PICO;
         if self.mode == Mode::Position {
-            let distance = i64::from(self.target_position.wrapping_sub(self.position));
+            let distance = self.distance();
             let toward = (steps > 0) == (distance > 0);
             if distance != 0 && toward && steps.abs() >= distance.abs() && self.can_stop_at_target(p, distance) {
                 // Arrival: land on the target and stop (at AP 130, the stop speed).
@@ -180,14 +203,14 @@ impl Ramp {
                 return result;
             }
         }
-        self.position = self.position.wrapping_add(steps as i32);
+        self.position = self.wrap(self.position.wrapping_add(steps as i32));
         result.steps = steps;
         result
     }
 
     /// The velocity for the next tick in position mode.
     fn position_velocity(&self, p: &RampParams, accel: i64, v_min: i64) -> i64 {
-        let distance = i64::from(self.target_position.wrapping_sub(self.position));
+        let distance = self.distance();
         if distance == 0 && self.velocity.abs() <= v_min.max(accel) {
             return 0;
         }

@@ -1,6 +1,6 @@
 //! Reference search (PD28-1021 manual §3.7.13 RFS, §7.1 Table 21, AP 193–197).
 //!
-//! The figures that showed each mode's path are missing from the manual (inventory AMB-4); the text gives
+//! The figures that showed each mode's path are missing from the manual; the text gives
 //! the general sequence ("move at AP 194 towards the switch until it is found, then slowly at AP 195 ...
 //! the reference point is the centre of the two switching points; the counter is set to zero there") and
 //! the per-mode table. Our decisions, each written beside its mode below:
@@ -16,9 +16,13 @@
 //!   modes 5/6, which give up (motor stopped, nothing zeroed) when the second end switch is reached.
 //! - AP 193 decodes bitwise: bit 6 (+64) = use the right switch instead of the left (modes 1–4), bit 7
 //!   (+128) = inverted home switch (modes 5–8). The manual's examples print 129..132 for the inverted
-//!   modes 5..8 (AMB-33); since 128 + 1..4 has no other meaning, those are accepted as that alias.
+//!   modes 5..8; since 128 + 1..4 has no other meaning, those are accepted as that alias.
 //! - Mode 8 searches in the negative direction (Table 21 and AP 193; §7.1.8's "positive" is copied from
-//!   mode 7, AMB-2).
+//!   mode 7).
+//! - Which values AP 193 takes is the model's ([`ReferenceModes`]): the PD28-1021's modes above, or the
+//!   TMC428 generation's 1–3.
+
+use tmcl_model::ReferenceModes;
 
 /// Which switch a phase watches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -70,8 +74,19 @@ pub struct SearchMode {
 }
 
 impl SearchMode {
-    /// Decodes AP 193 (see the module docs).
-    pub fn decode(value: i32) -> Option<SearchMode> {
+    /// Decodes AP 193 for a model's mode set: the PD28-1021's (see the module docs), or the TMC428
+    /// generation's modes 1–3.
+    pub fn decode(value: i32, modes: ReferenceModes) -> Option<SearchMode> {
+        if modes == ReferenceModes::Tmc428 {
+            // 1 left switch only and 2 right switch, then left, as the PD28-1021's modes 1 and 2; 3 right
+            // switch, then the reference switch (a phase plan of its own, mode 9 here).
+            let mode = match value {
+                1 | 2 => value as u8,
+                3 => 9,
+                _ => return None,
+            };
+            return Some(SearchMode { mode, mirrored: false, inverted_home: false });
+        }
         let v = u8::try_from(value).ok()?;
         let (base, mirrored, inverted) = (v & 0x3F, v & 64 != 0, v & 128 != 0);
         match (base, mirrored, inverted) {
@@ -122,9 +137,21 @@ impl SearchMode {
             // reversing at the right one. The middle of the home switch is the reference.
             5 => ([phase(Home, -1, true, true, A), phase(Home, -1, false, false, B), none, none], 2),
             6 => ([phase(Home, 1, true, true, A), phase(Home, 1, false, false, B), none, none], 2),
-            // 7: home switch in the positive direction, end switches ignored; 8: negative (AMB-2).
+            // 7: home switch in the positive direction, end switches ignored; 8: negative (Table 21; §7.1.8's
+            // "positive" is copied from mode 7).
             7 => ([phase(Home, 1, true, true, A), phase(Home, 1, false, false, B), none, none], 2),
-            _ => ([phase(Home, -1, true, true, A), phase(Home, -1, false, false, B), none, none], 2),
+            8 => ([phase(Home, -1, true, true, A), phase(Home, -1, false, false, B), none, none], 2),
+            // The TMC428 generation's mode 3: the right switch first (for AP 196), then the reference
+            // switch from both sides in the negative direction; its middle is the reference.
+            _ => (
+                [
+                    phase(Right, 1, true, true, Far),
+                    phase(Home, -1, true, true, A),
+                    phase(Home, -1, false, false, B),
+                    none,
+                ],
+                3,
+            ),
         }
     }
 }
@@ -281,11 +308,11 @@ mod tests {
 
     #[test]
     fn decode_modes() {
-        let m = |v| SearchMode::decode(v).map(|m| (m.mode, m.mirrored, m.inverted_home));
+        let m = |v| SearchMode::decode(v, ReferenceModes::Pd28).map(|m| (m.mode, m.mirrored, m.inverted_home));
         assert_eq!(m(1), Some((1, false, false)));
         assert_eq!(m(66), Some((2, true, false)));
         assert_eq!(m(135), Some((7, false, true)));
-        // AMB-33: the manual's printed 129..132 for inverted 5..8.
+        // The manual's printed 129..132 for inverted 5..8.
         assert_eq!(m(129), Some((5, false, true)));
         assert_eq!(m(132), Some((8, false, true)));
         assert_eq!(m(69), None);
@@ -295,10 +322,19 @@ mod tests {
     }
 
     #[test]
+    fn tmc428_modes() {
+        let m = |v| SearchMode::decode(v, ReferenceModes::Tmc428).map(|m| m.mode);
+        assert_eq!((m(1), m(2), m(3)), (Some(1), Some(2), Some(9)));
+        assert_eq!((m(0), m(4), m(65), m(129)), (None, None, None, None));
+        let (phases, n) = SearchMode::decode(3, ReferenceModes::Tmc428).unwrap().phases();
+        assert_eq!((n, phases[0].switch, phases[1].switch), (3, Switch::Right, Switch::Home));
+    }
+
+    #[test]
     fn status_counts_phases() {
         let mut r = Reference::default();
         assert_eq!(r.status(), 0);
-        r.start(SearchMode::decode(1).unwrap(), 100);
+        r.start(SearchMode::decode(1, ReferenceModes::Pd28).unwrap(), 100);
         assert_eq!(r.status(), 1);
         r.stop();
         assert!(!r.is_active());

@@ -1,26 +1,18 @@
-//! The EEPROM image: layout, version, and the typed reads and writes the firmware does on it.
+//! The EEPROM image: header, version, and the typed reads and writes the firmware does on it.
 //!
-//! The manual does not give the real module's EEPROM layout (inventory AMB-6); this is ours, versioned so
-//! that a later layout can migrate or refuse an old image. All numbers are big-endian.
-//!
-//! | offset | size | content |
-//! |---|---|---|
-//! | 0x0000 | 16 | header: magic `OTMC`, layout version (u16), model tag (u16, the module number, 1021), 8 reserved |
-//! | 0x0010 | 32 × 4 | axis parameter slots: the E parameters of motor 0, in table order |
-//! | 0x0090 | 32 × 4 | bank 0 slots: the A parameters, in table order |
-//! | 0x0110 | 64 × 4 | bank 2: user variables 0.. (the first `stored_user_variables`) |
-//! | 0x0210 | 32 × 4 | coordinates 1..=20 of motor 0 (coordinate 0 is RAM only, §3.7.24) |
-//! | 0x0290 | – | reserved up to 0x0400 |
-//! | 0x0400 | n × 8 | TMCL program memory: per command opcode, type, motor, value (4, MSB first), checksum |
-//!
-//! The header is written last when the image is formatted and invalidated first, so an interrupted
-//! formatting is redone at the next start. Every other value is one slot, written by one [`Nvm::write`]
-//! call, which the [`Nvm`] contract makes atomic.
+//! The layout is computed from the model at compile time ([`tmcl_model::layout`] describes it; the real
+//! modules' layouts are not published, so it is ours), versioned so that a later layout can migrate or
+//! refuse an old image. All numbers are big-endian. The header is written last when the image is
+//! formatted and invalidated first, so an interrupted formatting is redone at the next start. Every other
+//! value is one slot, written by one [`Nvm::write`] call, which the [`Nvm`] contract makes atomic.
 
 use crate::hal::Nvm;
 use crate::model::ModelSpec;
 use crate::param::{slot, ParamError};
+use tmcl_model::layout::{HEADER_LEN, SLOT};
 use tmcl_wire::{checksum, Instruction};
+
+pub use tmcl_model::layout::PROGRAM_CELL;
 
 /// The layout version this firmware writes and reads.
 pub const LAYOUT_VERSION: u16 = 1;
@@ -28,39 +20,17 @@ pub const LAYOUT_VERSION: u16 = 1;
 pub const MAGIC: [u8; 4] = *b"OTMC";
 /// Header offset.
 pub const HEADER: usize = 0x0000;
-/// Axis parameter slots.
-pub const AXIS: usize = 0x0010;
-/// Bank 0 slots.
-pub const GLOBAL: usize = 0x0090;
-/// User variable slots.
-pub const USER: usize = 0x0110;
-/// Coordinate slots (coordinate n at `COORDS + 4·(n−1)`).
-pub const COORDS: usize = 0x0210;
-/// Program memory.
-pub const PROGRAM: usize = 0x0400;
-/// Bytes per program-memory cell.
-pub const PROGRAM_CELL: usize = 8;
-/// Slots per region.
-pub const SLOTS: usize = 32;
-
-/// Where a region ends, for layout checks.
-const USER_SLOTS: usize = 64;
 
 /// The EEPROM size a model needs.
 pub const fn capacity(spec: &ModelSpec) -> usize {
-    PROGRAM + spec.program_memory as usize * PROGRAM_CELL
+    spec.layout().end
 }
 
-fn tag(spec: &ModelSpec) -> u16 {
-    let b = spec.version_binary.to_be_bytes();
-    u16::from(b[0]) * 100 + u16::from(b[1])
-}
-
-fn header(spec: &ModelSpec) -> [u8; 16] {
-    let mut h = [0u8; 16];
+fn header(spec: &ModelSpec) -> [u8; HEADER_LEN] {
+    let mut h = [0u8; HEADER_LEN];
     h[..4].copy_from_slice(&MAGIC);
     h[4..6].copy_from_slice(&LAYOUT_VERSION.to_be_bytes());
-    h[6..8].copy_from_slice(&tag(spec).to_be_bytes());
+    h[6..8].copy_from_slice(&spec.eeprom_tag.to_be_bytes());
     h
 }
 
@@ -76,8 +46,20 @@ fn write_i32<N: Nvm>(nvm: &mut N, offset: usize, value: i32) -> Result<(), Param
 
 /// Whether the image carries our header for this model and layout.
 pub fn is_formatted<N: Nvm>(nvm: &mut N, spec: &ModelSpec) -> bool {
-    let mut h = [0u8; 16];
+    let mut h = [0u8; HEADER_LEN];
     nvm.capacity() >= capacity(spec) && nvm.read(HEADER, &mut h).is_ok() && h == header(spec)
+}
+
+/// Writes `len` zero bytes from `at`, in writes of at most 256 bytes.
+fn zero<N: Nvm>(nvm: &mut N, mut at: usize, len: usize) -> Result<(), ParamError> {
+    let zeros = [0u8; 256];
+    let end = at + len;
+    while at < end {
+        let n = zeros.len().min(end - at);
+        nvm.write(at, &zeros[..n]).map_err(|_| ParamError::Storage)?;
+        at += n;
+    }
+    Ok(())
 }
 
 /// Writes the factory image: every persistent parameter at its default, user variables and coordinates
@@ -87,20 +69,22 @@ pub fn format<N: Nvm>(nvm: &mut N, spec: &ModelSpec, erase_program: bool) -> Res
     if nvm.capacity() < capacity(spec) {
         return Err(ParamError::Storage);
     }
-    nvm.write(HEADER, &[0u8; 16]).map_err(|_| ParamError::Storage)?;
-    let mut region = [0u8; SLOTS * 4];
-    for (base, table) in [(AXIS, spec.axis.params), (GLOBAL, spec.global.params)] {
-        region.fill(0);
+    let layout = spec.layout();
+    nvm.write(HEADER, &[0u8; HEADER_LEN]).map_err(|_| ParamError::Storage)?;
+    // One write per parameter region (at most 64 slots, the core's largest table).
+    let mut region = [0u8; tmcl_model::capacity::MAX_AXIS_PARAMS * SLOT];
+    for (base, table) in [(layout.axis, spec.axis.params), (layout.global, spec.global.params)] {
+        let mut len = 0;
         for (i, d) in table.iter().enumerate() {
             if let Some(s) = slot(table, i) {
-                region[s * 4..s * 4 + 4].copy_from_slice(&d.default.to_be_bytes());
+                region[s * SLOT..s * SLOT + SLOT].copy_from_slice(&d.default.to_be_bytes());
+                len = s * SLOT + SLOT;
             }
         }
-        nvm.write(base, &region).map_err(|_| ParamError::Storage)?;
+        nvm.write(base, &region[..len]).map_err(|_| ParamError::Storage)?;
     }
-    let zeros = [0u8; 256];
-    nvm.write(USER, &zeros).map_err(|_| ParamError::Storage)?;
-    nvm.write(COORDS, &zeros[..SLOTS * 4]).map_err(|_| ParamError::Storage)?;
+    zero(nvm, layout.user, usize::from(spec.stored_user_variables) * SLOT)?;
+    zero(nvm, layout.coords, usize::from(spec.coordinates) * SLOT)?;
     if erase_program {
         self::erase_program(nvm, spec)?;
     }
@@ -110,30 +94,30 @@ pub fn format<N: Nvm>(nvm: &mut N, spec: &ModelSpec, erase_program: bool) -> Res
 /// Reads the stored value of axis parameter table entry `index` (an E parameter).
 pub fn load_axis<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize) -> Result<i32, ParamError> {
     let s = slot(spec.axis.params, index).ok_or(ParamError::NotPermitted)?;
-    read_i32(nvm, AXIS + 4 * s)
+    read_i32(nvm, spec.layout().axis + SLOT * s)
 }
 
 /// Stores axis parameter table entry `index`.
 pub fn store_axis<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize, value: i32) -> Result<(), ParamError> {
     let s = slot(spec.axis.params, index).ok_or(ParamError::NotPermitted)?;
-    write_i32(nvm, AXIS + 4 * s, value)
+    write_i32(nvm, spec.layout().axis + SLOT * s, value)
 }
 
 /// Reads the stored value of bank 0 table entry `index` (an A parameter).
 pub fn load_global<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize) -> Result<i32, ParamError> {
     let s = slot(spec.global.params, index).ok_or(ParamError::NotPermitted)?;
-    read_i32(nvm, GLOBAL + 4 * s)
+    read_i32(nvm, spec.layout().global + SLOT * s)
 }
 
 /// Stores bank 0 table entry `index`.
 pub fn store_global<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize, value: i32) -> Result<(), ParamError> {
     let s = slot(spec.global.params, index).ok_or(ParamError::NotPermitted)?;
-    write_i32(nvm, GLOBAL + 4 * s, value)
+    write_i32(nvm, spec.layout().global + SLOT * s, value)
 }
 
 fn user_offset(spec: &ModelSpec, n: u8) -> Result<usize, ParamError> {
     if u16::from(n) < spec.stored_user_variables {
-        Ok(USER + 4 * usize::from(n))
+        Ok(spec.layout().user + SLOT * usize::from(n))
     } else {
         Err(ParamError::NotPermitted)
     }
@@ -151,7 +135,7 @@ pub fn store_user<N: Nvm>(nvm: &mut N, spec: &ModelSpec, n: u8, value: i32) -> R
 
 fn coord_offset(spec: &ModelSpec, n: u8) -> Result<usize, ParamError> {
     if (1..=spec.coordinates).contains(&n) {
-        Ok(COORDS + 4 * (usize::from(n) - 1))
+        Ok(spec.layout().coords + SLOT * (usize::from(n) - 1))
     } else {
         Err(ParamError::OutOfRange)
     }
@@ -174,7 +158,7 @@ pub fn load_program_cell<N: Nvm>(nvm: &mut N, spec: &ModelSpec, address: usize) 
         return None;
     }
     let mut b = [0u8; PROGRAM_CELL];
-    nvm.read(PROGRAM + address * PROGRAM_CELL, &mut b).ok()?;
+    nvm.read(spec.layout().program + address * PROGRAM_CELL, &mut b).ok()?;
     let mut seven = [0u8; 7];
     seven.copy_from_slice(&b[..7]);
     if checksum(&seven) != b[7] {
@@ -196,26 +180,14 @@ pub fn store_program_cell<N: Nvm>(
     let mut b = [0u8; PROGRAM_CELL];
     b[..7].copy_from_slice(&instruction.to_bytes());
     b[7] = checksum(&b[..7]);
-    nvm.write(PROGRAM + address * PROGRAM_CELL, &b).map_err(|_| ParamError::Storage)
+    nvm.write(spec.layout().program + address * PROGRAM_CELL, &b).map_err(|_| ParamError::Storage)
 }
 
 /// Erases the program memory (GP 81: leaving protection against disassembly erases the program).
 pub fn erase_program<N: Nvm>(nvm: &mut N, spec: &ModelSpec) -> Result<(), ParamError> {
-    let zeros = [0u8; 256];
-    let end = capacity(spec);
-    let mut at = PROGRAM;
-    while at < end {
-        let n = zeros.len().min(end - at);
-        nvm.write(at, &zeros[..n]).map_err(|_| ParamError::Storage)?;
-        at += n;
-    }
-    Ok(())
+    let layout = spec.layout();
+    zero(nvm, layout.program, layout.end - layout.program)
 }
-
-const _: () = assert!(AXIS + SLOTS * 4 <= GLOBAL);
-const _: () = assert!(GLOBAL + SLOTS * 4 <= USER);
-const _: () = assert!(USER + USER_SLOTS * 4 <= COORDS);
-const _: () = assert!(COORDS + SLOTS * 4 <= PROGRAM);
 
 #[cfg(test)]
 mod tests {
@@ -246,10 +218,8 @@ mod tests {
     #[test]
     fn layout_fits_the_model() {
         assert_eq!(capacity(&SPEC), 0x0400 + 2048 * 8);
-        assert!(SPEC.axis.params.iter().filter(|d| d.access.persistent()).count() <= SLOTS);
-        assert!(SPEC.global.params.iter().filter(|d| d.access.persistent()).count() <= SLOTS);
-        assert!(usize::from(SPEC.stored_user_variables) <= USER_SLOTS);
-        assert!(usize::from(SPEC.coordinates) <= SLOTS);
+        let l = SPEC.layout();
+        assert_eq!((l.axis, l.global, l.user, l.coords, l.program), (0x10, 0x90, 0x110, 0x210, 0x400));
     }
 
     #[test]
@@ -263,7 +233,7 @@ mod tests {
         let (i, _) = find(SPEC.global.params, 66).unwrap();
         assert_eq!(load_global(&mut nvm, &SPEC, i), Ok(1));
         assert_eq!(&nvm.0[..4], b"OTMC");
-        assert!(nvm.0[PROGRAM..].iter().all(|b| *b == 0));
+        assert!(nvm.0[SPEC.layout().program..].iter().all(|b| *b == 0));
     }
 
     #[test]

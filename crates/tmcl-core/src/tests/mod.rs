@@ -8,7 +8,9 @@ mod reference;
 mod vm;
 mod wire;
 
-use crate::hal::{Drive, DriveState, Feedback, Io, Nvm, Switches};
+use crate::hal::{
+    Analog, DriveState, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, StepDriver, SwitchInputs, Switches,
+};
 use crate::model::pd28_1021::SPEC;
 use crate::param::persist;
 use crate::time::{Duration, Instant};
@@ -88,19 +90,28 @@ impl Nvm for TestBoard {
     }
 }
 
-impl Io for TestBoard {
+impl Inputs for TestBoard {
     fn digital_inputs(&mut self) -> u8 {
         self.inputs
     }
+}
+
+impl Analog for TestBoard {
     fn analog_input(&mut self, _channel: u8) -> u16 {
         self.analog
     }
     fn temperature(&mut self) -> i32 {
         25
     }
+}
+
+impl Outputs for TestBoard {
     fn set_outputs(&mut self, bits: u8) {
         self.outputs = bits;
     }
+}
+
+impl SwitchInputs for TestBoard {
     fn switches(&mut self) -> Switches {
         let at = |z: &Option<core::ops::RangeInclusive<i64>>| z.as_ref().is_some_and(|z| z.contains(&self.physical));
         Switches {
@@ -111,7 +122,7 @@ impl Io for TestBoard {
     }
 }
 
-impl Drive for TestBoard {
+impl StepDriver for TestBoard {
     fn update(&mut self, _now: Instant, state: &DriveState) {
         let scale = 1i64 << (8 - state.resolution.min(8));
         let moved = state.moved * scale;
@@ -119,9 +130,18 @@ impl Drive for TestBoard {
         self.drive = *state;
         self.updates += 1;
     }
-    fn feedback(&mut self) -> Feedback {
+}
+
+impl LoadSensor for TestBoard {
+    fn load(&mut self) -> u16 {
+        700
+    }
+}
+
+impl EncoderCounter for TestBoard {
+    fn encoder_counts(&mut self) -> i64 {
         // 51200 physical 1/256 microsteps per revolution (200 full steps), 1024 counts per revolution.
-        Feedback { encoder_counts: self.physical.div_euclid(50), load: 700, driver_flags: 0 }
+        self.physical.div_euclid(50)
     }
 }
 
@@ -155,7 +175,7 @@ impl Bench {
         self.module.receive(self.now, bytes, &mut |b: &[u8]| out.extend_from_slice(b));
         // A reply held back by the telegram pause (GP 75): wait for it, as a host would.
         while out.is_empty() {
-            let Some(due) = self.module.state().outbox.next_due() else { break };
+            let Some(due) = self.module.state().port(0).and_then(|p| p.outbox.next_due()) else { break };
             self.now = due;
             self.module.poll(self.now, &mut |b: &[u8]| out.extend_from_slice(b));
         }

@@ -18,27 +18,27 @@
 //! - **Registers.** A program has its own accumulator, X register and flags; direct-mode CALC, CALCX,
 //!   AAP, AGP, ACO and `SIO 255, 2, -1` work on a separate host register set, so a host never disturbs a
 //!   running program (manual §8.5).
-//! - **Flags (AMB-1).** COMP sets zero/greater/lower from `A − operand`; every instruction that loads the
+//! - **Flags.** COMP sets zero/greater/lower from `A − operand`; every instruction that loads the
 //!   accumulator (GAP, GGP, GIO, GCO, RFS STATUS, CALC, CALCX) sets them from `A − 0`. ZE ≡ EQ, NZ ≡ NE.
-//! - **Interrupts (AMB-26).** One pending bit per source, set when its event occurs while the interrupt
+//! - **Interrupts.** The manual does not say how pending interrupts queue; ours: one pending bit per source, set when its event occurs while the interrupt
 //!   is enabled (EI n) and has a vector; serviced between instructions, lowest number first, when
 //!   interrupts are globally on (EI 255) and no handler runs (no nesting). A handler interrupts a WAIT;
 //!   RETI resumes the WAIT where it was. DI n clears its pending bit. A timer fires every period (bank 3,
-//!   ms) from the moment its period is set; period 0 = off.
+//!   ms) from the moment its period is set; period 0 = off. Which vectors exist and what raises each is
+//!   the model's table ([`tmcl_model::Interrupts`]).
 
 pub(crate) mod run;
-
-pub use run::vector;
 
 use crate::time::Instant;
 use tmcl_wire::{Instruction, Opcode, WaitCondition};
 
-/// Program memory of the largest model, in commands.
-pub const MAX_PROGRAM: usize = 2048;
+/// Program memory of the largest model, in commands (every model is checked against it at compile time).
+pub use tmcl_model::capacity::MAX_PROGRAM;
+use tmcl_model::capacity::MAX_TIMERS;
+/// Interrupt numbers are below this (bits of a 64-bit mask; 255 = global).
+pub use tmcl_model::capacity::MAX_VECTORS;
 /// Subroutine stack depth (§3.7.20: "8 nesting levels").
 pub const STACK_DEPTH: usize = 8;
-/// Interrupt numbers are below this (Table 12: 0..42, plus 255 = global).
-pub const MAX_VECTORS: usize = 64;
 /// Module time one instruction takes.
 pub const INSTRUCTION_TIME: crate::time::Duration = crate::time::Duration::from_micros(20);
 /// One WAIT tick (§3.7.22: "1 tick = 10 milliseconds").
@@ -152,12 +152,12 @@ pub struct Vm {
     pub(crate) pending: u64,
     /// The interrupted context while a handler runs.
     pub(crate) handler: Option<Context>,
-    /// Next firing of timers 0..2.
-    pub(crate) timers: [Option<Instant>; 3],
+    /// Next firing of the timers.
+    pub(crate) timers: [Option<Instant>; MAX_TIMERS],
     /// Download mode (command 132): the next address to store at (GP 129 = 1 while set).
     pub(crate) download: Option<u16>,
-    /// Input and switch levels at the last sample (for the change interrupts 27, 28, 39..42).
-    pub(crate) last_levels: Option<u16>,
+    /// The levels of the switch and input interrupt sources at the last sample, bit n for vector n.
+    pub(crate) last_levels: Option<u64>,
     /// The position-reached state at the last sample (interrupt 3).
     pub(crate) was_reached: bool,
     /// Debugger breakpoints: bit n = stop before executing address n.
@@ -182,7 +182,7 @@ impl Default for Vm {
             global: false,
             pending: 0,
             handler: None,
-            timers: [None; 3],
+            timers: [None; MAX_TIMERS],
             download: None,
             last_levels: None,
             was_reached: true,

@@ -2,28 +2,11 @@
 
 use super::{Context, RunState, Wait, INSTRUCTION_TIME, MAX_VECTORS, NO_VECTOR, STACK_DEPTH, WAIT_TICK};
 use crate::hal::Board;
+use crate::model::{Setting, Source};
 use crate::module::{flags, Module, Origin, Registers};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
 use tmcl_wire::{Command, Condition, Instruction, Status, WaitCondition, FRAME_LEN};
-
-/// Interrupt numbers (manual §3.6.6 Table 12).
-pub mod vector {
-    /// Timers 0, 1, 2.
-    pub const TIMERS: [u8; 3] = [0, 1, 2];
-    /// Target position reached, axis 0.
-    pub const TARGET_REACHED: u8 = 3;
-    /// stallGuard, axis 0.
-    pub const STALL: u8 = 15;
-    /// Deviation, axis 0.
-    pub const DEVIATION: u8 = 21;
-    /// Left stop switch 0.
-    pub const STOP_LEFT: u8 = 27;
-    /// Right stop switch 0.
-    pub const STOP_RIGHT: u8 = 28;
-    /// Input changes 0..3.
-    pub const INPUTS: [u8; 4] = [39, 40, 41, 42];
-}
 
 /// How many instructions one call may run at most, so that a poll always returns.
 pub const BUDGET: u32 = 1 << 20;
@@ -91,7 +74,7 @@ impl<B: Board> Module<B> {
             self.vm.state = RunState::Stopped; // ran off the end of memory
             return;
         };
-        let Ok(command) = Command::decode(instruction) else {
+        let Ok(command) = self.decode(instruction) else {
             self.vm.state = RunState::Stopped; // opcode 0 (empty memory) or garbage: the program ends
             return;
         };
@@ -244,13 +227,18 @@ impl<B: Board> Module<B> {
         self.vm.pc = address;
     }
 
-    /// Samples the interrupt sources at a motion tick (timers, target reached, switch and input changes).
+    /// Samples the interrupt sources at a motion tick (timers, target reached, switch and input changes),
+    /// as the model's vector table names them.
     pub(crate) fn sample_interrupts(&mut self, t: Instant) {
-        for (i, &n) in vector::TIMERS.iter().enumerate() {
+        let irqs = &self.spec.interrupts;
+        for i in 0..self.vm.timers.len() {
             if let Some(due) = self.vm.timers[i] {
                 if t >= due {
-                    self.raise_interrupt(n);
-                    let period = self.interrupt_value(n) as u32;
+                    let n = irqs.timer(i);
+                    if let Some(n) = n {
+                        self.raise_interrupt(n);
+                    }
+                    let period = n.map_or(0, |n| self.interrupt_config(n) as u32);
                     self.vm.timers[i] =
                         (period > 0).then(|| due + Duration::from_millis(u64::from(period))).map(|d| d.max(t));
                 }
@@ -258,32 +246,41 @@ impl<B: Board> Module<B> {
         }
         let reached = self.st.ramp.mode == crate::motion::Mode::Position && self.st.ramp.is_idle();
         if reached && !self.vm.was_reached {
-            self.raise_interrupt(vector::TARGET_REACHED);
+            if let Some(n) = irqs.target_reached() {
+                self.raise_interrupt(n);
+            }
         }
         self.vm.was_reached = reached;
-        if self.vm.enabled & (1 << vector::STOP_LEFT | 1 << vector::STOP_RIGHT | 0xF << vector::INPUTS[0]) == 0 {
+        let watched = self.vm.enabled & irqs.levels_mask;
+        if watched == 0 {
             self.vm.last_levels = None;
             return;
         }
         let (left, right, _) = self.switches();
         let inputs = self.board.digital_inputs();
-        let levels = u16::from(inputs & 0xF) | u16::from(left) << 4 | u16::from(right) << 5;
+        let mut levels = 0u64;
+        // Every level source is sampled (not only the enabled ones), so that one enabled later compares
+        // with its real level.
+        for d in irqs.list.iter().filter(|d| d.source.is_level()) {
+            let level = match d.source {
+                Source::LeftStop => left,
+                Source::RightStop => right,
+                Source::Input(bit) => (inputs >> bit) & 1 == 1,
+                _ => false,
+            };
+            levels |= u64::from(level) << d.number;
+        }
         if let Some(last) = self.vm.last_levels {
-            let sources = [
-                (vector::INPUTS[0], 0),
-                (vector::INPUTS[1], 1),
-                (vector::INPUTS[2], 2),
-                (vector::INPUTS[3], 3),
-                (vector::STOP_LEFT, 4),
-                (vector::STOP_RIGHT, 5),
-            ];
-            for (n, bit) in sources {
-                let (was, is) = (last >> bit & 1 == 1, levels >> bit & 1 == 1);
+            let mut changed = (last ^ levels) & watched;
+            while changed != 0 {
+                let n = changed.trailing_zeros() as u8;
+                changed &= changed - 1;
+                let is = levels >> n & 1 == 1;
                 // Bank 3 trigger transition: 0 off, 1 low→high, 2 high→low, 3 both (§5.4).
-                let fire = match self.interrupt_value(n) {
-                    1 => !was && is,
-                    2 => was && !is,
-                    3 => was != is,
+                let fire = match self.interrupt_config(n) {
+                    1 => is,
+                    2 => !is,
+                    3 => true,
                     _ => false,
                 };
                 if fire {
@@ -294,16 +291,22 @@ impl<B: Board> Module<B> {
         self.vm.last_levels = Some(levels);
     }
 
-    /// A bank 3 parameter by number (0 if absent).
-    fn interrupt_value(&self, n: u8) -> i32 {
-        self.spec.interrupt.index(n).map_or(0, |i| self.st.interrupt[i])
+    /// The value of interrupt `n`'s bank 3 configuration parameter (a timer period, a trigger
+    /// transition); 0 (off) if it has none.
+    fn interrupt_config(&self, n: u8) -> i32 {
+        let config = self.spec.interrupts.find(n).and_then(|d| d.config);
+        config.and_then(|c| self.spec.interrupt.index(c)).map_or(0, |i| self.st.interrupt[i])
     }
 
-    /// A bank 3 timer period was written: the timer restarts from now.
-    pub(crate) fn restart_timer(&mut self, n: u8, now: Instant) {
-        if let Some(i) = vector::TIMERS.iter().position(|&t| t == n) {
-            let period = self.interrupt_value(n) as u32;
-            self.vm.timers[i] = (period > 0).then(|| now + Duration::from_millis(u64::from(period)));
+    /// A bank 3 parameter was written: a timer whose period it is restarts from now.
+    pub(crate) fn restart_timer(&mut self, parameter: u8, now: Instant) {
+        let irqs = &self.spec.interrupts;
+        for i in 0..self.vm.timers.len() {
+            let Some(n) = irqs.timer(i) else { continue };
+            if irqs.find(n).and_then(|d| d.config) == Some(parameter) {
+                let period = self.interrupt_config(n) as u32;
+                self.vm.timers[i] = (period > 0).then(|| now + Duration::from_millis(u64::from(period)));
+            }
         }
     }
 
@@ -323,7 +326,7 @@ impl<B: Board> Module<B> {
 
     /// The next timer interrupt, at the motion tick that samples it (timers are sampled at ticks).
     pub fn timer_deadline(&self) -> Option<Instant> {
-        if self.vm.enabled & 0b111 == 0 {
+        if self.vm.enabled & self.spec.interrupts.timers_mask == 0 {
             return None;
         }
         let due = self.vm.timers.iter().flatten().min().copied()?;
@@ -422,7 +425,7 @@ impl<B: Board> Module<B> {
 
     /// GP 81 bits: 1 = no read-back (disassembly), 2 = no overwrite.
     fn protection(&self) -> i32 {
-        self.global_value(81)
+        self.gp(Setting::CodeProtection).unwrap_or(0)
     }
 
     /// 132: download mode from `address`. Refused with status 5 when the program is protected against
@@ -445,8 +448,8 @@ impl<B: Board> Module<B> {
     /// In download mode: stores one instruction at the next address (status 101, §3.2.1).
     pub(crate) fn download(&mut self, instruction: Instruction) -> Result<(), Status> {
         let Some(address) = self.vm.download else { return Err(Status::InvalidCommand) };
-        // Only what a program can execute is stored; anything else is refused and not stored.
-        Command::decode(instruction)?;
+        // Only what a program of this model can execute is stored; anything else is refused and not stored.
+        self.decode(instruction)?;
         persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
         self.program.cells[usize::from(address)] = instruction;
         self.vm.download = address.checked_add(1).filter(|a| *a < self.spec.program_memory).or(Some(address));
@@ -463,7 +466,7 @@ impl<B: Board> Module<B> {
         let a = usize::try_from(address).ok().filter(|a| *a < usize::from(self.spec.program_memory));
         let cell = self.program.cells[a.ok_or(Status::InvalidValue)?];
         let mut raw = [0u8; FRAME_LEN];
-        raw[0] = self.global_value(76) as u8;
+        raw[0] = self.host_address();
         raw[1..8].copy_from_slice(&cell.to_bytes());
         raw[8] = tmcl_wire::checksum(&raw[..8]);
         Ok(raw)
@@ -491,7 +494,7 @@ impl<B: Board> Module<B> {
 
     /// After a start: GP 77 = 1 runs the program from address 0 (§8.7).
     pub(crate) fn auto_start(&mut self, now: Instant) {
-        if self.global_value(77) == 1 && !self.program.is_empty() {
+        if self.gp_flag(Setting::AutoStart) && !self.program.is_empty() {
             self.vm.pc = 0;
             self.vm.state = RunState::Running;
             self.vm.time = now;

@@ -81,6 +81,9 @@ fn manual_mnemonic_examples() {
         ("RETI", (38, 0, 0, 0)),
         ("SIO 255, 2, -1", (14, 255, 2, -1)),
         ("UF3 1, 2, 3", (67, 1, 2, 3)),
+        // SAC <bus number>, <number of bytes>, <send data> (PDx-113 manual §5.4.3 names the command).
+        ("SAC 0, 2, 0x1234", (29, 0, 2, 0x1234)),
+        ("sac 1, 3, -1", (29, 1, 3, -1)),
         ("#op 200, 1, 2, 3", (200, 1, 2, 3)),
         ("#OP rsub, 7, 0, 0", (24, 7, 0, 0)),
     ];
@@ -115,6 +118,7 @@ fn errors_have_kinds_and_spans() {
     assert_eq!(std::format!("{e}"), "MVP takes 3 operands, found 2");
     assert_eq!(std::format!("{}", err("GAP 1")), "GAP takes 2 or 3 operands, found 1");
     assert_eq!(std::format!("{}", err("RSUB 1")), "RSUB takes no operands, found 1");
+    assert_eq!(std::format!("{}", err("SAC 0, 2")), "SAC takes 3 operands, found 2");
     assert_eq!(std::format!("{}", err("JA")), "JA takes 1 operand, found 0");
     let e = err("SAP 4, 300, 1");
     assert_eq!(e.span, Span::new(7, 10));
@@ -154,6 +158,8 @@ fn formats_type_words_and_labels() {
     assert_eq!(format(&i(33, 10, 0, 0)), "CALCX SWAP");
     assert_eq!(format(&i(36, 1, 0, 0)), "CLE ETO");
     assert_eq!(format(&i(67, 1, 2, 3)), "UF3 1, 2, 3");
+    assert_eq!(format(&i(29, 0, 2, 4660)), "SAC 0, 2, 4660");
+    assert_eq!(format(&i(29, 0, 0, 0)), "SAC 0, 0, 0");
     assert_eq!(format(&i(200, 1, 2, 3)), "#op 200, 1, 2, 3");
     assert_eq!(format(&i(129, 1, 0, 5)), "#op 129, 1, 0, 5");
     let mut s = String::new();
@@ -183,6 +189,18 @@ fn ascii_lines() {
     assert_eq!(parse_ascii_command("stop", &mut no_symbols), Ok(AsciiCommand::Stop));
     assert!(ascii_allowed(Opcode::Cco) && ascii_allowed(Opcode::UserFunction(7)));
     assert!(!ascii_allowed(Opcode::Calc) && !ascii_allowed(Opcode::Aco) && !ascii_allowed(Opcode::Wait));
+    // PDx-113 manual §5.6.3 adds SAC to the PD28-1021's §3.4 list.
+    assert!(ascii_allowed(Opcode::Sac));
+    assert_eq!(
+        parse_ascii_command("SAC 0, 1, 255", &mut no_symbols),
+        Ok(AsciiCommand::Instruction(Instruction::new(Opcode::Sac, 0, 1, 255)))
+    );
+    // Otherwise the list it replaced (opcodes 1..=15, 30..=32, 64..=71).
+    for code in 0..=255u8 {
+        let before = matches!(code, 1..=15 | 30..=32 | 64..=71);
+        assert_eq!(ascii_allowed(Opcode::from(code)), before || code == 29, "{code}");
+    }
+    assert!(!ascii_allowed(Opcode::Unknown(16)) && !ascii_allowed(Opcode::EnterAscii));
     let mut s = String::new();
     write_reply(&mut s, 2, 1, Status::Ok, -5000).unwrap();
     assert_eq!(s, "BA 100 -5000\r");

@@ -102,7 +102,7 @@ fn manual_request_vectors() {
     check([0x01, 0x25, 0x00, 0x00, 0x00, 0x00, 0x00, 0x32, 0x58], C::Vect { interrupt: 0, address: 50 });
     // F37 §3.7.35: printed with type FF, checksum 27 fits type 00 (AMB-5).
     check([0x01, 0x26, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x27], C::Reti);
-    // F38 §3.7.39 command 138 type 1, mask 1
+    // F38 §3.7.37 command 138 type 1, mask 1
     check(
         [0x01, 0x8A, 0x01, 0x00, 0x00, 0x00, 0x00, 0x01, 0x8D],
         C::RequestTargetReachedEvent { mode: EventMode::Every, mask: 1 },
@@ -115,9 +115,64 @@ fn manual_request_vectors() {
 
 #[test]
 fn unknown_opcodes_are_invalid_commands() {
-    for code in [0u8, 16, 17, 18, 29, 40, 63, 72, 127, 140, 200, 254] {
+    // 29 was here until SAC (PDx-113 manual §5.4.3) was added; see `sac_roundtrips`.
+    for code in [0u8, 16, 17, 18, 40, 63, 72, 127, 140, 200, 254] {
         let i = Instruction::new(code.into(), 0, 0, 0);
         assert_eq!(Command::decode(i), Err(Status::InvalidCommand), "opcode {code}");
+    }
+}
+
+#[test]
+fn sac_roundtrips() {
+    // SAC <bus number>, <number of bytes>, <send data>: type, motor/bank, value (PDx-113 manual §5.4.3 names
+    // the command; no manual prints a frame, so the checksums are computed).
+    check([0x01, 0x1D, 0x00, 0x02, 0x00, 0x00, 0x12, 0x34, 0x66], Command::Sac { bus: 0, bytes: 2, data: 0x1234 });
+    check([0x01, 0x1D, 0x01, 0x03, 0xFF, 0xFF, 0xFF, 0xFF, 0x1E], Command::Sac { bus: 1, bytes: 3, data: -1 });
+    // No field is checked here: the model decides which buses and lengths exist.
+    let any = Instruction::new(Opcode::Sac, 255, 255, i32::MIN);
+    assert_eq!(Command::decode(any).map(|c| c.encode()), Ok(any));
+}
+
+#[test]
+fn opcode_matches_encode() {
+    for code in 0..=255u8 {
+        for t in [0u8, 1, 2, 255] {
+            if let Ok(c) = Command::decode(Instruction::new(code.into(), t, 0, MAGIC_KEY)) {
+                assert_eq!(c.opcode(), c.encode().opcode, "{c:?}");
+                assert_eq!(c.opcode().code(), code);
+            }
+        }
+    }
+}
+
+#[test]
+fn reads_value_follows_the_table() {
+    let reads = |c: Command| c.reads_value();
+    assert!(reads(Command::Gap { param: 1, motor: 0 }));
+    assert!(reads(Command::Ggp { param: 66, bank: 0 }));
+    assert!(reads(Command::Gio { port: 0, bank: 1 }));
+    assert!(reads(Command::Gco { coord: 1, motor: 0 }));
+    assert!(reads(Command::Sac { bus: 0, bytes: 1, data: 0 }));
+    assert!(reads(Command::Rfs { action: RfsAction::Status, motor: 0 }));
+    assert!(!reads(Command::Rfs { action: RfsAction::Start, motor: 0 }));
+    assert!(!reads(Command::Rfs { action: RfsAction::Stop, motor: 0 }));
+    assert!(!reads(Command::Sap { param: 4, motor: 0, value: 1 }));
+    assert!(!reads(Command::GetStatus { kind: StatusKind::Accumulator }));
+    // Same answers as the list it replaced (GAP, GGP, GIO, GCO, RFS STATUS), SAC aside.
+    for code in 0..=255u8 {
+        for t in 0..=255u8 {
+            if let Ok(c) = Command::decode(Instruction::new(code.into(), t, 0, MAGIC_KEY)) {
+                let before = matches!(
+                    c,
+                    Command::Gap { .. }
+                        | Command::Ggp { .. }
+                        | Command::Gio { .. }
+                        | Command::Gco { .. }
+                        | Command::Rfs { action: RfsAction::Status, .. }
+                );
+                assert_eq!(c.reads_value(), before || matches!(c, Command::Sac { .. }), "{c:?}");
+            }
+        }
     }
 }
 

@@ -21,8 +21,13 @@
 //! store and restore AP 6, and the firmware history (§10, V1.21 and V1.34) says AP 140 is "taken over from
 //! the EEPROM". We therefore make AP 6, 7 and 140 storable (E), as they are on the real module.
 
-use super::{InterruptDesc, ModelSpec, PortDesc, PortKind};
-use crate::param::{Access, ParamDesc, Range, Role, Table};
+use crate::interface::InterfaceDesc;
+use crate::interrupt::{InterruptDesc, Interrupts, Source};
+use crate::param::{Access, ParamDesc, Range, Role, Setting, Table};
+use crate::port::{PortDesc, PortKind};
+use crate::variant::{Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
+use crate::{ModelDesc, ModelSpec};
+use tmcl_wire::{CommandSet, Opcode};
 
 const A: &str = "§4 Table 15";
 const G: &str = "§5.1 Table 17";
@@ -47,10 +52,14 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
     ParamDesc::plain(2, "Target speed", "TargetSpeed", POS, Access::RW, 0, A).with_role(Role::TargetSpeed),
     // AMB-27: listed RW; a write is accepted and has no effect (the ramp generator owns the value).
     ParamDesc::plain(3, "Actual speed", "ActualSpeed", POS, Access::RW, 0, A).with_role(Role::ActualSpeed),
-    ParamDesc::plain(4, "Maximum positioning speed", "MaxPositioningSpeed", r(1, i32::MAX), Access::RWE, 51200, A),
-    ParamDesc::plain(5, "Maximum acceleration", "MaxAcceleration", r(1, i32::MAX), Access::RWE, 51200, A),
-    ParamDesc::plain(6, "Maximum current", "MaxCurrent", CURRENT, Access::RWE, 128, A),
-    ParamDesc::plain(7, "Standby current", "StandbyCurrent", CURRENT, Access::RWE, 16, A),
+    ParamDesc::plain(4, "Maximum positioning speed", "MaxPositioningSpeed", r(1, i32::MAX), Access::RWE, 51200, A)
+        .with_setting(Setting::MaxPositioningSpeed),
+    ParamDesc::plain(5, "Maximum acceleration", "MaxAcceleration", r(1, i32::MAX), Access::RWE, 51200, A)
+        .with_setting(Setting::MaxAcceleration),
+    ParamDesc::plain(6, "Maximum current", "MaxCurrent", CURRENT, Access::RWE, 128, A)
+        .with_setting(Setting::RunCurrent),
+    ParamDesc::plain(7, "Standby current", "StandbyCurrent", CURRENT, Access::RWE, 16, A)
+        .with_setting(Setting::StandbyCurrent),
     ParamDesc::plain(8, "Position reached flag", "PositionReachedFlag", Range::FLAG, Access::R, 1, A)
         .with_role(Role::PositionReached),
     ParamDesc::plain(9, "Home switch state", "HomeSwitchState", Range::FLAG, Access::R, 0, A)
@@ -59,10 +68,13 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
         .with_role(Role::RightSwitch),
     ParamDesc::plain(11, "Left limit switch state", "LeftLimitSwitchState", Range::FLAG, Access::R, 0, A)
         .with_role(Role::LeftSwitch),
-    ParamDesc::plain(12, "Right limit switch disable", "RightLimitSwitchDisable", Range::FLAG, Access::RWE, 0, A),
-    ParamDesc::plain(13, "Left limit switch disable", "LeftLimitSwitchDisable", Range::FLAG, Access::RWE, 0, A),
+    ParamDesc::plain(12, "Right limit switch disable", "RightLimitSwitchDisable", Range::FLAG, Access::RWE, 0, A)
+        .with_setting(Setting::RightSwitchDisable),
+    ParamDesc::plain(13, "Left limit switch disable", "LeftLimitSwitchDisable", Range::FLAG, Access::RWE, 0, A)
+        .with_setting(Setting::LeftSwitchDisable),
     ParamDesc::plain(128, "Ramp mode", "RampMode", Range::FLAG, Access::RW, 0, A).with_role(Role::RampMode),
-    ParamDesc::plain(130, "Minimum speed", "MinimumSpeed", SPEED, Access::RWE, 0, A),
+    ParamDesc::plain(130, "Minimum speed", "MinimumSpeed", SPEED, Access::RWE, 0, A)
+        .with_setting(Setting::MinimumSpeed),
     ParamDesc::plain(140, "Microstep resolution", "MicrostepResolution", r(0, 8), Access::RWE, 8, A)
         .with_role(Role::MicrostepResolution),
     ParamDesc::plain(160, "Step interpolation enable", "StepInterpolationEnable", Range::FLAG, Access::RW, 0, A),
@@ -88,7 +100,8 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
         4,
         A,
     ),
-    ParamDesc::plain(167, "Chopper off time (TOff)", "ChopperOffTime", r(0, 15), Access::RW, 5, A),
+    ParamDesc::plain(167, "Chopper off time (TOff)", "ChopperOffTime", r(0, 15), Access::RW, 5, A)
+        .with_setting(Setting::ChopperOffTime),
     ParamDesc::plain(
         168,
         "smartEnergy current minimum (SEIMIN)",
@@ -97,34 +110,50 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
         Access::RW,
         0,
         A,
-    ),
-    ParamDesc::plain(169, "smartEnergy current down step", "SmartEnergyCurrentDownStep", r(0, 3), Access::RW, 0, A),
-    ParamDesc::plain(170, "smartEnergy hysteresis", "SmartEnergyHysteresis", r(0, 15), Access::RW, 0, A),
-    ParamDesc::plain(171, "smartEnergy current up step", "SmartEnergyCurrentUpStep", r(0, 3), Access::RW, 0, A),
-    ParamDesc::plain(172, "smartEnergy hysteresis start", "SmartEnergyHysteresisStart", r(0, 15), Access::RW, 0, A),
-    ParamDesc::plain(173, "stallGuard2 filter enable", "StallGuard2FilterEnable", Range::FLAG, Access::RW, 0, A),
-    ParamDesc::plain(174, "stallGuard2 threshold", "StallGuard2Threshold", r(-64, 63), Access::RW, 0, A),
+    )
+    .with_setting(Setting::CoolStepMinimum),
+    ParamDesc::plain(169, "smartEnergy current down step", "SmartEnergyCurrentDownStep", r(0, 3), Access::RW, 0, A)
+        .with_setting(Setting::CoolStepDownStep),
+    ParamDesc::plain(170, "smartEnergy hysteresis", "SmartEnergyHysteresis", r(0, 15), Access::RW, 0, A)
+        .with_setting(Setting::CoolStepHysteresis),
+    ParamDesc::plain(171, "smartEnergy current up step", "SmartEnergyCurrentUpStep", r(0, 3), Access::RW, 0, A)
+        .with_setting(Setting::CoolStepUpStep),
+    ParamDesc::plain(172, "smartEnergy hysteresis start", "SmartEnergyHysteresisStart", r(0, 15), Access::RW, 0, A)
+        .with_setting(Setting::CoolStepHysteresisStart),
+    ParamDesc::plain(173, "stallGuard2 filter enable", "StallGuard2FilterEnable", Range::FLAG, Access::RW, 0, A)
+        .with_setting(Setting::StallFilter),
+    ParamDesc::plain(174, "stallGuard2 threshold", "StallGuard2Threshold", r(-64, 63), Access::RW, 0, A)
+        .with_setting(Setting::StallThreshold),
     ParamDesc::plain(175, "Slope control high side", "SlopeControlHighSide", r(0, 3), Access::RW, 3, A),
     ParamDesc::plain(176, "Slope control low side", "SlopeControlLowSide", r(0, 3), Access::RW, 3, A),
     ParamDesc::plain(177, "Short protection disable", "ShortProtectionDisable", Range::FLAG, Access::RW, 0, A),
     ParamDesc::plain(178, "Short detection timer", "ShortDetectionTimer", r(0, 3), Access::RW, 0, A),
-    ParamDesc::plain(179, "Vsense", "Vsense", Range::FLAG, Access::RW, 1, A),
+    ParamDesc::plain(179, "Vsense", "Vsense", Range::FLAG, Access::RW, 1, A).with_setting(Setting::CurrentRange),
     ParamDesc::plain(180, "smartEnergy actual current", "SmartEnergyActualCurrent", r(0, 31), Access::R, 0, A)
         .with_role(Role::ActualCurrent),
     // AMB-29: 0 = stop on stall off (the TMCL convention; "below this speed the motor is never stopped").
-    ParamDesc::plain(181, "Stop on stall", "StopOnStall", SPEED, Access::RW, 0, A),
-    ParamDesc::plain(182, "smartEnergy threshold speed", "SmartEnergyThresholdSpeed", SPEED, Access::RW, 0, A),
+    ParamDesc::plain(181, "Stop on stall", "StopOnStall", SPEED, Access::RW, 0, A).with_setting(Setting::StopOnStall),
+    ParamDesc::plain(182, "smartEnergy threshold speed", "SmartEnergyThresholdSpeed", SPEED, Access::RW, 0, A)
+        .with_setting(Setting::CoolStepThresholdSpeed),
     // Our default: the run current's default, so that switching coolStep on (AP 172) does not leave the
     // motor without current below the threshold speed AP 182.
-    ParamDesc::plain(183, "smartEnergy slow run current", "SmartEnergySlowRunCurrent", CURRENT, Access::RW, 128, A),
+    ParamDesc::plain(183, "smartEnergy slow run current", "SmartEnergySlowRunCurrent", CURRENT, Access::RW, 128, A)
+        .with_setting(Setting::SlowRunCurrent),
     ParamDesc::plain(184, "Random TOff mode", "RandomTOffMode", Range::FLAG, Access::RW, 0, A),
-    ParamDesc::plain(193, "Reference search mode", "ReferenceSearchMode", RFS_MODES, Access::RW, 1, A),
-    ParamDesc::plain(194, "Reference search speed", "ReferenceSearchSpeed", SPEED, Access::RW, 51200, A),
-    ParamDesc::plain(195, "Reference switch speed", "ReferenceSwitchSpeed", SPEED, Access::RW, 5120, A),
-    ParamDesc::plain(196, "End switch distance", "EndSwitchDistance", POS, Access::R, 0, A),
-    ParamDesc::plain(197, "Last reference position", "LastReferencePosition", POS, Access::R, 0, A),
-    ParamDesc::plain(200, "Boost current", "BoostCurrent", CURRENT, Access::RW, 0, A),
-    ParamDesc::plain(204, "Freewheeling delay", "FreewheelingDelay", r(0, 65535), Access::RWE, 0, A),
+    ParamDesc::plain(193, "Reference search mode", "ReferenceSearchMode", RFS_MODES, Access::RW, 1, A)
+        .with_setting(Setting::ReferenceSearchMode),
+    ParamDesc::plain(194, "Reference search speed", "ReferenceSearchSpeed", SPEED, Access::RW, 51200, A)
+        .with_setting(Setting::ReferenceSearchSpeed),
+    ParamDesc::plain(195, "Reference switch speed", "ReferenceSwitchSpeed", SPEED, Access::RW, 5120, A)
+        .with_setting(Setting::ReferenceSwitchSpeed),
+    ParamDesc::plain(196, "End switch distance", "EndSwitchDistance", POS, Access::R, 0, A)
+        .with_setting(Setting::EndSwitchDistance),
+    ParamDesc::plain(197, "Last reference position", "LastReferencePosition", POS, Access::R, 0, A)
+        .with_setting(Setting::LastReferencePosition),
+    ParamDesc::plain(200, "Boost current", "BoostCurrent", CURRENT, Access::RW, 0, A)
+        .with_setting(Setting::BoostCurrent),
+    ParamDesc::plain(204, "Freewheeling delay", "FreewheelingDelay", r(0, 65535), Access::RWE, 0, A)
+        .with_setting(Setting::FreewheelingDelay),
     ParamDesc::plain(206, "Actual load value", "ActualLoadValue", r(0, 1023), Access::R, 0, A)
         .with_role(Role::LoadValue),
     ParamDesc::plain(207, "Extended error flags", "ExtendedErrorFlags", r(0, 3), Access::R, 0, A)
@@ -137,8 +166,10 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
     // has bit 3 set, so only bit 2 is taken as a function bit (inventory AMB-34).
     ParamDesc::plain(210, "Encoder prescaler", "EncoderPrescaler", POS, Access::RW, 25600, A)
         .with_role(Role::EncoderPrescaler),
-    ParamDesc::plain(212, "Maximum encoder deviation", "MaxEncoderDeviation", SPEED, Access::RW, 0, A),
-    ParamDesc::plain(214, "Power down delay", "PowerDownDelay", r(1, 65535), Access::RWE, 200, A),
+    ParamDesc::plain(212, "Maximum encoder deviation", "MaxEncoderDeviation", SPEED, Access::RW, 0, A)
+        .with_setting(Setting::MaxEncoderDeviation),
+    ParamDesc::plain(214, "Power down delay", "PowerDownDelay", r(1, 65535), Access::RWE, 200, A)
+        .with_setting(Setting::PowerDownDelay),
     ParamDesc::plain(215, "Absolute resolver value", "AbsoluteResolverValue", r(0, 1023), Access::R, 0, A)
         .with_role(Role::EncoderAbsolute),
     ParamDesc::plain(254, "Step/direction mode", "StepDirectionMode", r(0, 5), Access::RWE, 0, A),
@@ -147,21 +178,32 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
 /// Bank 0 (manual §5.1, Table 17): 19 entries. "Parameters with numbers between 64 and 128 are
 /// automatically stored in the EEPROM" (§5.1).
 pub static GLOBAL_PARAMS: [ParamDesc; 19] = [
-    ParamDesc::plain(65, "RS485 baud rate", "BaudRate", r(0, 8), Access::RWA, 0, G),
-    ParamDesc::plain(66, "Serial address", "SerialAddress", r(1, 255), Access::RWA, 1, G),
-    ParamDesc::plain(67, "ASCII mode", "AsciiMode", r(0, 63), Access::RWA, 0, G),
+    ParamDesc::plain(65, "RS485 baud rate", "BaudRate", r(0, 8), Access::RWA, 0, G).with_setting(Setting::BaudRate),
+    ParamDesc::plain(66, "Serial address", "SerialAddress", r(1, 255), Access::RWA, 1, G)
+        .with_setting(Setting::SerialAddress),
+    ParamDesc::plain(67, "ASCII mode", "AsciiMode", r(0, 63), Access::RWA, 0, G).with_setting(Setting::AsciiMode),
     // AMB-17: the unit is not stated; milliseconds.
-    ParamDesc::plain(68, "Serial heartbeat", "SerialHeartbeat", r(0, 65535), Access::RWA, 0, G),
+    ParamDesc::plain(68, "Serial heartbeat", "SerialHeartbeat", r(0, 65535), Access::RWA, 0, G)
+        .with_setting(Setting::SerialHeartbeat),
     // AMB-17: the unit is not stated; milliseconds.
-    ParamDesc::plain(75, "Telegram pause time", "TelegramPauseTime", r(0, 255), Access::RWA, 0, G),
-    ParamDesc::plain(76, "Serial host address", "SerialHostAddress", r(0, 255), Access::RWA, 2, G),
-    ParamDesc::plain(77, "Auto start mode", "AutoStartMode", Range::FLAG, Access::RWA, 0, G),
-    ParamDesc::plain(79, "End switch polarity", "EndSwitchPolarity", Range::FLAG, Access::RWA, 0, G),
-    ParamDesc::plain(81, "TMCL code protection", "CodeProtection", r(0, 3), Access::RWA, 0, G),
-    ParamDesc::plain(84, "Coordinate storage", "CoordinateStorage", Range::FLAG, Access::RWA, 0, G),
-    ParamDesc::plain(85, "Do not restore user variables", "DoNotRestoreUserVariables", Range::FLAG, Access::RWA, 0, G),
-    ParamDesc::plain(87, "Serial secondary address", "SerialSecondaryAddress", r(0, 255), Access::RWA, 0, G),
-    ParamDesc::plain(90, "Reverse shaft", "ReverseShaft", Range::FLAG, Access::RWA, 0, G),
+    ParamDesc::plain(75, "Telegram pause time", "TelegramPauseTime", r(0, 255), Access::RWA, 0, G)
+        .with_setting(Setting::TelegramPause),
+    ParamDesc::plain(76, "Serial host address", "SerialHostAddress", r(0, 255), Access::RWA, 2, G)
+        .with_setting(Setting::HostAddress),
+    ParamDesc::plain(77, "Auto start mode", "AutoStartMode", Range::FLAG, Access::RWA, 0, G)
+        .with_setting(Setting::AutoStart),
+    ParamDesc::plain(79, "End switch polarity", "EndSwitchPolarity", Range::FLAG, Access::RWA, 0, G)
+        .with_setting(Setting::EndSwitchPolarity),
+    ParamDesc::plain(81, "TMCL code protection", "CodeProtection", r(0, 3), Access::RWA, 0, G)
+        .with_setting(Setting::CodeProtection),
+    ParamDesc::plain(84, "Coordinate storage", "CoordinateStorage", Range::FLAG, Access::RWA, 0, G)
+        .with_setting(Setting::CoordinateStorage),
+    ParamDesc::plain(85, "Do not restore user variables", "DoNotRestoreUserVariables", Range::FLAG, Access::RWA, 0, G)
+        .with_setting(Setting::DoNotRestoreUserVariables),
+    ParamDesc::plain(87, "Serial secondary address", "SerialSecondaryAddress", r(0, 255), Access::RWA, 0, G)
+        .with_setting(Setting::SecondaryAddress),
+    ParamDesc::plain(90, "Reverse shaft", "ReverseShaft", Range::FLAG, Access::RWA, 0, G)
+        .with_setting(Setting::ReverseShaft),
     ParamDesc::plain(128, "TMCL application status", "ApplicationStatus", r(0, 3), Access::R, 0, G)
         .with_role(Role::ApplicationStatus),
     ParamDesc::plain(129, "Download mode", "DownloadMode", Range::FLAG, Access::R, 0, G).with_role(Role::DownloadMode),
@@ -171,7 +213,8 @@ pub static GLOBAL_PARAMS: [ParamDesc; 19] = [
     ParamDesc::plain(133, "Random number", "RandomNumber", r(0, i32::MAX), Access::RW, 0, G)
         .with_role(Role::RandomNumber),
     // "cannot be stored to EEPROM and will be reset to 0 on startup".
-    ParamDesc::plain(255, "Suppress reply", "SuppressReply", Range::FLAG, Access::RW, 0, G),
+    ParamDesc::plain(255, "Suppress reply", "SuppressReply", Range::FLAG, Access::RW, 0, G)
+        .with_setting(Setting::SuppressReply),
 ];
 
 /// Bank 3 (manual §5.4, Table 19): interrupt configuration, 9 entries. Defaults are not stated (AMB-26):
@@ -203,47 +246,83 @@ pub static PORTS: [PortDesc; 11] = [
     PortDesc { bank: 2, port: 255, kind: PortKind::AllOutputs, name: "all outputs" },
 ];
 
-/// Interrupt vectors (manual §3.6.6, Table 12). The symbols are those of TMCL-IDE's `Interrupts.inc`
+/// Interrupt vectors (manual §3.6.6, Table 12), each with its source and its bank 3 configuration
+/// parameter (§5.4 Table 19: the timer periods are parameters 0–2, the trigger transitions of the stop
+/// switches and inputs have the vector's number). The symbols are those of TMCL-IDE's `Interrupts.inc`
 /// (the manual shows `TI_TIMER0` and `TI_GLOBAL`, §3.6.6.4).
 pub static INTERRUPTS: [InterruptDesc; 12] = [
-    InterruptDesc { number: 0, name: "Timer 0", symbol: "TI_TIMER0" },
-    InterruptDesc { number: 1, name: "Timer 1", symbol: "TI_TIMER1" },
-    InterruptDesc { number: 2, name: "Timer 2", symbol: "TI_TIMER2" },
-    InterruptDesc { number: 3, name: "Target position reached 0", symbol: "TI_TARGET0" },
-    InterruptDesc { number: 15, name: "stallGuard axis 0", symbol: "TI_STALLGUARD0" },
-    InterruptDesc { number: 21, name: "Deviation axis 0", symbol: "TI_DEVIATION0" },
-    InterruptDesc { number: 27, name: "Left stop switch 0", symbol: "TI_STOPLEFT0" },
-    InterruptDesc { number: 28, name: "Right stop switch 0", symbol: "TI_STOPRIGHT0" },
-    InterruptDesc { number: 39, name: "Input change 0", symbol: "TI_INPUT0" },
-    InterruptDesc { number: 40, name: "Input change 1", symbol: "TI_INPUT1" },
-    InterruptDesc { number: 41, name: "Input change 2", symbol: "TI_INPUT2" },
-    InterruptDesc { number: 42, name: "Input change 3", symbol: "TI_INPUT3" },
+    irq(0, "Timer 0", "TI_TIMER0", Source::Timer(0), Some(0)),
+    irq(1, "Timer 1", "TI_TIMER1", Source::Timer(1), Some(1)),
+    irq(2, "Timer 2", "TI_TIMER2", Source::Timer(2), Some(2)),
+    irq(3, "Target position reached 0", "TI_TARGET0", Source::TargetReached, None),
+    irq(15, "stallGuard axis 0", "TI_STALLGUARD0", Source::Stall, None),
+    irq(21, "Deviation axis 0", "TI_DEVIATION0", Source::Deviation, None),
+    irq(27, "Left stop switch 0", "TI_STOPLEFT0", Source::LeftStop, Some(27)),
+    irq(28, "Right stop switch 0", "TI_STOPRIGHT0", Source::RightStop, Some(28)),
+    irq(39, "Input change 0", "TI_INPUT0", Source::Input(0), Some(39)),
+    irq(40, "Input change 1", "TI_INPUT1", Source::Input(1), Some(40)),
+    irq(41, "Input change 2", "TI_INPUT2", Source::Input(2), Some(41)),
+    irq(42, "Input change 3", "TI_INPUT3", Source::Input(3), Some(42)),
 ];
 
-/// The PD28-1021 with firmware V1.42.
-pub static SPEC: ModelSpec = ModelSpec {
+const fn irq(
+    number: u8,
+    name: &'static str,
+    symbol: &'static str,
+    source: Source,
+    config: Option<u8>,
+) -> InterruptDesc {
+    InterruptDesc { number, name, symbol, source, config }
+}
+
+/// The commands of the PD28-1021 (manual §3.5 Table 5, §3.7.37 UF0–UF7, §3.7.38 Table 13, §3.4.1 command
+/// 139), and 242, which pytrinamic sends to reach a boot loader (the module stays silent). SAC (29) is
+/// not one of them.
+pub const COMMANDS: CommandSet = CommandSet::ALL_NAMED.without(Opcode::Sac);
+
+/// The PD28-1021 with firmware V1.42, as a description (for tests and variants of it).
+pub const DESC: ModelDesc = ModelDesc {
     id: "pd28-1021",
     name: "PD28-1021",
-    // 136 type 0: host address + 8 characters (host-expectations.md; TMC-EvalSystem GetVersion).
+    // 136 type 0: host address + 8 characters (TMC-EvalSystem GetVersion; the reply examples of §3.2).
     version_string: *b"1021V142",
     // 136 type 1: module number as two BCD-like digit pairs (10, 21), major 1, minor 42 (TMC-EvalSystem).
     version_binary: i32::from_be_bytes([10, 21, 1, 42]),
+    eeprom_tag: 1021,
     motors: 1,
     axis: Table::new(&AXIS_PARAMS),
     global: Table::new(&GLOBAL_PARAMS),
     interrupt: Table::new(&INTERRUPT_PARAMS),
     user_variables: 256,
-    // §5.3: "the first 56 variables can also be stored permanently in the EEPROM" (AMB-10).
+    // §5.3: "the first 56 variables can also be stored permanently in the EEPROM".
     stored_user_variables: 56,
     // §3.7.24: 20 coordinates per axis plus coordinate 0 in RAM only.
     coordinates: 20,
-    // Not stated in the manual (AMB-6); the TMCM-1021 hardware manual gives 2048 TMCL commands of memory.
+    // Not stated in the manual; the TMCM-1021 hardware manual gives 2048 TMCL commands of memory.
     program_memory: 2048,
     ports: &PORTS,
-    interrupts: &INTERRUPTS,
+    interrupts: Interrupts::new(&INTERRUPTS),
+    // IN0..IN3 (IN2 and IN3 shared with OUT0 and OUT1), OUT0 and OUT1 (§3.7.14, §3.7.15).
+    inputs: 4,
     outputs: 2,
+    // One RS485 port (§3.1), with ASCII mode (§3.4).
+    interfaces: &[InterfaceDesc::RS485],
+    commands: COMMANDS,
+    // §3.4: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO,
+    // UF0..UF7".
+    ascii_commands: COMMANDS.ascii_subset(),
+    kinematics: Kinematics::Pps,
+    reference_modes: ReferenceModes::Pd28,
+    driver: Driver::Tmc262,
+    // §6.2: the sensOstep encoder, 1024 counts per revolution, absolute within one turn.
+    encoder: Some(Encoder { kind: EncoderKind::SensOstep, counts_per_rev: 1024 }),
+    // No protected parameters.
+    password: None,
     manual: "PD28-1021 TMCL firmware manual V1.05 (firmware V1.42)",
 };
+
+/// The PD28-1021 with firmware V1.42.
+pub static SPEC: ModelSpec = ModelSpec::new(DESC);
 
 #[cfg(test)]
 mod tests {
@@ -251,7 +330,7 @@ mod tests {
 
     #[test]
     fn table_counts_match_the_manual() {
-        // inventory §3: 58 axis parameters; §4.1: 19 bank-0 parameters; §4.4: 9 bank-3 parameters.
+        // Table 15: 58 axis parameters; Table 17: 19 bank-0 parameters; Table 19: 9 bank-3 parameters.
         assert_eq!(AXIS_PARAMS.len(), 58);
         assert_eq!(GLOBAL_PARAMS.len(), 19);
         assert_eq!(INTERRUPT_PARAMS.len(), 9);

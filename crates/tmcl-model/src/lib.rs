@@ -1,0 +1,351 @@
+//! TMCL module models as data: everything that distinguishes one module from another (STYLE.md §3.9).
+//!
+//! A model file describes one product in a [`ModelDesc`]: its parameter tables with each parameter's
+//! range, access, default and meaning ([`param`]), I/O ports ([`port`]), interrupt vectors and their
+//! sources ([`interrupt`]), host interfaces ([`interface`]), the commands it knows (a
+//! [`tmcl_wire::CommandSet`]), and where it differs by more than numbers — units, reference-search
+//! modes, driver, encoder ([`variant`]). [`ModelSpec::new`] checks the description against the firmware
+//! core's capacities ([`capacity`]) and computes its EEPROM layout ([`layout`]) at compile time: a model
+//! that does not fit fails to build.
+//!
+//! ```compile_fail
+//! // 4096 commands of program memory: more than the core holds, so this does not compile.
+//! use tmcl_model::{pd28_1021, ModelDesc, ModelSpec};
+//! static TOO_BIG: ModelSpec = ModelSpec::new(ModelDesc { program_memory: 4096, ..pd28_1021::DESC });
+//! ```
+//!
+//! The firmware (`tmcl-core`) and the assembler (`tmcl-asm`) both read these tables; this crate has no
+//! dependency but the wire formats and is `no_std`.
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod capacity;
+pub mod interface;
+pub mod interrupt;
+pub mod layout;
+pub mod param;
+pub mod pd28_1021;
+pub mod port;
+pub mod variant;
+
+pub use interface::{Framing, InterfaceDesc, InterfaceKind};
+pub use interrupt::{InterruptDesc, Interrupts, Source, GLOBAL_INTERRUPTS};
+pub use layout::Layout;
+pub use param::{Access, ParamDesc, ParamError, Range, Role, Setting, Table};
+pub use port::{PortDesc, PortKind};
+pub use variant::{Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
+
+use capacity::*;
+use core::ops::Deref;
+use tmcl_wire::{CommandSet, Opcode};
+
+/// Everything that distinguishes one module from another: what a model file writes.
+#[derive(Debug)]
+pub struct ModelDesc {
+    /// The name `--module` takes.
+    pub id: &'static str,
+    /// The product name.
+    pub name: &'static str,
+    /// The eight characters of the 136 type 0 reply.
+    pub version_string: [u8; 8],
+    /// The value of the 136 type 1 reply.
+    pub version_binary: i32,
+    /// The module number in the EEPROM header (1021 for the PD28-1021): an image of another model is not
+    /// taken over.
+    pub eeprom_tag: u16,
+    /// Number of motors.
+    pub motors: u8,
+    /// Axis parameters.
+    pub axis: Table,
+    /// Global parameters, bank 0.
+    pub global: Table,
+    /// Interrupt configuration, bank 3.
+    pub interrupt: Table,
+    /// Number of user variables in bank 2.
+    pub user_variables: u16,
+    /// How many of them (from 0) STGP can store.
+    pub stored_user_variables: u16,
+    /// Coordinates per axis (1..=n; coordinate 0 is extra and RAM only).
+    pub coordinates: u8,
+    /// Program memory, in commands.
+    pub program_memory: u16,
+    /// I/O ports.
+    pub ports: &'static [PortDesc],
+    /// Interrupt vectors.
+    pub interrupts: Interrupts,
+    /// Number of digital inputs.
+    pub inputs: u8,
+    /// Number of digital outputs.
+    pub outputs: u8,
+    /// Host interfaces; the first is the primary one.
+    pub interfaces: &'static [InterfaceDesc],
+    /// The commands the model executes (binary interfaces and programs); others answer status 2.
+    pub commands: CommandSet,
+    /// The commands it takes in ASCII mode.
+    pub ascii_commands: CommandSet,
+    /// Units and position width.
+    pub kinematics: Kinematics,
+    /// The reference-search modes.
+    pub reference_modes: ReferenceModes,
+    /// The motor driver.
+    pub driver: Driver,
+    /// The encoder, if the module has one.
+    pub encoder: Option<Encoder>,
+    /// The password that unlocks the password-protected parameters (written to the bank 0 parameter with
+    /// [`Role::Password`]); `None` for a model without protected parameters.
+    pub password: Option<i32>,
+    /// The manual this model follows.
+    pub manual: &'static str,
+}
+
+/// A model checked against the core's capacities, with its EEPROM layout. Built only by
+/// [`ModelSpec::new`]; reads as its [`ModelDesc`].
+#[derive(Debug)]
+pub struct ModelSpec {
+    desc: ModelDesc,
+    layout: Layout,
+}
+
+impl Deref for ModelSpec {
+    type Target = ModelDesc;
+    fn deref(&self) -> &ModelDesc {
+        &self.desc
+    }
+}
+
+/// Why a model does not fit the core.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FitError {
+    /// More motors than the core drives.
+    Motors,
+    /// More axis parameters than the core's table.
+    AxisParams,
+    /// More bank 0 parameters than the core's table.
+    GlobalParams,
+    /// More bank 3 parameters than the core's table.
+    InterruptParams,
+    /// More user variables than the core's table, or more stored than there are.
+    UserVariables,
+    /// More coordinates than the core's table.
+    Coordinates,
+    /// More program memory than the core holds, or none.
+    ProgramMemory,
+    /// More inputs or outputs than the board's bytes carry, or a port on a bit the model does not have.
+    Io,
+    /// No interface, or more than the core serves.
+    Interfaces,
+    /// An interrupt's configuration parameter is not in bank 3, or a timer or transition has none.
+    InterruptConfig,
+    /// A setting the model's features need is missing (see [`ModelSpec::new`]).
+    MissingSetting,
+    /// The ASCII command set is not a subset of the command set.
+    AsciiCommands,
+    /// Protected parameters without a password parameter and a password to unlock them.
+    Password,
+}
+
+impl FitError {
+    /// What is wrong, for the compile error.
+    pub const fn message(self) -> &'static str {
+        match self {
+            FitError::Motors => "the model has more motors than the core drives (capacity::MAX_MOTORS)",
+            FitError::AxisParams => "too many axis parameters (capacity::MAX_AXIS_PARAMS)",
+            FitError::GlobalParams => "too many bank 0 parameters (capacity::MAX_GLOBAL_PARAMS)",
+            FitError::InterruptParams => "too many bank 3 parameters (capacity::MAX_INTERRUPT_PARAMS)",
+            FitError::UserVariables => "user variables exceed capacity::MAX_USER_VARIABLES or stored > total",
+            FitError::Coordinates => "too many coordinates (capacity::MAX_COORDINATES)",
+            FitError::ProgramMemory => "program memory is 0 or exceeds capacity::MAX_PROGRAM",
+            FitError::Io => "inputs/outputs exceed 8, or a port names a bit the model does not have",
+            FitError::Interfaces => "a model has 1..=capacity::MAX_INTERFACES interfaces",
+            FitError::InterruptConfig => "an interrupt's configuration parameter is missing from bank 3",
+            FitError::MissingSetting => "a feature of the model lacks the setting it needs",
+            FitError::AsciiCommands => "the ASCII commands must be a subset of the model's commands",
+            FitError::Password => "protected parameters need a Role::Password parameter and a password",
+        }
+    }
+}
+
+impl core::fmt::Display for FitError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.message())
+    }
+}
+
+impl ModelSpec {
+    /// Checks a model against the core's capacities and computes its layout; in a `static` a model that
+    /// does not fit is a compile error (see [`ModelSpec::check`] for what is checked).
+    pub const fn new(desc: ModelDesc) -> ModelSpec {
+        match ModelSpec::check(&desc) {
+            Ok(layout) => ModelSpec { desc, layout },
+            Err(e) => panic!("{}", e.message()),
+        }
+    }
+
+    /// What [`ModelSpec::new`] checks, as a value:
+    /// - table sizes, user variables, coordinates, program memory, motors, inputs and outputs against
+    ///   [`capacity`];
+    /// - every port names an input or output bit the model has;
+    /// - 1..=[`MAX_INTERFACES`] interfaces;
+    /// - every interrupt's configuration parameter exists in bank 3, and timers and transitions have one;
+    /// - the settings the model's features need: the ramp's maximum speed and acceleration, the TMC428
+    ///   divisors for [`Kinematics::Tmc428`], the three reference-search settings when it has RFS, the
+    ///   serial address when an interface filters by address;
+    /// - the ASCII commands are commands of the model;
+    /// - protected parameters come with a password parameter and a password.
+    pub const fn check(d: &ModelDesc) -> Result<Layout, FitError> {
+        if d.motors == 0 || d.motors > MAX_MOTORS {
+            return Err(FitError::Motors);
+        }
+        if d.axis.params.len() > MAX_AXIS_PARAMS {
+            return Err(FitError::AxisParams);
+        }
+        if d.global.params.len() > MAX_GLOBAL_PARAMS {
+            return Err(FitError::GlobalParams);
+        }
+        if d.interrupt.params.len() > MAX_INTERRUPT_PARAMS {
+            return Err(FitError::InterruptParams);
+        }
+        if d.user_variables as usize > MAX_USER_VARIABLES || d.stored_user_variables > d.user_variables {
+            return Err(FitError::UserVariables);
+        }
+        if d.coordinates as usize >= MAX_COORDINATES {
+            return Err(FitError::Coordinates);
+        }
+        if d.program_memory == 0 || d.program_memory as usize > MAX_PROGRAM {
+            return Err(FitError::ProgramMemory);
+        }
+        if d.inputs > MAX_INPUTS || d.outputs > MAX_OUTPUTS {
+            return Err(FitError::Io);
+        }
+        let mut i = 0;
+        while i < d.ports.len() {
+            let ok = match d.ports[i].kind {
+                PortKind::DigitalInput(bit) => bit < d.inputs,
+                PortKind::Output(bit) => bit < d.outputs,
+                _ => true,
+            };
+            if !ok || d.ports[i].bank > 2 {
+                return Err(FitError::Io);
+            }
+            i += 1;
+        }
+        if d.interfaces.is_empty() || d.interfaces.len() > MAX_INTERFACES {
+            return Err(FitError::Interfaces);
+        }
+        let mut i = 0;
+        while i < d.interrupts.list.len() {
+            let irq = &d.interrupts.list[i];
+            let needs = matches!(irq.source, Source::Timer(_)) || irq.source.is_level();
+            match irq.config {
+                Some(n) => {
+                    if !d.interrupt.contains(n) {
+                        return Err(FitError::InterruptConfig);
+                    }
+                }
+                None if needs => return Err(FitError::InterruptConfig),
+                None => {}
+            }
+            i += 1;
+        }
+        if !d.axis.has(Setting::MaxPositioningSpeed) || !d.axis.has(Setting::MaxAcceleration) {
+            return Err(FitError::MissingSetting);
+        }
+        if matches!(d.kinematics, Kinematics::Tmc428 { .. })
+            && !(d.axis.has(Setting::PulseDivisor) && d.axis.has(Setting::RampDivisor))
+        {
+            return Err(FitError::MissingSetting);
+        }
+        if d.commands.contains(Opcode::Rfs)
+            && !(d.axis.has(Setting::ReferenceSearchMode)
+                && d.axis.has(Setting::ReferenceSearchSpeed)
+                && d.axis.has(Setting::ReferenceSwitchSpeed))
+        {
+            return Err(FitError::MissingSetting);
+        }
+        let mut i = 0;
+        while i < d.interfaces.len() {
+            if d.interfaces[i].address_filter && !d.global.has(Setting::SerialAddress) {
+                return Err(FitError::MissingSetting);
+            }
+            i += 1;
+        }
+        if !d.commands.contains_all(d.ascii_commands) {
+            return Err(FitError::AsciiCommands);
+        }
+        let protected = any_protected(d.axis.params) || any_protected(d.global.params);
+        if protected && (d.password.is_none() || d.global.role(Role::Password).is_none()) {
+            return Err(FitError::Password);
+        }
+        Ok(Layout::compute(
+            d.axis.persistent() * d.motors as usize,
+            d.global.persistent(),
+            d.stored_user_variables as usize,
+            d.coordinates as usize * d.motors as usize,
+            d.program_memory as usize,
+        ))
+    }
+
+    /// The EEPROM layout.
+    pub const fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The description.
+    pub const fn desc(&self) -> &ModelDesc {
+        &self.desc
+    }
+
+    /// Looks up a port.
+    pub fn port(&self, bank: u8, port: u8) -> Option<&'static PortDesc> {
+        self.ports.iter().find(|p| p.bank == bank && p.port == port)
+    }
+}
+
+const fn any_protected(params: &[ParamDesc]) -> bool {
+    let mut i = 0;
+    while i < params.len() {
+        if params[i].access.protected {
+            return true;
+        }
+        i += 1;
+    }
+    false
+}
+
+/// Every model this build knows.
+pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC];
+
+/// Finds a model by its `--module` name (case-insensitive).
+pub fn by_id(id: &str) -> Option<&'static ModelSpec> {
+    MODELS.iter().copied().find(|m| m.id.eq_ignore_ascii_case(id))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn too_much_program_memory_is_refused_with_its_reason() {
+        let desc = ModelDesc { program_memory: 4096, ..pd28_1021::DESC };
+        assert_eq!(ModelSpec::check(&desc), Err(FitError::ProgramMemory));
+    }
+
+    #[test]
+    fn each_capacity_is_checked() {
+        let d = || pd28_1021::DESC;
+        assert_eq!(ModelSpec::check(&ModelDesc { motors: 2, ..d() }), Err(FitError::Motors));
+        assert_eq!(ModelSpec::check(&ModelDesc { coordinates: 21, ..d() }), Err(FitError::Coordinates));
+        assert_eq!(ModelSpec::check(&ModelDesc { outputs: 1, ..d() }), Err(FitError::Io), "OUT1 has no bit");
+        assert_eq!(ModelSpec::check(&ModelDesc { interfaces: &[], ..d() }), Err(FitError::Interfaces));
+        assert_eq!(ModelSpec::check(&ModelDesc { stored_user_variables: 257, ..d() }), Err(FitError::UserVariables));
+        assert_eq!(ModelSpec::check(&ModelDesc { interrupt: Table::EMPTY, ..d() }), Err(FitError::InterruptConfig));
+        assert_eq!(ModelSpec::check(&ModelDesc { global: Table::EMPTY, ..d() }), Err(FitError::MissingSetting));
+        assert!(ModelSpec::check(&d()).is_ok());
+    }
+
+    #[test]
+    fn models_are_found_by_id() {
+        assert_eq!(by_id("PD28-1021").map(|m| m.name), Some("PD28-1021"));
+        assert!(by_id("tmcm-9999").is_none());
+    }
+}
