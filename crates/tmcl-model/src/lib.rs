@@ -8,8 +8,15 @@
 //! core's capacities ([`capacity`]) and computes its EEPROM layout ([`layout`]) at compile time: a model
 //! that does not fit fails to build.
 //!
+//! ```
+//! // A variant of the PD28-1021 with 1024 commands of program memory fits, and its layout shrinks.
+//! use tmcl_model::{pd28_1021, ModelDesc, ModelSpec};
+//! static SMALLER: ModelSpec = ModelSpec::new(ModelDesc { program_memory: 1024, ..pd28_1021::DESC });
+//! assert_eq!(SMALLER.layout().end, 0x400 + 1024 * 8);
+//! ```
+//!
 //! ```compile_fail
-//! // 4096 commands of program memory: more than the core holds, so this does not compile.
+//! // 4096 commands of program memory: more than the core holds, so the same does not compile.
 //! use tmcl_model::{pd28_1021, ModelDesc, ModelSpec};
 //! static TOO_BIG: ModelSpec = ModelSpec::new(ModelDesc { program_memory: 4096, ..pd28_1021::DESC });
 //! ```

@@ -11,7 +11,9 @@ pub enum Kinematics {
     /// is `clock · v / (2^pulse_div · 2048 · 32)` microsteps per second, an acceleration `a` of 0..2047 is
     /// `clock² · a / 2^(pulse_div + ramp_div + 29)` microsteps per second², with the divisors in the
     /// [`crate::param::Setting::PulseDivisor`] and [`crate::param::Setting::RampDivisor`] parameters;
-    /// positions are 24-bit wrapping counters.
+    /// positions are 24-bit wrapping counters. The firmware's ramp runs in whole microsteps per second,
+    /// so above a pulse divisor of 7 (one unit below one microstep per second) a velocity reads back
+    /// within one microstep per second of what was written.
     Tmc428 {
         /// The TMC428's clock in Hz (16 MHz on the PDx-113).
         clock_hz: u32,
@@ -33,18 +35,21 @@ impl Kinematics {
             Kinematics::Pps => v,
             Kinematics::Tmc428 { clock_hz } => {
                 let shift = 16 + pulse_div.clamp(0, 13) as u32; // 2048 · 32 = 2^16
-                ((i64::from(clock_hz) * i64::from(v)) >> shift) as i32
+                ((i64::from(clock_hz) * i64::from(v)) / (1i64 << shift)) as i32 // toward zero, both ways
             }
         }
     }
 
-    /// The inverse of [`Kinematics::velocity_to_pps`], rounded toward zero.
+    /// The inverse of [`Kinematics::velocity_to_pps`], rounded to the nearest unit (so that a velocity
+    /// reads back as it was written).
     pub fn pps_to_velocity(self, pps: i32, pulse_div: i32) -> i32 {
         match self {
             Kinematics::Pps => pps,
             Kinematics::Tmc428 { clock_hz } => {
                 let shift = 16 + pulse_div.clamp(0, 13) as u32;
-                ((i64::from(pps) << shift) / i64::from(clock_hz.max(1))) as i32
+                let clock = i64::from(clock_hz.max(1));
+                let scaled = i64::from(pps) << shift;
+                ((scaled + scaled.signum() * clock / 2) / clock) as i32
             }
         }
     }
@@ -102,4 +107,51 @@ pub struct Encoder {
     pub kind: EncoderKind,
     /// Counts per motor revolution (1024 on the PD28-1021, manual §6.2).
     pub counts_per_rev: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TMC428: Kinematics = Kinematics::Tmc428 { clock_hz: 16_000_000 };
+
+    #[test]
+    fn pps_is_the_identity() {
+        assert_eq!(Kinematics::Pps.velocity_to_pps(-51200, 3), -51200);
+        assert_eq!(Kinematics::Pps.pps_to_velocity(51200, 3), 51200);
+        assert_eq!(Kinematics::Pps.acceleration_to_pps2(51200, 3, 4), 51200);
+        assert_eq!(Kinematics::Pps.position_bits(), 32);
+    }
+
+    #[test]
+    fn tmc428_velocities_round_trip() {
+        // 16 MHz · v / (2^pd · 2048 · 32): v = 2047 at pd 0 is 499 755 microsteps/s.
+        assert_eq!(TMC428.velocity_to_pps(2047, 0), 499_755);
+        assert_eq!(TMC428.velocity_to_pps(1000, 3), 30_517);
+        assert_eq!(TMC428.velocity_to_pps(-1000, 3), -30_517, "symmetric: toward zero");
+        // Exact while one unit is at least one microstep per second (pulse divisor ≤ 7); above, within
+        // one microstep per second (the firmware's ramp runs in whole microsteps per second).
+        for pd in 0..=13 {
+            for v in [-2047, -1000, -1, 0, 1, 7, 1000, 2047] {
+                let back = TMC428.pps_to_velocity(TMC428.velocity_to_pps(v, pd), pd);
+                if pd <= 7 {
+                    assert_eq!(back, v, "v {v} pd {pd}");
+                } else {
+                    let one_pps = (1 << (pd + 16)) / 16_000_000 + 1; // units in one microstep per second
+                    assert!((back - v).abs() <= one_pps, "v {v} pd {pd}: {back}");
+                }
+            }
+        }
+        assert_eq!(TMC428.position_bits(), 24);
+    }
+
+    #[test]
+    fn tmc428_accelerations() {
+        // 16 MHz² · a / 2^(pd + rd + 29): a = 2047, pd 3, rd 2 is 30 502 676 microsteps/s²; a = 1 at
+        // pd 0, rd 0 is 476 837.
+        assert_eq!(TMC428.acceleration_to_pps2(2047, 3, 2), 30_502_676);
+        assert_eq!(TMC428.acceleration_to_pps2(1, 0, 0), 476_837);
+        assert_eq!(TMC428.acceleration_to_pps2(1, 13, 13), 1, "never 0 for a non-zero acceleration");
+        assert_eq!(TMC428.acceleration_to_pps2(0, 0, 0), 0);
+    }
 }
