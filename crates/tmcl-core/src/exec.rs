@@ -26,7 +26,7 @@ use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
-    Availability, CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind,
+    CalcOp, CalcxOp, Command, CommandSet, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind,
     VersionFormat, FRAME_LEN,
 };
 
@@ -54,7 +54,7 @@ impl<B: Board> Module<B> {
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
         // Standalone-only program flow sent by the host (§3.6.2): not available.
-        if origin == Origin::Host && command.opcode().info().is_some_and(|i| i.availability == Availability::Program) {
+        if origin == Origin::Host && CommandSet::PROGRAM_ONLY.contains(command.opcode()) {
             return Err(Status::NotAvailable);
         }
         match command {

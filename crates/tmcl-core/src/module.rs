@@ -37,7 +37,7 @@ use crate::vm::{Program, RunState, Vm};
 use tmcl_model::capacity::{
     MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES,
 };
-use tmcl_wire::{Command, EventMode, Frame, Instruction, Opcode, Reply, Request, Status, FRAME_LEN};
+use tmcl_wire::{Command, CommandSet, EventMode, Frame, Instruction, Opcode, Reply, Request, Status, FRAME_LEN};
 
 /// The length of a mailbox message (TMCM-1310 manual §3.6: an 8-byte command, an 8-byte reply).
 pub const MAILBOX_LEN: usize = 8;
@@ -453,7 +453,7 @@ impl<B: Board> Module<B> {
             if let Some(frame) = frame {
                 self.handle_frame(port, frame, now);
                 // A command that only reads changes nothing the driver sees; anything else may.
-                if !Opcode::from(frame[1]).info().is_some_and(|i| i.read_only) {
+                if !CommandSet::READ_ONLY.contains_code(frame[1]) {
                     self.update_board(now);
                 }
             }
@@ -476,7 +476,7 @@ impl<B: Board> Module<B> {
         self.st.last_command = now;
         self.st.heartbeat_tripped = false;
         self.handle_instruction(port, instruction, now);
-        if !instruction.opcode.info().is_some_and(|i| i.read_only) {
+        if !CommandSet::READ_ONLY.contains(instruction.opcode) {
             self.update_board(now);
         }
         self.st.ports[port].outbox.flush(now, sink);
@@ -535,7 +535,7 @@ impl<B: Board> Module<B> {
     /// then the command's own checks ([`Command::decode`]).
     #[inline]
     pub(crate) fn decode(&self, instruction: Instruction) -> Result<Command, Status> {
-        if !self.spec.commands.contains(instruction.opcode) {
+        if !self.spec.commands.contains_code(instruction.opcode.code()) {
             return Err(Status::InvalidCommand);
         }
         Command::decode(instruction)

@@ -26,8 +26,15 @@
 //!
 //! Nothing in this module panics.
 
-use crate::opcode::Opcode;
+use crate::opcode::{Availability, Opcode};
 use core::fmt;
+
+/// The table properties [`CommandSet`]'s derived constants select by.
+#[derive(Clone, Copy)]
+enum Filter {
+    ReadOnly,
+    ProgramOnly,
+}
 
 /// A set of command numbers (0..=255), with [`Opcode`]s in and out. Unknown numbers may be members too.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -42,6 +49,34 @@ impl CommandSet {
 
     /// Every opcode of [`Opcode::ALL`]: every named command, UF0–UF7 included, and no unknown number.
     pub const ALL_NAMED: CommandSet = CommandSet::of(Opcode::ALL);
+
+    /// The commands that only read (the table's `read_only`): a frame of one changes nothing a driver
+    /// or an output sees.
+    pub const READ_ONLY: CommandSet = CommandSet::ALL_NAMED.filter(Filter::ReadOnly);
+
+    /// The commands that run only in a program (the table's [`Availability::Program`]): the host gets
+    /// status 6 for them (PD28-1021 manual §3.6.3).
+    pub const PROGRAM_ONLY: CommandSet = CommandSet::ALL_NAMED.filter(Filter::ProgramOnly);
+
+    const fn filter(self, filter: Filter) -> CommandSet {
+        let mut set = CommandSet::EMPTY;
+        let mut code = 0usize;
+        while code < 256 {
+            if self.contains_code(code as u8) {
+                if let Some(info) = Opcode::from_code(code as u8).info() {
+                    let keep = match filter {
+                        Filter::ReadOnly => info.read_only,
+                        Filter::ProgramOnly => matches!(info.availability, Availability::Program),
+                    };
+                    if keep {
+                        set = set.with(Opcode::from_code(code as u8));
+                    }
+                }
+            }
+            code += 1;
+        }
+        set
+    }
 
     /// The set of `opcodes`.
     pub const fn of(opcodes: &[Opcode]) -> CommandSet {
@@ -200,6 +235,13 @@ impl core::iter::FusedIterator for Iter {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn derived_sets() {
+        let codes = |s: CommandSet| s.iter().map(Opcode::code).collect::<Vec<_>>();
+        assert_eq!(codes(CommandSet::READ_ONLY), [6, 10, 15, 31, 134, 135, 136]);
+        assert_eq!(codes(CommandSet::PROGRAM_ONLY), [20, 21, 22, 23, 24, 27, 28, 37, 38]);
+    }
 
     #[test]
     fn subsets() {

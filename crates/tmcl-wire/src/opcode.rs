@@ -138,15 +138,21 @@ macro_rules! opcodes {
         impl From<u8> for Opcode {
             #[inline]
             fn from(code: u8) -> Opcode {
+                Opcode::from_code(code)
+            }
+        }
+
+        impl Opcode {
+            /// The opcode of a command number: `Opcode::from(code)`, usable in constants.
+            #[inline]
+            pub const fn from_code(code: u8) -> Opcode {
                 match code {
                     $( $code => Opcode::$variant, )*
                     64..=71 => Opcode::UserFunction(code - 64),
                     other => Opcode::Unknown(other),
                 }
             }
-        }
 
-        impl Opcode {
             /// The command number: `u8::from(self)`, usable in constants.
             #[inline]
             pub const fn code(self) -> u8 {
