@@ -1,6 +1,7 @@
 """Standalone programs through `tmcl serve`: downloaded with pytrinamic's raw `send` (commands 132/133,
 each stored command answered with status 101), run with command 129, their effect read with GGP/GAP, and
-read back with command 134 as pytrinamic's `tmcl_read_script` example does (host-expectations.md)."""
+read back with command 134 as pytrinamic's `tmcl_read_script` example does (the manual gives no reply format
+for 134; that example expects `[host, opcode, type, motor, value (4 bytes), checksum]`)."""
 
 import subprocess
 

@@ -22,7 +22,8 @@ READY_RE = re.compile(r"^serving (\S+) at address (\d+) on (.+)$")
 BUS_READY_RE = re.compile(r"^serving (.+?) on (.+)$")
 BUS_MODULE_RE = re.compile(r"^(\S+) at address (\d+)$")
 
-# Factory defaults of the PD28-1021 (manual and inventory §3/§4).
+# Factory defaults of the PD28-1021: AP 140 (manual §6.1), AP 214 (Table 22), GP 66 and 76 (the reply
+# examples of §3.2); AP 4 and 5 are OpenTMCL's choice (docs/decisions.md).
 DEFAULT_AP = {4: 51200, 5: 51200, 140: 8, 214: 200}
 DEFAULT_GP = {66: 1, 76: 2}
 # The `--module` arguments of the three-module bus (`bus_server` fixture).

@@ -80,8 +80,8 @@ mod tests {
 
     #[test]
     fn records() {
-        // MVP REL, 0, -10000: the request frame F5 of inventory §9.1 without its address byte (01), so the
-        // checksum is 0xCC - 1.
+        // MVP REL, 0, -10000: the request frame of the PD28-1021 manual's §3.7.4 example without its address
+        // byte (01), so the checksum is 0xCC - 1.
         let image = to_bin(&[Instruction::new(Opcode::Mvp, 1, 0, -10000)]);
         assert_eq!(image, [0x04, 0x01, 0x00, 0xFF, 0xFF, 0xD8, 0xF0, 0xCB]);
         assert_eq!(from_bin(&image), Ok(vec![Instruction::new(Opcode::Mvp, 1, 0, -10000)]));

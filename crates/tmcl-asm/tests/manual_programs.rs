@@ -1,5 +1,6 @@
-//! Every TMCL listing of the PD28-1021 TMCL firmware manual (inventory §9.5 P1–P14, saved in
-//! `tests/programs/` at the workspace root) assembles to the addresses and tuples the inventory derives.
+//! Every TMCL listing of the PD28-1021 TMCL firmware manual (14 listings, numbered in the order they appear
+//! and saved as `tests/programs/manual_pNN_*.tmc` at the workspace root) assembles to the addresses and
+//! tuples worked out by hand from the printed listings.
 
 use std::path::PathBuf;
 use tmcl_asm::{assemble, disassemble, from_bin, DisasmOptions, Program};
@@ -74,7 +75,7 @@ fn p02_timer_interrupt() {
 fn p03_interrupts_inc() {
     let p = program("manual_p03_interrupts_inc.tmc");
     assert_eq!(tuples(&p)[..4], [(37, 0, 0, 4), (9, 0, 3, 1000), (25, 0, 0, 0), (25, 255, 0, 0)]);
-    // The same start as P2.
+    // The same start as the timer-interrupt listing (`manual_p02`).
     let p2 = program("manual_p02_timer_interrupt.tmc");
     assert_eq!(tuples(&p)[1..4], tuples(&p2)[1..4]);
     assert_eq!(p.constants.get("TI_GLOBAL"), Some(&255));
@@ -160,7 +161,8 @@ fn p11_main_loop_and_p12_constants() {
 #[test]
 fn p13_user_variables() {
     let p = program("manual_p13_user_variables.tmc");
-    // `AAP MyVariable, 2` kept as printed (AMB-36): AAP 42, 2.
+    // `AAP MyVariable, 2` kept as printed (§8.4 means AGP, since AAP writes an axis parameter of motor 2):
+    // AAP 42, 2.
     assert_eq!(tuples(&p), [(9, 42, 2, 1234), (10, 42, 2, 0), (19, 2, 0, 2), (34, 42, 2, 0)]);
 }
 

@@ -7,7 +7,6 @@ use std::hint::black_box;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration as StdDuration, Instant as StdInstant};
 use tmcl_core::model::pd28_1021::SPEC;
-use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module, State};
 use tmcl_host::{Client, SerialTransport};
 use tmcl_sim::SimBoard;
@@ -20,7 +19,7 @@ fn frame(op: Opcode, t: u8, v: i32) -> [u8; 9] {
 /// Frames per second through `Module::receive`, time advancing 1 µs per frame (so the motion controller
 /// and timers run as they would).
 fn core_rate(name: &str, frames: &[[u8; 9]], n: u64) {
-    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     let mut reply_bytes = 0u64;
     let mut sink = |b: &[u8]| reply_bytes += b.len() as u64;
     let start = StdInstant::now();
@@ -90,7 +89,7 @@ fn pty_latency(n: usize) {
 /// would do it.
 fn module_running(program: &[tmcl_wire::Command]) -> Module<SimBoard> {
     use tmcl_wire::Command;
-    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     let frames = std::iter::once(Command::StartDownload { address: 0 })
         .chain(program.iter().copied())
         .chain([Command::QuitDownload, Command::RunApplication { from: Some(0) }]);
@@ -154,6 +153,27 @@ fn motion_program_ratio(virtual_secs: u64) {
     );
 }
 
+/// What one module holds in RAM, without the heap (there is none): the firmware state (with every host
+/// interface's framer, outbox and ASCII line) and the program machine, but not program memory nor the
+/// debugger's breakpoints (a simulator feature a module does not have; printed apart).
+fn memory() {
+    use std::mem::size_of;
+    use tmcl_core::iface::Port;
+    use tmcl_core::vm::{Program, Vm, MAX_PROGRAM};
+    // `Vm::breakpoints`: one bit per program cell.
+    let breakpoints = size_of::<[u64; MAX_PROGRAM / 64]>();
+    let (state, vm) = (size_of::<State>(), size_of::<Vm>() - breakpoints);
+    let ports = size_of::<[Port; tmcl_core::model::capacity::MAX_INTERFACES]>();
+    println!(
+        "firmware RAM but program memory: State {state} (of it {ports} in host interface ports) + Vm {vm} = {} \
+         bytes (goal <= 4096)",
+        state + vm
+    );
+    println!("debugger breakpoints (not counted): {breakpoints} bytes");
+    println!("program memory: {} bytes", size_of::<Program>());
+    println!("size_of::<Module<SimBoard>>() = {} bytes", size_of::<Module<SimBoard>>());
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
@@ -162,14 +182,7 @@ fn main() {
     let part = |name: &str| only.is_none_or(|o| o == name);
     let n = if quick { 1_000_000 } else { 20_000_000 };
     if part("memory") {
-        let core_ram = std::mem::size_of::<State>() + std::mem::size_of::<tmcl_core::vm::Vm>();
-        println!(
-            "firmware RAM but program memory: State {} + Vm {} = {core_ram} bytes (goal <= 4096)",
-            std::mem::size_of::<State>(),
-            std::mem::size_of::<tmcl_core::vm::Vm>()
-        );
-        println!("program memory: {} bytes", std::mem::size_of::<tmcl_core::vm::Program>());
-        println!("size_of::<Module<SimBoard>>() = {} bytes", std::mem::size_of::<Module<SimBoard>>());
+        memory();
     }
     if part("core") {
         core_rate("GAP 1 (actual position)", &[frame(Opcode::Gap, 1, 0)], n);

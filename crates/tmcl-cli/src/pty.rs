@@ -1,7 +1,7 @@
 //! The pseudo-terminal a virtual module serves on: the OS side of `tmcl serve --pty`.
 //!
 //! Host software opens the slave side through a symlink (LINK) as if it were a serial port. Facts this
-//! module is built around (shared/reference/host-expectations.md):
+//! module is built around (how pyserial, and so pytrinamic, opens and uses a port):
 //! - the pty is put in raw mode **before** LINK appears, so a host that opens and writes at once never
 //!   sees its bytes echoed back into the module's input;
 //! - the module keeps a slave descriptor open itself, so reading the master never fails with EIO when no

@@ -1,6 +1,6 @@
 //! `tmcl run`: assemble a program, load it into a simulated module and run it in simulated time.
 //!
-//! The module never reads a clock (STYLE.md §3.4): [`Module::poll`] is told the time and answers with its
+//! The module never reads a clock: [`Module::poll`] is told the time and answers with its
 //! next deadline, so the run jumps from deadline to deadline and finishes far faster than real time, with
 //! the same result every time.
 //!

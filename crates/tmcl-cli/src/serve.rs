@@ -133,7 +133,8 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
             Some(path) => Eeprom::File(FileNvm::open(&path, capacity).map_err(|e| e.to_string())?),
             None => Eeprom::Memory(MemNvm::new(capacity)),
         };
-        let board = SimBoard::new(eeprom).with_world(world.clone()).map_err(|e| e.to_string())?.with_clock(clock);
+        let board =
+            SimBoard::for_model(spec, eeprom).with_world(world.clone()).map_err(|e| e.to_string())?.with_clock(clock);
         let mut module = Module::new(board, spec, clock());
         if let Some(address) = address {
             if fresh && module.address() != address {

@@ -1,4 +1,4 @@
-//! The one dispatcher: every command a host sends goes through [`Module::execute`] (STYLE.md §2).
+//! The one dispatcher: every command a host sends goes through [`Module::execute`].
 //!
 //! Each arm cites the manual section that defines the command. Statuses the manual leaves open are
 //! decided once, here and in [`crate::param::ParamError`]:
@@ -12,9 +12,9 @@
 //! - a command the model does not have: **2, invalid command** (checked before this dispatcher, by
 //!   `Module::decode`);
 //! - program-flow commands sent from the host (the table of opcode properties marks them "program only":
-//!   JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI; the manual's §3.6.2 calls them standalone only)
-//!   and UF0–UF7 (no user functions in the standard firmware, §3.7.37): **6, command not available**.
-//!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.3) and work on the
+//!   JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI; the manual's §3.6.3 calls them standalone only)
+//!   and UF0–UF7 (no user functions in the standard firmware, §3.7.36): **6, command not available**.
+//!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.5) and work on the
 //!   module's registers.
 
 use crate::hal::Board;
@@ -53,7 +53,7 @@ impl<B: Board> Module<B> {
     /// Executes one validated command from the host or the program at `now`.
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
-        // Standalone-only program flow sent by the host (§3.6.2): not available.
+        // Standalone-only program flow sent by the host (§3.6.3): not available.
         if origin == Origin::Host && CommandSet::PROGRAM_ONLY.contains(command.opcode()) {
             return Err(Status::NotAvailable);
         }
@@ -61,17 +61,19 @@ impl<B: Board> Module<B> {
             // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
             C::Ror { motor, velocity } => {
                 self.motor(motor)?;
-                self.start_rotation(self.to_pps(velocity));
+                self.start_rotation(self.units_to_pps(velocity));
                 value(velocity)
             }
-            // §3.7.2 ROL: as ROR to the left: AP 2 = −velocity (AMB-19: a negative velocity turns right).
+            // §3.7.2 ROL: as ROR to the left: AP 2 = −velocity (the manual leaves a negative velocity open; it
+            // turns right).
             C::Rol { motor, velocity } => {
                 self.motor(motor)?;
                 let v = velocity.checked_neg().ok_or(Status::InvalidValue)?;
-                self.start_rotation(self.to_pps(v));
+                self.start_rotation(self.units_to_pps(v));
                 value(velocity)
             }
-            // §3.7.3 MST: velocity mode, target speed 0 (AMB-8: "#0" is AP 2), decelerating with AP 5.
+            // §3.7.3 MST: velocity mode, target speed 0 (the printed "axis parameter #0" is a typo for AP 2),
+            // decelerating with AP 5.
             C::Mst { motor } => {
                 self.motor(motor)?;
                 self.start_rotation(0);
@@ -129,7 +131,7 @@ impl<B: Board> Module<B> {
             // §3.7.10 GGP.
             C::Ggp { param, bank } => value(self.get_global(param, bank, now)?),
             // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
-            // and a STGP rewrites them (AMB-11).
+            // and a STGP rewrites them (the manual does not say what STGP does on bank 0).
             C::Stgp { param, bank } => {
                 match bank {
                     0 => {
@@ -225,7 +227,7 @@ impl<B: Board> Module<B> {
                 value(operand)
             }
             // §3.7.28 CALCX: A ← A op X; LOAD copies A to X, SWAP exchanges them, NOT inverts X (Table of
-            // §3.7.28; AMB-23).
+            // §3.7.28: "logical invert X register", although every other operation writes A).
             C::Calcx { op } => {
                 let regs = *self.regs(origin);
                 let (a, x) = (regs.accumulator, regs.x);
@@ -295,7 +297,8 @@ impl<B: Board> Module<B> {
                 self.write_coordinate(coord, p)?;
                 value(p)
             }
-            // §3.7.27 ACO: coordinate ← accumulator (AMB-12: the accumulator, not the actual position).
+            // §3.7.27 ACO: coordinate ← accumulator (as its description says; its "internal function" line says the
+            // actual position).
             C::Aco { coord, motor } => {
                 self.motor(motor)?;
                 let a = self.regs(origin).accumulator;
@@ -334,7 +337,7 @@ impl<B: Board> Module<B> {
                 value(0)
             }
             // Standalone-only program flow, run by the program machine (and refused from the host above),
-            // and user functions, which the standard firmware does not have (§3.7.37).
+            // and user functions, which the standard firmware does not have (§3.7.36).
             C::Comp { .. }
             | C::Jc { .. }
             | C::Ja { .. }
@@ -399,7 +402,7 @@ impl<B: Board> Module<B> {
                 persist::format(&mut self.board, self.spec, false).map_err(Status::from)?;
                 Ok(Outcome::Silent)
             }
-            // §3.7.39 138: type 0 = next MVP, type 1 = every MVP; value = motor mask. Mask 0 cancels (our
+            // §3.7.37 138: type 0 = next MVP, type 1 = every MVP; value = motor mask. Mask 0 cancels (our
             // decision: the manual gives no way to turn type 1 off).
             C::RequestTargetReachedEvent { mode, mask } => {
                 let all = (1i32 << self.spec.motors) - 1;
@@ -453,7 +456,8 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Loads the accumulator and sets the comparison flags from it, as a comparison with 0 (AMB-1).
+    /// Loads the accumulator and sets the comparison flags from it, as a comparison with 0. The manual never
+    /// lists which commands set the flags, but its §3.6.6.4 example jumps with `JC NZ` right after a GIO.
     pub(crate) fn load_accumulator(&mut self, origin: Origin, v: i32) {
         let regs = self.regs(origin);
         regs.accumulator = v;
@@ -484,8 +488,8 @@ impl<B: Board> Module<B> {
             Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axis[i],
             Role::TargetPosition => ramp.target_position,
             Role::ActualPosition => ramp.position,
-            Role::TargetSpeed => self.from_pps(ramp.target_velocity),
-            Role::ActualSpeed => self.from_pps(ramp.velocity()),
+            Role::TargetSpeed => self.pps_to_units(ramp.target_velocity),
+            Role::ActualSpeed => self.pps_to_units(ramp.velocity()),
             Role::PositionReached => i32::from(ramp.position_reached()),
             Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
             Role::HomeSwitch => i32::from(self.switches().2),
@@ -516,7 +520,7 @@ impl<B: Board> Module<B> {
             Role::TargetPosition => self.st.ramp.move_to(v),
             Role::ActualPosition => self.st.ramp.set_position(v),
             // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
-            Role::TargetSpeed => self.st.ramp.target_velocity = self.to_pps(v),
+            Role::TargetSpeed => self.st.ramp.target_velocity = self.units_to_pps(v),
             // Listed RW in Table 15: accepted, no effect: the ramp generator owns the actual speed.
             Role::ActualSpeed => {}
             Role::RampMode => {

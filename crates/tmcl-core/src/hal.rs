@@ -1,4 +1,4 @@
-//! The board behind the firmware: small capability traits (STYLE.md §3.5, after embedded-hal).
+//! The board behind the firmware: small capability traits (after embedded-hal).
 //!
 //! The core keeps its EEPROM ([`Nvm`]), reads inputs ([`Inputs`]), analog values ([`Analog`]) and the
 //! stop switches ([`SwitchInputs`]), sets outputs ([`Outputs`]), drives the motor ([`StepDriver`]) and

@@ -1,6 +1,6 @@
 //! The OpenTMCL firmware core: a TMCL module's firmware as a `no_std`, heap-free library.
 //!
-//! It takes bytes and time and returns bytes and its next deadline (STYLE.md §3.4). The layers:
+//! It takes bytes and time and returns bytes and its next deadline; it never reads a clock. The layers:
 //!
 //! - [`time`]: `Instant`/`Duration` in µs, passed in by the caller.
 //! - [`hal`]: the board traits (EEPROM, I/O and switches, motor driver).
@@ -11,9 +11,9 @@
 //! - [`iface`]: the byte-fed framer and the reply outbox.
 //! - [`module`] and the dispatcher in `exec`: [`Module`], which ties it together.
 //!
-//! Specification: PD28-1021 TMCL firmware manual V1.05 (firmware V1.42); the index in
-//! `shared/reference/inventory-pd28-1021.md` numbers its ambiguities (AMB-n), which the code cites where
-//! it decides one.
+//! Specification: PD28-1021 TMCL firmware manual V1.05 (firmware V1.42). Where the manual is silent or
+//! contradicts itself, the code says so beside the decision, citing the manual's section, and
+//! `docs/decisions.md` collects these decisions.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 

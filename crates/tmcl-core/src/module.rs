@@ -81,7 +81,7 @@ pub mod error_flags {
     pub const DEVIATION: u8 = 2;
 }
 
-/// Command 138's request (§3.7.39).
+/// Command 138's request (§3.7.37).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub(crate) struct EventRequest {
     /// Armed for the next MVP or every MVP; `None` = off.
@@ -326,7 +326,7 @@ impl<B: Board> Module<B> {
 
     /// A velocity in the model's unit as microsteps per second (the ramp's unit).
     #[inline]
-    pub(crate) fn to_pps(&self, v: i32) -> i32 {
+    pub(crate) fn units_to_pps(&self, v: i32) -> i32 {
         match self.spec.kinematics {
             Kinematics::Pps => v,
             k => k.velocity_to_pps(v, self.ap(Setting::PulseDivisor).unwrap_or(0)),
@@ -335,7 +335,7 @@ impl<B: Board> Module<B> {
 
     /// A velocity in microsteps per second in the model's unit.
     #[inline]
-    pub(crate) fn from_pps(&self, pps: i32) -> i32 {
+    pub(crate) fn pps_to_units(&self, pps: i32) -> i32 {
         match self.spec.kinematics {
             Kinematics::Pps => pps,
             k => k.pps_to_velocity(pps, self.ap(Setting::PulseDivisor).unwrap_or(0)),
@@ -907,11 +907,11 @@ impl<B: Board> Module<B> {
 
     /// The search and switch speeds of the reference search in microsteps per second (AP 194, 195).
     pub(crate) fn reference_speeds(&self) -> (i32, i32) {
-        let speed = |s| self.to_pps(self.ap(s).unwrap_or(0));
+        let speed = |s| self.units_to_pps(self.ap(s).unwrap_or(0));
         (speed(Setting::ReferenceSearchSpeed), speed(Setting::ReferenceSwitchSpeed))
     }
 
-    /// §3.7.39: the second reply of command 138 when an MVP's target is reached, on the interface that
+    /// §3.7.37: the second reply of command 138 when an MVP's target is reached, on the interface that
     /// asked for it.
     fn check_event(&mut self, now: Instant) {
         let ramp = &self.st.ramp;

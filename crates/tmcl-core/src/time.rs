@@ -1,4 +1,4 @@
-//! Simulated time, passed in by the caller: the core never reads a clock (STYLE.md §3.4).
+//! Simulated time, passed in by the caller: the core never reads a clock.
 //!
 //! An [`Instant`] is a count of microseconds since an arbitrary origin (the board's power-up, a test's
 //! start). 64 bits of microseconds last 584 000 years, so arithmetic saturates instead of wrapping.

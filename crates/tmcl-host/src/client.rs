@@ -20,7 +20,7 @@ pub const DEFAULT_MODULE_ADDRESS: u8 = 1;
 /// Like pytrinamic, replies are not matched against the request by address or opcode: a bus has one master
 /// and answers come in order. Two things are handled that pytrinamic leaves to the user:
 ///
-/// - The unsolicited second reply of command 138 (status 128, §3.7.39) may arrive while another request is
+/// - The unsolicited second reply of command 138 (status 128, §3.7.37) may arrive while another request is
 ///   waiting for its answer. It is then set aside for [`Client::wait_event`] and the real answer is read.
 /// - After a timeout or a damaged reply, stale bytes may be left in the input; they are discarded before the
 ///   next request so that one lost byte does not shift every later reply.
@@ -104,7 +104,7 @@ impl<T: Transport> Client<T> {
     }
 
     /// Reads the next unsolicited frame, normally the second reply of command 138 (status 128, value = the
-    /// motor mask, §3.7.39), waiting at most `timeout`. An event that arrived during an earlier request is
+    /// motor mask, §3.7.37), waiting at most `timeout`. An event that arrived during an earlier request is
     /// returned first.
     pub fn wait_event(&mut self, timeout: Duration) -> Result<Reply, HostError> {
         if let Some(event) = self.events.pop_front() {
@@ -298,7 +298,7 @@ fn parse_reply(frame: &[u8; FRAME_LEN]) -> Result<Reply, HostError> {
     })
 }
 
-/// The second reply of command 138 (§3.7.39).
+/// The second reply of command 138 (§3.7.37).
 fn is_event(reply: &Reply) -> bool {
     reply.status == Status::TargetReached && reply.opcode == u8::from(Opcode::RequestTargetReachedEvent)
 }

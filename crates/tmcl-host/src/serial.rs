@@ -12,7 +12,7 @@ const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
 /// A serial port opened 8N1, raw, without flow control, in the way pyserial opens one.
 ///
 /// The port is not locked with `TIOCEXCL` (other programs, and the virtual module's own kept-open fd, may
-/// share it; see shared reference host-expectations.md) and the modem lines are left alone, so ptys, which
+/// share it, and pyserial does not lock either) and the modem lines are left alone, so ptys, which
 /// ignore the baud rate and reject modem-line ioctls, open like real ports. Input pending at open time is
 /// discarded.
 pub struct SerialTransport {

@@ -1,4 +1,4 @@
-//! TMCL module models as data: everything that distinguishes one module from another (STYLE.md §3.9).
+//! TMCL module models as data: everything that distinguishes one module from another.
 //!
 //! A model file describes one product in a [`ModelDesc`]: its parameter tables with each parameter's
 //! range, access, default and meaning ([`param`]), I/O ports ([`port`]), interrupt vectors and their
@@ -244,13 +244,9 @@ impl ModelSpec {
             let irq = &d.interrupts.list[i];
             let needs = matches!(irq.source, Source::Timer(_)) || irq.source.is_level();
             match irq.config {
-                Some(n) => {
-                    if !d.interrupt.contains(n) {
-                        return Err(FitError::InterruptConfig);
-                    }
-                }
+                Some(n) if !d.interrupt.contains(n) => return Err(FitError::InterruptConfig),
                 None if needs => return Err(FitError::InterruptConfig),
-                None => {}
+                _ => {}
             }
             i += 1;
         }

@@ -303,7 +303,7 @@ impl ParamDesc {
     }
 }
 
-/// Why a parameter operation was refused; each maps to a TMCL status (STYLE.md §3.6).
+/// Why a parameter operation was refused; each maps to a TMCL status.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParamError {
     /// No parameter with that number in this bank (status 3, wrong type: the type byte names it).

@@ -18,8 +18,9 @@
 //! # Access decisions
 //!
 //! Table 15 marks AP 6, 7 and 140 "RW", but the manual's own STAP and RSAP examples (§3.7.7, §3.7.8)
-//! store and restore AP 6, and the firmware history (§10, V1.21 and V1.34) says AP 140 is "taken over from
-//! the EEPROM". We therefore make AP 6, 7 and 140 storable (E), as they are on the real module.
+//! store and restore AP 6, and the firmware history (§12.1 Table 23, V1.21 and V1.34) says AP 140 is
+//! "taken over from the EEPROM". We therefore make AP 6, 7 and 140 storable (E), as they are on the real
+//! module.
 
 use crate::interface::InterfaceDesc;
 use crate::interrupt::{InterruptDesc, Interrupts, Source};
@@ -41,8 +42,8 @@ const fn r(min: i32, max: i32) -> Range {
 }
 
 /// Reference search modes (AP 193, §7.1 Table 21): 1..8, +64 for modes 1..4 (search the right switch
-/// instead), +128 for modes 5..8 (home switch inverted). The manual's examples also print 129..132 for the
-/// inverted modes 5..8 (inventory AMB-33); 128 + 1..4 is accepted as that alias.
+/// instead), +128 for modes 5..8 (home switch inverted). The manual's examples (§7.1.5–7.1.8) print 129..132 for
+/// the inverted modes 5..8, where 128 + mode gives 133..136; 128 + 1..4 is accepted as that alias.
 const RFS_MODES: Range = Range::OneOf(&[1..=8, 65..=68, 129..=136]);
 
 /// Axis parameters of motor 0 (manual chapter 4, Table 15): 58 entries.
@@ -50,7 +51,8 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
     ParamDesc::plain(0, "Target position", "TargetPosition", POS, Access::RW, 0, A).with_role(Role::TargetPosition),
     ParamDesc::plain(1, "Actual position", "ActualPosition", POS, Access::RW, 0, A).with_role(Role::ActualPosition),
     ParamDesc::plain(2, "Target speed", "TargetSpeed", POS, Access::RW, 0, A).with_role(Role::TargetSpeed),
-    // AMB-27: listed RW; a write is accepted and has no effect (the ramp generator owns the value).
+    // Table 15 lists it RW without saying what a write does: accepted, no effect (the ramp generator owns
+    // the value).
     ParamDesc::plain(3, "Actual speed", "ActualSpeed", POS, Access::RW, 0, A).with_role(Role::ActualSpeed),
     ParamDesc::plain(4, "Maximum positioning speed", "MaxPositioningSpeed", r(1, i32::MAX), Access::RWE, 51200, A)
         .with_setting(Setting::MaxPositioningSpeed),
@@ -131,7 +133,8 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
     ParamDesc::plain(179, "Vsense", "Vsense", Range::FLAG, Access::RW, 1, A).with_setting(Setting::CurrentRange),
     ParamDesc::plain(180, "smartEnergy actual current", "SmartEnergyActualCurrent", r(0, 31), Access::R, 0, A)
         .with_role(Role::ActualCurrent),
-    // AMB-29: 0 = stop on stall off (the TMCL convention; "below this speed the motor is never stopped").
+    // 0 = stop on stall off: Table 15 does not say what 0 does ("below this speed the motor is never
+    // stopped" would make it stop at any speed); off is the TMCL convention.
     ParamDesc::plain(181, "Stop on stall", "StopOnStall", SPEED, Access::RW, 0, A).with_setting(Setting::StopOnStall),
     ParamDesc::plain(182, "smartEnergy threshold speed", "SmartEnergyThresholdSpeed", SPEED, Access::RW, 0, A)
         .with_setting(Setting::CoolStepThresholdSpeed),
@@ -162,8 +165,8 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
         .with_role(Role::DriverFlags),
     ParamDesc::plain(209, "Encoder position", "EncoderPosition", POS, Access::RW, 0, A)
         .with_role(Role::EncoderPosition),
-    // §6.2: p = prescaler × 512; the value 4 (bit 2) is the clear-on-null function. Table 20's p = 200
-    // has bit 3 set, so only bit 2 is taken as a function bit (inventory AMB-34).
+    // §6.2.1–6.2.2: p = prescaler × 512; the value 4 (bit 2) is the clear-on-null function. Table 20's p = 200
+    // has bit 3 set although the low four bits are reserved, so only bit 2 is taken as a function bit.
     ParamDesc::plain(210, "Encoder prescaler", "EncoderPrescaler", POS, Access::RW, 25600, A)
         .with_role(Role::EncoderPrescaler),
     ParamDesc::plain(212, "Maximum encoder deviation", "MaxEncoderDeviation", SPEED, Access::RW, 0, A)
@@ -182,10 +185,10 @@ pub static GLOBAL_PARAMS: [ParamDesc; 19] = [
     ParamDesc::plain(66, "Serial address", "SerialAddress", r(1, 255), Access::RWA, 1, G)
         .with_setting(Setting::SerialAddress),
     ParamDesc::plain(67, "ASCII mode", "AsciiMode", r(0, 63), Access::RWA, 0, G).with_setting(Setting::AsciiMode),
-    // AMB-17: the unit is not stated; milliseconds.
+    // Table 17 gives no unit for the heartbeat time; milliseconds.
     ParamDesc::plain(68, "Serial heartbeat", "SerialHeartbeat", r(0, 65535), Access::RWA, 0, G)
         .with_setting(Setting::SerialHeartbeat),
-    // AMB-17: the unit is not stated; milliseconds.
+    // Table 17 gives no unit for the pause time; milliseconds.
     ParamDesc::plain(75, "Telegram pause time", "TelegramPauseTime", r(0, 255), Access::RWA, 0, G)
         .with_setting(Setting::TelegramPause),
     ParamDesc::plain(76, "Serial host address", "SerialHostAddress", r(0, 255), Access::RWA, 2, G)
@@ -217,7 +220,7 @@ pub static GLOBAL_PARAMS: [ParamDesc; 19] = [
         .with_setting(Setting::SuppressReply),
 ];
 
-/// Bank 3 (manual §5.4, Table 19): interrupt configuration, 9 entries. Defaults are not stated (AMB-26):
+/// Bank 3 (manual §5.4, Table 19): interrupt configuration, 9 entries. The manual states no defaults:
 /// all 0 (timers and triggers off).
 pub static INTERRUPT_PARAMS: [ParamDesc; 9] = [
     ParamDesc::plain(0, "Timer 0 period (ms)", "Timer0Period", Range::Unsigned32, Access::RW, 0, I),
@@ -275,7 +278,7 @@ const fn irq(
     InterruptDesc { number, name, symbol, source, config }
 }
 
-/// The commands of the PD28-1021 (manual §3.5 Table 5, §3.7.37 UF0–UF7, §3.7.38 Table 13, §3.4.1 command
+/// The commands of the PD28-1021 (manual §3.5 Table 5, §3.7.36 UF0–UF7, §3.7.38 Table 13, §3.4.1 command
 /// 139), and 242, which pytrinamic sends to reach a boot loader (the module stays silent). SAC (29) is
 /// not one of them.
 pub const COMMANDS: CommandSet = CommandSet::ALL_NAMED.without(Opcode::Sac);

@@ -1,9 +1,9 @@
-//! Cost of one `Drive::update` (one 1 ms motion tick) of the simulated board, on a free and on loaded
+//! Cost of one `StepDriver::update` (one 1 ms motion tick) of the simulated board, on a free and on loaded
 //! axes. Run with `cargo run --release -p tmcl-sim --example motor_bench`.
 
 use std::hint::black_box;
 use std::time::Instant as Wall;
-use tmcl_core::hal::{Drive, DriveState};
+use tmcl_core::hal::{DriveState, StepDriver};
 use tmcl_core::{Duration, Instant};
 use tmcl_sim::{SimBoard, World};
 

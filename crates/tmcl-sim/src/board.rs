@@ -1,5 +1,7 @@
 //! The simulated board: a stepper on an axis described by a [`World`] (switches, loads, inputs on a
-//! timeline, faults), the TMC262 driver's sensors, and an EEPROM in memory or in a crash-safe file.
+//! timeline, faults), the driver's sensors, and an EEPROM in memory or in a crash-safe file. What the
+//! board is — encoder, driver, inputs and outputs — comes from the model, as a [`Profile`]
+//! ([`SimBoard::for_model`]; see [`crate::profile`] for what is taken from the model and what not).
 //!
 //! Positions in the world are physical: 1/256 microsteps of the motor shaft (51200 per revolution with a
 //! 200-step motor, the PD28-1021's motor, manual §6.1). The firmware's step counter is at the resolution
@@ -10,21 +12,25 @@
 //!
 //! The world's times (timeline, faults) are on the module's clock: `Instant::ZERO` is power-up, as in
 //! `tmcl run` and `tmcl serve`. The board moves its world forward whenever the firmware updates the
-//! driver ([`Drive::update`]), when [`SimBoard::advance`] is called, and — if it has a clock
+//! driver ([`StepDriver::update`]), when [`SimBoard::advance`] is called, and — if it has a clock
 //! ([`SimBoard::with_clock`]) — before every sensor or input read, so a timeline runs on while the motor
 //! stands still and the core does not call the board.
 
 use crate::driver::{self, Driver};
 use crate::motor::{self, Mechanics, USTEPS_PER_FULL_STEP};
 use crate::nvm::{FileNvm, MemNvm, NvmError};
+use crate::profile::Profile;
 use crate::world::{Active, DriverFlag, Invalid, World, WorldError};
-use tmcl_core::hal::{Drive, DriveState, DriverSettings, Feedback, Io, Nvm, Switches};
+use tmcl_core::hal::{
+    Analog, DriveState, DriverSettings, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, StepDriver, SwitchInputs,
+    Switches,
+};
+use tmcl_core::model::ModelSpec;
+use tmcl_core::param::persist;
 use tmcl_core::{Duration, Instant};
 
-/// Physical 1/256 microsteps per revolution of the simulated 200-step motor.
+/// Physical 1/256 microsteps per revolution of the default world's 200-step motor.
 pub const MICROSTEPS_PER_REV: i64 = 200 * 256;
-/// sensOstep counts per revolution (manual §6.2).
-pub const ENCODER_COUNTS_PER_REV: i64 = 1024;
 
 /// 2^−r for r = 0..=8: multiplying by these is exact, as dividing by 2^r is.
 const INVERSE_POWERS_OF_TWO: [f64; 9] = [1.0, 0.5, 0.25, 0.125, 0.0625, 0.031_25, 0.015_625, 0.007_812_5, 0.003_906_25];
@@ -241,6 +247,25 @@ fn supply_factor(supply: f64) -> f64 {
 /// (AP 179), error flags (faults, temperature), supply voltage (bits). The rest is fixed per world.
 type PowerInputs = (bool, u8, bool, u8, u64);
 
+/// Sensor readings of the board: encoder, load, driver flags (what the firmware reads through
+/// [`EncoderCounter`] and [`LoadSensor`], in one call: [`SimBoard::feedback`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Feedback {
+    /// Physical encoder counts since power-up, the model's counts per revolution (1024 on the PD28-1021,
+    /// sensOstep, manual §6.2), in the motor's physical direction; 0 without an encoder.
+    pub encoder_counts: i64,
+    /// stallGuard2 load value 0..=1023 (AP 206); 0 = maximum load; 1023 without a load measurement.
+    pub load: u16,
+    /// Driver error flags (AP 208).
+    pub driver_flags: u8,
+}
+
+impl Default for Feedback {
+    fn default() -> Feedback {
+        Feedback { encoder_counts: 0, load: 1023, driver_flags: 0 }
+    }
+}
+
 /// A clock the board reads before sensor and input reads.
 struct Clock(Box<dyn FnMut() -> Instant + Send>);
 
@@ -250,10 +275,12 @@ impl std::fmt::Debug for Clock {
     }
 }
 
-/// A simulated PD28-1021 board.
+/// A simulated board of one model (the PD28-1021 unless built with [`SimBoard::for_model`]).
 #[derive(Debug)]
 pub struct SimBoard {
     eeprom: Eeprom,
+    /// What the board is: from the model.
+    profile: Profile,
     /// The inputs now; change them at any time.
     pub world: Levels,
     spec: World,
@@ -282,12 +309,30 @@ pub struct SimBoard {
 }
 
 impl SimBoard {
-    /// A board on a free axis (the default [`World`]) with the given EEPROM.
+    /// A PD28-1021 board ([`Profile::PD28_1021`]) on a free axis (the default [`World`]) with the given
+    /// EEPROM.
     pub fn new(eeprom: Eeprom) -> SimBoard {
+        SimBoard::for_profile(Profile::PD28_1021, eeprom)
+    }
+
+    /// A board of the model `spec` on a free axis with the given EEPROM.
+    pub fn for_model(spec: &ModelSpec, eeprom: Eeprom) -> SimBoard {
+        SimBoard::for_profile(Profile::of(spec), eeprom)
+    }
+
+    /// A board of the model `spec` with an in-memory EEPROM of the size the model needs
+    /// ([`persist::capacity`]).
+    pub fn in_memory_for(spec: &ModelSpec) -> SimBoard {
+        SimBoard::for_model(spec, Eeprom::Memory(MemNvm::new(persist::capacity(spec))))
+    }
+
+    /// A board with the given profile on a free axis with the given EEPROM.
+    pub fn for_profile(profile: Profile, eeprom: Eeprom) -> SimBoard {
         let world = World::default();
         let plan = Plan::compile(&world).expect("the default world is valid");
         let mut board = SimBoard {
             eeprom,
+            profile,
             driver: Driver::new(plan.min_speed),
             next_event: 0,
             clock: None,
@@ -309,7 +354,7 @@ impl SimBoard {
         board
     }
 
-    /// A board with an in-memory EEPROM of `capacity` bytes.
+    /// A PD28-1021 board with an in-memory EEPROM of `capacity` bytes.
     pub fn in_memory(capacity: usize) -> SimBoard {
         SimBoard::new(Eeprom::Memory(MemNvm::new(capacity)))
     }
@@ -321,10 +366,10 @@ impl SimBoard {
     }
 
     /// Puts the board into `world`, as at power-up: the rotor at `axis.start`, inputs and faults as at
-    /// time 0, the energy figure and stallGuard2 reset. The EEPROM and the outputs are kept.
+    /// time 0, the energy figure and stallGuard2 reset. The EEPROM, the profile and the outputs are kept.
     pub fn set_world(&mut self, world: World) -> Result<(), WorldError> {
         world.check()?;
-        let fresh = SimBoard::new(Eeprom::Memory(MemNvm::new(0)));
+        let fresh = SimBoard::for_profile(self.profile, Eeprom::Memory(MemNvm::new(0)));
         let eeprom = std::mem::replace(&mut self.eeprom, fresh.eeprom);
         let clock = self.clock.take();
         let outputs = self.outputs;
@@ -351,6 +396,18 @@ impl SimBoard {
     pub fn with_clock(mut self, clock: impl FnMut() -> Instant + Send + 'static) -> SimBoard {
         self.clock = Some(Clock(Box::new(clock)));
         self
+    }
+
+    /// What the board is (from the model).
+    pub fn profile(&self) -> &Profile {
+        &self.profile
+    }
+
+    /// Sensor readings now: what the firmware reads through [`EncoderCounter::encoder_counts`],
+    /// [`LoadSensor::load`] and [`LoadSensor::driver_flags`].
+    pub fn feedback(&mut self) -> Feedback {
+        self.sync();
+        Feedback { encoder_counts: self.counts(), load: self.driver.load(), driver_flags: self.flags() }
     }
 
     /// The description of the world the board is in.
@@ -592,9 +649,16 @@ impl SimBoard {
         self.plan.switches[n].as_ref().is_some_and(|s| s.level(self.now))
     }
 
-    fn encoder_counts(&self) -> i64 {
+    /// Encoder counts now (see [`Feedback::encoder_counts`]).
+    fn counts(&self) -> i64 {
+        let Some(per_rev) = self.profile.encoder_counts_per_rev() else { return 0 };
         let turns = (self.plan.mech.rotor() - self.plan.encoder_zero) / self.plan.mech.usteps_per_rev();
-        floor_i64(turns * ENCODER_COUNTS_PER_REV as f64) + self.encoder_slip
+        floor_i64(turns * f64::from(per_rev)) + self.encoder_slip
+    }
+
+    /// AP 208 now.
+    fn flags(&self) -> u8 {
+        self.driver.flags(self.now, self.error_flags())
     }
 }
 
@@ -624,11 +688,14 @@ impl Nvm for SimBoard {
     }
 }
 
-impl Io for SimBoard {
+impl Inputs for SimBoard {
     fn digital_inputs(&mut self) -> u8 {
         self.sync();
-        self.world.inputs
+        self.world.inputs & self.profile.input_mask()
     }
+}
+
+impl Analog for SimBoard {
     fn analog_input(&mut self, channel: u8) -> u16 {
         self.sync();
         if channel == 0 {
@@ -641,16 +708,22 @@ impl Io for SimBoard {
         self.sync();
         self.world.temperature
     }
+}
+
+impl Outputs for SimBoard {
     fn set_outputs(&mut self, bits: u8) {
-        self.outputs = bits;
+        self.outputs = bits & self.profile.output_mask();
     }
+}
+
+impl SwitchInputs for SimBoard {
     fn switches(&mut self) -> Switches {
         self.sync();
         Switches { left: self.level(0), right: self.level(1), home: self.level(2) }
     }
 }
 
-impl Drive for SimBoard {
+impl StepDriver for SimBoard {
     fn update(&mut self, now: Instant, state: &DriveState) {
         self.advance(now);
         self.drive = *state;
@@ -684,7 +757,7 @@ impl Drive for SimBoard {
                     angle.sin()
                 }
             };
-            if state.enabled {
+            if state.enabled && self.profile.measures_load() {
                 self.driver.measure(crossings, speed, ratio, stalled);
             }
             self.track_switches();
@@ -692,23 +765,36 @@ impl Drive for SimBoard {
         self.updated = now;
     }
 
-    fn feedback(&mut self) -> Feedback {
-        self.sync();
-        Feedback {
-            encoder_counts: self.encoder_counts(),
-            load: self.driver.load(),
-            driver_flags: self.driver.flags(self.now, self.error_flags()),
-        }
-    }
-
     fn configure(&mut self, settings: &DriverSettings) {
         self.driver.settings = *settings;
         self.power();
+    }
+}
+
+/// The load measurement: stallGuard2 when the model's driver is a TMC262 (else no measurement is taken
+/// in [`StepDriver::update`], and the load stays 1023).
+impl LoadSensor for SimBoard {
+    fn load(&mut self) -> u16 {
+        self.sync();
+        self.driver.load()
     }
 
     fn load_measurements(&mut self) -> u32 {
         self.sync();
         self.driver.measurements()
+    }
+
+    fn driver_flags(&mut self) -> u8 {
+        self.sync();
+        self.flags()
+    }
+}
+
+/// The model's encoder (none: 0 counts).
+impl EncoderCounter for SimBoard {
+    fn encoder_counts(&mut self) -> i64 {
+        self.sync();
+        self.counts()
     }
 }
 

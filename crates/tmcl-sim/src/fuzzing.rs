@@ -3,7 +3,6 @@
 
 use crate::board::SimBoard;
 use tmcl_core::model::pd28_1021::SPEC;
-use tmcl_core::param::persist;
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{Command, Frame, Reply, ReplyFrame, Request, FRAME_LEN};
 
@@ -13,7 +12,7 @@ use tmcl_wire::{Command, Frame, Reply, ReplyFrame, Request, FRAME_LEN};
 /// Input layout: repeated `[gap, len, bytes...]`, where `gap` is in milliseconds (0..=255) and `len` the
 /// number of following bytes to deliver at once.
 pub fn module_stream(data: &[u8]) {
-    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     let mut now = Instant::ZERO;
     let mut out = Vec::new();
     let mut rest = data;
@@ -39,7 +38,7 @@ pub fn module_stream(data: &[u8]) {
 /// Feeds an arbitrary line stream to a module in ASCII mode (entered with 139) and checks that every
 /// line addressed to it gets one reply of the §3.4.3 form.
 pub fn ascii_lines(data: &[u8]) {
-    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     let mut out = Vec::new();
     let enter = Request { address: 1, instruction: Command::EnterAscii.encode() }.to_bytes();
     module.receive(Instant::ZERO, &enter, &mut |_: &[u8]| {});
@@ -78,13 +77,13 @@ pub fn one_frame(data: &[u8]) {
     if let Ok(request) = Request::parse(&frame) {
         if let Ok(command) = Command::decode(request.instruction) {
             assert_eq!(Command::decode(command.encode()), Ok(command));
-            let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+            let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
             let _ = module.execute(command, Instant::ZERO);
             module.poll(Instant::from_secs(1), &mut |_: &[u8]| {});
         }
     }
     let mut out = Vec::new();
-    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     module.receive(Instant::ZERO, &data[..FRAME_LEN], &mut |b: &[u8]| out.extend_from_slice(b));
     check_replies(&out);
 }
@@ -94,7 +93,7 @@ pub fn one_frame(data: &[u8]) {
 /// module time while a host pokes at the module.
 /// The machine must stay bounded: every poll returns, and the program never panics the core.
 pub fn program(data: &[u8]) {
-    let mut module = Module::new(SimBoard::in_memory(persist::capacity(&SPEC)), &SPEC, Instant::ZERO);
+    let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     let mut cells = Vec::new();
     let mut inputs = Vec::new();
     for chunk in data.chunks_exact(8).take(usize::from(SPEC.program_memory)) {

@@ -3,6 +3,7 @@
 //!
 //! - [`nvm`]: the EEPROM, in memory ([`MemNvm`]) or in a crash-safe file ([`FileNvm`]).
 //! - [`board`]: [`SimBoard`], the board the firmware core runs on.
+//! - [`profile`]: what the board takes from the model ([`Profile`]: encoder, driver, inputs, outputs).
 //! - [`world`]: the [`World`] around the motor, from a TOML world file (`docs/world.md`).
 //! - [`motor`]: the stepper and its load (load angle, lost steps, freewheeling).
 //! - [`driver`]: the TMC262 as the firmware sees it (current, stallGuard2, flags, energy).
@@ -12,8 +13,10 @@ pub mod driver;
 pub mod fuzzing;
 pub mod motor;
 pub mod nvm;
+pub mod profile;
 pub mod world;
 
-pub use board::{Eeprom, SimBoard};
+pub use board::{Eeprom, Feedback, SimBoard};
 pub use nvm::{FileNvm, MemNvm, NvmError, Options};
+pub use profile::Profile;
 pub use world::{World, WorldError};

@@ -1,8 +1,8 @@
-//! The motor, driver and sensor models of `SimBoard`, driven directly through `Drive::update` and through
-//! a module running the firmware.
+//! The motor, driver and sensor models of `SimBoard`, driven directly through `StepDriver::update` and
+//! through a module running the firmware.
 
 use proptest::prelude::*;
-use tmcl_core::hal::{Drive, DriveState, DriverSettings, Io};
+use tmcl_core::hal::{Analog, DriveState, DriverSettings, Inputs, LoadSensor, StepDriver, SwitchInputs};
 use tmcl_core::model::pd28_1021::SPEC;
 use tmcl_core::param::persist;
 use tmcl_core::{Duration, Instant, Module, Outcome};

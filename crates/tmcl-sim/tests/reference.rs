@@ -119,7 +119,7 @@ fn homed(active: &str) -> String {
 
 #[test]
 fn modes_5_to_8_zero_in_the_middle_of_home() {
-    // 5: negative; 6: positive, reversing at the right switch; 8: negative (AMB-2), ends ignored.
+    // 5: negative; 6: positive, reversing at the right switch; 8: negative (Table 21; §7.1.8's "positive" is copied from mode 7), ends ignored.
     for mode in [5, 6, 8] {
         let mut s = Search::on(&homed("high"));
         assert_eq!(s.run(mode, 30), Some(-20_000), "mode {mode}");
@@ -133,7 +133,7 @@ fn modes_5_to_8_zero_in_the_middle_of_home() {
 
 #[test]
 fn inverted_home_plus_128_and_the_printed_aliases() {
-    // A normally-closed home switch: +128 (133..136), and the manual's printed 129..132 (AMB-33).
+    // A normally-closed home switch: +128 (133..136), and the 129..132 that §7.1.5–7.1.8 print for the inverted modes 5..8.
     for mode in [133, 134, 136, 129, 130, 132] {
         let mut s = Search::on(&homed("low"));
         assert_eq!(s.run(mode, 30), Some(-20_000), "mode {mode}");

@@ -630,7 +630,7 @@ pub fn parse_ascii_command(
 }
 
 /// The address character of a module or host address (§3.4.2): `A` for 1, `B` for 2, and so on up to
-/// `Z` for 26. The manual does not say what larger addresses use (inventory AMB-15); they have none here.
+/// `Z` for 26. The manual does not say what larger addresses use; they have none here.
 pub fn address_char(address: u8) -> Option<u8> {
     (1..=26).contains(&address).then(|| b'A' + address - 1)
 }

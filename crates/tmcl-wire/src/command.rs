@@ -225,7 +225,8 @@ pub enum Command {
     Cle { flag: ErrorFlag },
     /// VECT (§3.7.34).
     Vect { interrupt: u8, address: i32 },
-    /// RETI (§3.7.35). The type byte is ignored (inventory AMB-5).
+    /// RETI (§3.7.35). The type byte is ignored: the table says `<interrupt number>`, the example prints FF
+    /// with a checksum that fits 0.
     Reti,
     /// ACO (§3.7.27).
     Aco { coord: u8, motor: u8 },

@@ -260,7 +260,7 @@ mod tests {
     static ROR_0_51200: [u8; 9] = [0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0xC8, 0x00, 0xCA];
     /// PD28-1021 manual §3.7.4 (MVP REL example, "MVP REL, 0, -10000"): a negative value.
     static MVP_REL_MINUS_10000: [u8; 9] = [0x01, 0x04, 0x01, 0x00, 0xFF, 0xFF, 0xD8, 0xF0, 0xCC];
-    /// STYLE.md §3.12: `01 01 00 00 00 00 01 F4 F7` is ROR 0, 500.
+    /// ROR 0, 500 (value 0x1F4), checksum computed: `01 01 00 00 00 00 01 F4 F7`.
     static ROR_0_500: [u8; 9] = [0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0x01, 0xF4, 0xF7];
 
     #[test]

@@ -200,7 +200,7 @@ mod tests {
     /// PD28-1021 manual §3.7.16: reply to `CALC MUL, -5000` (the value is the operand).
     static CALC_REPLY: [u8; 9] = [0x02, 0x01, 0x64, 0x13, 0xFF, 0xFF, 0xEC, 0x78, 0xDC];
     /// §3.7.37, second reply of 138 with mask 1 in the §3.2 byte order (the manual prints module before
-    /// host, see inventory AMB-3; we keep Table 3's order). Checksum computed.
+    /// host there, contrary to §3.2; we keep Table 3's order). Checksum computed.
     static EVENT_REPLY: [u8; 9] = [0x02, 0x01, 0x80, 0x8A, 0x00, 0x00, 0x00, 0x01, 0x0E];
 
     #[test]

@@ -18,7 +18,6 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::sync::Arc;
 use tmcl_core::model::{self, ModelSpec};
-use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
 use tmcl_sim::SimBoard;
 use tmcl_wire::{Command, Instruction};
@@ -218,10 +217,10 @@ impl SimOptions {
     }
 }
 
-/// A board with an in-memory EEPROM, in the world a TOML world file describes (`docs/world.md`), or on
-/// the simulator's default free axis.
+/// A board of the model (its profile: encoder, driver, inputs, outputs) with an in-memory EEPROM, in the
+/// world a TOML world file describes (`docs/world.md`), or on the simulator's default free axis.
 fn board(spec: &'static ModelSpec, world: Option<&Path>) -> Result<SimBoard, CliError> {
-    let board = SimBoard::in_memory(persist::capacity(spec));
+    let board = SimBoard::in_memory_for(spec);
     let Some(path) = world else { return Ok(board) };
     let world = tmcl_sim::World::load(path).map_err(|e| CliError::Usage(e.to_string()))?;
     board.with_world(world).map_err(|e| CliError::Usage(format!("{}: {e}", path.display())))

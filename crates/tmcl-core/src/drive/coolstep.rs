@@ -8,7 +8,7 @@
 //!
 //! # Decisions
 //!
-//! - **Thresholds (AMB-28).** The manual labels AP 172 the lower threshold and prints the upper one as
+//! - **Thresholds (Table 15, AP 170/172).** The manual labels AP 172 the lower threshold and prints the upper one as
 //!   (AP 172 + AP 170 + 1) · 32, but its "Hysteresis: (AP 172 + 1) · 32" is mislabelled and the lower
 //!   formula is missing. We follow the TMC262 datasheet's SEMIN/SEMAX registers, which AP 172/170 are:
 //!   the current rises when a reading is **below SEMIN · 32**, and falls when readings are **equal to or
@@ -22,7 +22,7 @@
 //!   (CS + 1)/32, rounded down to a scale: `((CS + 1) >> 1) − 1` or `((CS + 1) >> 2) − 1`, at least 0.
 //!   For CS = 31 that is 15 (16/32) and 7 (8/32).
 //! - **Off (AP 172 = 0).** SEMIN = 0 switches coolStep off in the TMC262; the manual does not say so
-//!   (inventory §3, AP 172). Then the scale is CS, and AP 182/183 have no effect either.
+//!   (Table 15, AP 172). Then the scale is CS, and AP 182/183 have no effect either.
 //! - **Speed (AP 182, 183).** With coolStep on, it regulates only while |AP 3| is **above** AP 182
 //!   ("Above this speed coolStep becomes enabled"); at or below it the scale is AP 183 / 8, the slow-run
 //!   current. Regulation restarts from CS each time it becomes active, so the motor starts with its full
@@ -187,7 +187,7 @@ mod tests {
 
     #[test]
     fn thresholds_follow_the_datasheet_reading_of_ap_170_172() {
-        // Table 15 AP 170: upper threshold (AP 172 + AP 170 + 1) · 32; AMB-28: lower = AP 172 · 32.
+        // Table 15 AP 170: upper threshold (AP 172 + AP 170 + 1) · 32; the lower formula is missing: AP 172 · 32.
         let p = params();
         assert_eq!((p.lower_threshold(), p.upper_threshold()), (64, 192));
         let max = CoolStepParams { hysteresis_start: 15, hysteresis: 15, ..p };

@@ -9,7 +9,8 @@
 //!   microsteps as it is. Strictly more than AP 212 trips. The core stops the motor, sets AP 207 bit
 //!   value 2 ([`crate::module::error_flags::DEVIATION`]) and raises interrupt 21.
 //! - **Prescaler (AP 210).** p = prescaler · 512; bit 2 (value 4) is the clear-on-null function and is
-//!   masked off; the other low bits stay (Table 20's p = 200 for 2 µsteps has bit 3 set; AMB-34).
+//!   masked off; the other low bits stay (Table 20's p = 200 for 2 µsteps has bit 3 set, although §6.2.1
+//!   reserves the four low bits for special functions).
 //! - **Clear-on-null (AP 210 + 4).** "Clear the encoder position each time the encoder passes its
 //!   absolute zero point": the zero point is the step between absolute counts 1023 and 0 (AP 215). Each
 //!   time the counts cross it, either way, AP 209 is set to 0 *at that point*: the counts moved past it
@@ -25,7 +26,7 @@ pub fn clear_on_null_enabled(prescaler: i32) -> bool {
     prescaler & 4 != 0
 }
 
-/// The prescaler value without its function bit (AMB-34: only bit 2 is a function bit).
+/// The prescaler value without its function bit (only bit 2 is one: Table 20's 200 has bit 3 set).
 pub fn prescaler_value(prescaler: i32) -> i32 {
     prescaler & !4
 }
@@ -79,7 +80,7 @@ mod tests {
         assert!(clear_on_null_enabled(25604));
         assert!(!clear_on_null_enabled(25600));
         assert_eq!(prescaler_value(25604), 25600);
-        assert_eq!(prescaler_value(200), 200, "AMB-34: bit 3 of Table 20's 200 stays");
+        assert_eq!(prescaler_value(200), 200, "bit 3 of Table 20's 200 stays");
     }
 
     #[test]

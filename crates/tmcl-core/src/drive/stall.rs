@@ -8,8 +8,8 @@
 //!
 //! # Decisions
 //!
-//! - **AP 181 = 0 is off** (AMB-29, as the parameter table in `model::pd28_1021` decides): the TMCL
-//!   convention, and the factory default must not stop a motor at every stall-like reading.
+//! - **AP 181 = 0 is off** (Table 15 does not say what 0 means; the parameter table in `model::pd28_1021`
+//!   decides): the TMCL convention, and the factory default must not stop a motor at every stall-like reading.
 //! - **"Above" is strict**: at exactly AP 181 the motor is not stopped.
 //! - **Only on a new reading**: the load value of a stallGuard2 measurement taken below the board's
 //!   minimum speed is not valid (TMC262), and a held value must not be taken twice; the caller checks

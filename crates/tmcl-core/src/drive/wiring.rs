@@ -31,7 +31,7 @@ impl<B: Board> Module<B> {
             up_step: ap(Setting::CoolStepUpStep) as u8,
             hysteresis_start: ap(Setting::CoolStepHysteresisStart) as u8,
             speed: self.st.ramp.velocity().unsigned_abs(),
-            threshold_speed: self.to_pps(ap(Setting::CoolStepThresholdSpeed)).max(0) as u32,
+            threshold_speed: self.units_to_pps(ap(Setting::CoolStepThresholdSpeed)).max(0) as u32,
             slow_run_current: ap(Setting::SlowRunCurrent).clamp(0, 255) as u8,
         }
     }
@@ -60,7 +60,7 @@ impl<B: Board> Module<B> {
                 self.st.coolstep.update(load, params);
             }
             // §7.2 / AP 181: stop when the load value reaches 0 above the stop-on-stall speed.
-            let stop_speed = self.to_pps(self.ap(Setting::StopOnStall).unwrap_or(0));
+            let stop_speed = self.units_to_pps(self.ap(Setting::StopOnStall).unwrap_or(0));
             if stall::stall_stop(load, self.st.ramp.velocity(), stop_speed) {
                 self.fault_stop(error_flags::STALL, self.spec.interrupts.stall());
             }

@@ -1,6 +1,6 @@
 //! The ramp generator of one axis (PD28-1021 manual §3.7.1–3.7.4, chapter 4 AP 0–5, 128, 130).
 //!
-//! Integer arithmetic only (STYLE.md §3.11): velocities are kept in µpps (10⁻⁶ microsteps per second),
+//! Integer arithmetic only (small MCUs have no FPU): velocities are kept in µpps (10⁻⁶ microsteps per second),
 //! so one tick of `dt` µs changes the velocity by exactly `AP5 × dt` µpps and moves the axis by
 //! `v × dt` 10⁻¹² microsteps; the remainders are carried, so nothing drifts however long it runs.
 //!
@@ -15,8 +15,9 @@
 //! - **Velocity mode** (AP 128 = 1, ROR/ROL/MST): the speed approaches AP 2 with AP 5 ("the speed will be
 //!   changed using the maximum acceleration parameter", Table 15 AP 128), starting from and stopping at
 //!   AP 130.
-//! - **Limit switches** (AP 12/13, inventory AMB-9): an active switch stops motion towards it at once
-//!   (a hard stop, as the switch inputs of Trinamic ramp generators do); motion away stays possible.
+//! - **Limit switches** (AP 12/13; the manual only says they can be disabled): an active switch stops
+//!   motion towards it at once (a hard stop, as the switch inputs of Trinamic ramp generators do); motion
+//!   away stays possible.
 
 use crate::time::Duration;
 

@@ -186,7 +186,7 @@ pub enum Action {
     Failed,
 }
 
-/// The search state machine (STYLE.md §3.7): idle, or in phase `n` of a mode.
+/// The search state machine: idle, or in phase `n` of a mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Reference {
     /// No search (RFS STATUS 0).

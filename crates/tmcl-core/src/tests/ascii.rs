@@ -19,7 +19,8 @@ fn ascii_bench() -> Bench {
 fn manual_gap_example_with_echo() {
     let mut b = ascii_bench();
     b.sap_ascii("ASAP 1, 0, -5000");
-    // §3.4.3: "AGAP 1, 0" (the manual's "AGAP 0, 1" names motor 1, AMB-14) → "BA 100 -5000".
+    // §3.4.3: "AGAP 1, 0" (the manual's "AGAP 0, 1" names motor 1, which this single-axis module lacks)
+    // → "BA 100 -5000".
     assert_eq!(text(&b.bytes(b"AGAP 1, 0\r")), "AGAP 1, 0\rBA 100 -5000\r");
 }
 

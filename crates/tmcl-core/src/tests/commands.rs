@@ -10,20 +10,20 @@ fn mvp(b: &mut Bench, target: MoveTarget) -> Status {
 #[test]
 fn ror_rol_mst() {
     let mut b = Bench::new();
-    // F1 §3.7.1 ROR 0, 51200: velocity mode, AP 2 = 51200.
+    // §3.7.1 example ROR 0, 51200: velocity mode, AP 2 = 51200.
     assert_eq!(b.bytes(&[0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0xC8, 0x00, 0xCA])[2], 100);
     assert_eq!((b.gap(128), b.gap(2)), (1, 51200));
     b.run(Duration::from_secs(2));
     assert_eq!(b.gap(3), 51200);
     assert!(b.gap(1) > 51200);
-    // F3 §3.7.3 MST: decelerates with AP 5 to 0 (1 s at 51200 pps²).
+    // §3.7.3 example MST: decelerates with AP 5 to 0 (1 s at 51200 pps²).
     b.bytes(&[0x01, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x04]);
     assert_eq!(b.gap(2), 0);
     b.run(Duration::from_millis(500));
     assert!((20_000..30_000).contains(&b.gap(3)));
     b.run(Duration::from_millis(600));
     assert_eq!(b.gap(3), 0);
-    // F2 §3.7.2 ROL 0, 51200: AP 2 = −51200, the counter decreases.
+    // §3.7.2 example ROL 0, 51200: AP 2 = −51200, the counter decreases.
     b.bytes(&[0x01, 0x02, 0x00, 0x00, 0x00, 0x00, 0xC8, 0x00, 0xCB]);
     assert_eq!(b.gap(2), -51200);
     let p = b.gap(1);
@@ -41,12 +41,12 @@ fn ror_rol_mst() {
 #[test]
 fn mvp_abs_rel_coord() {
     let mut b = Bench::new();
-    // F4 §3.7.4 MVP ABS, 0, 90000.
+    // §3.7.4 example MVP ABS, 0, 90000.
     assert_eq!(b.bytes(&[0x01, 0x04, 0x00, 0x00, 0x00, 0x01, 0x5F, 0x90, 0xF5])[2], 100);
     assert_eq!((b.gap(0), b.gap(128), b.gap(8)), (90000, 0, 0));
     b.run(Duration::from_secs(3));
     assert_eq!((b.gap(1), b.gap(8), b.gap(3)), (90000, 1, 0));
-    // F5: MVP REL, 0, -10000: relative to the actual position.
+    // §3.7.4 example MVP REL, 0, -10000: relative to the actual position.
     b.bytes(&[0x01, 0x04, 0x01, 0x00, 0xFF, 0xFF, 0xD8, 0xF0, 0xCC]);
     assert_eq!(b.gap(0), 80000);
     b.run(Duration::from_secs(2));
@@ -54,7 +54,7 @@ fn mvp_abs_rel_coord() {
     // REL past the 32-bit range: status 4, nothing changes.
     assert_eq!(mvp(&mut b, MoveTarget::Rel(i32::MAX)), Status::InvalidValue);
     assert_eq!(b.gap(0), 80000);
-    // F6 MVP COORD, 0, 8 after SCO 8.
+    // §3.7.4 example MVP COORD, 0, 8, after SCO 8.
     assert_eq!(b.cmd(Command::Sco { coord: 8, motor: 0, position: -1234 }).0, Status::Ok);
     b.bytes(&[0x01, 0x04, 0x02, 0x00, 0x00, 0x00, 0x00, 0x08, 0x0F]);
     b.run(Duration::from_secs(3));
@@ -209,7 +209,7 @@ fn io_ports() {
     b.module.board_mut().analog = 4095;
     assert_eq!(b.send(Opcode::Gio, 0, 1, 0).value, 4095);
     assert_eq!(b.send(Opcode::Gio, 9, 1, 0).value, 25);
-    // F16 §3.7.14 SIO 0, 2, 1.
+    // §3.7.14 example SIO 0, 2, 1.
     assert_eq!(b.bytes(&[0x01, 0x0E, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x12])[2], 100);
     assert_eq!(b.module.board().outputs, 1);
     assert_eq!(b.send(Opcode::Gio, 0, 2, 0).value, 1);
@@ -234,11 +234,11 @@ fn io_ports() {
 #[test]
 fn coordinates_and_their_eeprom_copies() {
     let mut b = Bench::new();
-    // F26 SCO 1, 0, 1000; F27 GCO 1, 0.
+    // §3.7.24 example SCO 1, 0, 1000; §3.7.25 example GCO 1, 0.
     assert_eq!(b.bytes(&[0x01, 0x1E, 0x01, 0x00, 0x00, 0x00, 0x03, 0xE8, 0x0B])[2], 100);
     assert_eq!(b.cmd(Command::Gco { coord: 1, motor: 0 }), (Status::Ok, 1000));
     assert_eq!(b.cmd(Command::Sco { coord: 21, motor: 0, position: 0 }).0, Status::WrongType);
-    // F28 (bytes encode CCO 1, 0): capture the actual position.
+    // §3.7.26 example (captioned CCO 3, 0, its bytes encode CCO 1, 0): capture the actual position.
     b.sap(1, 777);
     assert_eq!(b.cmd(Command::Cco { coord: 1, motor: 0 }), (Status::Ok, 777));
     // ACO: from the accumulator.
@@ -303,7 +303,7 @@ fn calc_calcx_aap_agp() {
     calc(&mut b, CalcOp::Load, 0);
     assert_eq!(b.cmd(Command::Aap { param: 4, motor: 0 }).0, Status::InvalidValue);
     assert_eq!(b.gap(4), 12345);
-    // GAP in direct mode never touches the accumulator (§3.6.1).
+    // GAP in direct mode never touches the accumulator (§3.6.5).
     b.gap(1);
     assert_eq!(b.module.host_registers().accumulator, 0);
 }
@@ -333,7 +333,7 @@ fn standalone_only_commands_from_the_host() {
 #[test]
 fn cle_ei_di() {
     let mut b = Bench::new();
-    // F33 CLE ETO, F34 EI 255, F35 DI 255.
+    // §3.7.31–3.7.33 examples CLE ETO, EI 255, DI 255.
     assert_eq!(b.bytes(&[0x01, 0x24, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x26])[2], 100);
     assert_eq!(b.bytes(&[0x01, 0x19, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x19])[2], 100);
     assert!(b.module.vm().interrupt_enabled(255));

@@ -1,4 +1,4 @@
-//! Fixtures and state tests of the whole module (STYLE.md §3.12 b): a module on a test board, driven with
+//! Fixtures and state tests of the whole module: a module on a test board, driven with
 //! frames and time exactly as a host would.
 
 mod ascii;

@@ -123,7 +123,7 @@ fn stap_rsap_and_restore_at_start() {
     let mut b = Bench::new();
     assert_eq!(b.sap(4, 1000), Status::Ok);
     assert_eq!(b.sap(5, 2000), Status::Ok);
-    // F9 §3.7.7: STAP 6, 0 (the manual's own example stores AP 6).
+    // §3.7.7 example: STAP 6, 0 (the manual's own example stores AP 6).
     b.sap(6, 100);
     let out = b.bytes(&[0x01, 0x07, 0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0E]);
     assert_eq!(out[2], 100);
@@ -144,13 +144,13 @@ fn user_variables() {
     for n in [0u8, 42, 55, 56, 255] {
         assert_eq!(b.sgp(n, 2, -(i32::from(n)) - 1), Status::Ok);
     }
-    // F13 §3.7.11 STGP 42, 2.
+    // §3.7.11 example STGP 42, 2.
     assert_eq!(b.bytes(&[0x01, 0x0B, 0x2A, 0x02, 0x00, 0x00, 0x00, 0x00, 0x38])[2], 100);
     assert_eq!(b.cmd(Command::Stgp { param: 55, bank: 2 }).0, Status::Ok);
-    // §5.3: only the first 56 can be stored (AMB-10).
+    // §5.3's text: only the first 56 can be stored (Table 18 marks 56..255 storable too; we follow the text).
     assert_eq!(b.cmd(Command::Stgp { param: 56, bank: 2 }).0, Status::WrongType);
     b.sgp(42, 2, 5);
-    // F14 §3.7.12 RSGP 42, 2.
+    // §3.7.12 example RSGP 42, 2.
     assert_eq!(b.bytes(&[0x01, 0x0C, 0x2A, 0x02, 0x00, 0x00, 0x00, 0x00, 0x39])[2], 100);
     assert_eq!(b.ggp(42, 2), -43);
     b.power_cycle();

@@ -104,7 +104,7 @@ fn inverted_home_switch() {
     b.sap(1, 0);
     let zero = search(&mut b, 136).unwrap();
     assert!(zero < 0, "found the inverted switch at {zero}");
-    // The printed alias 132 (AMB-33) is the same mode.
+    // 132, which §7.1.8 prints for the inverted mode 8 (128 + 8 is 136), is the same mode.
     assert_eq!(b.sap(193, 132), Status::Ok);
 }
 

@@ -25,7 +25,7 @@ fn run_from(b: &mut Bench, address: i32) {
 
 use Command as C;
 
-/// §2.4 "first steps" (inventory P1): rotate, then move between ±512000 forever.
+/// §2.4 "first steps" program: rotate, then move between ±512000 forever.
 fn first_steps() -> Vec<Command> {
     vec![
         C::Rol { motor: 0, velocity: 51200 },
@@ -75,8 +75,8 @@ fn manual_first_steps_alternates() {
 
 #[test]
 fn timer_interrupt_toggles_out0() {
-    // §3.6.6.4 (inventory P2), with OUT0 (the listing's SIO 3 is not a port of this module, AMB-32: those
-    // SIOs fail and the program goes on).
+    // §3.6.6.4 example, with OUT0 (the listing's SIO 3 is not a port of this module, which has OUT0 and
+    // OUT1 only: those SIOs fail and the program goes on).
     let program = vec![
         C::Vect { interrupt: 0, address: 9 },
         C::Sgp { param: 0, bank: 3, value: 1000 },
@@ -110,7 +110,7 @@ fn timer_interrupt_toggles_out0() {
 
 #[test]
 fn jump_table_entry_points() {
-    // §8.6 (inventory P14): routines called with 129 type 1 at addresses 0, 1, 2.
+    // §8.6 example: routines called with 129 type 1 at addresses 0, 1, 2.
     let program = vec![
         C::Ja { address: 3 },
         C::Ja { address: 8 },
@@ -202,7 +202,8 @@ fn reading_commands_load_the_accumulator_only_in_programs() {
 
 #[test]
 fn flags_comp_jc_and_loads() {
-    // A = 5; COMP 5 → EQ; COMP 9 → LT; load 0 → ZE; load −1 → LT (a load compares with 0, AMB-1).
+    // A = 5; COMP 5 → EQ; COMP 9 → LT; load 0 → ZE; load −1 → LT (a load compares with 0, as the §3.6.6.4
+    // example's GIO then JC NZ implies).
     let program = vec![
         C::Calc { op: CalcOp::Load, operand: 5 },
         C::Comp { operand: 5 },
@@ -469,7 +470,7 @@ fn load_program_and_breakpoints() {
 
 #[test]
 fn manual_copy_inputs_to_outputs() {
-    // §3.7.14 (inventory P4): GIO 255, 0 loads all inputs into A; SIO 255, 2, -1 sets the outputs from A.
+    // §3.7.14 example: GIO 255, 0 loads all inputs into A; SIO 255, 2, -1 sets the outputs from A.
     let mut b = Bench::new();
     download(&mut b, &[C::Gio { port: 255, bank: 0 }, C::Sio { port: 255, bank: 2, value: -1 }, C::Ja { address: 0 }]);
     run_from(&mut b, 0);
@@ -482,7 +483,7 @@ fn manual_copy_inputs_to_outputs() {
 
 #[test]
 fn manual_potentiometer_to_position() {
-    // §3.7.29 (inventory P10): GIO 0, 1; CALC MUL, 4; AAP 0, 0: the target follows the analog input × 4.
+    // §3.7.29 example: GIO 0, 1; CALC MUL, 4; AAP 0, 0: the target follows the analog input × 4.
     let mut b = Bench::new();
     download(
         &mut b,

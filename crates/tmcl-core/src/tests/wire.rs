@@ -1,5 +1,5 @@
 //! The module as seen on the wire: framing, checksums, addressing, special replies (manual §3.1–3.2,
-//! §3.7.38–3.7.39, §5.1 GP 66/75/76/87/255).
+//! §3.7.37–3.7.38, §5.1 GP 66/75/76/87/255).
 
 use super::*;
 
@@ -60,7 +60,7 @@ fn split_frames_and_resync_after_garbage() {
 #[test]
 fn module_and_host_address() {
     let mut b = Bench::new();
-    // F11 §3.7.9: SGP 66, 0, 3 — the reply already comes from the new address.
+    // §3.7.9 example: SGP 66, 0, 3 — the reply already comes from the new address.
     let out = b.bytes(&[0x01, 0x09, 0x42, 0x00, 0x00, 0x00, 0x00, 0x03, 0x4F]);
     assert_eq!(&out[..3], &[0x02, 0x03, 0x64]);
     assert_eq!(b.to(1, Opcode::Gap, 1, 0, 0), None);
@@ -80,7 +80,7 @@ fn secondary_address() {
     assert_eq!(b.to(7, Opcode::Gap, 1, 0, 0), None);
     assert_eq!(b.sgp(87, 0, 7), Status::Ok);
     let r = b.to(7, Opcode::Gap, 1, 0, 0).unwrap();
-    // Byte 1 of the reply names the module by its primary address (our decision, AMB-15).
+    // Byte 1 of the reply names the module by its primary address (§5.1 GP 87 does not say which; our decision).
     assert_eq!(r.module, 1);
     assert_eq!(b.sgp(87, 0, 0), Status::Ok);
     assert_eq!(b.to(7, Opcode::Gap, 1, 0, 0), None);
@@ -122,7 +122,8 @@ fn telegram_pause_delays_the_reply() {
 #[test]
 fn version_string_and_binary() {
     let mut b = Bench::new();
-    // 136 type 0: host address + "1021V142", no checksum (host-expectations.md).
+    // 136 type 0: host address + "1021V142", no checksum (the manual gives no layout; pytrinamic's
+    // `get_version_string` decodes bytes 1..8 as ASCII).
     let out = b.bytes(&[0x01, 0x88, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x89]);
     assert_eq!(out, [0x02, b'1', b'0', b'2', b'1', b'V', b'1', b'4', b'2']);
     let r = b.send(Opcode::GetVersion, 1, 0, 0);
@@ -133,7 +134,7 @@ fn version_string_and_binary() {
 #[test]
 fn target_reached_event_next_and_every() {
     let mut b = Bench::new();
-    // F38 §3.7.39: 138 type 1, mask 1; the first reply at once.
+    // §3.7.37 example: 138 type 1, mask 1; the first reply at once.
     let out = b.bytes(&[0x01, 0x8A, 0x01, 0x00, 0x00, 0x00, 0x00, 0x01, 0x8D]);
     assert_eq!(out, [0x02, 0x01, 0x64, 0x8A, 0x00, 0x00, 0x00, 0x01, 0xF2]);
     for target in [1000, -500] {

@@ -4,7 +4,7 @@
 //! Data lives here ([`Vm`], [`Program`]); the stepping is in `run.rs` as methods of the module, because
 //! instructions act on the whole module (motion, parameters, I/O).
 //!
-//! The machine (STYLE.md §3.8): `step` fetches the instruction at the PC, decodes it to a command, runs
+//! The machine: `step` fetches the instruction at the PC, decodes it to a command, runs
 //! it, then checks the interrupts. Waiting is a state ([`Wait`]), never a loop. It runs a bounded number of
 //! instructions per poll, each taking [`INSTRUCTION_TIME`] of simulated time.
 //!

@@ -111,8 +111,9 @@ impl<B: Board> Module<B> {
             // §3.7.22 WAIT: waiting is a state; the PC stays on the WAIT until it ends.
             Command::Wait { condition, ticks, .. } => {
                 let ticks = if ticks == -1 { self.st.regs.accumulator } else { ticks };
-                // AMB-25: −1 takes the value from A for every condition; a negative value waits no time
-                // (TICKS) or has no timeout (the others).
+                // −1 takes the value from A for every condition (§3.7.22 shows it only for TICKS); a negative
+                // value, which the manual forbids without saying what it does, waits no time (TICKS) or has
+                // no timeout (the others).
                 let span = Duration::from_micros(WAIT_TICK.micros() * ticks.max(0) as u64);
                 let until = match condition {
                     WaitCondition::Ticks => Some(now + span),
@@ -159,7 +160,7 @@ impl<B: Board> Module<B> {
             }
             other => {
                 if let Ok(crate::module::Outcome::Value(v)) = self.exec(other, now, Origin::Program) {
-                    // §3.6.1: in standalone mode a command that reads a value loads the accumulator
+                    // §3.6.5: in standalone mode a command that reads a value loads the accumulator
                     // (FW V1.35: RFS STATUS too, setting the flags).
                     if other.reads_value() {
                         self.load_accumulator(Origin::Program, v);
@@ -175,7 +176,7 @@ impl<B: Board> Module<B> {
         let met = match wait.condition {
             WaitCondition::Ticks => return wait.until.is_some_and(|u| now >= u).then_some(false),
             WaitCondition::Pos => self.st.ramp.position_reached() && self.st.ramp.velocity() == 0,
-            // WAIT REFSW: the reference (home) switch; WAIT LIMSW: a stop switch (inventory §2.6).
+            // WAIT REFSW: the reference (home) switch; WAIT LIMSW: a limit (stop) switch (§3.7.22).
             WaitCondition::RefSw => self.switches().2,
             WaitCondition::LimSw => {
                 let (l, r, _) = self.switches();
@@ -429,7 +430,7 @@ impl<B: Board> Module<B> {
     }
 
     /// 132: download mode from `address`. Refused with status 5 when the program is protected against
-    /// overwriting (GP 81 = 2 or 3, AMB-31).
+    /// overwriting (GP 81 = 2 or 3; §5.1 does not say which status).
     pub(crate) fn start_download(&mut self, address: i32) -> Result<(), Status> {
         if self.protection() & 2 != 0 {
             return Err(Status::EepromLocked);
@@ -457,8 +458,9 @@ impl<B: Board> Module<B> {
     }
 
     /// 134: the special reply `[host, opcode, type, motor, value (4, MSB first), checksum]`
-    /// (host-expectations.md: pytrinamic's `tmcl_read_script`). Refused with status 6 when the program
-    /// is protected against disassembly (GP 81 = 1 or 3, AMB-31).
+    /// (§3.7.38 gives no format; this is the one pytrinamic's `tmcl_read_script` example reads). Refused
+    /// with status 6 when the program is protected against disassembly (GP 81 = 1 or 3; §5.1 does not say
+    /// which status).
     pub(crate) fn read_memory(&mut self, address: i32) -> Result<[u8; FRAME_LEN], Status> {
         if self.protection() & 1 != 0 {
             return Err(Status::NotAvailable);
@@ -473,8 +475,8 @@ impl<B: Board> Module<B> {
     }
 
     /// 135 types 0/1: mode in bits 31..24 (GP 128), wait flag in bits 23..16 (1 = a WAIT is pending),
-    /// and the download pointer (type 0) or the PC (type 1) in bits 15..0. The manual names the three
-    /// fields but not their packing (AMB-6); this is ours.
+    /// and the download pointer (type 0) or the PC (type 1) in bits 15..0. The manual (§3.7.38) names the
+    /// three fields but not their packing; this is ours.
     pub(crate) fn application_status(&self, program_counter: bool) -> i32 {
         let pointer = if program_counter { self.vm.pc } else { self.vm.download.unwrap_or(0) };
         (self.vm.state.code() << 24) | (i32::from(self.vm.wait.is_some()) << 16) | i32::from(pointer)

@@ -131,7 +131,7 @@ fn timeout_reports_what_arrived() {
     assert!(client.transport_mut().input.is_empty());
 }
 
-/// Command 136 type 0: host address and `1021V142`, no checksum (host-expectations.md, TMC-EvalSystem `tx()`).
+/// Command 136 type 0: host address and `1021V142`, no checksum (the manual gives no layout; pytrinamic's `get_version_string` and TMC-EvalSystem `tx()` use this one).
 #[test]
 fn version_string_raw_reply() {
     let mut raw = [0u8; FRAME_LEN];
@@ -159,7 +159,7 @@ fn version_binary_decoded() {
     assert_eq!(client.transport_mut().sent, [0x01, 0x88, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x8A]);
 }
 
-/// §3.7.39: the 138 event may arrive while another request waits; it is set aside for `wait_event`.
+/// §3.7.37: the 138 event may arrive while another request waits; it is set aside for `wait_event`.
 #[test]
 fn target_reached_event_set_aside() {
     let event = reply(Status::TargetReached, 138, 1);

@@ -1,4 +1,4 @@
-//! Mnemonic lines of the PD28-1021 TMCL manual §3.7 and the ASCII examples of §3.4 (inventory §9.1, §9.3).
+//! Mnemonic lines of the PD28-1021 TMCL manual §3.7 and the ASCII examples of §3.4.
 
 use super::*;
 use std::string::String;
@@ -36,7 +36,7 @@ fn tuple(i: Instruction) -> Tuple {
 
 #[test]
 fn manual_mnemonic_examples() {
-    // inventory §9.1 F1..F37, as (opcode, type, motor, value).
+    // The mnemonic examples of §3.7.1–3.7.35 and a few more, as (opcode, type, motor, value).
     let cases: &[(&str, Tuple)] = &[
         ("ROR 0, 51200", (1, 0, 0, 51200)),
         ("ROL 0, 51200", (2, 0, 0, 51200)),

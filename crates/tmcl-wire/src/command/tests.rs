@@ -1,5 +1,5 @@
-//! Every request frame printed in the PD28-1021 TMCL manual (inventory §9.1, F1–F38), decoded and encoded
-//! again. Where the manual's printed bytes are wrong the corrected frame is used and the erratum noted.
+//! Every request frame printed in the PD28-1021 TMCL manual (the 38 examples of §3.7.1–3.7.37), decoded and
+//! encoded again. Where the manual's printed bytes are wrong the corrected frame is used and the erratum noted.
 
 use super::*;
 use crate::frame::{Frame, Request};
@@ -20,94 +20,94 @@ fn check(bytes: [u8; 9], expected: Command) {
 #[test]
 fn manual_request_vectors() {
     use Command as C;
-    // F1 §3.7.1 ROR 0, 51200
+    // §3.7.1 ROR 0, 51200
     check([0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0xC8, 0x00, 0xCA], C::Ror { motor: 0, velocity: 51200 });
-    // F2 §3.7.2 ROL 0, 51200
+    // §3.7.2 ROL 0, 51200
     check([0x01, 0x02, 0x00, 0x00, 0x00, 0x00, 0xC8, 0x00, 0xCB], C::Rol { motor: 0, velocity: 51200 });
-    // F3 §3.7.3 MST 0
+    // §3.7.3 MST 0
     check([0x01, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x04], C::Mst { motor: 0 });
-    // F4 §3.7.4 MVP ABS, 0, 90000
+    // §3.7.4 MVP ABS, 0, 90000
     check([0x01, 0x04, 0x00, 0x00, 0x00, 0x01, 0x5F, 0x90, 0xF5], C::Mvp { motor: 0, target: MoveTarget::Abs(90000) });
-    // F5 §3.7.4 MVP REL, 0, -10000
+    // §3.7.4 MVP REL, 0, -10000
     check([0x01, 0x04, 0x01, 0x00, 0xFF, 0xFF, 0xD8, 0xF0, 0xCC], C::Mvp { motor: 0, target: MoveTarget::Rel(-10000) });
-    // F6 §3.7.4 MVP COORD, 0, 8
+    // §3.7.4 MVP COORD, 0, 8
     check([0x01, 0x04, 0x02, 0x00, 0x00, 0x00, 0x00, 0x08, 0x0F], C::Mvp { motor: 0, target: MoveTarget::Coord(8) });
-    // F7 §3.7.5 SAP 4, 0, 51200
+    // §3.7.5 SAP 4, 0, 51200
     check([0x01, 0x05, 0x04, 0x00, 0x00, 0x00, 0xC8, 0x00, 0xD2], C::Sap { param: 4, motor: 0, value: 51200 });
-    // F8 §3.7.6 GAP 1, 0
+    // §3.7.6 GAP 1, 0
     check([0x01, 0x06, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x08], C::Gap { param: 1, motor: 0 });
-    // F9 §3.7.7: captioned "STAP 7, 6" / "STAP 6, 12"; the bytes encode STAP 6, 0 (AMB-35).
+    // §3.7.7: captioned "STAP 7, 6" / "STAP 6, 12"; the bytes encode STAP 6, 0; the caption is wrong.
     check([0x01, 0x07, 0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0E], C::Stap { param: 6, motor: 0 });
-    // F10 §3.7.8: printed `01 08 06 00 00 00 00 00 0A` has a wrong checksum (erratum); 0F is right.
+    // §3.7.8: printed `01 08 06 00 00 00 00 00 0A` has a wrong checksum (erratum); 0F is right.
     assert!(Request::parse(&Frame::new_unchecked(&[0x01u8, 0x08, 0x06, 0, 0, 0, 0, 0, 0x0A][..])).is_err());
     check([0x01, 0x08, 0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0F], C::Rsap { param: 6, motor: 0 });
-    // F11 §3.7.9 SGP 66, 0, 3
+    // §3.7.9 SGP 66, 0, 3
     check([0x01, 0x09, 0x42, 0x00, 0x00, 0x00, 0x00, 0x03, 0x4F], C::Sgp { param: 66, bank: 0, value: 3 });
-    // F12 §3.7.10 GGP 66, 0
+    // §3.7.10 GGP 66, 0
     check([0x01, 0x0A, 0x42, 0x00, 0x00, 0x00, 0x00, 0x00, 0x4D], C::Ggp { param: 66, bank: 0 });
-    // F13 §3.7.11 STGP 42, 2
+    // §3.7.11 STGP 42, 2
     check([0x01, 0x0B, 0x2A, 0x02, 0x00, 0x00, 0x00, 0x00, 0x38], C::Stgp { param: 42, bank: 2 });
-    // F14 §3.7.12 RSGP 42, 2
+    // §3.7.12 RSGP 42, 2
     check([0x01, 0x0C, 0x2A, 0x02, 0x00, 0x00, 0x00, 0x00, 0x39], C::Rsgp { param: 42, bank: 2 });
-    // F15 §3.7.13 RFS START, 0
+    // §3.7.13 RFS START, 0
     check([0x01, 0x0D, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0E], C::Rfs { action: RfsAction::Start, motor: 0 });
-    // F16 §3.7.14 SIO 0, 2, 1
+    // §3.7.14 SIO 0, 2, 1
     check([0x01, 0x0E, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x12], C::Sio { port: 0, bank: 2, value: 1 });
-    // F17 §3.7.15 GIO 0, 1
+    // §3.7.15 GIO 0, 1
     check([0x01, 0x0F, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x11], C::Gio { port: 0, bank: 1 });
-    // F18 §3.7.16 CALC MUL, -5000
+    // §3.7.16 CALC MUL, -5000
     check([0x01, 0x13, 0x02, 0x00, 0xFF, 0xFF, 0xEC, 0x78, 0x78], C::Calc { op: CalcOp::Mul, operand: -5000 });
-    // F19 §3.7.17 COMP 1000
+    // §3.7.17 COMP 1000
     check([0x01, 0x14, 0x00, 0x00, 0x00, 0x00, 0x03, 0xE8, 0x00], C::Comp { operand: 1000 });
-    // F20 §3.7.18 JC GE, Label (Label = 10)
+    // §3.7.18 JC GE, Label (Label = 10)
     check(
         [0x01, 0x15, 0x05, 0x00, 0x00, 0x00, 0x00, 0x0A, 0x25],
         C::Jc { condition: Condition::GreaterOrEqual, address: 10 },
     );
-    // F21 §3.7.19 JA Loop (Loop = 10)
+    // §3.7.19 JA Loop (Loop = 10)
     check([0x01, 0x16, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0A, 0x21], C::Ja { address: 10 });
-    // F22 §3.7.20 CSUB SubW (SubW = 100)
+    // §3.7.20 CSUB SubW (SubW = 100)
     check([0x01, 0x17, 0x00, 0x00, 0x00, 0x00, 0x00, 0x64, 0x7C], C::Csub { address: 100 });
-    // F23 §3.7.21 RSUB
+    // §3.7.21 RSUB
     check([0x01, 0x18, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x19], C::Rsub);
-    // F24 §3.7.22 WAIT POS, 0, 0
+    // §3.7.22 WAIT POS, 0, 0
     check(
         [0x01, 0x1B, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1D],
         C::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
     );
-    // F25 §3.7.23 STOP
+    // §3.7.23 STOP
     check([0x01, 0x1C, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1D], C::Stop);
-    // F26 §3.7.24 SCO 1, 0, 1000
+    // §3.7.24 SCO 1, 0, 1000
     check([0x01, 0x1E, 0x01, 0x00, 0x00, 0x00, 0x03, 0xE8, 0x0B], C::Sco { coord: 1, motor: 0, position: 1000 });
-    // F27 §3.7.25 GCO 1, 0
+    // §3.7.25 GCO 1, 0
     check([0x01, 0x1F, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x21], C::Gco { coord: 1, motor: 0 });
-    // F28 §3.7.26: captioned "CCO 3, 0"; the bytes encode CCO 1, 0 (AMB-35).
+    // §3.7.26: captioned "CCO 3, 0"; the bytes encode CCO 1, 0; the caption is wrong.
     check([0x01, 0x20, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x22], C::Cco { coord: 1, motor: 0 });
-    // F29 §3.7.27 ACO 1, 0
+    // §3.7.27 ACO 1, 0
     check([0x01, 0x27, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x29], C::Aco { coord: 1, motor: 0 });
-    // F30 §3.7.28 CALCX MUL
+    // §3.7.28 CALCX MUL
     check([0x01, 0x21, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x24], C::Calcx { op: CalcxOp::Mul });
-    // F31 §3.7.29 AAP 0, 0
+    // §3.7.29 AAP 0, 0
     check([0x01, 0x22, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x23], C::Aap { param: 0, motor: 0 });
-    // F32 §3.7.30 AGP 42, 2
+    // §3.7.30 AGP 42, 2
     check([0x01, 0x23, 0x2A, 0x02, 0x00, 0x00, 0x00, 0x00, 0x50], C::Agp { param: 42, bank: 2 });
-    // F33 §3.7.31 CLE ETO
+    // §3.7.31 CLE ETO
     check([0x01, 0x24, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x26], C::Cle { flag: ErrorFlag::Timeout });
-    // F34 §3.7.32 EI 255
+    // §3.7.32 EI 255
     check([0x01, 0x19, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x19], C::Ei { interrupt: 255 });
-    // F35 §3.7.33 DI 255
+    // §3.7.33 DI 255
     check([0x01, 0x1A, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1A], C::Di { interrupt: 255 });
-    // F36 §3.7.34: printed with type FF, but checksum 58 fits type 00 (AMB-5): VECT 0, 50.
+    // §3.7.34: printed with type FF, but checksum 58 fits type 00 (a typo): VECT 0, 50.
     assert!(Request::parse(&Frame::new_unchecked(&[0x01u8, 0x25, 0xFF, 0, 0, 0, 0, 0x32, 0x58][..])).is_err());
     check([0x01, 0x25, 0x00, 0x00, 0x00, 0x00, 0x00, 0x32, 0x58], C::Vect { interrupt: 0, address: 50 });
-    // F37 §3.7.35: printed with type FF, checksum 27 fits type 00 (AMB-5).
+    // §3.7.35: printed with type FF, checksum 27 fits type 00 (a typo; RETI ignores its type).
     check([0x01, 0x26, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x27], C::Reti);
-    // F38 §3.7.37 command 138 type 1, mask 1
+    // §3.7.37 command 138 type 1, mask 1
     check(
         [0x01, 0x8A, 0x01, 0x00, 0x00, 0x00, 0x00, 0x01, 0x8D],
         C::RequestTargetReachedEvent { mode: EventMode::Every, mask: 1 },
     );
-    // §8.6 run application at 0, 1, 2 (checksums computed, inventory P14).
+    // §8.6 run application at 0, 1, 2 (the manual's jump-table example; checksums computed).
     check([0x01, 0x81, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x83], C::RunApplication { from: Some(0) });
     check([0x01, 0x81, 0x01, 0x00, 0x00, 0x00, 0x00, 0x01, 0x84], C::RunApplication { from: Some(1) });
     check([0x01, 0x81, 0x01, 0x00, 0x00, 0x00, 0x00, 0x02, 0x85], C::RunApplication { from: Some(2) });
