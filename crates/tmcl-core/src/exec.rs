@@ -26,8 +26,7 @@ use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
-    CalcOp, CalcxOp, Command, CommandSet, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind,
-    VersionFormat, FRAME_LEN,
+    CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
 };
 
 type Exec = Result<Outcome, Status>;
@@ -39,6 +38,7 @@ fn value(v: i32) -> Exec {
 impl<B: Board> Module<B> {
     /// Executes one validated command sent by the host at `now`.
     pub fn execute(&mut self, command: Command, now: Instant) -> Exec {
+        self.st.asking_port = 0;
         self.exec(command, now, Origin::Host)
     }
 
@@ -53,10 +53,6 @@ impl<B: Board> Module<B> {
     /// Executes one validated command from the host or the program at `now`.
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
-        // Standalone-only program flow sent by the host (§3.6.3): not available.
-        if origin == Origin::Host && CommandSet::PROGRAM_ONLY.contains(command.opcode()) {
-            return Err(Status::NotAvailable);
-        }
         match command {
             // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
             C::Ror { motor, velocity } => {
@@ -411,6 +407,7 @@ impl<B: Board> Module<B> {
                 }
                 self.st.event.mode = (mask != 0).then_some(mode);
                 self.st.event.mask = mask;
+                self.st.event.port = self.st.asking_port;
                 if mask == 0 {
                     self.st.event.pending = false;
                 }

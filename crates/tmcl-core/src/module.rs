@@ -121,6 +121,8 @@ pub struct State {
     pub(crate) event: EventRequest,
     /// Per host interface: framer, outbox, ASCII line.
     pub(crate) ports: [Port; MAX_INTERFACES],
+    /// The interface whose command runs (a 138 event goes back there).
+    pub(crate) asking_port: u8,
     /// Time up to which motion has been simulated (tick aligned).
     pub(crate) motion_time: Instant,
     /// The latest time the module has been told.
@@ -172,6 +174,7 @@ impl State {
             host_regs: Registers::default(),
             event: EventRequest::default(),
             ports: Default::default(),
+            asking_port: 0,
             motion_time: now,
             now,
             tick_base: (now, 0),
@@ -426,9 +429,7 @@ impl<B: Board> Module<B> {
         self.advance(now);
         let Some(p) = self.st.ports.get_mut(port) else { return };
         p.outbox.flush(self.st.now, sink);
-        if !self.interface(port).is_some_and(|i| i.framing == Framing::Binary) {
-            return;
-        }
+        let Some(iface) = self.interface(port).filter(|i| i.framing == Framing::Binary) else { return };
         let mut rest = bytes;
         while let Some((&b, tail)) = rest.split_first() {
             if self.st.ports[port].ascii.active {
@@ -451,7 +452,7 @@ impl<B: Board> Module<B> {
                 }
             };
             if let Some(frame) = frame {
-                self.handle_frame(port, frame, now);
+                self.handle_frame(port, iface, frame, now);
                 // A command that only reads changes nothing the driver sees; anything else may.
                 if !CommandSet::READ_ONLY.contains_code(frame[1]) {
                     self.update_board(now);
@@ -468,15 +469,13 @@ impl<B: Board> Module<B> {
         self.advance(now);
         let Some(p) = self.st.ports.get_mut(port) else { return };
         p.outbox.flush(self.st.now, sink);
-        if !self.interface(port).is_some_and(|i| i.framing == Framing::Mailbox) {
-            return;
-        }
+        let Some(iface) = self.interface(port).filter(|i| i.framing == Framing::Mailbox) else { return };
         let value = i32::from_be_bytes([message[4], message[5], message[6], message[7]]);
         let instruction = Instruction::new(message[1].into(), message[2], message[3], value);
         self.st.last_command = now;
         self.st.heartbeat_tripped = false;
-        self.handle_instruction(port, instruction, now);
-        if !CommandSet::READ_ONLY.contains(instruction.opcode) {
+        self.handle_instruction(port, iface, instruction, now);
+        if !CommandSet::READ_ONLY.contains_code(message[1]) {
             self.update_board(now);
         }
         self.st.ports[port].outbox.flush(now, sink);
@@ -517,7 +516,8 @@ impl<B: Board> Module<B> {
     /// event, a delayed reply) stays queued for the next poll.
     pub fn execute_instruction(&mut self, now: Instant, instruction: Instruction) -> Result<Outcome, Status> {
         self.advance(now);
-        let result = self.decode(instruction).and_then(|c| self.exec(c, now, Origin::Host));
+        self.st.asking_port = 0;
+        let result = self.decode_host(instruction).and_then(|c| self.exec(c, now, Origin::Host));
         match result {
             Ok(Outcome::Restart(_)) | Ok(Outcome::Silent)
                 if matches!(instruction.opcode, Opcode::SoftwareReset | Opcode::FactoryDefault) =>
@@ -541,11 +541,26 @@ impl<B: Board> Module<B> {
         Command::decode(instruction)
     }
 
-    fn handle_frame(&mut self, port: usize, bytes: [u8; FRAME_LEN], now: Instant) {
+    /// [`Module::decode`] for a command from the host: those the opcode table marks as program-only
+    /// (JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI; §3.6.3) are status 6, command not available.
+    #[inline]
+    pub(crate) fn decode_host(&self, instruction: Instruction) -> Result<Command, Status> {
+        let code = instruction.opcode.code();
+        if !self.spec.commands.contains_code(code) {
+            return Err(Status::InvalidCommand);
+        }
+        let command = Command::decode(instruction)?;
+        if CommandSet::PROGRAM_ONLY.contains_code(code) {
+            return Err(Status::NotAvailable);
+        }
+        Ok(command)
+    }
+
+    fn handle_frame(&mut self, port: usize, iface: &InterfaceDesc, bytes: [u8; FRAME_LEN], now: Instant) {
         let frame = Frame::new_unchecked(&bytes[..]);
         let address = frame.address();
         // §3.1 / §5.1 GP 66, GP 87: on a bus, frames for other addresses get no reply at all.
-        if self.interface(port).is_some_and(|i| i.address_filter) {
+        if iface.address_filter {
             let secondary = self.gp(Setting::SecondaryAddress).unwrap_or(0) as u8;
             if address != self.address() && (secondary == 0 || address != secondary) {
                 return;
@@ -555,29 +570,35 @@ impl<B: Board> Module<B> {
         self.st.heartbeat_tripped = false;
         match Request::parse(&frame) {
             // §3.2.1 status 1; the reply carries opcode 0 and value 0, as Trinamic's TMCL code does.
-            Err(_) => self.queue_reply(port, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
-            Ok(request) => self.handle_instruction(port, request.instruction, now),
+            Err(_) => self.queue_reply(port, iface, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
+            Ok(request) => self.handle_instruction(port, iface, request.instruction, now),
         }
     }
 
     /// Executes a host's instruction (download mode stores it instead) and queues the reply on `port`.
-    fn handle_instruction(&mut self, port: usize, i: Instruction, now: Instant) {
-        let op = u8::from(i.opcode);
+    fn handle_instruction(&mut self, port: usize, iface: &InterfaceDesc, i: Instruction, now: Instant) {
+        let op = i.opcode.code();
         if self.vm.download.is_some() && !i.opcode.is_control() {
             // §3.7.38 132: in download mode every command but the control commands is stored.
             let status = match self.download(i) {
                 Ok(()) => Status::Loaded,
                 Err(status) => status,
             };
-            self.queue_reply(port, op, Ok((status, i.value, op)), now);
+            self.queue_reply(port, iface, op, Ok((status, i.value, op)), now);
             return;
         }
-        let result = self.decode(i).and_then(|c| {
-            if c == Command::EnterAscii && !self.interface(port).is_some_and(|d| d.ascii) {
-                return Err(Status::NotAvailable); // no ASCII mode on this interface
-            }
-            self.exec_on(port, c, now)
-        });
+        self.st.asking_port = port as u8;
+        // As `decode_host`, with the command number at hand.
+        let result = if self.spec.commands.contains_code(op) {
+            Command::decode(i).and_then(|c| {
+                if CommandSet::PROGRAM_ONLY.contains_code(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
+                    return Err(Status::NotAvailable); // program only, or no ASCII mode on this interface
+                }
+                self.exec(c, now, Origin::Host)
+            })
+        } else {
+            Err(Status::InvalidCommand)
+        };
         let reply = match result {
             Ok(Outcome::Value(v)) => Ok((Status::Ok, v, op)),
             Ok(Outcome::Raw(raw)) => Err(raw),
@@ -588,60 +609,51 @@ impl<B: Board> Module<B> {
                 return;
             }
             Ok(Outcome::Restart(v)) => {
-                self.queue_reply(port, op, Ok((Status::Ok, v, op)), now);
+                self.queue_reply(port, iface, op, Ok((Status::Ok, v, op)), now);
                 self.start(now);
                 return;
             }
             Ok(Outcome::EnterAscii) => {
-                self.queue_reply(port, op, Ok((Status::Ok, 0, op)), now);
+                self.queue_reply(port, iface, op, Ok((Status::Ok, 0, op)), now);
                 self.enter_ascii(port);
                 return;
             }
             Err(status) => Ok((status, i.value, op)),
         };
-        self.queue_reply(port, op, reply, now);
+        self.queue_reply(port, iface, op, reply, now);
     }
 
-    /// Executes a host command that arrived on `port` (138 remembers the port for its event).
-    fn exec_on(&mut self, port: usize, c: Command, now: Instant) -> Result<Outcome, Status> {
-        let result = self.exec(c, now, Origin::Host);
-        if matches!(c, Command::RequestTargetReachedEvent { .. }) && result.is_ok() {
-            self.st.event.port = port as u8;
-        }
-        result
+    /// Whether replies on `iface` are suppressed for command `opcode` (§5.1 GP 255; GAP, GGP and GIO
+    /// always reply).
+    #[inline]
+    pub(crate) fn suppressed(&self, iface: &InterfaceDesc, opcode: u8) -> bool {
+        iface.suppressible && self.gp_flag(Setting::SuppressReply) && !CommandSet::ALWAYS_REPLY.contains_code(opcode)
     }
 
-    /// Whether replies on `port` are suppressed for `opcode` (§5.1 GP 255; GAP, GGP and GIO always reply).
-    pub(crate) fn suppressed(&self, port: usize, opcode: Opcode) -> bool {
-        self.interface(port).is_some_and(|i| i.suppressible)
-            && self.gp_flag(Setting::SuppressReply)
-            && !opcode.info().is_some_and(|i| i.always_replies)
-    }
-
-    /// When a reply on `port` to a command at `now` is due (§5.1 GP 75: the telegram pause, in ms).
-    pub(crate) fn reply_due(&self, port: usize, now: Instant) -> Instant {
-        if !self.interface(port).is_some_and(|i| i.telegram_pause) {
+    /// When a reply on `iface` to a command at `now` is due (§5.1 GP 75: the telegram pause, in ms).
+    #[inline]
+    pub(crate) fn reply_due(&self, iface: &InterfaceDesc, now: Instant) -> Instant {
+        if !iface.telegram_pause {
             return now;
         }
         now + Duration::from_millis(self.gp(Setting::TelegramPause).unwrap_or(0).max(0) as u64)
     }
 
-    fn queue_reply(&mut self, port: usize, opcode: u8, reply: ReplyOf, now: Instant) {
-        if self.suppressed(port, Opcode::from(opcode)) {
+    fn queue_reply(&mut self, port: usize, iface: &InterfaceDesc, opcode: u8, reply: ReplyOf, now: Instant) {
+        if self.suppressed(iface, opcode) {
             return;
         }
-        let due = self.reply_due(port, now);
-        self.push_reply(port, reply, due);
+        let due = self.reply_due(iface, now);
+        self.push_reply(port, iface.framing, reply, due);
     }
 
     /// Queues a reply on `port` in the interface's framing: 9 bytes, or 8 in a mailbox (the frame
     /// without its checksum; for the special 136 reply, its 8 characters without the host address).
-    fn push_reply(&mut self, port: usize, reply: ReplyOf, due: Instant) {
+    fn push_reply(&mut self, port: usize, framing: Framing, reply: ReplyOf, due: Instant) {
         let bytes = match reply {
             Ok((status, value, op)) => self.reply_bytes(status, op, value),
             Err(raw) => raw,
         };
-        let framing = self.interface(port).map_or(Framing::Binary, |i| i.framing);
         let Some(p) = self.st.ports.get_mut(port) else { return };
         match framing {
             Framing::Binary => p.outbox.push(&bytes, due),
@@ -779,11 +791,24 @@ impl<B: Board> Module<B> {
     }
 
     /// Runs the motion controller and timers up to `now`.
+    #[inline]
     fn advance(&mut self, now: Instant) {
         if now < self.st.now {
             // Time never runs backwards for the module; a caller's late timestamp is taken as "now".
             return;
         }
+        if self.st.motion_time + TICK > now && self.vm.state != RunState::Running {
+            // The common case between two ticks (frames from a host): no tick is due and no program runs,
+            // so only what may fall due at `now` — exactly what the loop below does in this case.
+            self.st.now = now;
+            self.after_advance(now, false);
+            return;
+        }
+        self.advance_ticks(now);
+    }
+
+    /// [`Module::advance`] when a tick is due or a program runs.
+    fn advance_ticks(&mut self, now: Instant) {
         self.st.now = now;
         // The ramp parameters in force for this call's ticks, read at its start. When no tick is due
         // (a frame between two ticks), none runs in this call: the loop's first pass takes `tick_at`
@@ -865,6 +890,13 @@ impl<B: Board> Module<B> {
                 self.sample_interrupts(t);
             }
         }
+        self.after_advance(now, ticked);
+    }
+
+    /// The end of an advance to `now`: the 138 event, the heartbeat, and the board if anything changed
+    /// for it (`ticked`) or a standby or freewheeling delay ran out.
+    #[inline(always)]
+    fn after_advance(&mut self, now: Instant, ticked: bool) {
         self.check_event(now);
         self.check_heartbeat(now);
         if ticked || self.st.drive_due.is_some_and(|t| t <= now) {
@@ -917,8 +949,10 @@ impl<B: Board> Module<B> {
         let ramp = &self.st.ramp;
         if self.st.event.pending && ramp.mode == Mode::Position && ramp.is_idle() {
             self.st.event.pending = false;
-            let op = Opcode::RequestTargetReachedEvent.into();
-            self.push_reply(usize::from(self.st.event.port), Ok((Status::TargetReached, self.st.event.mask, op)), now);
+            let op = Opcode::RequestTargetReachedEvent.code();
+            let port = usize::from(self.st.event.port);
+            let framing = self.interface(port).map_or(Framing::Binary, |i| i.framing);
+            self.push_reply(port, framing, Ok((Status::TargetReached, self.st.event.mask, op)), now);
         }
     }
 

@@ -384,6 +384,23 @@ fn a_program_in_its_small_memory() {
 }
 
 #[test]
+fn a_command_the_model_lacks_ends_a_program() {
+    let mut r = Rig::new();
+    // Tools load programs without the download checks; an EI (no interrupts here) still never runs.
+    let program = [
+        Instruction::new(Opcode::Calc, 9, 0, 5),
+        Instruction::new(Opcode::Ei, 255, 0, 0),
+        Instruction::new(Opcode::Calc, 9, 0, 6),
+    ];
+    r.module.load_program(&program).unwrap();
+    assert_eq!(r.cmd(Opcode::RunApplication, 1, 0, 0).0, Status::Ok);
+    r.run(Duration::from_millis(10));
+    assert_eq!(r.cmd(Opcode::Ggp, 128, 0, 0), (Status::Ok, 0), "stopped");
+    assert_eq!(r.cmd(Opcode::Ggp, 130, 0, 0), (Status::Ok, 1), "at the EI");
+    assert_eq!(r.cmd(Opcode::GetStatus, 2, 0, 0), (Status::Ok, 5), "the accumulator from before it");
+}
+
+#[test]
 fn the_ascii_line_with_its_command_set() {
     let mut r = Rig::new();
     assert_eq!(r.cmd(Opcode::EnterAscii, 0, 0, 0).0, Status::Ok);

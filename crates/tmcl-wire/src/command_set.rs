@@ -34,6 +34,8 @@ use core::fmt;
 enum Filter {
     ReadOnly,
     ProgramOnly,
+    AlwaysReplies,
+    ReadsValue,
 }
 
 /// A set of command numbers (0..=255), with [`Opcode`]s in and out. Unknown numbers may be members too.
@@ -54,6 +56,14 @@ impl CommandSet {
     /// or an output sees.
     pub const READ_ONLY: CommandSet = CommandSet::ALL_NAMED.filter(Filter::ReadOnly);
 
+    /// The commands that read a value (the table's `reads_value`): in a program they load it into the
+    /// accumulator (PD28-1021 manual §3.6.5; RFS only with type STATUS, see `Command::reads_value`).
+    pub const READS_VALUE: CommandSet = CommandSet::ALL_NAMED.filter(Filter::ReadsValue);
+
+    /// The commands that reply even while replies are suppressed (the table's `always_replies`: GAP, GGP,
+    /// GIO; PD28-1021 manual §5.1, GP 255).
+    pub const ALWAYS_REPLY: CommandSet = CommandSet::ALL_NAMED.filter(Filter::AlwaysReplies);
+
     /// The commands that run only in a program (the table's [`Availability::Program`]): the host gets
     /// status 6 for them (PD28-1021 manual §3.6.3).
     pub const PROGRAM_ONLY: CommandSet = CommandSet::ALL_NAMED.filter(Filter::ProgramOnly);
@@ -67,6 +77,8 @@ impl CommandSet {
                     let keep = match filter {
                         Filter::ReadOnly => info.read_only,
                         Filter::ProgramOnly => matches!(info.availability, Availability::Program),
+                        Filter::AlwaysReplies => info.always_replies,
+                        Filter::ReadsValue => info.reads_value,
                     };
                     if keep {
                         set = set.with(Opcode::from_code(code as u8));
@@ -241,6 +253,8 @@ mod tests {
         let codes = |s: CommandSet| s.iter().map(Opcode::code).collect::<Vec<_>>();
         assert_eq!(codes(CommandSet::READ_ONLY), [6, 10, 15, 31, 134, 135, 136]);
         assert_eq!(codes(CommandSet::PROGRAM_ONLY), [20, 21, 22, 23, 24, 27, 28, 37, 38]);
+        assert_eq!(codes(CommandSet::ALWAYS_REPLY), [6, 10, 15]);
+        assert_eq!(codes(CommandSet::READS_VALUE), [6, 10, 13, 15, 29, 31]);
     }
 
     #[test]

@@ -164,6 +164,7 @@ impl<B: Board> Module<B> {
 
     /// Executes a complete line addressed to this module and queues its reply.
     fn ascii_line(&mut self, port: usize, now: Instant) {
+        self.st.asking_port = port as u8;
         self.st.last_command = now;
         self.st.heartbeat_tripped = false;
         let n = self.st.ports[port].ascii.len;
@@ -188,17 +189,18 @@ impl<B: Board> Module<B> {
                 Ok(AsciiCommand::Instruction(i)) if !self.spec.ascii_commands.contains(i.opcode) => {
                     (Status::NotAvailable, i.value, i.opcode, false)
                 }
-                Ok(AsciiCommand::Instruction(i)) => match self.decode(i) {
+                Ok(AsciiCommand::Instruction(i)) => match self.decode_host(i) {
                     Ok(c) => self.ascii_exec(c, now),
                     Err(status) => (status, i.value, i.opcode, false),
                 },
             }
         };
         // §5.1 GP 255 applies to ASCII replies as well (GAP, GGP, GIO always answer).
-        if !self.suppressed(port, opcode) {
+        let Some(iface) = self.interface(port) else { return };
+        if !self.suppressed(iface, opcode.code()) {
             let mut text: Text<32> = Text::new();
             let _ = write_reply(&mut text, self.host_address(), self.address(), status, value);
-            let due = self.reply_due(port, now);
+            let due = self.reply_due(iface, now);
             self.st.ports[port].outbox.push(text.bytes(), due);
         }
         if leave {

@@ -149,7 +149,14 @@ impl Outbox {
     }
 
     /// Sends every message due at `now`.
+    #[inline]
     pub fn flush(&mut self, now: Instant, sink: &mut impl Sink) {
+        if self.count > 0 {
+            self.flush_due(now, sink);
+        }
+    }
+
+    fn flush_due(&mut self, now: Instant, sink: &mut impl Sink) {
         while self.count > 0 && self.marks[self.first].1 <= now {
             let n = usize::from(self.marks[self.first].0);
             let end = self.start + n;

@@ -53,15 +53,34 @@ pub const EMPTY: Instruction = Instruction::new(Opcode::Unknown(0), 0, 0, 0);
 #[derive(Debug, Clone)]
 pub struct Program {
     pub(crate) cells: [Instruction; MAX_PROGRAM],
+    /// Bit n: cell n holds a command of the model (checked once when the cell is written, so that the
+    /// program machine does not look the command up in the model's set at every step).
+    known: [u64; MAX_PROGRAM / 64],
 }
 
 impl Default for Program {
     fn default() -> Program {
-        Program { cells: [EMPTY; MAX_PROGRAM] }
+        Program { cells: [EMPTY; MAX_PROGRAM], known: [0; MAX_PROGRAM / 64] }
     }
 }
 
 impl Program {
+    /// Writes cell `address` (inside memory); `known` says whether the model has its command.
+    pub(crate) fn set(&mut self, address: usize, instruction: Instruction, known: bool) {
+        if address < MAX_PROGRAM {
+            self.cells[address] = instruction;
+            let bit = 1u64 << (address % 64);
+            let word = &mut self.known[address / 64];
+            *word = if known { *word | bit } else { *word & !bit };
+        }
+    }
+
+    /// Whether cell `address` holds a command of the model.
+    #[inline]
+    pub(crate) fn is_known(&self, address: usize) -> bool {
+        address < MAX_PROGRAM && self.known[address / 64] & (1 << (address % 64)) != 0
+    }
+
     /// The instruction at `address`, if inside memory.
     pub fn get(&self, address: usize) -> Option<&Instruction> {
         self.cells.get(address)

@@ -26,9 +26,14 @@ impl<B: Board> Module<B> {
     pub(crate) fn read_program(&mut self) {
         let n = usize::from(self.spec.program_memory).min(super::MAX_PROGRAM);
         for address in 0..n {
-            self.program.cells[address] =
-                persist::load_program_cell(&mut self.board, self.spec, address).unwrap_or(super::EMPTY);
+            let i = persist::load_program_cell(&mut self.board, self.spec, address).unwrap_or(super::EMPTY);
+            self.program.set(address, i, self.knows(i));
         }
+    }
+
+    /// Whether the model has the command of `i`.
+    fn knows(&self, i: Instruction) -> bool {
+        self.spec.commands.contains(i.opcode)
     }
 
     /// Runs the program up to (not including) `limit`, at most `budget` instructions.
@@ -74,8 +79,11 @@ impl<B: Board> Module<B> {
             self.vm.state = RunState::Stopped; // ran off the end of memory
             return;
         };
-        let Ok(command) = self.decode(instruction) else {
-            self.vm.state = RunState::Stopped; // opcode 0 (empty memory) or garbage: the program ends
+        // A command the model lacks ends the program like garbage (checked when the cell was written).
+        let decoded = if self.program.is_known(usize::from(pc)) { Command::decode(instruction).ok() } else { None };
+        let Some(command) = decoded else {
+            // Opcode 0 (empty memory), garbage, or a command the model lacks: the program ends.
+            self.vm.state = RunState::Stopped;
             return;
         };
         let mut next = pc.wrapping_add(1);
@@ -379,7 +387,7 @@ impl<B: Board> Module<B> {
             let i = instructions.get(address).copied().unwrap_or(super::EMPTY);
             if self.program.cells[address] != i {
                 persist::store_program_cell(&mut self.board, self.spec, address, &i)?;
-                self.program.cells[address] = i;
+                self.program.set(address, i, self.knows(i));
             }
         }
         Ok(())
@@ -452,7 +460,7 @@ impl<B: Board> Module<B> {
         // Only what a program of this model can execute is stored; anything else is refused and not stored.
         self.decode(instruction)?;
         persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
-        self.program.cells[usize::from(address)] = instruction;
+        self.program.set(usize::from(address), instruction, true); // decoded for this model above
         self.vm.download = address.checked_add(1).filter(|a| *a < self.spec.program_memory).or(Some(address));
         Ok(())
     }
