@@ -59,4 +59,16 @@ impl InterfaceDesc {
         telegram_pause: true,
         suppressible: true,
     };
+
+    /// The EtherCAT mailbox as the TMCM-1310's (its manual §3.5–3.6): whole 8-byte messages, no address
+    /// filter, no ASCII mode, no telegram pause, no reply suppression.
+    pub const ETHERCAT_MAILBOX: InterfaceDesc = InterfaceDesc {
+        name: "ethercat-mailbox",
+        kind: InterfaceKind::EtherCatMailbox,
+        framing: Framing::Mailbox,
+        address_filter: false,
+        ascii: false,
+        telegram_pause: false,
+        suppressible: false,
+    };
 }

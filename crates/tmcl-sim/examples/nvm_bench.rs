@@ -7,9 +7,13 @@
 use std::time::{Duration, Instant};
 
 use tmcl_core::hal::Nvm;
+use tmcl_core::model::pd28_1021::SPEC;
+use tmcl_core::param::persist;
 use tmcl_sim::{FileNvm, MemNvm, Options};
 
-const CAPACITY: usize = 2048;
+/// The PD28-1021's real image: 17 408 bytes (header, parameter regions, 2048 program cells). Compactions
+/// rewrite the whole image, so their cost depends on it.
+const CAPACITY: usize = persist::capacity(&SPEC);
 
 /// Times `writes` writes of 4 bytes at spread offsets; returns the sorted durations.
 fn time_writes(nvm: &mut impl Nvm, writes: usize) -> Vec<Duration> {

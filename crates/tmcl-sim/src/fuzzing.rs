@@ -2,9 +2,17 @@
 //! "never panics" is checked on every `cargo test` too.
 
 use crate::board::SimBoard;
-use tmcl_core::model::pd28_1021::SPEC;
+use tmcl_core::model::pd28_1021::{self, SPEC};
+use tmcl_core::model::{InterfaceDesc, ModelDesc, ModelSpec};
+use tmcl_core::module::MAILBOX_LEN;
 use tmcl_core::{Duration, Instant, Module};
-use tmcl_wire::{Command, Frame, Reply, ReplyFrame, Request, FRAME_LEN};
+use tmcl_wire::{Command, Frame, Reply, ReplyFrame, Request, Status, FRAME_LEN};
+
+/// The PD28-1021 with a second interface, an EtherCAT mailbox: a module that serves two interfaces.
+static PD28_WITH_MAILBOX: ModelSpec = ModelSpec::new(ModelDesc {
+    interfaces: &[InterfaceDesc::RS485, InterfaceDesc::ETHERCAT_MAILBOX],
+    ..pd28_1021::DESC
+});
 
 /// Feeds arbitrary bytes to a module on a simulated board, in chunks with arbitrary gaps between them,
 /// and checks what comes out: only whole 9-byte frames, each a valid reply or the 136 special reply.
@@ -89,8 +97,9 @@ pub fn one_frame(data: &[u8]) {
 }
 
 /// Runs an arbitrary program: the bytes are 8-byte cells (opcode, type, motor, value, and one byte that
-/// the host sends as an extra direct-mode command's type), loaded as they are, then run for 2 s of
-/// module time while a host pokes at the module.
+/// the host sends as an extra direct-mode command's type), loaded as they are, then run for 60 ms of
+/// module time (3000 instructions at most, enough to reach every instruction's code and a few WAIT
+/// ticks and timer periods, short enough for millions of runs) while a host pokes at the module.
 /// The machine must stay bounded: every poll returns, and the program never panics the core.
 pub fn program(data: &[u8]) {
     let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
@@ -108,16 +117,83 @@ pub fn program(data: &[u8]) {
     let _ = module.execute(Command::RunApplication { from: Some(0) }, Instant::ZERO);
     let mut now = Instant::ZERO;
     let mut out = Vec::new();
-    for poke in inputs.iter().cycle().take(200) {
+    for poke in inputs.iter().cycle().take(60) {
         // A host reading and writing beside the program (GAP, SGP to a user variable, SIO).
         let _ = module.execute(Command::Gap { param: *poke, motor: 0 }, now);
         let _ = module.execute(Command::Sgp { param: *poke, bank: 2, value: i32::from(*poke) }, now);
         let _ = module.execute(Command::Sio { port: *poke & 1, bank: 2, value: i32::from(*poke >> 7) }, now);
-        now += Duration::from_millis(10);
+        now += Duration::from_millis(1);
         let next = module.poll(now, &mut |b: &[u8]| out.extend_from_slice(b));
         assert!(next.is_none_or(|t| t >= now), "a deadline in the past: {next:?} at {now}");
     }
     check_replies(&out);
+}
+
+/// Feeds two interfaces of one module at once: arbitrary bytes on its RS485 port and arbitrary 8-byte
+/// mailbox messages, interleaved, with arbitrary gaps. Each interface must get only what belongs to it:
+/// whole 9-byte frames on the serial port (until it switches to ASCII); in the mailbox exactly one 8-byte
+/// reply per request (none for 242 and 137) with a known status (134 and 136 have their special layouts),
+/// and between requests only 138 events.
+///
+/// Input layout: repeated `[kind, gap, ...]`: an even `kind` is followed by one 8-byte mailbox message, an
+/// odd one by `len` and `len` bytes for the serial port; `gap` is in milliseconds.
+pub fn two_interfaces(data: &[u8]) {
+    let mut module = Module::new(SimBoard::in_memory_for(&PD28_WITH_MAILBOX), &PD28_WITH_MAILBOX, Instant::ZERO);
+    let mut now = Instant::ZERO;
+    let mut serial = Vec::new();
+    let mut ascii = false;
+    let mut rest = data;
+    let mut events = Vec::new();
+    while let [kind, gap, tail @ ..] = rest {
+        now += Duration::from_millis(u64::from(*gap));
+        if kind % 2 == 0 {
+            let Some(message) = tail.first_chunk::<MAILBOX_LEN>() else { break };
+            let mut reply = Vec::new();
+            module.request(1, now, message, &mut |b: &[u8]| reply.extend_from_slice(b));
+            check_mailbox_reply(message, &reply);
+            rest = &tail[MAILBOX_LEN..];
+        } else {
+            let [len, tail @ ..] = tail else { break };
+            let n = usize::from(*len).min(tail.len());
+            module.receive_on(0, now, &tail[..n], &mut |b: &[u8]| serial.extend_from_slice(b));
+            rest = &tail[n..];
+        }
+        ascii |= module.ascii_mode_on(0);
+        assert!(!module.ascii_mode_on(1), "no ASCII mode in a mailbox");
+        let next = module.poll_port(0, now, &mut |b: &[u8]| serial.extend_from_slice(b));
+        module.poll_port(1, now, &mut |b: &[u8]| events.extend_from_slice(b));
+        if let Some(next) = next {
+            now = next.min(now + Duration::from_millis(10));
+        }
+    }
+    now += Duration::from_secs(1);
+    module.poll_port(0, now, &mut |b: &[u8]| serial.extend_from_slice(b));
+    module.poll_port(1, now, &mut |b: &[u8]| events.extend_from_slice(b));
+    if !ascii {
+        check_replies(&serial);
+    }
+    assert_eq!(events.len() % MAILBOX_LEN, 0, "mailbox events come whole");
+    for event in events.chunks(MAILBOX_LEN) {
+        assert_eq!((event[2], event[3]), (128, 138), "only 138 events arrive between requests: {event:02X?}");
+    }
+}
+
+/// The mailbox's answer to one request (and what else fell due with it, which can only be 138 events).
+fn check_mailbox_reply(request: &[u8; MAILBOX_LEN], out: &[u8]) {
+    assert_eq!(out.len() % MAILBOX_LEN, 0, "mailbox replies come whole: {out:02X?}");
+    let value = i32::from_be_bytes([request[4], request[5], request[6], request[7]]);
+    let silent = request[1] == 242 || (request[1] == 137 && value == 1234);
+    let Some((before, reply)) = out.split_last_chunk::<MAILBOX_LEN>() else {
+        assert!(silent, "every mailbox request is answered: {request:02X?}");
+        return;
+    };
+    for event in before.chunks(MAILBOX_LEN) {
+        assert_eq!((event[2], event[3]), (128, 138), "before the reply only 138 events: {out:02X?}");
+    }
+    // 134 answers with the cell (its opcode where the status would be), 136 type 0 with its string.
+    let special = matches!(request[1], 134 | 136);
+    let known = !matches!(Status::from(reply[2]), Status::Unknown(_)) && reply[3] == request[1];
+    assert!(known || special || reply.iter().all(|b| b.is_ascii_graphic()), "bad mailbox reply {reply:02X?}");
 }
 
 fn check_replies(out: &[u8]) {
@@ -137,6 +213,11 @@ mod tests {
         #[test]
         fn module_stream_never_panics(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {
             module_stream(&data);
+        }
+
+        #[test]
+        fn two_interfaces_never_mix(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {
+            two_interfaces(&data);
         }
 
         #[test]

@@ -159,12 +159,52 @@ pub fn load_program_cell<N: Nvm>(nvm: &mut N, spec: &ModelSpec, address: usize) 
     }
     let mut b = [0u8; PROGRAM_CELL];
     nvm.read(spec.layout().program + address * PROGRAM_CELL, &mut b).ok()?;
+    Some(cell(&b))
+}
+
+/// A program cell's instruction; an empty one (opcode 0) if its checksum is wrong.
+fn cell(b: &[u8; PROGRAM_CELL]) -> Instruction {
     let mut seven = [0u8; 7];
     seven.copy_from_slice(&b[..7]);
     if checksum(&seven) != b[7] {
-        return Some(Instruction::new(0.into(), 0, 0, 0));
+        return Instruction::new(0.into(), 0, 0, 0);
     }
-    Some(Instruction::from_bytes(seven))
+    Instruction::from_bytes(seven)
+}
+
+/// Reads the whole program memory, 32 cells per read (start-up), passing each cell's address and
+/// instruction to `f`, as [`load_program_cell`] reads them one by one. A chunk that cannot be read
+/// gives empty cells. Empty chunks (all zero) from cell `skip_empty_from` on are not passed at all: the
+/// caller knows those cells are empty already.
+pub fn load_program<N: Nvm>(
+    nvm: &mut N,
+    spec: &ModelSpec,
+    skip_empty_from: usize,
+    mut f: impl FnMut(usize, Instruction),
+) {
+    const CHUNK: usize = 32;
+    let cells = usize::from(spec.program_memory);
+    let mut buf = [0u8; CHUNK * PROGRAM_CELL];
+    let mut first = 0;
+    while first < cells {
+        let n = CHUNK.min(cells - first);
+        let bytes = &mut buf[..n * PROGRAM_CELL];
+        if nvm.read(spec.layout().program + first * PROGRAM_CELL, bytes).is_err() {
+            bytes.fill(0);
+        }
+        if first >= skip_empty_from && bytes.iter().fold(0, |any, b| any | b) == 0 {
+            first += n;
+            continue;
+        }
+        for (k, c) in bytes.chunks_exact(PROGRAM_CELL).enumerate() {
+            let mut b = [0u8; PROGRAM_CELL];
+            b.copy_from_slice(c);
+            // Most cells are empty (all zero, which is also a valid cell): no checksum to compute.
+            let i = if u64::from_ne_bytes(b) == 0 { Instruction::new(0.into(), 0, 0, 0) } else { cell(&b) };
+            f(first + k, i);
+        }
+        first += n;
+    }
 }
 
 /// Writes program-memory cell `address` (one atomic write of the 8-byte cell).
@@ -249,6 +289,18 @@ mod tests {
         assert_eq!(load_user(&mut nvm, &SPEC, 55), Ok(-7));
         assert_eq!(store_user(&mut nvm, &SPEC, 56, 1), Err(ParamError::NotPermitted));
         store_coordinate(&mut nvm, &SPEC, 20, 99).unwrap();
+        // The bulk read gives what the cell-by-cell read gives, a bad checksum included.
+        let i = Instruction::new(tmcl_wire::Opcode::Mvp, 0, 0, -5);
+        store_program_cell(&mut nvm, &SPEC, 33, &i).unwrap();
+        nvm.0[SPEC.layout().program + 40 * PROGRAM_CELL] = 4; // cell 40: opcode 4, checksum 0
+        let mut all = Vec::new();
+        load_program(&mut nvm, &SPEC, usize::MAX, |a, c| all.push((a, c)));
+        assert_eq!(all.len(), 2048);
+        for (a, c) in all {
+            assert_eq!(Some(c), load_program_cell(&mut nvm, &SPEC, a), "cell {a}");
+        }
+        assert_eq!(load_program_cell(&mut nvm, &SPEC, 33), Some(i));
+        assert_eq!(load_program_cell(&mut nvm, &SPEC, 40), Some(Instruction::new(0.into(), 0, 0, 0)));
         assert_eq!(load_coordinate(&mut nvm, &SPEC, 20), Ok(99));
         assert_eq!(store_coordinate(&mut nvm, &SPEC, 0, 1), Err(ParamError::OutOfRange));
         let mut small = RamNvm(std::vec![0; 16]);

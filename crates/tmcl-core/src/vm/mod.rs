@@ -56,11 +56,13 @@ pub struct Program {
     /// Bit n: cell n holds a command of the model (checked once when the cell is written, so that the
     /// program machine does not look the command up in the model's set at every step).
     known: [u64; MAX_PROGRAM / 64],
+    /// Every cell from here on is empty.
+    end: usize,
 }
 
 impl Default for Program {
     fn default() -> Program {
-        Program { cells: [EMPTY; MAX_PROGRAM], known: [0; MAX_PROGRAM / 64] }
+        Program { cells: [EMPTY; MAX_PROGRAM], known: [0; MAX_PROGRAM / 64], end: 0 }
     }
 }
 
@@ -69,10 +71,18 @@ impl Program {
     pub(crate) fn set(&mut self, address: usize, instruction: Instruction, known: bool) {
         if address < MAX_PROGRAM {
             self.cells[address] = instruction;
+            if instruction != EMPTY {
+                self.end = self.end.max(address + 1);
+            }
             let bit = 1u64 << (address % 64);
             let word = &mut self.known[address / 64];
             *word = if known { *word | bit } else { *word & !bit };
         }
+    }
+
+    /// Every cell from this address on is empty (a bound, not necessarily the least).
+    pub(crate) fn end(&self) -> usize {
+        self.end
     }
 
     /// Whether cell `address` holds a command of the model.

@@ -24,11 +24,14 @@ impl<B: Board> Module<B> {
 
     /// Loads program memory from the EEPROM (start-up).
     pub(crate) fn read_program(&mut self) {
-        let n = usize::from(self.spec.program_memory).min(super::MAX_PROGRAM);
-        for address in 0..n {
-            let i = persist::load_program_cell(&mut self.board, self.spec, address).unwrap_or(super::EMPTY);
-            self.program.set(address, i, self.knows(i));
-        }
+        let (spec, program) = (self.spec, &mut self.program);
+        persist::load_program(&mut self.board, spec, program.end(), |address, i| {
+            if i == super::EMPTY && program.get(address) == Some(&super::EMPTY) {
+                return; // already so (a fresh module, or an empty cell before and after a restart)
+            }
+            let known = i != super::EMPTY && spec.commands.contains(i.opcode);
+            program.set(address, i, known);
+        });
     }
 
     /// Whether the model has the command of `i`.
