@@ -25,6 +25,7 @@ pub mod diag;
 mod disasm;
 pub mod image;
 pub mod includes;
+mod model_check;
 mod suggest;
 
 pub use assemble::{assemble, assemble_file, assemble_str, Program, SourceLine, MAX_INSTRUCTIONS};
@@ -32,3 +33,4 @@ pub use diag::Diagnostic;
 pub use disasm::{disassemble, DisasmOptions};
 pub use image::{from_bin, to_bin, BinError};
 pub use includes::{BuiltinResolver, FileResolver, LoadError, Resolver, Source};
+pub use model_check::check_model;

@@ -74,6 +74,14 @@ fn asm(args: AsmArgs) -> Result<(), String> {
             return Err(format!("{n} error{}; nothing written", if n == 1 { "" } else { "s" }));
         }
     };
+    let wrong = tmcl_asm::check_model(&program, model, &mut source_line);
+    if !wrong.is_empty() {
+        for d in &wrong {
+            eprintln!("{d}");
+        }
+        let n = wrong.len();
+        return Err(format!("{n} error{}; nothing written", if n == 1 { "" } else { "s" }));
+    }
     if program.instructions.len() > model.program_memory as usize {
         eprintln!(
             "tmcl asm: warning: {} instructions do not fit the {}'s program memory of {}",
@@ -112,6 +120,12 @@ fn disasm(args: DisasmArgs) -> Result<(), String> {
             Ok(())
         }
     }
+}
+
+/// Line `line` (from 1) of the file `file` names, for diagnostics (`None` if it cannot be read).
+pub(crate) fn source_line(file: &str, line: u32) -> Option<String> {
+    let text = std::fs::read_to_string(file).ok()?;
+    text.lines().nth(usize::try_from(line).ok()?.checked_sub(1)?).map(String::from)
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {

@@ -1,4 +1,5 @@
-//! The module: a board, a model and the firmware state, fed with bytes and time.
+//! The module: a board, a model and the firmware state, fed with bytes and time (the entry points for
+//! bytes and time are in [`crate::iface::host`]).
 //!
 //! [`Module::receive_on`] takes bytes from one of the model's host interfaces with the time they arrived
 //! ([`Module::receive`] is the primary interface), [`Module::request`] takes a whole mailbox message;
@@ -26,8 +27,8 @@
 
 use crate::drive::coolstep::CoolStep;
 use crate::hal::{Board, DriveState};
-use crate::iface::{Port, Sink};
-use crate::model::{Framing, InterfaceDesc, Kinematics, ModelSpec, Setting};
+use crate::iface::Port;
+use crate::model::{Framing, Kinematics, ModelSpec, Setting};
 use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Limits, Mode, Ramp, RampParams, Reference, TICK};
 use crate::param::persist;
@@ -37,10 +38,9 @@ use crate::vm::{Program, RunState, Vm};
 use tmcl_model::capacity::{
     MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES,
 };
-use tmcl_wire::{Command, CommandSet, EventMode, Frame, Instruction, Opcode, Reply, Request, Status, FRAME_LEN};
+use tmcl_wire::{EventMode, Opcode, Status, FRAME_LEN};
 
-/// The length of a mailbox message (TMCM-1310 manual §3.6: an 8-byte command, an 8-byte reply).
-pub const MAILBOX_LEN: usize = 8;
+pub use crate::iface::host::MAILBOX_LEN;
 
 /// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
 pub mod flags {
@@ -410,264 +410,6 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// The interface `port` of the model, if it has one.
-    #[inline]
-    pub(crate) fn interface(&self, port: usize) -> Option<&'static InterfaceDesc> {
-        self.spec.interfaces.get(port)
-    }
-
-    /// Feeds bytes that arrived at `now` on the primary interface (see [`Module::receive_on`]).
-    pub fn receive(&mut self, now: Instant, bytes: &[u8], sink: &mut impl Sink) {
-        self.receive_on(0, now, bytes, sink);
-    }
-
-    /// Feeds bytes that arrived at `now` on host interface `port` (an index into the model's interfaces).
-    /// Complete frames are executed; replies and what is due on that interface go to `sink` (at once, or
-    /// after the telegram pause GP 75). Bytes for an interface the model does not have, or for a mailbox
-    /// interface (which takes whole messages, [`Module::request`]), are dropped.
-    pub fn receive_on(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink) {
-        self.advance(now);
-        let Some(p) = self.st.ports.get_mut(port) else { return };
-        p.outbox.flush(self.st.now, sink);
-        let Some(iface) = self.interface(port).filter(|i| i.framing == Framing::Binary) else { return };
-        let mut rest = bytes;
-        while let Some((&b, tail)) = rest.split_first() {
-            if self.st.ports[port].ascii.active {
-                self.ascii_byte(port, b, now);
-                rest = tail;
-                continue;
-            }
-            // A whole frame at once (the usual case: hosts write 9 bytes in one go) skips the byte-wise
-            // framer; it is exactly what pushing its bytes one by one at `now` would give.
-            let framer = &mut self.st.ports[port].framer;
-            let frame = match rest.first_chunk::<FRAME_LEN>() {
-                Some(whole) if framer.pending() == 0 => {
-                    rest = &rest[FRAME_LEN..];
-                    framer.touch(now);
-                    Some(*whole)
-                }
-                _ => {
-                    rest = tail;
-                    framer.push(b, now)
-                }
-            };
-            if let Some(frame) = frame {
-                self.handle_frame(port, iface, frame, now);
-                // A command that only reads changes nothing the driver sees; anything else may.
-                if !CommandSet::READ_ONLY.contains_code(frame[1]) {
-                    self.update_board(now);
-                }
-            }
-        }
-        self.st.ports[port].outbox.flush(now, sink);
-    }
-
-    /// Takes one mailbox message (an 8-byte request without checksum, TMCM-1310 manual §3.6) that
-    /// arrived at `now` on interface `port`, executes it and sends what is due on that interface, its
-    /// 8-byte reply first, to `sink`. A message for an interface that is not a mailbox is dropped.
-    pub fn request(&mut self, port: usize, now: Instant, message: &[u8; MAILBOX_LEN], sink: &mut impl Sink) {
-        self.advance(now);
-        let Some(p) = self.st.ports.get_mut(port) else { return };
-        p.outbox.flush(self.st.now, sink);
-        let Some(iface) = self.interface(port).filter(|i| i.framing == Framing::Mailbox) else { return };
-        let value = i32::from_be_bytes([message[4], message[5], message[6], message[7]]);
-        let instruction = Instruction::new(message[1].into(), message[2], message[3], value);
-        self.st.last_command = now;
-        self.st.heartbeat_tripped = false;
-        self.handle_instruction(port, iface, instruction, now);
-        if !CommandSet::READ_ONLY.contains_code(message[1]) {
-            self.update_board(now);
-        }
-        self.st.ports[port].outbox.flush(now, sink);
-    }
-
-    /// Drops a partial frame on the primary interface: the link was interrupted (a new TCP connection, a
-    /// host that went away), so bytes from before cannot belong to the next request.
-    pub fn reset_link(&mut self) {
-        self.reset_port(0);
-    }
-
-    /// Drops a partial frame on interface `port`.
-    pub fn reset_port(&mut self, port: usize) {
-        if let Some(p) = self.st.ports.get_mut(port) {
-            p.framer.clear();
-        }
-    }
-
-    /// Advances the module to `now`, sends what is due on the primary interface to `sink`, and returns
-    /// when the module next needs to run: the next motion tick while the motor moves, else the next timer
-    /// (standby current, freewheeling, heartbeat, a delayed reply on any interface), or `None` when
-    /// nothing will happen until the next command.
-    pub fn poll(&mut self, now: Instant, sink: &mut impl Sink) -> Option<Instant> {
-        self.poll_port(0, now, sink)
-    }
-
-    /// As [`Module::poll`], sending what is due on interface `port`.
-    pub fn poll_port(&mut self, port: usize, now: Instant, sink: &mut impl Sink) -> Option<Instant> {
-        self.advance(now);
-        if let Some(p) = self.st.ports.get_mut(port) {
-            p.outbox.flush(self.st.now, sink);
-        }
-        self.next_deadline()
-    }
-
-    /// Executes one instruction as if a host had sent it on the primary interface at `now`, without the
-    /// framing: for tests and tools. Returns the reply's status and value; what else becomes due (a 138
-    /// event, a delayed reply) stays queued for the next poll.
-    pub fn execute_instruction(&mut self, now: Instant, instruction: Instruction) -> Result<Outcome, Status> {
-        self.advance(now);
-        self.st.asking_port = 0;
-        let result = self.decode_host(instruction).and_then(|c| self.exec(c, now, Origin::Host));
-        match result {
-            Ok(Outcome::Restart(_)) | Ok(Outcome::Silent)
-                if matches!(instruction.opcode, Opcode::SoftwareReset | Opcode::FactoryDefault) =>
-            {
-                self.start(now)
-            }
-            Ok(Outcome::EnterAscii) => self.enter_ascii(0),
-            _ => {}
-        }
-        self.update_board(now);
-        result
-    }
-
-    /// Validates an instruction for this model: a command the model lacks is status 2 (invalid command),
-    /// then the command's own checks ([`Command::decode`]).
-    #[inline]
-    pub(crate) fn decode(&self, instruction: Instruction) -> Result<Command, Status> {
-        if !self.spec.commands.contains_code(instruction.opcode.code()) {
-            return Err(Status::InvalidCommand);
-        }
-        Command::decode(instruction)
-    }
-
-    /// [`Module::decode`] for a command from the host: those the opcode table marks as program-only
-    /// (JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI; §3.6.3) are status 6, command not available.
-    #[inline]
-    pub(crate) fn decode_host(&self, instruction: Instruction) -> Result<Command, Status> {
-        let code = instruction.opcode.code();
-        if !self.spec.commands.contains_code(code) {
-            return Err(Status::InvalidCommand);
-        }
-        let command = Command::decode(instruction)?;
-        if CommandSet::PROGRAM_ONLY.contains_code(code) {
-            return Err(Status::NotAvailable);
-        }
-        Ok(command)
-    }
-
-    fn handle_frame(&mut self, port: usize, iface: &InterfaceDesc, bytes: [u8; FRAME_LEN], now: Instant) {
-        let frame = Frame::new_unchecked(&bytes[..]);
-        let address = frame.address();
-        // §3.1 / §5.1 GP 66, GP 87: on a bus, frames for other addresses get no reply at all.
-        if iface.address_filter {
-            let secondary = self.gp(Setting::SecondaryAddress).unwrap_or(0) as u8;
-            if address != self.address() && (secondary == 0 || address != secondary) {
-                return;
-            }
-        }
-        self.st.last_command = now;
-        self.st.heartbeat_tripped = false;
-        match Request::parse(&frame) {
-            // §3.2.1 status 1; the reply carries opcode 0 and value 0, as Trinamic's TMCL code does.
-            Err(_) => self.queue_reply(port, iface, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
-            Ok(request) => self.handle_instruction(port, iface, request.instruction, now),
-        }
-    }
-
-    /// Executes a host's instruction (download mode stores it instead) and queues the reply on `port`.
-    fn handle_instruction(&mut self, port: usize, iface: &InterfaceDesc, i: Instruction, now: Instant) {
-        let op = i.opcode.code();
-        if self.vm.download.is_some() && !i.opcode.is_control() {
-            // §3.7.38 132: in download mode every command but the control commands is stored.
-            let status = match self.download(i) {
-                Ok(()) => Status::Loaded,
-                Err(status) => status,
-            };
-            self.queue_reply(port, iface, op, Ok((status, i.value, op)), now);
-            return;
-        }
-        self.st.asking_port = port as u8;
-        // As `decode_host`, with the command number at hand.
-        let result = if self.spec.commands.contains_code(op) {
-            Command::decode(i).and_then(|c| {
-                if CommandSet::PROGRAM_ONLY.contains_code(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
-                    return Err(Status::NotAvailable); // program only, or no ASCII mode on this interface
-                }
-                self.exec(c, now, Origin::Host)
-            })
-        } else {
-            Err(Status::InvalidCommand)
-        };
-        let reply = match result {
-            Ok(Outcome::Value(v)) => Ok((Status::Ok, v, op)),
-            Ok(Outcome::Raw(raw)) => Err(raw),
-            Ok(Outcome::Silent) => {
-                if i.opcode == Opcode::FactoryDefault {
-                    self.start(now);
-                }
-                return;
-            }
-            Ok(Outcome::Restart(v)) => {
-                self.queue_reply(port, iface, op, Ok((Status::Ok, v, op)), now);
-                self.start(now);
-                return;
-            }
-            Ok(Outcome::EnterAscii) => {
-                self.queue_reply(port, iface, op, Ok((Status::Ok, 0, op)), now);
-                self.enter_ascii(port);
-                return;
-            }
-            Err(status) => Ok((status, i.value, op)),
-        };
-        self.queue_reply(port, iface, op, reply, now);
-    }
-
-    /// Whether replies on `iface` are suppressed for command `opcode` (§5.1 GP 255; GAP, GGP and GIO
-    /// always reply).
-    #[inline]
-    pub(crate) fn suppressed(&self, iface: &InterfaceDesc, opcode: u8) -> bool {
-        iface.suppressible && self.gp_flag(Setting::SuppressReply) && !CommandSet::ALWAYS_REPLY.contains_code(opcode)
-    }
-
-    /// When a reply on `iface` to a command at `now` is due (§5.1 GP 75: the telegram pause, in ms).
-    #[inline]
-    pub(crate) fn reply_due(&self, iface: &InterfaceDesc, now: Instant) -> Instant {
-        if !iface.telegram_pause {
-            return now;
-        }
-        now + Duration::from_millis(self.gp(Setting::TelegramPause).unwrap_or(0).max(0) as u64)
-    }
-
-    fn queue_reply(&mut self, port: usize, iface: &InterfaceDesc, opcode: u8, reply: ReplyOf, now: Instant) {
-        if self.suppressed(iface, opcode) {
-            return;
-        }
-        let due = self.reply_due(iface, now);
-        self.push_reply(port, iface.framing, reply, due);
-    }
-
-    /// Queues a reply on `port` in the interface's framing: 9 bytes, or 8 in a mailbox (the frame
-    /// without its checksum; for the special 136 reply, its 8 characters without the host address).
-    fn push_reply(&mut self, port: usize, framing: Framing, reply: ReplyOf, due: Instant) {
-        let bytes = match reply {
-            Ok((status, value, op)) => self.reply_bytes(status, op, value),
-            Err(raw) => raw,
-        };
-        let Some(p) = self.st.ports.get_mut(port) else { return };
-        match framing {
-            Framing::Binary => p.outbox.push(&bytes, due),
-            Framing::Mailbox if reply.is_err() && bytes[1..].iter().all(|b| b.is_ascii_graphic()) => {
-                p.outbox.push(&bytes[1..], due) // 136 type 0: the version string
-            }
-            Framing::Mailbox => p.outbox.push(&bytes[..MAILBOX_LEN], due),
-        }
-    }
-
-    pub(crate) fn reply_bytes(&self, status: Status, opcode: u8, value: i32) -> [u8; FRAME_LEN] {
-        Reply { host: self.host_address(), module: self.address(), status, opcode, value }.to_bytes()
-    }
-
     fn ramp_params(&self) -> RampParams {
         // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
         let (v, a) =
@@ -792,7 +534,7 @@ impl<B: Board> Module<B> {
 
     /// Runs the motion controller and timers up to `now`.
     #[inline]
-    fn advance(&mut self, now: Instant) {
+    pub(crate) fn advance(&mut self, now: Instant) {
         if now < self.st.now {
             // Time never runs backwards for the module; a caller's late timestamp is taken as "now".
             return;
@@ -967,7 +709,7 @@ impl<B: Board> Module<B> {
         }
     }
 
-    fn next_deadline(&self) -> Option<Instant> {
+    pub(crate) fn next_deadline(&self) -> Option<Instant> {
         let mut next: Option<Instant> = self.st.ports.iter().filter_map(|p| p.outbox.next_due()).min();
         let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
         if !self.st.ramp.is_idle() || self.st.event.pending || self.st.reference.is_active() || self.needs_every_tick()

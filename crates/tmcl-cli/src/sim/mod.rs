@@ -201,6 +201,18 @@ impl SimOptions {
                 CliError::Usage(format!("--set {setting}: the module refused it, status {status}"))
             })?;
         }
+        let wrong = tmcl_asm::check_model(&source.program, spec, &mut crate::asm::source_line);
+        if !wrong.is_empty() {
+            for d in &wrong {
+                eprintln!("{d}");
+            }
+            return Err(CliError::Usage(format!(
+                "{}: {} command(s) the {} does not have",
+                source.path.display(),
+                wrong.len(),
+                spec.name
+            )));
+        }
         let memory = usize::from(spec.program_memory);
         if source.program.instructions.len() > memory {
             return Err(CliError::Usage(format!(

@@ -4,6 +4,7 @@
 
 pub mod ascii;
 pub mod binary;
+pub mod host;
 
 pub use binary::{Framer, Outbox, Sink, INTER_BYTE_TIMEOUT};
 
