@@ -296,3 +296,20 @@ fn debug_goes_on_after_unknown_commands_and_errors() {
     assert!(out.contains("The program has ended at 8; `run` starts it again."), "{out}");
     assert!(out.lines().last().is_some_and(|l| l.starts_with("time 0.5")), "{out}");
 }
+
+#[test]
+fn a_command_the_model_lacks_is_an_error_at_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("sac.tmc");
+    std::fs::write(&src, "Loop: SAP 4, 0, 1000\n  SAC 0, 1, 5\nJA Loop\n").unwrap();
+    let bin = dir.path().join("sac.bin");
+    let asm = Command::new(TMCL).arg("asm").arg(&src).arg("-o").arg(&bin).output().unwrap();
+    let err = String::from_utf8_lossy(&asm.stderr);
+    assert_eq!(asm.status.code(), Some(1), "{err}");
+    assert!(err.contains("sac.tmc:2:3: error: `SAC` is not a command of the PD28-1021"), "{err}");
+    assert!(err.contains("\n      SAC 0, 1, 5\n      ^^^"), "{err}");
+    assert!(!bin.exists(), "nothing written");
+    let run = Command::new(TMCL).arg("run").arg(&src).arg("--for").arg("1").output().unwrap();
+    assert!(!run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("1 command(s) the PD28-1021 does not have"));
+}
