@@ -33,8 +33,8 @@ pub fn check_model(
         // Underline the mnemonic where the line spells it, else the line's first word.
         let mnemonic = i.opcode.to_string();
         let lower = text.to_ascii_lowercase();
-        let start = find_word(&lower, &mnemonic.to_ascii_lowercase())
-            .unwrap_or_else(|| text.len() - text.trim_start().len());
+        let start =
+            find_word(&lower, &mnemonic.to_ascii_lowercase()).unwrap_or_else(|| text.len() - text.trim_start().len());
         let end = start + text[start..].find(|c: char| c.is_whitespace() || c == ',').unwrap_or(text.len() - start);
         out.push(Diagnostic::at(&place.file, place.line, &text, start, end, message));
     }

@@ -273,5 +273,4 @@ impl<B: Board> Module<B> {
     pub(crate) fn reply_bytes(&self, status: Status, opcode: u8, value: i32) -> [u8; FRAME_LEN] {
         Reply { host: self.host_address(), module: self.address(), status, opcode, value }.to_bytes()
     }
-
 }
