@@ -4,7 +4,7 @@
 //! [`Module::receive_on`] takes bytes from one of the model's host interfaces with the time they arrived
 //! ([`Module::receive`] is the primary interface), [`Module::request`] takes a whole mailbox message;
 //! [`Module::poll`] advances the motion controller and timers to a given time. What the module has to say
-//! goes back to the interface that asked, through a [`Sink`], and `poll` returns the next instant at
+//! goes back to the interface that asked, through a [`crate::iface::Sink`], and `poll` returns the next instant at
 //! which the module needs to run again (the deadline), so a caller can sleep until then or, in
 //! simulation, jump straight to it. The module never reads a clock.
 //!
