@@ -3,12 +3,17 @@
 //! It takes bytes and time and returns bytes and its next deadline; it never reads a clock. The layers:
 //!
 //! - [`time`]: `Instant`/`Duration` in µs, passed in by the caller.
-//! - [`hal`]: the board traits (EEPROM, I/O and switches, motor driver).
-//! - [`model`]: each product's static description (parameters, ports, interrupts, limits).
-//! - [`param`]: parameter descriptors, ranges, access, and the EEPROM image ([`param::persist`]).
-//! - [`motion`]: the ramp generator.
+//! - [`hal`]: the board traits, one per capability (EEPROM, inputs, outputs, analog, switches, step
+//!   driver, load measurement, encoder).
+//! - [`model`]: each product's description as data, from `tmcl-model` (parameters with their meaning,
+//!   ports, interrupt sources, interfaces, command set, units, driver), checked against this core's
+//!   capacities when it compiles. The core asks a model for a setting or a role, never for a parameter
+//!   number, and a model without one lacks the feature (see [`module`]).
+//! - [`param`]: the parameter tables' types and the EEPROM image ([`param::persist`]).
+//! - [`motion`]: the ramp generator and the reference search.
 //! - [`drive`]: coolStep, stop on stall and the encoder checks, as pure functions of the readings.
-//! - [`iface`]: the byte-fed framer and the reply outbox.
+//! - [`iface`]: per host interface a framer, an outbox and an ASCII line; [`iface::host`] takes bytes and
+//!   mailbox messages and answers on the interface that asked.
 //! - [`module`] and the dispatcher in `exec`: [`Module`], which ties it together.
 //!
 //! Specification: PD28-1021 TMCL firmware manual V1.05 (firmware V1.42). Where the manual is silent or
