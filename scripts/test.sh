@@ -20,7 +20,7 @@ step "documentation (broken links are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 
 step "no_std, heap-free firmware crates"
-cargo build --quiet -p tmcl-wire -p tmcl-core --no-default-features
+cargo build --quiet -p tmcl-wire -p tmcl-model -p tmcl-core --no-default-features
 
 step "Rust tests"
 cargo test --workspace --quiet 2>&1 | tee target/rust-tests.log | grep -E "^(test result|error|failures:|---- )" || true
