@@ -78,15 +78,7 @@ static INTERFACES: [InterfaceDesc; 2] = [
         telegram_pause: false,
         suppressible: false,
     },
-    InterfaceDesc {
-        name: "mailbox",
-        kind: InterfaceKind::EtherCatMailbox,
-        framing: Framing::Mailbox,
-        address_filter: false,
-        ascii: false,
-        telegram_pause: false,
-        suppressible: false,
-    },
+    InterfaceDesc::ETHERCAT_MAILBOX,
 ];
 
 /// Every named command but the interrupt commands (the model has no interrupts).
