@@ -2,7 +2,7 @@
 # A fuzzing campaign: every cargo-fuzz target for RUNS executions (default 10 million) from an empty
 # corpus, JOBS targets at a time (default 2). Needs a nightly toolchain and cargo-fuzz.
 #
-# Usage: scripts/fuzz-campaign.sh [RUNS] [JOBS]
+# Usage: scripts/fuzz-campaign.sh [RUNS] [JOBS]      (TARGETS="a b" to run only those targets)
 #
 # The targets are built with optimisations and without a sanitizer (`-O -s none`): the code under test
 # has no `unsafe`, so AddressSanitizer finds nothing a Rust panic would not, and costs a factor of 3-5 in
@@ -16,7 +16,7 @@ jobs="${2:-2}"
 out=target/fuzz-campaign
 mkdir -p "$out"
 (cd fuzz && cargo +nightly fuzz build -O -s none)
-targets=$(cd fuzz && cargo +nightly fuzz list)
+targets=${TARGETS:-$(cd fuzz && cargo +nightly fuzz list)}
 run_one() {
     local t=$1
     local corpus="$out/corpus-$t"

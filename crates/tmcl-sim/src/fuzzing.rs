@@ -45,6 +45,10 @@ pub fn module_stream(data: &[u8]) {
 
 /// Feeds an arbitrary line stream to a module in ASCII mode (entered with 139) and checks that every
 /// line addressed to it gets one reply of the §3.4.3 form.
+///
+/// (A 10-million-run campaign found that a line can stop being addressed to the module while it is
+/// typed — `A`, backspace, `C…` — after its first characters were echoed; such a line gets no reply, as
+/// every line for another address.)
 pub fn ascii_lines(data: &[u8]) {
     let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     let mut out = Vec::new();
@@ -61,7 +65,10 @@ pub fn ascii_lines(data: &[u8]) {
         if !module.ascii_mode() {
             return; // BIN (or a line that was one after editing) left ASCII mode
         }
-        if !out.is_empty() {
+        // A line addressed to the module when its CR arrives ends in a reply (after an echo, if echo is
+        // on); one that is not (its address character erased and another typed) leaves at most the echo
+        // of what was typed while it was, and no CR.
+        if out.contains(&b'\r') {
             // The reply is the last CR-terminated segment (a line may have turned echo on):
             // two address characters, a space, the status, a space, the value.
             let text = String::from_utf8_lossy(&out);
@@ -208,6 +215,13 @@ fn check_replies(out: &[u8]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The campaign's find: `A`, backspace, NULs, then a line for module C: echoed while addressed, no
+    /// reply.
+    #[test]
+    fn a_line_that_stops_being_addressed_gets_no_reply() {
+        ascii_lines(&[65, 8, 0, 0, 0, 99, 115, 114, 74]);
+    }
 
     proptest::proptest! {
         #[test]
