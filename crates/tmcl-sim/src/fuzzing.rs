@@ -17,8 +17,9 @@ static PD28_WITH_MAILBOX: ModelSpec = ModelSpec::new(ModelDesc {
 /// Feeds arbitrary bytes to a module on a simulated board, in chunks with arbitrary gaps between them,
 /// and checks what comes out: only whole 9-byte frames, each a valid reply or the 136 special reply.
 ///
-/// Input layout: repeated `[gap, len, bytes...]`, where `gap` is in milliseconds (0..=255) and `len` the
-/// number of following bytes to deliver at once.
+/// Input layout: repeated `[gap, len, bytes...]`, where `gap` is in tenths of a millisecond (0..=25.5 ms:
+/// around the 5 ms inter-byte timeout, and short enough that a run's motion stays cheap, so that a
+/// campaign makes millions of runs) and `len` the number of following bytes to deliver at once.
 pub fn module_stream(data: &[u8]) {
     let mut module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
     let mut now = Instant::ZERO;
@@ -26,7 +27,7 @@ pub fn module_stream(data: &[u8]) {
     let mut rest = data;
     let mut ascii = false;
     while let [gap, len, tail @ ..] = rest {
-        now += Duration::from_millis(u64::from(*gap));
+        now += Duration::from_micros(100 * u64::from(*gap));
         let n = usize::from(*len).min(tail.len());
         module.receive(now, &tail[..n], &mut |b: &[u8]| out.extend_from_slice(b));
         // Once a 139 switched to ASCII mode the output is text: frames are not checked any more.
@@ -37,7 +38,7 @@ pub fn module_stream(data: &[u8]) {
             now = next.min(now + Duration::from_millis(10));
         }
     }
-    module.poll(now + Duration::from_secs(1), &mut |b: &[u8]| out.extend_from_slice(b));
+    module.poll(now + Duration::from_millis(100), &mut |b: &[u8]| out.extend_from_slice(b));
     if !ascii {
         check_replies(&out);
     }
@@ -143,7 +144,7 @@ pub fn program(data: &[u8]) {
 /// and between requests only 138 events.
 ///
 /// Input layout: repeated `[kind, gap, ...]`: an even `kind` is followed by one 8-byte mailbox message, an
-/// odd one by `len` and `len` bytes for the serial port; `gap` is in milliseconds.
+/// odd one by `len` and `len` bytes for the serial port; `gap` is in tenths of a millisecond.
 pub fn two_interfaces(data: &[u8]) {
     let mut module = Module::new(SimBoard::in_memory_for(&PD28_WITH_MAILBOX), &PD28_WITH_MAILBOX, Instant::ZERO);
     let mut now = Instant::ZERO;
@@ -152,7 +153,7 @@ pub fn two_interfaces(data: &[u8]) {
     let mut rest = data;
     let mut events = Vec::new();
     while let [kind, gap, tail @ ..] = rest {
-        now += Duration::from_millis(u64::from(*gap));
+        now += Duration::from_micros(100 * u64::from(*gap));
         if kind % 2 == 0 {
             let Some(message) = tail.first_chunk::<MAILBOX_LEN>() else { break };
             let mut reply = Vec::new();
@@ -173,7 +174,7 @@ pub fn two_interfaces(data: &[u8]) {
             now = next.min(now + Duration::from_millis(10));
         }
     }
-    now += Duration::from_secs(1);
+    now += Duration::from_millis(100);
     module.poll_port(0, now, &mut |b: &[u8]| serial.extend_from_slice(b));
     module.poll_port(1, now, &mut |b: &[u8]| events.extend_from_slice(b));
     if !ascii {
