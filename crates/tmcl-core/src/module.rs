@@ -353,7 +353,7 @@ impl<B: Board> Module<B> {
             let _ = persist::format(&mut self.board, spec, true);
         }
         // Replies already queued (the reply of 255 itself) still go out.
-        let outboxes = self.st.ports.clone().map(|p| p.outbox);
+        let outboxes = self.st.ports.each_mut().map(|p| core::mem::take(&mut p.outbox));
         let counts = self.board.encoder_counts();
         self.st = State::new(now);
         for (port, outbox) in self.st.ports.iter_mut().zip(outboxes) {
@@ -470,11 +470,11 @@ impl<B: Board> Module<B> {
         if self.ap(Setting::ChopperOffTime) == Some(0) {
             return (0, false); // AP 167 = 0 "completely disables all driver transistors"
         }
-        let run = self.ap(Setting::RunCurrent).unwrap_or(255);
         match self.st.standstill_since {
             None => (self.regulated_current(self.run_current()), true),
             Some(since) => {
                 let still = now - since;
+                let run = self.ap(Setting::RunCurrent).unwrap_or(255);
                 if self.delay(Setting::FreewheelingDelay).is_some_and(|d| still >= d) {
                     (0, false)
                 } else if self.delay(Setting::PowerDownDelay).is_some_and(|d| still >= d) {
@@ -694,7 +694,7 @@ impl<B: Board> Module<B> {
             let op = Opcode::RequestTargetReachedEvent.code();
             let port = usize::from(self.st.event.port);
             let framing = self.interface(port).map_or(Framing::Binary, |i| i.framing);
-            self.push_reply(port, framing, Ok((Status::TargetReached, self.st.event.mask, op)), now);
+            self.push_reply(port, framing, op, Ok((Status::TargetReached, self.st.event.mask, op)), now);
         }
     }
 

@@ -419,6 +419,13 @@ fn two_interfaces_at_once() {
     assert_eq!(r.cmd(Opcode::EnterAscii, 0, 0, 0).0, Status::Ok);
     assert_eq!(r.mailbox(Opcode::EnterAscii, 0, 0, 0)[2], 6, "no ASCII mode in a mailbox");
     assert_eq!(r.mailbox(Opcode::Gap, 154, 0, 0)[7], 3);
+    // 134 in the mailbox: host address and the cell's 7 bytes, even when they all look like text (an AAP
+    // cell whose bytes and checksum are printable is not taken for a version string).
+    let cell = Instruction::new(Opcode::Aap, 33, 88, 0x2121_2121);
+    r.module.load_program(&[cell]).unwrap();
+    let mut read = vec![2];
+    read.extend_from_slice(&cell.to_bytes());
+    assert_eq!(r.mailbox(Opcode::ReadMemory, 0, 0, 0), read);
     // A 138 event goes back to the interface that asked for it.
     assert_eq!(r.mailbox(Opcode::RequestTargetReachedEvent, 0, 0, 1)[2], 100);
     assert_eq!(r.text("AMVP ABS, 0, 3200\r"), "AMVP ABS, 0, 3200\rBA 100 3200\r");

@@ -32,10 +32,7 @@ impl<B: Board> Module<B> {
     /// after the telegram pause GP 75). Bytes for an interface the model does not have, or for a mailbox
     /// interface (which takes whole messages, [`Module::request`]), are dropped.
     pub fn receive_on(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink) {
-        self.advance(now);
-        let Some(p) = self.st.ports.get_mut(port) else { return };
-        p.outbox.flush(self.st.now, sink);
-        let Some(iface) = self.interface(port).filter(|i| i.framing == Framing::Binary) else { return };
+        let Some(iface) = self.open_port(port, Framing::Binary, now, sink) else { return };
         let mut rest = bytes;
         while let Some((&b, tail)) = rest.split_first() {
             if self.st.ports[port].ascii.active {
@@ -72,10 +69,7 @@ impl<B: Board> Module<B> {
     /// arrived at `now` on interface `port`, executes it and sends what is due on that interface, its
     /// 8-byte reply first, to `sink`. A message for an interface that is not a mailbox is dropped.
     pub fn request(&mut self, port: usize, now: Instant, message: &[u8; MAILBOX_LEN], sink: &mut impl Sink) {
-        self.advance(now);
-        let Some(p) = self.st.ports.get_mut(port) else { return };
-        p.outbox.flush(self.st.now, sink);
-        let Some(iface) = self.interface(port).filter(|i| i.framing == Framing::Mailbox) else { return };
+        let Some(iface) = self.open_port(port, Framing::Mailbox, now, sink) else { return };
         let value = i32::from_be_bytes([message[4], message[5], message[6], message[7]]);
         let instruction = Instruction::new(message[1].into(), message[2], message[3], value);
         self.st.last_command = now;
@@ -85,6 +79,21 @@ impl<B: Board> Module<B> {
             self.update_board(now);
         }
         self.st.ports[port].outbox.flush(now, sink);
+    }
+
+    /// What `receive_on` and `request` do first: advance to `now`, send what is already due on `port`, and
+    /// give its interface if it has the `framing` the caller takes.
+    #[inline(always)]
+    fn open_port(
+        &mut self,
+        port: usize,
+        framing: Framing,
+        now: Instant,
+        sink: &mut impl Sink,
+    ) -> Option<&'static InterfaceDesc> {
+        self.advance(now);
+        self.st.ports.get_mut(port)?.outbox.flush(self.st.now, sink);
+        self.interface(port).filter(|i| i.framing == framing)
     }
 
     /// Drops a partial frame on the primary interface: the link was interrupted (a new TCP connection, a
@@ -141,7 +150,13 @@ impl<B: Board> Module<B> {
     /// then the command's own checks ([`Command::decode`]).
     #[inline]
     pub(crate) fn decode(&self, instruction: Instruction) -> Result<Command, Status> {
-        if !self.spec.commands.contains_code(instruction.opcode.code()) {
+        self.decode_code(instruction, instruction.opcode.code())
+    }
+
+    /// [`Module::decode`] with the command number `code` at hand.
+    #[inline(always)]
+    fn decode_code(&self, instruction: Instruction, code: u8) -> Result<Command, Status> {
+        if !self.spec.commands.contains_code(code) {
             return Err(Status::InvalidCommand);
         }
         Command::decode(instruction)
@@ -152,10 +167,7 @@ impl<B: Board> Module<B> {
     #[inline]
     pub(crate) fn decode_host(&self, instruction: Instruction) -> Result<Command, Status> {
         let code = instruction.opcode.code();
-        if !self.spec.commands.contains_code(code) {
-            return Err(Status::InvalidCommand);
-        }
-        let command = Command::decode(instruction)?;
+        let command = self.decode_code(instruction, code)?;
         if CommandSet::PROGRAM_ONLY.contains_code(code) {
             return Err(Status::NotAvailable);
         }
@@ -194,17 +206,13 @@ impl<B: Board> Module<B> {
             return;
         }
         self.st.asking_port = port as u8;
-        // As `decode_host`, with the command number at hand.
-        let result = if self.spec.commands.contains_code(op) {
-            Command::decode(i).and_then(|c| {
-                if CommandSet::PROGRAM_ONLY.contains_code(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
-                    return Err(Status::NotAvailable); // program only, or no ASCII mode on this interface
-                }
-                self.exec(c, now, Origin::Host)
-            })
-        } else {
-            Err(Status::InvalidCommand)
-        };
+        // As `decode_host`, with one check more: no ASCII mode on an interface without it.
+        let result = self.decode_code(i, op).and_then(|c| {
+            if CommandSet::PROGRAM_ONLY.contains_code(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
+                return Err(Status::NotAvailable);
+            }
+            self.exec(c, now, Origin::Host)
+        });
         let reply = match result {
             Ok(Outcome::Value(v)) => Ok((Status::Ok, v, op)),
             Ok(Outcome::Raw(raw)) => Err(raw),
@@ -250,12 +258,14 @@ impl<B: Board> Module<B> {
             return;
         }
         let due = self.reply_due(iface, now);
-        self.push_reply(port, iface.framing, reply, due);
+        self.push_reply(port, iface.framing, opcode, reply, due);
     }
 
-    /// Queues a reply on `port` in the interface's framing: 9 bytes, or 8 in a mailbox (the frame
-    /// without its checksum; for the special 136 reply, its 8 characters without the host address).
-    pub(crate) fn push_reply(&mut self, port: usize, framing: Framing, reply: ReplyOf, due: Instant) {
+    /// Queues a reply to command `opcode` on `port` in the interface's framing: 9 bytes, or 8 in a mailbox
+    /// (the frame without its checksum; for the special reply of 136, its 8 characters without the host
+    /// address).
+    pub(crate) fn push_reply(&mut self, port: usize, framing: Framing, opcode: u8, reply: ReplyOf, due: Instant) {
+        let special = reply.is_err();
         let bytes = match reply {
             Ok((status, value, op)) => self.reply_bytes(status, op, value),
             Err(raw) => raw,
@@ -263,9 +273,7 @@ impl<B: Board> Module<B> {
         let Some(p) = self.st.ports.get_mut(port) else { return };
         match framing {
             Framing::Binary => p.outbox.push(&bytes, due),
-            Framing::Mailbox if reply.is_err() && bytes[1..].iter().all(|b| b.is_ascii_graphic()) => {
-                p.outbox.push(&bytes[1..], due) // 136 type 0: the version string
-            }
+            Framing::Mailbox if special && opcode == Opcode::GetVersion.code() => p.outbox.push(&bytes[1..], due),
             Framing::Mailbox => p.outbox.push(&bytes[..MAILBOX_LEN], due),
         }
     }

@@ -167,7 +167,7 @@ fn cell(b: &[u8; PROGRAM_CELL]) -> Instruction {
     let mut seven = [0u8; 7];
     seven.copy_from_slice(&b[..7]);
     if checksum(&seven) != b[7] {
-        return Instruction::new(0.into(), 0, 0, 0);
+        return crate::vm::EMPTY;
     }
     Instruction::from_bytes(seven)
 }
@@ -200,7 +200,7 @@ pub fn load_program<N: Nvm>(
             let mut b = [0u8; PROGRAM_CELL];
             b.copy_from_slice(c);
             // Most cells are empty (all zero, which is also a valid cell): no checksum to compute.
-            let i = if u64::from_ne_bytes(b) == 0 { Instruction::new(0.into(), 0, 0, 0) } else { cell(&b) };
+            let i = if u64::from_ne_bytes(b) == 0 { crate::vm::EMPTY } else { cell(&b) };
             f(first + k, i);
         }
         first += n;
