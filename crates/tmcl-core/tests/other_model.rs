@@ -111,6 +111,7 @@ const DESC: ModelDesc = ModelDesc {
     driver: Driver::Tmc428Tmc24x,
     encoder: Some(Encoder { kind: EncoderKind::Abn, counts_per_rev: 4096 }),
     password: Some(1234),
+    peak_current_ma: [1500, 1500],
     manual: "none: a test model",
 };
 

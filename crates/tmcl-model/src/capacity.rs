@@ -5,8 +5,8 @@
 
 /// Motors (axes) the core drives.
 pub const MAX_MOTORS: u8 = 1;
-/// Axis parameter slots per motor (the PD28-1021 has 58).
-pub const MAX_AXIS_PARAMS: usize = 64;
+/// Axis parameter slots per motor (the PD28-1021 has 58, the TMCM-1310 97).
+pub const MAX_AXIS_PARAMS: usize = 112;
 /// Bank 0 slots (19 on the PD28-1021).
 pub const MAX_GLOBAL_PARAMS: usize = 32;
 /// Bank 3 slots (9 on the PD28-1021).

@@ -33,6 +33,7 @@ pub mod layout;
 pub mod param;
 pub mod pd28_1021;
 pub mod port;
+pub mod tmcm_1310;
 pub mod variant;
 
 pub use interface::{Framing, InterfaceDesc, InterfaceKind};
@@ -40,7 +41,7 @@ pub use interrupt::{InterruptDesc, Interrupts, Source, GLOBAL_INTERRUPTS};
 pub use layout::Layout;
 pub use param::{Access, ParamDesc, ParamError, Range, Role, Setting, Table};
 pub use port::{PortDesc, PortKind};
-pub use variant::{Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
+pub use variant::{is_closed_loop, Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
 
 use capacity::*;
 use core::ops::Deref;
@@ -96,8 +97,12 @@ pub struct ModelDesc {
     pub reference_modes: ReferenceModes,
     /// The motor driver.
     pub driver: Driver,
-    /// The encoder, if the module has one.
+    /// The encoder, if the module has one (for a closed-loop module: the encoder it expects by default;
+    /// the parameters say which one is attached).
     pub encoder: Option<Encoder>,
+    /// Peak coil current in mA at current setting 255, in the driver's low and high current range (the
+    /// same twice where the board has one range).
+    pub peak_current_ma: [u16; 2],
     /// The password that unlocks the password-protected parameters (written to the bank 0 parameter with
     /// [`Role::Password`]); `None` for a model without protected parameters.
     pub password: Option<i32>,
@@ -265,6 +270,11 @@ impl ModelSpec {
         {
             return Err(FitError::MissingSetting);
         }
+        if crate::variant::is_closed_loop(&d.axis)
+            && !(d.axis.has(Setting::EncoderResolution) && d.axis.has(Setting::MotorFullSteps) && d.encoder.is_some())
+        {
+            return Err(FitError::MissingSetting);
+        }
         let mut i = 0;
         while i < d.interfaces.len() {
             if d.interfaces[i].address_filter && !d.global.has(Setting::SerialAddress) {
@@ -316,7 +326,7 @@ const fn any_protected(params: &[ParamDesc]) -> bool {
 }
 
 /// Every model this build knows.
-pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC];
+pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC];
 
 /// Finds a model by its `--module` name (case-insensitive).
 pub fn by_id(id: &str) -> Option<&'static ModelSpec> {

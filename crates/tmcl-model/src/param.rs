@@ -34,6 +34,8 @@ pub struct Access {
 impl Access {
     /// Read only.
     pub const R: Access = Access { read: true, write: false, store: false, auto: false, protected: false };
+    /// Write only (a trigger: TMCM-1311 AP 29 "clear I²t exceeded flag").
+    pub const W: Access = Access { read: false, write: true, store: false, auto: false, protected: false };
     /// Read and write, volatile.
     pub const RW: Access = Access { read: true, write: true, store: false, auto: false, protected: false };
     /// Read, write, store and restore.
@@ -135,11 +137,41 @@ pub enum Role {
     /// ([`crate::ModelDesc::password`]) unlocks them until the next start, writing anything else locks them;
     /// it reads 1 while unlocked, 0 while locked, never the password.
     Password,
+    // ---- closed loop (TMCM-1310; the TMCM-1311 sibling's numbers) ------------------------------------
+    /// AP 14: torque-mode target current in mA, signed; writing it enters torque mode.
+    TargetCurrent,
+    /// AP 16: 1 while the measured velocity is within the window of the target velocity.
+    VelocityReached,
+    /// AP 18: the status word (target reached, velocity reached, closed loop, modes, switches, supply,
+    /// temperature, position hold, I²t).
+    StatusWord,
+    /// AP 19: the coil current the closed loop drives, signed mA.
+    ActualTorqueCurrent,
+    /// AP 27: the I²t sum.
+    I2tSum,
+    /// AP 28: how often the I²t limit was exceeded (writable, to reset it).
+    I2tExceedCount,
+    /// AP 29: clears the I²t exceeded flag (write only, the value is ignored).
+    ClearI2t,
+    /// AP 123: the closed loop's current scale factor 0..255.
+    CurrentScale,
+    /// AP 131: velocity measured from the encoder, pps.
+    MeasuredVelocity,
+    /// AP 132: encoder initialisation: write 1 to start; reads 0 not done, 1 running, 2 done, 3 failed.
+    EncoderInit,
+    /// AP 133: 1 while the loop is closed.
+    ClosedLoopActive,
+    /// AP 230: the commutation angle: how far the field leads the rotor, 256 = one full step (90°).
+    Gamma,
+    /// AP 233: the ramp generator's position (the set point the closed loop follows).
+    VirtualPosition,
+    /// AP 237: virtual minus actual position, microsteps.
+    PositionError,
 }
 
 impl Role {
     /// Number of roles (the size of [`Table`]'s role index).
-    pub const COUNT: usize = Role::Password as usize + 1;
+    pub const COUNT: usize = Role::PositionError as usize + 1;
 }
 
 macro_rules! settings {
@@ -224,6 +256,61 @@ settings! {
     MaxEncoderDeviation,
     /// AP 214: power down delay (10 ms units).
     PowerDownDelay,
+    // ---- closed loop (TMCM-1310 with the TMCM-1311 sibling's numbers) -----------------------------
+    /// AP 17: velocity reached window (pps).
+    VelocityWindow,
+    /// AP 20: torque-mode current slope (mA/s); 0 = at once.
+    TorqueSlope,
+    /// AP 25: I²t thermal winding time constant (ms).
+    I2tTimeConstant,
+    /// AP 26: I²t limit (A²·ms); 0 = off.
+    I2tLimit,
+    /// AP 111: the largest commutation angle (0..255, 256 = 90°).
+    CommutationLimit,
+    /// AP 112: encoder offset: encoder counts at electrical angle 0, written by the initialisation.
+    EncoderOffset,
+    /// AP 113: lowest current scale.
+    CurrentScaleMin,
+    /// AP 114: highest current scale.
+    CurrentScaleMax,
+    /// AP 115: what the current scaling regulates on: 0 the commutation angle, 1 the position error.
+    CurrentScaleInput,
+    /// AP 116: below this error the scale steps down.
+    CurrentScaleLower,
+    /// AP 117: above this error the scale steps up.
+    CurrentScaleUpper,
+    /// AP 118: scale step up.
+    CurrentScaleIncrement,
+    /// AP 119: scale step down.
+    CurrentScaleDecrement,
+    /// AP 120: time above the upper limit before each step up (ms).
+    CurrentScaleUpTime,
+    /// AP 121: time below the lower limit before each step down (ms).
+    CurrentScaleDownTime,
+    /// AP 122: current scaling on.
+    CurrentScaleEnable,
+    /// AP 124: correction gain (1/s): catch-up velocity per microstep of position error.
+    CorrectionGain,
+    /// AP 125: maximum following error (microsteps); 0 = off.
+    MaxFollowingError,
+    /// AP 126: maximum correction velocity (pps).
+    MaxCorrectionVelocity,
+    /// AP 127: what MVP REL counts from: 0 the last target, 1 the ramp position, 2 the encoder.
+    RelativePositioning,
+    /// AP 129: closed loop on.
+    ClosedLoop,
+    /// AP 134: position reached window (microsteps).
+    PositionWindow,
+    /// AP 136: standstill correction gain (the hold integrator's rate, 1/1024 per ms).
+    HoldGain,
+    /// AP 138: standstill correction limit (microsteps).
+    HoldLimit,
+    /// AP 201: encoder mode (bit 0 SSI instead of A/B/N; bits 2–4 the N channel).
+    EncoderMode,
+    /// AP 202: motor full steps per revolution.
+    MotorFullSteps,
+    /// AP 210 on a closed-loop module: encoder counts per revolution.
+    EncoderResolution,
     // ---- global parameters, bank 0 ---------------------------------------------------------------
     /// GP 65: baud rate index.
     BaudRate,
@@ -432,6 +519,45 @@ impl Table {
         }
         n
     }
+}
+
+/// Joins parameter lists into one array of `N` entries (in a `static`; fails to compile unless the parts
+/// hold exactly `N`). Models share descriptors this way: the TMCM-1310 takes the TMC262 driver settings of
+/// the PD28-1021's table, re-cited with [`cited`].
+pub const fn join<const N: usize>(parts: &[&[ParamDesc]]) -> [ParamDesc; N] {
+    let mut out = [ParamDesc::plain(0, "", "", Range::ANY, Access::R, 0, ""); N];
+    let mut n = 0;
+    let mut p = 0;
+    while p < parts.len() {
+        let mut i = 0;
+        while i < parts[p].len() {
+            assert!(n < N, "more parameters than the array holds");
+            out[n] = parts[p][i];
+            n += 1;
+            i += 1;
+        }
+        p += 1;
+    }
+    assert!(n == N, "fewer parameters than the array holds");
+    out
+}
+
+/// The entries of `table` numbered `first..=last`, with `section` as their source (the same parameters
+/// documented elsewhere for another model).
+pub const fn cited<const N: usize>(table: &[ParamDesc], first: u8, last: u8, section: &'static str) -> [ParamDesc; N] {
+    let mut out = [ParamDesc::plain(0, "", "", Range::ANY, Access::R, 0, ""); N];
+    let mut n = 0;
+    let mut i = 0;
+    while i < table.len() {
+        if table[i].number >= first && table[i].number <= last {
+            assert!(n < N, "more parameters in the range than the array holds");
+            out[n] = ParamDesc { section, ..table[i] };
+            n += 1;
+        }
+        i += 1;
+    }
+    assert!(n == N, "fewer parameters in the range than the array holds");
+    out
 }
 
 /// Finds a parameter in a plain table by scanning (for tools; the firmware uses [`Table::find`]).

@@ -319,6 +319,8 @@ pub const DESC: ModelDesc = ModelDesc {
     driver: Driver::Tmc262,
     // §6.2: the sensOstep encoder, 1024 counts per revolution, absolute within one turn.
     encoder: Some(Encoder { kind: EncoderKind::SensOstep, counts_per_rev: 1024 }),
+    // Chapter 4 Table 15, AP 179: 1 A peak (0.7 A RMS) in the low sense range, 2 A in the high one.
+    peak_current_ma: [1000, 2000],
     // No protected parameters.
     password: None,
     manual: "PD28-1021 TMCL firmware manual V1.05 (firmware V1.42)",

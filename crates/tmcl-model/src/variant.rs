@@ -86,8 +86,6 @@ pub enum Driver {
     Tmc262,
     /// TMC428 motion controller with a TMC246/249 driver chain on SPI (PDx-113 manual chapter 1).
     Tmc428Tmc24x,
-    /// A closed-loop driver that corrects the rotor from its encoder (TMCM-1310 manual chapter 1).
-    ClosedLoop,
 }
 
 /// What kind of encoder.
@@ -96,8 +94,11 @@ pub enum EncoderKind {
     /// A magnetic absolute single-turn sensor counting from its zero point (the PD28-1021's sensOstep,
     /// manual §6.2).
     SensOstep,
-    /// An incremental A/B/N encoder.
+    /// An incremental A/B/N encoder (TMCM-1310 manual chapter 1).
     Abn,
+    /// An absolute single-turn encoder on SSI (TMCM-1310 manual chapter 1): it reports the angle within
+    /// one revolution; the firmware counts the turns.
+    Ssi,
 }
 
 /// The encoder of a model.
@@ -107,6 +108,13 @@ pub struct Encoder {
     pub kind: EncoderKind,
     /// Counts per motor revolution (1024 on the PD28-1021, manual §6.2).
     pub counts_per_rev: u32,
+}
+
+/// Where the closed loop gets its encoder settings: a closed-loop model sets the encoder's counts per
+/// revolution and the motor's full steps in parameters (TMCM-1311 manual p.82: AP 210 and AP 202), an
+/// open-loop one has a fixed encoder and a prescaler (PD28-1021 manual §6.2: AP 210).
+pub const fn is_closed_loop(axis: &crate::Table) -> bool {
+    axis.has(crate::Setting::ClosedLoop)
 }
 
 #[cfg(test)]

@@ -124,6 +124,5 @@ mod tests {
         assert_eq!([mask(0), mask(1), mask(7), mask(8)], [0, 1, 0x7F, 0xFF]);
         let p = Profile { driver: Driver::Tmc428Tmc24x, ..Profile::PD28_1021 };
         assert!(!p.measures_load());
-        assert!(!Profile { driver: Driver::ClosedLoop, ..p }.measures_load());
     }
 }
