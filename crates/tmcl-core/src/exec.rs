@@ -81,7 +81,7 @@ impl<B: Board> Module<B> {
                 let to = match target {
                     MoveTarget::Abs(p) => p,
                     // "an offset to the actual position ... must not exceed the above mentioned limits".
-                    MoveTarget::Rel(d) => self.st.ramp.position.checked_add(d).ok_or(Status::InvalidValue)?,
+                    MoveTarget::Rel(d) => self.relative_base().checked_add(d).ok_or(Status::InvalidValue)?,
                     MoveTarget::Coord(n) => {
                         let n = usize::try_from(n).ok().filter(|n| *n <= usize::from(self.spec.coordinates));
                         self.st.coords[n.ok_or(Status::InvalidValue)?]
@@ -424,6 +424,16 @@ impl<B: Board> Module<B> {
         }
     }
 
+    /// What MVP REL counts from: AP 127 (TMCM-1316's options: 0 the last target, 1 the ramp's position,
+    /// 2 the encoder), or the actual position for a model without it (PD28-1021 §3.7.4).
+    fn relative_base(&mut self) -> i32 {
+        match self.ap(Setting::RelativePositioning) {
+            Some(0) => self.st.ramp.target_position,
+            Some(2) => self.encoder_position(),
+            _ => self.st.ramp.position,
+        }
+    }
+
     fn motor(&self, motor: u8) -> Result<(), Status> {
         if motor < self.spec.motors {
             Ok(())
@@ -433,6 +443,7 @@ impl<B: Board> Module<B> {
     }
 
     fn start_rotation(&mut self, velocity: i32) {
+        self.leave_torque_mode();
         self.st.reference.stop();
         self.st.ramp.rotate(velocity);
         self.st.error_flags = 0; // AP 207: "cleared ... when a motion command runs"
@@ -440,6 +451,7 @@ impl<B: Board> Module<B> {
     }
 
     fn start_move(&mut self, target: i32) {
+        self.leave_torque_mode();
         self.st.reference.stop();
         self.st.ramp.move_to(target);
         self.st.error_flags = 0;
@@ -484,10 +496,11 @@ impl<B: Board> Module<B> {
         Ok(match d.role {
             Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axis[i],
             Role::TargetPosition => ramp.target_position,
+            Role::ActualPosition if self.st.cl.active => self.encoder_position(),
             Role::ActualPosition => ramp.position,
             Role::TargetSpeed => self.pps_to_units(ramp.target_velocity),
             Role::ActualSpeed => self.pps_to_units(ramp.velocity()),
-            Role::PositionReached => i32::from(ramp.position_reached()),
+            Role::PositionReached => i32::from(self.target_reached()),
             Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
             Role::HomeSwitch => i32::from(self.switches().2),
             Role::RightSwitch => i32::from(self.switches().1),
@@ -500,6 +513,26 @@ impl<B: Board> Module<B> {
             Role::DriverFlags => i32::from(self.board.driver_flags()),
             Role::EncoderPosition => self.encoder_position(),
             Role::EncoderAbsolute => self.encoder_absolute(),
+            Role::TargetCurrent => self.st.cl.torque.map_or(self.st.axis[i], |(t, _)| t),
+            Role::VelocityReached => i32::from(self.velocity_reached()),
+            Role::StatusWord => self.status_word(),
+            Role::ActualTorqueCurrent => self.actual_torque_current(),
+            Role::I2tSum => self.st.cl.i2t.clamp(0, i64::from(i32::MAX)) as i32,
+            Role::I2tExceedCount => self.st.cl.i2t_count as i32,
+            Role::CurrentScale => i32::from(self.st.cl.scaler),
+            Role::MeasuredVelocity => self.measured_velocity(),
+            Role::EncoderInit => self.st.cl.init.code(),
+            Role::ClosedLoopActive => i32::from(self.st.cl.active),
+            Role::Gamma => self.st.cl.gamma,
+            Role::VirtualPosition => self.st.ramp.position,
+            Role::PositionError => {
+                let actual = self.encoder_position();
+                if self.st.cl.active {
+                    self.st.ramp.position.wrapping_sub(actual)
+                } else {
+                    0
+                }
+            }
             _ => self.st.axis[i],
         })
     }
@@ -514,8 +547,14 @@ impl<B: Board> Module<B> {
         match d.role {
             // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
             // result to target position" relies on it).
-            Role::TargetPosition => self.st.ramp.move_to(v),
-            Role::ActualPosition => self.st.ramp.set_position(v),
+            Role::TargetPosition => {
+                self.leave_torque_mode();
+                self.st.ramp.move_to(v)
+            }
+            Role::ActualPosition => {
+                self.relabel(v.wrapping_sub(self.st.ramp.position));
+                self.st.ramp.set_position(v)
+            }
             // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
             Role::TargetSpeed => self.st.ramp.target_velocity = self.units_to_pps(v),
             // Listed RW in Table 15: accepted, no effect: the ramp generator owns the actual speed.
@@ -523,7 +562,33 @@ impl<B: Board> Module<B> {
             Role::RampMode => {
                 self.st.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
             }
+            // In closed loop the step counter moves with the encoder, so that the loop sees no error.
+            Role::EncoderPosition if self.st.cl.active => {
+                let delta = v.wrapping_sub(self.encoder_position());
+                self.st.ramp.set_position(self.st.ramp.position.wrapping_add(delta));
+                self.set_encoder(v);
+                self.st.cl.actual += i64::from(delta);
+            }
             Role::EncoderPosition => self.set_encoder(v),
+            Role::TargetCurrent => {
+                self.set_torque(v)?;
+                self.st.axis[i] = v;
+            }
+            Role::EncoderInit => self.start_encoder_init(v)?,
+            Role::ClearI2t => self.st.cl.i2t_exceeded = false,
+            // Another encoder input (AP 201 bit 0): the position carries on from where it was.
+            Role::Plain if d.setting == Some(Setting::ClosedLoop) => {
+                self.st.axis[i] = v;
+                self.closed_loop_switched();
+            }
+            Role::Plain if d.setting == Some(Setting::EncoderMode) => {
+                let at = self.encoder_position();
+                self.st.axis[i] = v;
+                self.configure_driver();
+                self.st.ssi = (0, 0);
+                self.set_encoder(at);
+            }
+            Role::I2tExceedCount => self.st.cl.i2t_count = v as u32,
             Role::EncoderPrescaler => {
                 let now_value = self.encoder_position();
                 self.st.axis[i] = v;
@@ -531,10 +596,11 @@ impl<B: Board> Module<B> {
             }
             _ => self.st.axis[i] = v,
         }
-        // The driver's own settings (stallGuard2 filter and threshold, current range).
+        // The driver's own settings (stallGuard2 filter and threshold, current range, encoder input).
         if matches!(d.setting, Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange)) {
             self.configure_driver();
         }
+
         Ok(())
     }
 
@@ -723,6 +789,7 @@ impl<B: Board> Module<B> {
                 }
                 self.st.error_flags = 0;
                 self.st.event.pending = false;
+                self.leave_torque_mode();
                 if let Action::Rotate(v) = self.st.reference.start(mode, fast) {
                     self.st.ramp.hard_stop();
                     self.st.ramp.rotate(v);

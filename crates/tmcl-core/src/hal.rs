@@ -73,6 +73,19 @@ pub trait Analog {
 
     /// Module temperature in °C.
     fn temperature(&mut self) -> i32;
+
+    /// Supply voltage in 0.1 V (the TMCM-1310's status word flags under- and overvoltage); a board that
+    /// does not measure it reads the nominal 24.0 V (the default).
+    fn supply_voltage(&mut self) -> u16 {
+        240
+    }
+}
+
+/// Bits of [`LoadSensor::driver_flags`] the firmware looks at (the TMC262's flags, PD28-1021 manual
+/// chapter 4 Table 15, AP 208).
+pub mod driver_flag {
+    /// Overtemperature: the driver has shut down.
+    pub const OVERTEMPERATURE: u8 = 1 << 1;
 }
 
 /// The stop and home switches.
@@ -115,6 +128,9 @@ pub struct DriverSettings {
     /// The high current range (on the PD28-1021: AP 179 = 0, 2 A peak / 1.4 A RMS at current 255);
     /// `false` (the default) = the low range, 1 A peak / 0.7 A RMS.
     pub high_range: bool,
+    /// The encoder input reads an absolute SSI encoder instead of A/B/N (TMCM-1310: AP 201 bit 0); a
+    /// board with one encoder input ignores it.
+    pub ssi_encoder: bool,
 }
 
 /// The motor driver, fed by the step generator.
@@ -153,6 +169,8 @@ pub trait LoadSensor {
 pub trait EncoderCounter {
     /// Physical encoder counts since power-up, in the motor's physical direction (the model's
     /// [`tmcl_model::Encoder::counts_per_rev`] per revolution). A board without an encoder reads 0.
+    /// With an SSI encoder selected ([`DriverSettings::ssi_encoder`]) the reading is the absolute angle
+    /// within one revolution, 0..counts per revolution; the firmware counts the turns.
     fn encoder_counts(&mut self) -> i64 {
         0
     }
@@ -172,7 +190,7 @@ macro_rules! forward {
 forward! {
     Inputs { fn digital_inputs(&mut self) -> u8; }
     Outputs { fn set_outputs(&mut self, bits: u8); }
-    Analog { fn analog_input(&mut self, channel: u8) -> u16; fn temperature(&mut self) -> i32; }
+    Analog { fn analog_input(&mut self, channel: u8) -> u16; fn temperature(&mut self) -> i32; fn supply_voltage(&mut self) -> u16; }
     SwitchInputs { fn switches(&mut self) -> Switches; }
     StepDriver { fn update(&mut self, now: Instant, state: &DriveState); fn configure(&mut self, settings: &DriverSettings); }
     LoadSensor { fn load(&mut self) -> u16; fn load_measurements(&mut self) -> u32; fn driver_flags(&mut self) -> u8; }

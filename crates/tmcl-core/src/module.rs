@@ -25,6 +25,7 @@
 //!   protection (GP 81), coordinate storage (GP 84): none; no "do not restore" (GP 85): user variables
 //!   are always restored.
 
+use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
@@ -158,6 +159,10 @@ pub struct State {
     pub(crate) load_measurements: u32,
     /// Encoder counts at the last look (clear-on-null).
     pub(crate) last_counts: i64,
+    /// The closed loop (closed-loop models).
+    pub(crate) cl: ClosedLoop,
+    /// An SSI encoder's last reading and the counts it adds up to.
+    pub(crate) ssi: (i64, i64),
 }
 
 impl State {
@@ -194,6 +199,8 @@ impl State {
             coolstep: CoolStep::new(),
             load_measurements: 0,
             last_counts: 0,
+            cl: ClosedLoop::default(),
+            ssi: (0, 0),
         }
     }
 
@@ -354,7 +361,6 @@ impl<B: Board> Module<B> {
         }
         // Replies already queued (the reply of 255 itself) still go out.
         let outboxes = self.st.ports.each_mut().map(|p| core::mem::take(&mut p.outbox));
-        let counts = self.board.encoder_counts();
         self.st = State::new(now);
         for (port, outbox) in self.st.ports.iter_mut().zip(outboxes) {
             port.outbox = outbox;
@@ -393,9 +399,10 @@ impl<B: Board> Module<B> {
             }
         }
         self.st.active_baud = self.gp(Setting::BaudRate).unwrap_or(0) as u8;
-        self.st.encoder = EncoderBase { counts: self.logical_counts(counts), value: 0 };
-        self.st.last_counts = self.st.encoder.counts;
         self.configure_driver();
+        let counts = self.encoder_counts_now();
+        self.st.encoder = EncoderBase { counts, value: 0 };
+        self.st.last_counts = counts;
         self.board.set_outputs(0);
         self.update_board(now);
         self.vm = Vm::default();
@@ -470,6 +477,10 @@ impl<B: Board> Module<B> {
         if self.ap(Setting::ChopperOffTime) == Some(0) {
             return (0, false); // AP 167 = 0 "completely disables all driver transistors"
         }
+        if let Some(current) = self.closed_loop_current() {
+            // The closed loop sets the current itself (scaling, torque mode): no standby, no freewheeling.
+            return (current, true);
+        }
         match self.st.standstill_since {
             None => (self.regulated_current(self.run_current()), true),
             Some(since) => {
@@ -528,7 +539,7 @@ impl<B: Board> Module<B> {
 
     /// The microstep resolution as a power of two (AP 140); 8 (256 microsteps) for a model without it.
     #[inline]
-    fn microstep_resolution(&self) -> u8 {
+    pub(crate) fn microstep_resolution(&self) -> u8 {
         self.spec.axis.role(crate::model::Role::MicrostepResolution).map_or(8, |i| self.st.axis[i] as u8)
     }
 
@@ -612,7 +623,8 @@ impl<B: Board> Module<B> {
                 let limits = self.limits();
                 let r = self.st.ramp.tick(Duration::from_micros(dt), &params, limits);
                 self.st.ramping = r.ramping;
-                self.st.unreported_steps += r.steps;
+                let steps = if self.has_closed_loop() { self.closed_loop_tick(r.steps, dt as i64) } else { r.steps };
+                self.st.unreported_steps += steps;
                 let moving = self.st.ramp.velocity() != 0;
                 match (moving, self.st.standstill_since) {
                     (true, Some(_)) => self.st.standstill_since = None,
@@ -649,7 +661,7 @@ impl<B: Board> Module<B> {
     /// Whether interrupts that watch switches or inputs are enabled: then every tick is sampled.
     #[inline]
     fn needs_every_tick(&self) -> bool {
-        self.vm.enabled & self.spec.interrupts.levels_mask != 0
+        self.vm.enabled & self.spec.interrupts.levels_mask != 0 || self.st.cl.engaged()
     }
 
     /// One step of the reference search after a motion tick (§7.1).
@@ -674,6 +686,7 @@ impl<B: Board> Module<B> {
                 self.st.ramp.mode = Mode::Position;
                 self.st.ramp.set_position(position.wrapping_sub(zero));
                 self.st.ramp.target_position = self.st.ramp.position;
+                self.relabel(zero.wrapping_neg());
             }
             Action::Failed => self.st.ramp.hard_stop(),
         }
@@ -689,7 +702,7 @@ impl<B: Board> Module<B> {
     /// asked for it.
     fn check_event(&mut self, now: Instant) {
         let ramp = &self.st.ramp;
-        if self.st.event.pending && ramp.mode == Mode::Position && ramp.is_idle() {
+        if self.st.event.pending && ramp.mode == Mode::Position && ramp.is_idle() && self.target_reached() {
             self.st.event.pending = false;
             let op = Opcode::RequestTargetReachedEvent.code();
             let port = usize::from(self.st.event.port);

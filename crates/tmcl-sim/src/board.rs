@@ -20,12 +20,12 @@ use crate::driver::{self, Driver};
 use crate::motor::{self, Mechanics, USTEPS_PER_FULL_STEP};
 use crate::nvm::{FileNvm, MemNvm, NvmError};
 use crate::profile::Profile;
-use crate::world::{Active, DriverFlag, Invalid, World, WorldError};
+use crate::world::{Active, DriverFlag, EncoderType, Invalid, World, WorldError};
 use tmcl_core::hal::{
     Analog, DriveState, DriverSettings, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, StepDriver, SwitchInputs,
     Switches,
 };
-use tmcl_core::model::ModelSpec;
+use tmcl_core::model::{EncoderKind, ModelSpec};
 use tmcl_core::param::persist;
 use tmcl_core::{Duration, Instant};
 
@@ -201,6 +201,9 @@ impl Plan {
         let inputs = &world.inputs;
         if *inputs.analog.get_ref() > 4095 {
             return Err(Invalid::new(inputs.analog.span(), "inputs.analog", "must be 0..=4095"));
+        }
+        if world.encoder.is_some_and(|e| e.counts_per_rev < 4) {
+            return Err(Invalid::new(0..0, "encoder.counts_per_rev", "must be at least 4"));
         }
         let d = &world.driver;
         let full_steps = f64::from(*world.motor.full_steps.get_ref());
@@ -615,7 +618,8 @@ impl SimBoard {
         }
         self.powered_by = Some(inputs);
         let off = flags & SHUTDOWN != 0 || self.supply < self.plan.undervoltage;
-        self.coil = if off { 0.0 } else { driver::coil_current(&self.drive, &self.driver.settings) };
+        let peak = self.profile.peak_current_ma.map(|ma| f64::from(ma) / 1000.0);
+        self.coil = if off { 0.0 } else { driver::coil_current(&self.drive, &self.driver.settings, peak) };
         // A crude supply model: below the nominal 24 V the chopper reaches proportionally less current
         // at speed; only the torque is scaled.
         let supply = self.supply_factor;
@@ -651,9 +655,21 @@ impl SimBoard {
 
     /// Encoder counts now (see [`Feedback::encoder_counts`]).
     fn counts(&self) -> i64 {
-        let Some(per_rev) = self.profile.encoder_counts_per_rev() else { return 0 };
+        let Some(model) = self.profile.encoder else { return 0 };
+        let (ssi, per_rev) = match self.spec.encoder {
+            Some(e) => (e.kind == EncoderType::Ssi, e.counts_per_rev),
+            None => (model.kind == EncoderKind::Ssi, model.counts_per_rev),
+        };
+        if ssi != self.driver.settings.ssi_encoder {
+            return 0; // nothing of that kind on the selected input
+        }
         let turns = (self.plan.mech.rotor() - self.plan.encoder_zero) / self.plan.mech.usteps_per_rev();
-        floor_i64(turns * f64::from(per_rev)) + self.encoder_slip
+        let counts = floor_i64(turns * f64::from(per_rev)) + self.encoder_slip;
+        if ssi {
+            counts.rem_euclid(i64::from(per_rev.max(1)))
+        } else {
+            counts
+        }
     }
 
     /// AP 208 now.
@@ -707,6 +723,10 @@ impl Analog for SimBoard {
     fn temperature(&mut self) -> i32 {
         self.sync();
         self.world.temperature
+    }
+    fn supply_voltage(&mut self) -> u16 {
+        self.sync();
+        (self.supply * 10.0).round().clamp(0.0, 65535.0) as u16
     }
 }
 

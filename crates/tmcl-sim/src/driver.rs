@@ -35,12 +35,13 @@ pub const FLAG_STANDSTILL: u8 = 1 << 7;
 /// 2^20 clocks of the TMC262's 16 MHz clock.
 pub const STANDSTILL_AFTER: Duration = Duration::from_micros(65_536);
 
-/// Coil peak current in A for a drive state (0 when off).
-pub fn coil_current(state: &DriveState, settings: &DriverSettings) -> f64 {
+/// Coil peak current in A for a drive state (0 when off), given the board's peak current at setting 255
+/// in the low and high range (the model's `peak_current_ma`).
+pub fn coil_current(state: &DriveState, settings: &DriverSettings, peak: [f64; 2]) -> f64 {
     if !state.enabled {
         return 0.0;
     }
-    let range = if settings.high_range { 2.0 } else { 1.0 };
+    let range = if settings.high_range { peak[1] } else { peak[0] };
     f64::from((state.current >> 3) + 1) / 32.0 * range
 }
 
@@ -164,17 +165,19 @@ impl Driver {
 mod tests {
     use super::*;
 
+    const PD28: [f64; 2] = [1.0, 2.0];
+
     #[test]
     fn current_scale_and_range() {
         let mut s = DriveState { enabled: true, current: 255, ..DriveState::default() };
         let low = DriverSettings::default();
         let high = DriverSettings { high_range: true, ..low };
-        assert_eq!(coil_current(&s, &low), 1.0);
-        assert_eq!(coil_current(&s, &high), 2.0);
+        assert_eq!(coil_current(&s, &low, PD28), 1.0);
+        assert_eq!(coil_current(&s, &high, PD28), 2.0);
         s.current = 128; // CS 16 → 17/32
-        assert_eq!(coil_current(&s, &low), 17.0 / 32.0);
+        assert_eq!(coil_current(&s, &low, PD28), 17.0 / 32.0);
         s.enabled = false;
-        assert_eq!(coil_current(&s, &low), 0.0);
+        assert_eq!(coil_current(&s, &low, PD28), 0.0);
     }
 
     #[test]

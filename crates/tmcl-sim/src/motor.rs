@@ -526,7 +526,22 @@ impl Mechanics {
             if need.abs() > 0.999 {
                 return None;
             }
-            let next = self.field as f64 - need.asin() * PERIOD / TAU;
+            // The stable point in the rotor's own period: moving from `x` the rotor stops at the first
+            // one it meets, whole periods behind (or ahead of) the field after a seizure or a slip.
+            let mut next = self.field as f64 - need.asin() * PERIOD / TAU;
+            let off = x - next;
+            if off.abs() > PERIOD / 2.0 {
+                let periods = off / PERIOD;
+                let whole = periods as i64 as f64; // toward zero
+                let k = if s > 0.0 && whole < periods {
+                    whole + 1.0
+                } else if s < 0.0 && whole > periods {
+                    whole - 1.0
+                } else {
+                    whole
+                };
+                next += k * PERIOD;
+            }
             let converged = (next - y).abs() < 1e-3;
             y = next;
             if converged {

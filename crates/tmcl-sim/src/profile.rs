@@ -10,14 +10,18 @@
 //!   as they always were. The profile survives [`SimBoard::set_world`]: a world is what is around the
 //!   module, the profile what the module is.
 //! - **Encoder.** The counts per revolution are the model's [`Encoder::counts_per_rev`] (1024 on the
-//!   PD28-1021, manual §6.2), counted from the world's `driver.encoder_zero` whatever the
-//!   [`EncoderKind`](tmcl_core::model::EncoderKind). A model without an encoder reads 0 counts, with or
-//!   without injected encoder slip (there is nothing to slip).
+//!   PD28-1021, manual §6.2), or the world's `[encoder]` for a module that takes an external one (the
+//!   TMCM-1310), counted from the world's `driver.encoder_zero`. The module selects its encoder input
+//!   (`DriverSettings::ssi_encoder`): an A/B/N input reads counts since power-up, an SSI input the
+//!   angle within one revolution; an input with nothing of its kind attached reads 0. A model without
+//!   an encoder reads 0 counts, with or without injected encoder slip (there is nothing to slip).
+//! - **Current.** The coil current at setting 255 is the model's peak current (1 A or 2 A by sense range
+//!   on the PD28-1021, 4.24 A — 3 A RMS — on the TMCM-1310).
 //! - **Driver.** Only the TMC262 ([`Driver::Tmc262`]) measures the load (stallGuard2): with another driver
 //!   the board takes no measurement, so the load reads 1023 (no load), the measurement counter stays 0
 //!   and the stall flag (AP 208 bit 0) is never set. The other flags (faults, temperature, standstill)
-//!   and the coil current are modelled the same for every driver, and a closed-loop driver is simulated
-//!   open loop: the rotor follows the field as with any other driver.
+//!   and the coil current are modelled the same for every driver. Closed loop is the firmware's: the
+//!   board only moves the field where the firmware says and reports the rotor through the encoder.
 //! - **Inputs and outputs.** The digital inputs read through the model's input mask (4 inputs: bits
 //!   0..=3), whatever the world sets; the outputs keep only the model's output bits (the core masks them
 //!   too). [`SimBoard::world`](crate::SimBoard::world) keeps the world's levels as set.
@@ -46,6 +50,8 @@ pub struct Profile {
     pub inputs: u8,
     /// Number of digital outputs (OUT0..): the others are not driven.
     pub outputs: u8,
+    /// Peak coil current in mA at current setting 255, low and high range (the model's `peak_current_ma`).
+    pub peak_current_ma: [u16; 2],
 }
 
 impl Profile {
@@ -55,7 +61,13 @@ impl Profile {
     /// The profile of a model.
     pub const fn of(spec: &ModelSpec) -> Profile {
         let d = spec.desc();
-        Profile { encoder: d.encoder, driver: d.driver, inputs: d.inputs, outputs: d.outputs }
+        Profile {
+            encoder: d.encoder,
+            driver: d.driver,
+            inputs: d.inputs,
+            outputs: d.outputs,
+            peak_current_ma: d.peak_current_ma,
+        }
     }
 
     /// Encoder counts per motor revolution, if the model has an encoder.

@@ -494,6 +494,28 @@ impl Default for DriverSpec {
     }
 }
 
+/// The kind of encoder on the motor (`[encoder] kind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EncoderType {
+    /// Incremental A/B/N: counts from power-up.
+    Abn,
+    /// Absolute single-turn on SSI: the angle within one revolution.
+    Ssi,
+}
+
+/// The encoder on the motor (`[encoder]`), for a module that takes an external one (TMCM-1310: A/B/N or
+/// SSI, its manual chapter 1). Without the table the module's own encoder is there (the PD28-1021's
+/// sensOstep; the TMCM-1310's default: A/B/N, 4096 counts per revolution).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EncoderSpec {
+    /// A/B/N or SSI.
+    pub kind: EncoderType,
+    /// Counts per motor revolution (A/B/N: lines × 4), at least 4.
+    pub counts_per_rev: u32,
+}
+
 /// The whole world. [`World::default`] is a free rotary NEMA 11 axis with no switches, no load and no
 /// faults.
 #[derive(Debug, Clone, PartialEq, Default, Deserialize)]
@@ -513,6 +535,8 @@ pub struct World {
     pub inputs: InputsSpec,
     /// Faults to inject.
     pub faults: FaultsSpec,
+    /// The encoder, if it is not the module's own.
+    pub encoder: Option<EncoderSpec>,
 }
 
 /// What is wrong with a world file: the key, its line (1-based) and what is wrong.

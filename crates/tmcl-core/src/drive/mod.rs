@@ -5,10 +5,14 @@
 //!   182, 183).
 //! - [`stall`]: stop on stall (manual §7.2; AP 181, 206, 207).
 //! - [`encoder`]: the sensOstep deviation check and clear-on-null (manual §6.2; AP 209, 210, 212).
+//! - [`closed_loop`]: position control from an encoder, current scaling, torque mode and I²t (TMCM-1310
+//!   manual chapter 1, §3.4; the TMCM-1311 sibling's parameters).
 //!
-//! The AP 207 bits they lead to are [`crate::module::error_flags`]. None of them is wired into the
-//! module yet; each module doc says what the caller passes and when.
+//! The AP 207 bits they lead to are [`crate::module::error_flags`]; `wiring` calls them from the
+//! module's motion tick.
 
+pub mod closed_loop;
+mod closed_loop_wiring;
 pub mod coolstep;
 pub mod encoder;
 pub mod stall;

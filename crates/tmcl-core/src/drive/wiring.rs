@@ -16,6 +16,7 @@ impl<B: Board> Module<B> {
             stall_filter: self.ap(Setting::StallFilter) == Some(1),
             stall_threshold: self.ap(Setting::StallThreshold).unwrap_or(0).clamp(-64, 63) as i8,
             high_range: self.ap(Setting::CurrentRange) == Some(0),
+            ssi_encoder: self.ssi_selected(),
         };
         self.board.configure(&settings);
     }
@@ -118,15 +119,35 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Encoder counts now, in the logical direction.
+    /// Whether the SSI encoder input is selected (TMCM-1310 AP 201 bit 0, our decision).
+    #[inline]
+    pub(crate) fn ssi_selected(&self) -> bool {
+        self.ap(Setting::EncoderMode).unwrap_or(0) & 1 == 1
+    }
+
+    /// Encoder counts now, in the logical direction. An SSI encoder reports its angle within one turn; the
+    /// turns are counted here from the shorter way between two readings (read at least every tick while
+    /// the motor moves, far more often than half a turn).
     pub(crate) fn encoder_counts_now(&mut self) -> i64 {
-        let physical = self.board.encoder_counts();
+        let mut physical = self.board.encoder_counts();
+        if self.ssi_selected() {
+            let per_rev = i64::from(self.ap(Setting::EncoderResolution).unwrap_or(1).max(1));
+            let (last, total) = self.st.ssi;
+            let step = (physical - last + per_rev / 2).rem_euclid(per_rev) - per_rev / 2;
+            self.st.ssi = (physical, total + step);
+            physical = total + step;
+        }
         self.logical_counts(physical)
     }
 
-    /// AP 209 for the given counts: the reference value plus the counts since, through the prescaler.
+    /// AP 209 for the given counts: the reference value plus the counts since, through the prescaler
+    /// (PD28-1021) or the encoder and motor resolutions (closed-loop models).
     pub(crate) fn encoder_value(&self, counts: i64) -> i32 {
-        let delta = encoder::scale_counts(counts - self.st.encoder.counts, self.prescaler());
+        let since = counts - self.st.encoder.counts;
+        let delta = match self.counts_to_usteps(since) {
+            Some(d) => d,
+            None => encoder::scale_counts(since, self.prescaler()),
+        };
         (i64::from(self.st.encoder.value) + delta) as i32
     }
 }

@@ -186,7 +186,7 @@ impl<B: Board> Module<B> {
     fn wait_done(&mut self, wait: Wait, now: Instant) -> Option<bool> {
         let met = match wait.condition {
             WaitCondition::Ticks => return wait.until.is_some_and(|u| now >= u).then_some(false),
-            WaitCondition::Pos => self.st.ramp.position_reached() && self.st.ramp.velocity() == 0,
+            WaitCondition::Pos => self.target_reached() && self.st.ramp.velocity() == 0,
             // WAIT REFSW: the reference (home) switch; WAIT LIMSW: a limit (stop) switch (§3.7.22).
             WaitCondition::RefSw => self.switches().2,
             WaitCondition::LimSw => {
@@ -256,7 +256,8 @@ impl<B: Board> Module<B> {
                 }
             }
         }
-        let reached = self.st.ramp.mode == crate::motion::Mode::Position && self.st.ramp.is_idle();
+        let reached =
+            self.st.ramp.mode == crate::motion::Mode::Position && self.st.ramp.is_idle() && self.target_reached();
         if reached && !self.vm.was_reached {
             if let Some(n) = irqs.target_reached() {
                 self.raise_interrupt(n);

@@ -1,0 +1,503 @@
+//! Closed-loop control of a stepper from its encoder (TMCM-1310 manual chapter 1 and §3.4; the TMCM-1311
+//! sibling's parameters AP 14–29, 111–138, 201, 202, 210, 230–237). Pure, integer-only pieces the module
+//! runs once per motion tick; [`super::wiring`]'s closed-loop half calls them.
+//!
+//! # The model
+//!
+//! Positions are microsteps of the resolution in force (AP 140). The ramp generator produces the
+//! *virtual* position (AP 233), the set point; the encoder gives the *actual* position (AP 1 while the
+//! loop is closed, AP 209), counts × full steps per revolution (AP 202) × microsteps per full step /
+//! counts per revolution (AP 210). The driver's field — where an unloaded rotor would sit — is what the
+//! firmware commands. Each tick:
+//!
+//! 1. **Position error** e = virtual − actual (AP 237).
+//! 2. **Standstill correction** (position hold): while the ramp stands, an integrator moves the set
+//!    point by e · AP 136 / 1024 per millisecond, limited to ±AP 138, so that a steady load (a spring,
+//!    gravity) is held at the target instead of at the target minus its load angle.
+//! 3. **Catch-up**: the field moves with the ramp, plus a correction towards the set point of at most
+//!    AP 124 · |e| microsteps per second (a proportional gain in 1/s), never faster than AP 126 (pps).
+//!    After a blocked move the motor catches up with the ramp at that velocity.
+//! 4. **Commutation limit**: the field never leads (or lags) the measured rotor by more than β (AP 111,
+//!    255 ≈ 90° electrical = one full step) plus the distance the rotor moved in the last tick (velocity
+//!    feed-forward), and never by half an electrical period or more. So the field cannot run away from a
+//!    held rotor: at most the torque maximum is demanded, and no step is lost — the difference to open
+//!    loop, where a load above the holding torque lets the field run on and the rotor drop back four full
+//!    steps at a time. The lead actually used is gamma (AP 230, in 1/256 full step).
+//! 5. **Current scaling** (AP 113–123): the current is AP 6 · scaler / 255. While the regulated error
+//!    — gamma (AP 115 = 0) or |e| (AP 115 = 1) — stays above AP 117 for AP 120 ms, the scaler rises by
+//!    AP 118; below AP 116 for AP 121 ms it falls by AP 119; it stays within AP 113..=AP 114. With
+//!    AP 122 = 0 it stays at AP 114. A light load runs at low current, a heavy one gets what it needs.
+//! 6. **Following error**: |e| above AP 125 (0 = off) stops the ramp at the rotor (the virtual position
+//!    becomes the actual one: no catch-up jump later), sets AP 207's deviation bit and raises
+//!    interrupt 21, as the PD28-1021's deviation check does (its manual §6.2).
+//!
+//! **Torque mode** (AP 14, target current in mA, signed): the ramp stands at the rotor, the field leads
+//! the rotor by β in the sign's direction — the torque maximum per ampere — and the current approaches
+//! the target at AP 20 mA/s (0 = at once). Any motion command leaves torque mode.
+//!
+//! **Encoder initialisation** (AP 132 := 1, pytrinamic's closed-loop demo): with the motor at rest the
+//! field holds for 100 ms, moves one electrical period (4 full steps) forward in 100 ms and back in
+//! 100 ms at run current. The counts over the forward move must be those AP 210 and AP 202 predict
+//! (±25 %) and in the motor's direction; then AP 112 takes the counts at electrical angle 0, the encoder
+//! position is aligned with the step counter and AP 132 reads 2. Otherwise (no encoder, wrong
+//! resolution, a reversed encoder, a blocked rotor) it reads 3 and the loop cannot close. A move during
+//! the sequence aborts it (AP 132 reads 0).
+//!
+//! **Closing the loop** (AP 129 := 1): once the initialisation is done the loop closes at the next tick
+//! (AP 133 reads 1); the virtual position is set to the rotor's, so closing never moves the motor.
+//! Opening it makes the field the step counter again, where it stands.
+//!
+//! **I²t** (AP 25–29): the sum S (mA²·s) follows dS/dt = I² − S/τ (AP 25, ms) with I the RMS coil
+//! current, so S settles at I²·τ. Above the limit AP 26 (0 = off) the flag (status bit 13) is set,
+//! the counter AP 28 counts the event, and the current is held at the standby current AP 7 until the
+//! sum is below the limit again; AP 29 clears the flag. It runs with the closed loop.
+//!
+//! # Constants and units
+//! - β and gamma: 256 = one full step (90° electrical); β in microsteps = AP 111 · 2^res / 256, at least 1.
+//! - The status word's supply limits are the board's 10–51 V (the CoE manual of the same board).
+//! - The hold integrator works in 1/1024 of the error per millisecond; the correction velocity rounds up
+//!   to whole microsteps per tick.
+
+use crate::time::Duration;
+
+/// Encoder initialisation phases, each [`INIT_PHASE`] long.
+pub const INIT_PHASE: Duration = Duration::from_millis(100);
+
+/// AP 132's states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Init {
+    /// Not initialised (reads 0).
+    #[default]
+    Idle,
+    /// Running (reads 1).
+    Running {
+        /// Microseconds into the sequence.
+        elapsed_us: u64,
+        /// Counts at the end of the hold phase.
+        start_counts: i64,
+        /// Field offset at the start.
+        start_offset: i64,
+        /// The forward move's verdict, once it is known.
+        ok: Option<bool>,
+    },
+    /// Done (reads 2).
+    Done,
+    /// Failed (reads 3).
+    Failed,
+}
+
+impl Init {
+    /// AP 132's value.
+    pub fn code(self) -> i32 {
+        match self {
+            Init::Idle => 0,
+            Init::Running { .. } => 1,
+            Init::Done => 2,
+            Init::Failed => 3,
+        }
+    }
+}
+
+/// The closed loop's state (RAM, reset at every start).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ClosedLoop {
+    /// AP 132.
+    pub init: Init,
+    /// The loop is closed (AP 133).
+    pub active: bool,
+    /// Field position minus the ramp's position, microsteps: 0 in open loop.
+    pub field_offset: i64,
+    /// The standstill integrator's set-point shift, in 1/1024 microstep.
+    pub hold: i64,
+    /// AP 123.
+    pub scaler: u8,
+    /// Milliseconds the regulated error has been above the upper / below the lower limit.
+    pub up_ms: u32,
+    /// See `up_ms`.
+    pub down_ms: u32,
+    /// AP 230 (1/256 full step, signed).
+    pub gamma: i32,
+    /// AP 237 (microsteps).
+    pub error: i32,
+    /// The actual (encoder) position at the last tick.
+    pub actual: i64,
+    /// How far the rotor moved in the last tick (microsteps).
+    pub last_move: i64,
+    /// Rotor moves of the last 8 ticks (AP 131 = their sum · 125).
+    pub moves: [i32; 8],
+    /// Where in `moves` the next one goes.
+    pub moves_at: u8,
+    /// Torque mode: (target, actual) current in mA.
+    pub torque: Option<(i32, i32)>,
+    /// I²t sum (mA²·s).
+    pub i2t: i64,
+    /// I²t flag (status bit 13).
+    pub i2t_exceeded: bool,
+    /// AP 28.
+    pub i2t_count: u32,
+    /// The current is limited by I²t now.
+    pub i2t_limiting: bool,
+}
+
+impl ClosedLoop {
+    /// Whether the loop needs a tick every millisecond: closed, or initialising.
+    #[inline]
+    pub fn engaged(&self) -> bool {
+        self.active || matches!(self.init, Init::Running { .. })
+    }
+
+    /// AP 131: the velocity measured over the last 8 ticks, pps.
+    pub fn measured_velocity(&self) -> i32 {
+        let sum: i64 = self.moves.iter().map(|m| i64::from(*m)).sum();
+        (sum * 125).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    }
+
+    /// Records one tick's rotor move.
+    pub fn record_move(&mut self, moved: i64) {
+        self.last_move = moved;
+        self.moves[usize::from(self.moves_at & 7)] = moved.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+        self.moves_at = (self.moves_at + 1) & 7;
+    }
+}
+
+/// What the position controller reads, per tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LoopParams {
+    /// β in microsteps (at least 1).
+    pub beta: i64,
+    /// Half an electrical period less one microstep: the lead never reaches it.
+    pub max_lead: i64,
+    /// AP 124 (1/s).
+    pub gain: i64,
+    /// AP 126 (pps).
+    pub max_correction: i64,
+    /// AP 136 (1/1024 per ms).
+    pub hold_gain: i64,
+    /// AP 138 (microsteps).
+    pub hold_limit: i64,
+    /// Tick length in µs.
+    pub dt_us: i64,
+}
+
+/// The controller's answer for one tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FieldCommand {
+    /// The new field position.
+    pub field: i64,
+    /// The new integrator value (1/1024 microstep).
+    pub hold: i64,
+}
+
+/// β (AP 111, 256 = one full step) in microsteps at resolution `res` (AP 140), at least 1.
+pub fn beta_usteps(beta: i32, res: u8) -> i64 {
+    ((i64::from(beta.clamp(0, 256)) << res.min(8)) / 256).max(1)
+}
+
+/// What the position controller sees in one tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LoopInput {
+    /// The ramp's position now (after this tick's move).
+    pub virtual_pos: i64,
+    /// How far the ramp moved this tick.
+    pub step: i64,
+    /// The ramp is idle (standstill correction runs).
+    pub standing: bool,
+    /// The rotor's position (encoder).
+    pub actual: i64,
+    /// How far the rotor moved in the last tick.
+    pub rotor_move: i64,
+    /// The field's position before this tick.
+    pub field: i64,
+    /// The hold integrator (1/1024 microstep).
+    pub hold: i64,
+}
+
+/// One tick of the position controller (steps 2–4 of the module docs): the new field position.
+pub fn control(p: &LoopParams, input: &LoopInput) -> FieldCommand {
+    let LoopInput { virtual_pos, step, standing, actual, rotor_move, field, hold } = *input;
+    let e = virtual_pos - actual;
+    let hold = if standing {
+        let limit = p.hold_limit.saturating_mul(1024);
+        (hold + e * p.hold_gain * p.dt_us / 1000).clamp(-limit, limit)
+    } else {
+        hold
+    };
+    let set_point = virtual_pos + hold / 1024;
+    // Catch-up: the ramp's move plus at most gain·|e| (≤ AP 126) pps for this tick, rounded up.
+    let correction_pps = (p.gain.saturating_mul(e.abs())).min(p.max_correction);
+    let correction = (correction_pps * p.dt_us + 999_999) / 1_000_000;
+    let base = field + step;
+    let mut f = set_point.clamp(base - correction, base + correction);
+    // Commutation limit around where the rotor will be: β plus the last tick's move, below half a period.
+    let lead = (p.beta + rotor_move.abs()).min(p.max_lead);
+    let centre = actual + rotor_move;
+    f = f.clamp(centre - lead, centre + lead);
+    FieldCommand { field: f, hold }
+}
+
+/// Current-scaling parameters (AP 113–122).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScaleParams {
+    /// AP 122.
+    pub enabled: bool,
+    /// AP 113.
+    pub min: u8,
+    /// AP 114.
+    pub max: u8,
+    /// AP 116.
+    pub lower: i64,
+    /// AP 117.
+    pub upper: i64,
+    /// AP 118.
+    pub increment: u8,
+    /// AP 119.
+    pub decrement: u8,
+    /// AP 120 (ms).
+    pub up_ms: u32,
+    /// AP 121 (ms).
+    pub down_ms: u32,
+}
+
+/// One millisecond of current scaling (step 5 of the module docs) for the regulated `error` (≥ 0).
+pub fn scale(cl: &mut ClosedLoop, p: &ScaleParams, error: i64) {
+    let (lo, hi) = (p.min.min(p.max), p.max);
+    if !p.enabled {
+        cl.scaler = hi;
+        cl.up_ms = 0;
+        cl.down_ms = 0;
+        return;
+    }
+    if error > p.upper {
+        cl.down_ms = 0;
+        cl.up_ms += 1;
+        if cl.up_ms >= p.up_ms.max(1) {
+            cl.up_ms = 0;
+            cl.scaler = cl.scaler.saturating_add(p.increment);
+        }
+    } else if error < p.lower {
+        cl.up_ms = 0;
+        cl.down_ms += 1;
+        if cl.down_ms >= p.down_ms.max(1) {
+            cl.down_ms = 0;
+            cl.scaler = cl.scaler.saturating_sub(p.decrement);
+        }
+    } else {
+        cl.up_ms = 0;
+        cl.down_ms = 0;
+    }
+    cl.scaler = cl.scaler.clamp(lo, hi);
+}
+
+/// One tick of the I²t monitor: `rms_ma` flowing for `dt_us`, time constant `tau_ms`, limit (0 = off).
+/// Returns whether the sum is above the limit now.
+pub fn i2t(cl: &mut ClosedLoop, rms_ma: i64, dt_us: i64, tau_ms: i64, limit: i64) -> bool {
+    // dS = I²·dt − S·dt/τ, in mA²·s.
+    let tau_us = tau_ms.max(1) * 1000;
+    let gain = rms_ma * rms_ma * dt_us / 1_000_000;
+    cl.i2t = (cl.i2t + gain - cl.i2t * dt_us / tau_us).max(0);
+    let over = limit > 0 && cl.i2t > limit;
+    if over && !cl.i2t_limiting {
+        cl.i2t_exceeded = true;
+        cl.i2t_count = cl.i2t_count.wrapping_add(1);
+    }
+    cl.i2t_limiting = over;
+    over
+}
+
+/// Status word bits (AP 18; TMCM-1310 manual §3.4's table, bits 12–13 from the TMCM-1311 manual p.68).
+pub mod status {
+    /// Target position reached.
+    pub const TARGET_REACHED: u32 = 1 << 0;
+    /// Velocity reached.
+    pub const VELOCITY_REACHED: u32 = 1 << 1;
+    /// The loop is closed.
+    pub const CLOSED_LOOP: u32 = 1 << 2;
+    /// Position mode.
+    pub const POSITION_MODE: u32 = 1 << 3;
+    /// Velocity mode.
+    pub const VELOCITY_MODE: u32 = 1 << 4;
+    /// Torque mode.
+    pub const TORQUE_MODE: u32 = 1 << 5;
+    /// Home switch.
+    pub const HOME: u32 = 1 << 6;
+    /// Left stop switch.
+    pub const LEFT: u32 = 1 << 7;
+    /// Right stop switch.
+    pub const RIGHT: u32 = 1 << 8;
+    /// Supply below 10 V.
+    pub const UNDERVOLTAGE: u32 = 1 << 9;
+    /// Supply above 51 V.
+    pub const OVERVOLTAGE: u32 = 1 << 10;
+    /// The driver reports overtemperature.
+    pub const OVERTEMPERATURE: u32 = 1 << 11;
+    /// Holding a position in closed loop.
+    pub const POSITION_HOLD: u32 = 1 << 12;
+    /// I²t exceeded (cleared by AP 29).
+    pub const I2T_EXCEEDED: u32 = 1 << 13;
+}
+
+/// Undervoltage and overvoltage limits of the status word, in 0.1 V (the board's 10–51 V).
+pub const SUPPLY_LIMITS: (u16, u16) = (100, 510);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const P: LoopParams = LoopParams {
+        beta: 255,
+        max_lead: 511,
+        gain: 20,
+        max_correction: 51200,
+        hold_gain: 64,
+        hold_limit: 512,
+        dt_us: 1000,
+    };
+
+    #[test]
+    fn unloaded_the_field_is_the_ramp() {
+        // Rotor on the field, field on the ramp: the field moves with the ramp, as in open loop.
+        let c = control(
+            &P,
+            &LoopInput {
+                virtual_pos: 1051,
+                step: 51,
+                standing: false,
+                actual: 1000,
+                rotor_move: 51,
+                field: 1000,
+                hold: 0,
+            },
+        );
+        assert_eq!(c.field, 1051);
+    }
+
+    #[test]
+    fn a_held_rotor_is_led_by_at_most_beta() {
+        // The ramp ran 10000 microsteps ahead of a blocked rotor: the field leads it by β, not more.
+        let c = control(
+            &P,
+            &LoopInput {
+                virtual_pos: 10_000,
+                step: 51,
+                standing: false,
+                actual: 0,
+                rotor_move: 0,
+                field: 255,
+                hold: 0,
+            },
+        );
+        assert_eq!(c.field, 255);
+        let c = control(
+            &P,
+            &LoopInput {
+                virtual_pos: -10_000,
+                step: -51,
+                standing: false,
+                actual: 0,
+                rotor_move: 0,
+                field: -255,
+                hold: 0,
+            },
+        );
+        assert_eq!(c.field, -255);
+    }
+
+    #[test]
+    fn catch_up_is_limited_by_the_correction_velocity() {
+        // The rotor is free again 5000 behind: the field moves by the ramp's step plus 51 (51200 pps).
+        let c = control(
+            &P,
+            &LoopInput { virtual_pos: 5000, step: 0, standing: false, actual: 0, rotor_move: 0, field: 0, hold: 0 },
+        );
+        assert_eq!(c.field, 52);
+        // A small error: gain 20/s · 100 = 2000 pps = 2 per tick.
+        let c = control(
+            &P,
+            &LoopInput { virtual_pos: 100, step: 0, standing: false, actual: 0, rotor_move: 0, field: 0, hold: 0 },
+        );
+        assert_eq!(c.field, 2);
+    }
+
+    #[test]
+    fn the_hold_integrator_pulls_a_loaded_rotor_to_the_target() {
+        let mut hold = 0;
+        let mut field = 0;
+        // A load angle of 100: the rotor sits 100 behind the field.
+        for _ in 0..2000 {
+            let c = control(
+                &P,
+                &LoopInput {
+                    virtual_pos: 0,
+                    step: 0,
+                    standing: true,
+                    actual: field - 100,
+                    rotor_move: 0,
+                    field,
+                    hold,
+                },
+            );
+            hold = c.hold;
+            field = c.field;
+        }
+        assert_eq!(field - 100, 0, "the rotor is at the target; the field leads it by the load angle");
+    }
+
+    #[test]
+    fn beta_scales_with_the_resolution() {
+        assert_eq!(beta_usteps(255, 8), 255);
+        assert_eq!(beta_usteps(256, 4), 16);
+        assert_eq!(beta_usteps(0, 8), 1);
+    }
+
+    #[test]
+    fn current_scaling_rises_under_load_and_falls_without() {
+        let p = ScaleParams {
+            enabled: true,
+            min: 100,
+            max: 240,
+            lower: 32,
+            upper: 128,
+            increment: 8,
+            decrement: 1,
+            up_ms: 1,
+            down_ms: 10,
+        };
+        let mut cl = ClosedLoop { scaler: 240, ..ClosedLoop::default() };
+        for _ in 0..2000 {
+            scale(&mut cl, &p, 0);
+        }
+        assert_eq!(cl.scaler, 100, "no load: down to the minimum");
+        for _ in 0..5 {
+            scale(&mut cl, &p, 200);
+        }
+        assert_eq!(cl.scaler, 140, "5 ms above the upper limit: 5 steps of 8");
+        scale(&mut cl, &p, 64);
+        assert_eq!(cl.scaler, 140, "between the limits: unchanged");
+        scale(&mut cl, &ScaleParams { enabled: false, ..p }, 0);
+        assert_eq!(cl.scaler, 240, "off: the maximum");
+    }
+
+    #[test]
+    fn i2t_settles_at_i_squared_tau_and_trips_once() {
+        let mut cl = ClosedLoop::default();
+        for _ in 0..30_000 {
+            i2t(&mut cl, 1000, 1000, 3000, 0);
+        }
+        // 1 A for 10 τ: within 0.01 % of 1000² · 3 s.
+        assert!((cl.i2t - 3_000_000).abs() < 300, "{}", cl.i2t);
+        let mut cl = ClosedLoop::default();
+        let trips = (0..10_000).filter(|_| i2t(&mut cl, 2000, 1000, 3000, 1_000_000)).count();
+        assert!(trips > 0 && cl.i2t_exceeded && cl.i2t_count == 1);
+    }
+
+    #[test]
+    fn measured_velocity_is_the_last_8_ms() {
+        let mut cl = ClosedLoop::default();
+        for _ in 0..8 {
+            cl.record_move(51);
+        }
+        assert_eq!(cl.measured_velocity(), 51_000);
+        cl.record_move(0);
+        assert_eq!(cl.measured_velocity(), 7 * 51 * 125);
+    }
+}

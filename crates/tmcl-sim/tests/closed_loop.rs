@@ -1,0 +1,195 @@
+//! The TMCM-1310's closed loop against the simulated motor: where a load makes an open-loop motor lose
+//! steps, the closed loop stalls without losing any and reaches the target with the encoder agreeing;
+//! a load it cannot overcome trips the following error.
+
+use tmcl_core::model::{pd28_1021, tmcm_1310, ModelSpec};
+use tmcl_core::{Duration, Instant, Module, Outcome};
+use tmcl_sim::{SimBoard, World};
+use tmcl_wire::{Command, MoveTarget, Status};
+
+/// A NEMA 17 motor (0.45 N·m at 2 A) on a rotary axis whose shaft seizes at 20° for 0.3 s from `from`
+/// (a move from 0 at the default ramp gets there after 0.33 s).
+fn seized_for_a_while(from: f64) -> String {
+    format!(
+        "[motor]\nholding_torque = 0.45\nrated_current = 2.0\n[[faults.stall]]\nat = 20.0\nfrom = {from}\nuntil = {}\n",
+        from + 0.3
+    )
+}
+
+fn module(spec: &'static ModelSpec, toml: &str) -> Module<SimBoard> {
+    let world = World::from_toml_str(toml).unwrap();
+    let board = SimBoard::in_memory_for(spec).with_world(world).unwrap();
+    Module::new(board, spec, Instant::ZERO)
+}
+
+fn exec(m: &mut Module<SimBoard>, c: Command, now: Instant) -> Result<i32, Status> {
+    match m.execute(c, now)? {
+        Outcome::Value(v) => Ok(v),
+        other => panic!("{c:?}: {other:?}"),
+    }
+}
+
+fn sap(m: &mut Module<SimBoard>, param: u8, value: i32, now: Instant) {
+    exec(m, Command::Sap { param, motor: 0, value }, now).unwrap_or_else(|s| panic!("SAP {param}, {value}: {s:?}"));
+}
+
+fn gap(m: &mut Module<SimBoard>, param: u8, now: Instant) -> i32 {
+    exec(m, Command::Gap { param, motor: 0 }, now).unwrap()
+}
+
+fn run_to(m: &mut Module<SimBoard>, t: Instant) {
+    m.poll(t, &mut |_: &[u8]| {});
+}
+
+/// Runs until `done` or `limit`, polling every millisecond; returns the time.
+fn run_until(
+    m: &mut Module<SimBoard>,
+    from: Instant,
+    limit: Duration,
+    mut done: impl FnMut(&mut Module<SimBoard>, Instant) -> bool,
+) -> Instant {
+    let mut t = from;
+    while t < from + limit {
+        t += Duration::from_millis(1);
+        run_to(m, t);
+        if done(m, t) {
+            return t;
+        }
+    }
+    t
+}
+
+/// Initialises the encoder and closes the loop, as pytrinamic's TMCM-1311 demo does.
+fn close_the_loop(m: &mut Module<SimBoard>) -> Instant {
+    let t = Instant::ZERO;
+    sap(m, 132, 1, t);
+    let t = run_until(m, t, Duration::from_secs(2), |m, t| gap(m, 132, t) != 1);
+    assert_eq!(gap(m, 132, t), 2, "encoder initialisation done");
+    sap(m, 129, 1, t);
+    let t = run_until(m, t, Duration::from_millis(10), |m, t| gap(m, 133, t) == 1);
+    assert_eq!(gap(m, 133, t), 1, "the loop is closed");
+    assert_eq!(gap(m, 18, t) & 4, 4, "status word: closed loop");
+    t
+}
+
+/// One revolution in microsteps (200 full steps · 256).
+const REV: i32 = 51200;
+
+fn encoder_usteps(m: &mut Module<SimBoard>) -> f64 {
+    m.board().shaft() as f64
+}
+
+#[test]
+fn open_loop_loses_steps_where_closed_loop_does_not() {
+    // Open loop, the TMCM-1310 with AP 129 = 0: the seized shaft makes the rotor drop behind.
+    let mut open = module(&tmcm_1310::SPEC, &seized_for_a_while(0.3));
+    sap(&mut open, 0, 2 * REV, Instant::ZERO);
+    let t = run_until(&mut open, Instant::ZERO, Duration::from_secs(10), |m, t| gap(m, 8, t) == 1);
+    let lost = open.board().lost_full_steps();
+    assert!(lost.abs() >= 4, "open loop: {lost} full steps lost");
+    assert_eq!(gap(&mut open, 1, t), 2 * REV, "the step counter believes it arrived");
+    let shaft = open.board().shaft();
+    assert!((shaft - i64::from(2 * REV)).abs() >= 1024, "but the shaft is at {shaft}");
+
+    // The PD28-1021 loses steps the same way.
+    let mut pd28 = module(&pd28_1021::SPEC, &seized_for_a_while(0.3));
+    sap(&mut pd28, 0, 2 * REV, Instant::ZERO);
+    run_until(&mut pd28, Instant::ZERO, Duration::from_secs(10), |m, t| gap(m, 8, t) == 1);
+    assert!(pd28.board().lost_full_steps().abs() >= 4);
+
+    // Closed loop: the rotor waits at the seizure, then catches up; it arrives where it was sent.
+    // The initialisation takes 0.3 s: the seizure comes as late.
+    let mut cl = module(&tmcm_1310::SPEC, &seized_for_a_while(0.55));
+    let t0 = close_the_loop(&mut cl);
+    assert!(t0 <= Instant::ZERO + Duration::from_millis(310), "{t0:?}");
+    let target = gap(&mut cl, 1, t0) + 2 * REV;
+    sap(&mut cl, 0, target, t0);
+    let mut worst = 0;
+    let t = run_until(&mut cl, t0, Duration::from_secs(10), |m, t| {
+        worst = worst.max(gap(m, 237, t).abs());
+        gap(m, 8, t) == 1
+    });
+    assert_eq!(gap(&mut cl, 8, t), 1, "target reached");
+    assert!(worst > 3000, "the seizure held the rotor back ({worst} microsteps)");
+    let actual = gap(&mut cl, 1, t);
+    assert!((actual - target).abs() <= 100, "encoder {actual} within the window of {target}");
+    assert_eq!(gap(&mut cl, 209, t), actual, "AP 1 is the encoder in closed loop");
+    assert_eq!(cl.board().lost_full_steps(), 0, "no step lost");
+    let shaft = encoder_usteps(&mut cl);
+    assert!((shaft - f64::from(target)).abs() <= 100.0, "the shaft is at {shaft}");
+    let status = gap(&mut cl, 18, t);
+    assert_eq!(
+        status & 0b1_0000_0000_1101,
+        0b1_0000_0000_1101,
+        "reached, closed loop, position mode, hold: {status:b}"
+    );
+}
+
+#[test]
+fn a_load_beyond_the_current_trips_the_following_error() {
+    let world = "[motor]\nholding_torque = 0.45\nrated_current = 2.0\n[[faults.stall]]\nat = 20.0\nfrom = 0.3\n";
+    let mut m = module(&tmcm_1310::SPEC, world);
+    let t0 = close_the_loop(&mut m);
+    sap(&mut m, 125, 5000, t0);
+    let target = gap(&mut m, 1, t0) + 2 * REV;
+    sap(&mut m, 0, target, t0);
+    let t = run_until(&mut m, t0, Duration::from_secs(5), |m, t| gap(m, 207, t) & 2 != 0 || gap(m, 8, t) == 1);
+    assert!(t < t0 + Duration::from_secs(5), "stopped by the following error");
+    assert_eq!(gap(&mut m, 3, t), 0, "the ramp stands");
+    assert_eq!(gap(&mut m, 233, t), gap(&mut m, 1, t), "at the rotor: no catch-up later");
+    assert_eq!(m.board().lost_full_steps(), 0);
+    assert_eq!(gap(&mut m, 18, t) & 4, 4, "still closed loop, holding");
+}
+
+#[test]
+fn torque_mode_pushes_with_the_target_current() {
+    let mut m =
+        module(&tmcm_1310::SPEC, "[motor]\nholding_torque = 0.45\nrated_current = 2.0\n[load]\nfriction = 0.01\n");
+    assert_eq!(
+        exec(&mut m, Command::Sap { param: 14, motor: 0, value: 500 }, Instant::ZERO),
+        Err(Status::InvalidValue),
+        "open loop: no torque mode"
+    );
+    let t0 = close_the_loop(&mut m);
+    let p0 = gap(&mut m, 1, t0);
+    sap(&mut m, 14, 1000, t0);
+    let t = t0 + Duration::from_millis(200);
+    run_to(&mut m, t);
+    assert_eq!(gap(&mut m, 18, t) & (1 << 5), 1 << 5, "torque mode");
+    assert_eq!(gap(&mut m, 19, t), 1000);
+    assert!(gap(&mut m, 1, t) > p0 + REV / 10, "turning forward");
+    exec(&mut m, Command::Mst { motor: 0 }, t).unwrap();
+    assert_eq!(gap(&mut m, 18, t) & (1 << 5), 0, "MST leaves torque mode");
+}
+
+#[test]
+fn initialisation_fails_with_the_wrong_encoder_resolution() {
+    let mut m = module(&tmcm_1310::SPEC, "[encoder]\nkind = \"abn\"\ncounts_per_rev = 2000\n");
+    sap(&mut m, 132, 1, Instant::ZERO);
+    let t = run_until(&mut m, Instant::ZERO, Duration::from_secs(2), |m, t| gap(m, 132, t) != 1);
+    assert_eq!(gap(&mut m, 132, t), 3, "4096 expected, 2000 counted");
+    sap(&mut m, 210, 2000, t);
+    sap(&mut m, 132, 1, t);
+    let t = run_until(&mut m, t, Duration::from_secs(2), |m, t| gap(m, 132, t) != 1);
+    assert_eq!(gap(&mut m, 132, t), 2);
+}
+
+#[test]
+fn an_ssi_encoder_is_read_when_selected() {
+    let world = "[encoder]\nkind = \"ssi\"\ncounts_per_rev = 4096\n";
+    let mut m = module(&tmcm_1310::SPEC, world);
+    sap(&mut m, 132, 1, Instant::ZERO);
+    let t = run_until(&mut m, Instant::ZERO, Duration::from_secs(2), |m, t| gap(m, 132, t) != 1);
+    assert_eq!(gap(&mut m, 132, t), 3, "A/B/N selected, nothing counts");
+    sap(&mut m, 201, 1, t);
+    sap(&mut m, 132, 1, t);
+    let t = run_until(&mut m, t, Duration::from_secs(2), |m, t| gap(m, 132, t) != 1);
+    assert_eq!(gap(&mut m, 132, t), 2);
+    sap(&mut m, 129, 1, t);
+    // Three revolutions: the turns are counted across the SSI angle's wrap.
+    let target = gap(&mut m, 1, t) + 3 * REV;
+    run_to(&mut m, t + Duration::from_millis(5));
+    sap(&mut m, 0, target, t + Duration::from_millis(5));
+    let t = run_until(&mut m, t, Duration::from_secs(10), |m, t| gap(m, 8, t) == 1);
+    assert!((gap(&mut m, 1, t) - target).abs() <= 100);
+}
