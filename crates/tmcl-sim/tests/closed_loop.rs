@@ -5,7 +5,7 @@
 use tmcl_core::model::{pd28_1021, tmcm_1310, ModelSpec};
 use tmcl_core::{Duration, Instant, Module, Outcome};
 use tmcl_sim::{SimBoard, World};
-use tmcl_wire::{Command, MoveTarget, Status};
+use tmcl_wire::{Command, Status};
 
 /// A NEMA 17 motor (0.45 N·m at 2 A) on a rotary axis whose shaft seizes at 20° for 0.3 s from `from`
 /// (a move from 0 at the default ramp gets there after 0.33 s).
