@@ -1,5 +1,6 @@
-"""Fixtures: a `tmcl serve` virtual PD28-1021 on a pty or TCP port, started per test in a temporary
-directory, stopped with SIGTERM at teardown (exit code 0 and the pty link removed are checked).
+"""Fixtures: a `tmcl serve` virtual PD28-1021 (or another model: `tmcm1310_server`, `model_server`) on a
+pty or TCP port, started per test in a temporary directory, stopped with SIGTERM at teardown (exit code 0
+and the pty link removed are checked).
 
 The binary is $TMCL_BIN when set, else target/debug/tmcl built once per session with
 `cargo build -p tmcl-cli`.
@@ -73,3 +74,16 @@ def eeprom_server(serve, tmp_path) -> Server:
 def bus_server(serve) -> Server:
     """Three PD28-1021 at addresses 1, 2 and 3 on one pty, state in memory."""
     return serve("pty", modules=BUS_MODULES)
+
+
+@pytest.fixture
+def tmcm1310_server(serve) -> Server:
+    """A TMCM-1310 on a pty (its USB interface), state in memory."""
+    return serve("pty", modules=["tmcm-1310"])
+
+
+@pytest.fixture(params=["pd28-1021", "tmcm-1310"])
+def model_server(request, serve) -> Server:
+    """A pty server of each model in turn, state in memory (for what the models share);
+    `model_server.modules[0]` names the model."""
+    return serve("pty", modules=[request.param])

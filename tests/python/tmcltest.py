@@ -62,6 +62,10 @@ class Server:
         self._stderr_path: Path | None = None
 
     # -- lifecycle ---------------------------------------------------------------------------------
+    def models(self) -> list[str]:
+        """The product names the ready line must show, in command-line order (`tmcm-1310@2` → TMCM-1310)."""
+        return [m.partition("@")[0].upper() for m in self.modules or ["pd28-1021"]]
+
     def args(self) -> list[str]:
         args = [str(self.tmcl), "serve"]
         for module in self.modules or ["pd28-1021"]:
@@ -108,10 +112,13 @@ class Server:
                 break
         self.ready_line = line
         self.addresses = []
-        for part in m.group(1).split(", "):
+        parts = m.group(1).split(", ")
+        models = self.models()
+        assert len(parts) == len(models), line
+        for part, model in zip(parts, models):
             module = BUS_MODULE_RE.match(part)
             assert module, line
-            assert module.group(1) == "PD28-1021", line
+            assert module.group(1) == model, line
             self.addresses.append(int(module.group(2)))
         self.module_address = self.addresses[0]
         if self.modules is None:
