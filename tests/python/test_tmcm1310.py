@@ -327,8 +327,6 @@ def test_download_of_1024_commands(tmcl_bin, tmcm1310_server, tmp_path):
     assert "stored 1024 instructions at 0..1024" in r.stdout
 
 
-@pytest.mark.xfail(strict=True, reason="core bug: the 1025th download answers 101 and overwrites cell 1023 "
-                                       "(vm/run.rs download); remove this mark when fixed")
 def test_download_of_1025_commands_is_refused(tmcl_bin, tmcm1310_server, tmp_path):
     link = str(tmcm1310_server.link)
     r = tmcl(tmcl_bin, "--port", link, "download", str(program(tmp_path, 1025)))
@@ -337,7 +335,6 @@ def test_download_of_1025_commands_is_refused(tmcl_bin, tmcm1310_server, tmp_pat
 
 # -- closed loop (pytrinamic's TMCM-1311 closed-loop demo) ---------------------------------------------
 
-@pytest.mark.xfail(reason="closed loop pending", strict=False)
 def test_closed_loop_demo_sequence(module, motor):
     """The TMCM-1311 demo's enable sequence: encoder initialisation (AP 132 := 1, until it reads 2), then
     closed loop on (AP 129 := 1, until the init flag AP 133 reads 1); then a move of one revolution ends

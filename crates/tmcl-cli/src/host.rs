@@ -298,7 +298,7 @@ fn ok(reply: Reply, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
 fn version(client: &mut Client<Box<dyn Transport>>, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     let text = client.version_string()?;
     let binary = client.version_binary()?;
-    let decoded = FirmwareVersion::from_value(binary);
+    let decoded = FirmwareVersion::from_value_and_string(binary, &text);
     if json {
         let value = json!({
             "version": text,

@@ -43,12 +43,16 @@ pub const TRACE_HELP: &str = "\
 Trace columns (--trace OUT.csv), one row every --every ms and one at each event:
   time_s            simulated time in seconds (6 decimals)
   target_position   AP 0, microsteps
-  actual_position   AP 1, microsteps
+  actual_position   AP 1, microsteps (the encoder while a closed loop is closed)
   velocity          AP 3, actual speed in pps (signed)
   accumulator, x    the program's accumulator and X register
   pc                program counter (next instruction)
   outputs           digital outputs as a number, bit n = OUTn
   varN              user variable N (bank 2), for each variable the program or --set names
+  load, current_scale, encoder, energy_mas2
+                    with --drive: AP 206, AP 180, AP 209, the motor's energy
+  virtual_position, position_error, scaler, status_word
+                    with --drive on a closed-loop model (tmcm-1310): AP 233, 237, 123, 18
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
                     execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
                     MVP; the row shows where the motor was then); several are joined with `;`
@@ -79,7 +83,8 @@ pub struct RunArgs {
     #[arg(long, value_name = "MS", default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..))]
     pub every: u64,
     /// Also trace and plot the drive: stallGuard2 load value (AP 206), coolStep current scale (AP 180),
-    /// encoder position (AP 209) beside the step position, and the motor's energy (A²·s).
+    /// encoder position (AP 209) beside the step position, and the motor's energy (A²·s); on a
+    /// closed-loop model also the virtual position, position error, current scaler and status word.
     #[arg(long)]
     pub drive: bool,
 }
@@ -146,7 +151,13 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
             crate::sim::Setting::Global { number, bank: crate::sim::USER_BANK, .. } => Some(number),
             _ => None,
         }));
-        let mut trace = Trace::new(csv, args.plot.is_some(), variables.into_iter().collect(), args.drive)?;
+        let mut trace = Trace::new(
+            csv,
+            args.plot.is_some(),
+            variables.into_iter().collect(),
+            args.drive,
+            module.spec().axis.has(tmcl_core::model::Setting::ClosedLoop),
+        )?;
         let run = Traced { every: Duration::from_millis(args.every), end: Instant::ZERO + args.duration };
         run.run(&mut module, &source, &mut trace, &bar)?;
         trace.finish()?;

@@ -204,6 +204,11 @@ impl State {
         }
     }
 
+    /// The closed loop's state (closed-loop models).
+    pub fn closed_loop(&self) -> &ClosedLoop {
+        &self.cl
+    }
+
     /// The state of host interface `port` (framer, outbox, ASCII line), if the core has it.
     pub fn port(&self, port: usize) -> Option<&Port> {
         self.ports.get(port)

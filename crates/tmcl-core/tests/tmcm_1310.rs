@@ -588,7 +588,6 @@ fn program_memory_holds_1024_commands() {
 /// memory should refuse it and keep cell 1023 — with 4 (invalid value), as command 132 to address 1024
 /// answers; the manual names no status for it.
 #[test]
-#[ignore = "core bug: the 1025th download answers 101 and overwrites cell 1023 (vm/run.rs download)"]
 fn the_1025th_download_is_refused() {
     let mut r = Rig::new();
     assert_eq!(r.cmd(Opcode::StartDownload, 0, 0, 0).0, Status::Ok);

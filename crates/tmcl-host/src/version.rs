@@ -30,6 +30,21 @@ impl FirmwareVersion {
         FirmwareVersion { module, major, minor }
     }
 
+    /// Decodes a type 1 value with the type 0 string beside it (`1310V114`): the high word's two readings
+    /// — digit pairs (`10`, `21` = 1021, the reference firmware) or one 16-bit number (`0x051E` = 1310,
+    /// the TMCM-1310 V1.11 manual's p.63) — are told apart by the module number the string starts with.
+    /// Without a match the digit-pair reading stands, as in [`FirmwareVersion::from_value`].
+    pub fn from_value_and_string(value: i32, string: &str) -> FirmwareVersion {
+        let v = FirmwareVersion::from_value(value);
+        let named: Option<u16> = string.split(['V', 'v']).next().and_then(|n| n.trim().parse().ok());
+        let [high, low, ..] = value.to_be_bytes();
+        let word = u16::from_be_bytes([high, low]);
+        match named {
+            Some(n) if v.module != Some(n) && word == n => FirmwareVersion { module: Some(word), ..v },
+            _ => v,
+        }
+    }
+
     /// The value a module puts in a command 136 type 1 reply (the inverse of [`FirmwareVersion::from_value`]
     /// for module numbers up to 9999).
     pub fn to_value(self) -> i32 {
@@ -60,6 +75,11 @@ mod tests {
         assert_eq!(v, FirmwareVersion { module: Some(1021), major: 1, minor: 42 });
         assert_eq!(v.to_string(), "1.42 (module 1021)");
         assert_eq!(v.to_value(), 0x0A15_012A);
+        // The TMCM-1310's 0x051E is 1310 as one number: the string says which reading is meant.
+        let v = FirmwareVersion::from_value_and_string(0x051E_010E, "1310V114");
+        assert_eq!(v.to_string(), "1.14 (module 1310)");
+        let v = FirmwareVersion::from_value_and_string(0x0A15_012A, "1021V142");
+        assert_eq!(v.module, Some(1021));
         let old = FirmwareVersion::from_value(0x0000_0107);
         assert_eq!(old.to_string(), "1.07");
     }

@@ -4,7 +4,8 @@
 //! 1. target (AP 0) and actual (AP 1) position in microsteps;
 //! 2. actual velocity (AP 3) in pps;
 //! 3. with `--drive`: the stallGuard2 load value (AP 206) and the coolStep current scale × 32 (AP 180) on
-//!    one scale 0..1023, and the encoder position (AP 209) minus the step position (AP 1): lost steps;
+//!    one scale 0..1023, and the encoder position (AP 209) minus the step position (AP 1): lost steps; on a
+//!    closed-loop model the current scaler × 4 (AP 123) and the position error (AP 237) instead;
 //! 4. an event lane per kind of event (`interrupt 0`, `out0=1`, `stop`, ...), a tick for each one.
 //!
 //! With few events (up to [`MAX_EVENT_LINES`]) each also gets a vertical line across the position and
@@ -97,10 +98,23 @@ where
 {
     let (load_area, slip_area) = area.split_vertically(240);
     let field = |f: fn((i32, i32, i32)) -> i32| move |s: &Sample| s.drive.map_or(0.0, |d| f64::from(f(d)));
+    let closed_loop = samples.iter().any(|s| s.closed_loop.is_some());
     let mut chart = panel(&load_area, time.clone(), -20.0..1060.0, "load / current", lines)?;
     series(&mut chart, thin(samples, field(|d| d.0)), LOAD, 1, "stallGuard2 load value (AP 206)")?;
-    series(&mut chart, thin(samples, field(|d| d.1 * 32)), SCALE, 2, "coolStep current scale × 32 (AP 180)")?;
+    if closed_loop {
+        let scaler = thin(samples, |s| s.closed_loop.map_or(0.0, |c| f64::from(c[2]) * 4.0));
+        series(&mut chart, scaler, SCALE, 2, "closed-loop current scaler × 4 (AP 123)")?;
+    } else {
+        series(&mut chart, thin(samples, field(|d| d.1 * 32)), SCALE, 2, "coolStep current scale × 32 (AP 180)")?;
+    }
     legend(&mut chart)?;
+    if closed_loop {
+        // In closed loop AP 1 is the encoder: the error that matters is the virtual position's lead.
+        let error = thin(samples, |s| s.closed_loop.map_or(0.0, |c| f64::from(c[1])));
+        let mut chart = panel(&slip_area, time, padded(error.iter().map(|p| p.1)), "position error [µsteps]", lines)?;
+        series(&mut chart, error, SLIP, 1, "virtual (AP 233) − actual position (AP 1): AP 237")?;
+        return legend(&mut chart);
+    }
     let slip = thin(samples, |s| s.drive.map_or(0.0, |d| f64::from(d.2) - f64::from(s.actual)));
     let mut chart = panel(&slip_area, time, padded(slip.iter().map(|p| p.1)), "encoder − steps [µsteps]", lines)?;
     series(&mut chart, slip, SLIP, 1, "encoder position (AP 209) − step position (AP 1)")?;
@@ -296,6 +310,7 @@ mod tests {
                 actual: if i == 54_321 { 7 } else { 0 },
                 velocity: 0,
                 drive: None,
+                closed_loop: None,
             })
             .collect();
         let points = thin(&samples, |s| f64::from(s.actual));

@@ -6,13 +6,14 @@
 //! |---|---|
 //! | `time_s` | simulated time in seconds, with 6 decimals (µs) |
 //! | `target_position` | AP 0, microsteps |
-//! | `actual_position` | AP 1, microsteps |
+//! | `actual_position` | AP 1, microsteps (the encoder's position while a closed loop is closed) |
 //! | `velocity` | AP 3, the actual speed in pps (signed) |
 //! | `accumulator`, `x` | the program's accumulator and X register |
 //! | `pc` | the program counter (GP 130): the next instruction |
 //! | `outputs` | the digital outputs as a number, bit n = OUTn |
 //! | `varN` | user variable N (bank 2), one column per variable the program names or `--set` writes |
 //! | `load`, `current_scale`, `encoder`, `energy_mas2` | with `--drive`: AP 206, AP 180, AP 209, and the motor's energy in mA²·s |
+//! | `virtual_position`, `position_error`, `scaler`, `status_word` | with `--drive` on a closed-loop model (TMCM-1310): AP 233, AP 237, AP 123, AP 18 |
 //! | `event` | what happened at this time: `interrupt N`, `stop`, `end`, `out0=1`, `target=N`, … (`;`-separated) |
 //!
 //! Every value is an integer and the time is formatted from integer microseconds, so the same run gives
@@ -40,6 +41,8 @@ pub(crate) struct Sample {
     pub velocity: i32,
     /// With `--drive`: AP 206, AP 180, AP 209.
     pub drive: Option<(i32, i32, i32)>,
+    /// With `--drive` on a closed-loop model: AP 233, AP 237, AP 123, AP 18.
+    pub closed_loop: Option<[i32; 4]>,
 }
 
 /// One program event kept for the plot.
@@ -57,6 +60,7 @@ pub(crate) struct Trace<W: Write> {
     keep: bool,
     variables: Vec<u8>,
     drive: bool,
+    closed_loop: bool,
     line: String,
     /// Samples, when kept.
     pub samples: Vec<Sample>,
@@ -69,12 +73,14 @@ pub(crate) struct Trace<W: Write> {
 impl<W: Write> Trace<W> {
     /// A trace of `variables` (user variable numbers, ascending) that writes CSV to `csv` and keeps
     /// samples and events in memory if `keep`.
-    pub fn new(csv: Option<W>, keep: bool, variables: Vec<u8>, drive: bool) -> io::Result<Trace<W>> {
+    /// `closed_loop`: the model has a closed loop (its columns come with `drive`).
+    pub fn new(csv: Option<W>, keep: bool, variables: Vec<u8>, drive: bool, closed_loop: bool) -> io::Result<Trace<W>> {
         let mut trace = Trace {
             csv,
             keep,
             variables,
             drive,
+            closed_loop: drive && closed_loop,
             line: String::new(),
             samples: Vec::new(),
             events: Vec::new(),
@@ -87,6 +93,9 @@ impl<W: Write> Trace<W> {
             }
             if trace.drive {
                 header.push_str(",load,current_scale,encoder,energy_mas2");
+            }
+            if trace.closed_loop {
+                header.push_str(",virtual_position,position_error,scaler,status_word");
             }
             header.push_str(",event\n");
             out.write_all(header.as_bytes())?;
@@ -102,13 +111,21 @@ impl<W: Write> Trace<W> {
             let mut ap = |n| module.get_axis(n).unwrap_or(0);
             (ap(206), ap(180), ap(209))
         });
+        let closed_loop = self.closed_loop.then(|| [233, 237, 123, 18].map(|n| module.get_axis(n).unwrap_or(0)));
+        // AP 1: the step counter, or the encoder while a closed loop is closed.
+        let actual = if self.closed_loop || module.state().closed_loop().active {
+            module.get_axis(1).unwrap_or(ramp.position)
+        } else {
+            ramp.position
+        };
         if self.keep {
             self.samples.push(Sample {
                 micros,
                 target: ramp.target_position,
-                actual: ramp.position,
+                actual,
                 velocity: ramp.velocity(),
                 drive,
+                closed_loop,
             });
             self.events.extend(events.iter().map(|text| Event { micros, text: text.clone() }));
         }
@@ -121,7 +138,7 @@ impl<W: Write> Trace<W> {
             "{},{},{},{},{},{},{},{}",
             seconds(micros),
             ramp.target_position,
-            ramp.position,
+            actual,
             ramp.velocity(),
             regs.accumulator,
             regs.x,
@@ -136,6 +153,9 @@ impl<W: Write> Trace<W> {
             // Energy in mA²·s, rounded to an integer so traces stay byte-identical everywhere.
             let energy = (module.board().energy() * 1e6).round() as i64;
             let _ = write!(line, ",{load},{scale},{encoder},{energy}");
+        }
+        if let Some([virtual_position, error, scaler, status]) = closed_loop {
+            let _ = write!(line, ",{virtual_position},{error},{scaler},{status}");
         }
         line.push(',');
         line.push_str(&events.join(";"));

@@ -426,15 +426,7 @@ mod tests {
         for _ in 0..2000 {
             let c = control(
                 &P,
-                &LoopInput {
-                    virtual_pos: 0,
-                    step: 0,
-                    standing: true,
-                    actual: field - 100,
-                    rotor_move: 0,
-                    field,
-                    hold,
-                },
+                &LoopInput { virtual_pos: 0, step: 0, standing: true, actual: field - 100, rotor_move: 0, field, hold },
             );
             hold = c.hold;
             field = c.field;

@@ -461,11 +461,17 @@ impl<B: Board> Module<B> {
     /// In download mode: stores one instruction at the next address (status 101, §3.2.1).
     pub(crate) fn download(&mut self, instruction: Instruction) -> Result<(), Status> {
         let Some(address) = self.vm.download else { return Err(Status::InvalidCommand) };
+        // The memory is full: one command past the last cell is refused with status 4 and nothing is
+        // overwritten (the manuals name no status for it; 4 is what command 132 to that address answers).
+        if address >= self.spec.program_memory {
+            return Err(Status::InvalidValue);
+        }
         // Only what a program of this model can execute is stored; anything else is refused and not stored.
         self.decode(instruction)?;
         persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
         self.program.set(usize::from(address), instruction, true); // decoded for this model above
-        self.vm.download = address.checked_add(1).filter(|a| *a < self.spec.program_memory).or(Some(address));
+        self.vm.download = Some(address + 1); // at most program_memory ≤ 2048
+
         Ok(())
     }
 
