@@ -28,6 +28,15 @@ const RUNS: &[(&str, &str, &str, &[&str])] = &[
     ("manual_p12_constants", "30", "100", &[]),
     // §8.6: the jump table, entered at 0 (Func1: a move there and back, then STOP).
     ("manual_p14_jump_table", "3", "20", &[]),
+    // TMCM-1310 manual §6.6.5: the same timer example on a module with OUT3.
+    ("tmcm1310_timer_interrupt", "3", "50", &["--module", "tmcm-1310"]),
+    // TMCM-1310 closed loop through a seizure (position error, scaler and status word with --drive).
+    (
+        "tmcm1310_closed_loop",
+        "6",
+        "20",
+        &["--module", "tmcm-1310", "--drive", "--world", "examples/worlds/closed-loop-seizure.toml"],
+    ),
 ];
 
 #[test]
@@ -40,6 +49,7 @@ fn manual_programs_match_their_expected_traces() {
         let program = root.join("tests/programs").join(format!("{name}.tmc"));
         let trace = out_dir.path().join(format!("{name}.csv"));
         let status = Command::new(TMCL)
+            .current_dir(&root)
             .arg("run")
             .arg(&program)
             .args(["--for", secs, "--every", every, "--trace"])

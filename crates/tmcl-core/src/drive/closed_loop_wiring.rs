@@ -136,7 +136,9 @@ impl<B: Board> Module<B> {
         self.st.cl.hold = command.hold;
         self.st.cl.field_offset = command.field - e;
         self.st.cl.error = e.clamp(i32::MIN.into(), i32::MAX.into()) as i32;
-        self.st.cl.gamma = (command.field * 256 / self.full_step()).clamp(-256, 256) as i32;
+        // Gamma: the field's lead over where the rotor is going (its last move continued), 256 = 90°.
+        let lead = if self.st.cl.torque.is_some() { command.field } else { command.field - moved };
+        self.st.cl.gamma = (lead * 256 / self.full_step()).clamp(-256, 256) as i32;
         self.regulate_current(e, dt_us);
         // Following error (AP 125): stop where the rotor is.
         let max = i64::from(self.ap(Setting::MaxFollowingError).unwrap_or(0));

@@ -53,7 +53,11 @@ impl<B: Board> Module<B> {
     /// After each motion tick: new stallGuard2 readings (coolStep, stop on stall), and the encoder.
     pub(crate) fn drive_tick(&mut self) {
         let measurements = self.board.load_measurements();
-        if measurements != self.st.load_measurements {
+        // In closed loop the loop sets the current and watches the following error: coolStep, stop on
+        // stall and the deviation check are open-loop functions (TMCM-1310 manual §1: stallGuard2 in open
+        // loop only).
+        let open_loop = !self.st.cl.active;
+        if measurements != self.st.load_measurements && open_loop {
             self.st.load_measurements = measurements;
             let load = self.board.load().min(1023);
             if !self.coolstep_off() {
@@ -67,7 +71,7 @@ impl<B: Board> Module<B> {
             }
         }
         let prescaler = self.prescaler();
-        let deviation = self.ap(Setting::MaxEncoderDeviation).unwrap_or(0);
+        let deviation = if open_loop { self.ap(Setting::MaxEncoderDeviation).unwrap_or(0) } else { 0 };
         if deviation == 0 && !encoder::clear_on_null_enabled(prescaler) {
             return;
         }
