@@ -3,6 +3,7 @@
 
 use crate::board::SimBoard;
 use tmcl_core::model::pd28_1021::{self, SPEC};
+use tmcl_core::model::tmcm_1310;
 use tmcl_core::model::{InterfaceDesc, ModelDesc, ModelSpec};
 use tmcl_core::module::MAILBOX_LEN;
 use tmcl_core::{Duration, Instant, Module};
@@ -186,6 +187,46 @@ pub fn two_interfaces(data: &[u8]) {
     }
 }
 
+/// The TMCM-1310's closed loop under arbitrary commands: the encoder is initialised and the loop closed,
+/// then each 9-byte chunk `[gap, command, type, motor, value (4), poll]` runs one instruction (direct
+/// mode) after `gap` tenths of a millisecond, polling `poll` milliseconds afterwards, in a world where the
+/// shaft seizes for a while. Whatever is written — resolutions, gains, β, torques, the loop opened and
+/// closed again — nothing panics, deadlines never lie in the past, and while the loop stays closed no
+/// step is lost: the field never runs away from the rotor.
+pub fn closed_loop(data: &[u8]) {
+    let spec = &tmcm_1310::SPEC;
+    let world = crate::World::from_toml_str(
+        "[motor]\nholding_torque = 0.45\nrated_current = 2.0\n[[faults.stall]]\nat = 30.0\nfrom = 0.35\nuntil = 0.5\n",
+    )
+    .expect("valid world");
+    let board = SimBoard::in_memory_for(spec).with_world(world).expect("valid world");
+    let mut module = Module::new(board, spec, Instant::ZERO);
+    let mut out = Vec::new();
+    let mut sink = |b: &[u8]| out.extend_from_slice(b);
+    let _ = module.execute(Command::Sap { param: 132, motor: 0, value: 1 }, Instant::ZERO);
+    let mut now = Instant::ZERO + Duration::from_millis(310);
+    module.poll(now, &mut sink);
+    let _ = module.execute(Command::Sap { param: 129, motor: 0, value: 1 }, now);
+    assert!(module.state().closed_loop().active, "the loop closes after the initialisation");
+    let mut always_closed = true;
+    for chunk in data.chunks_exact(9) {
+        now += Duration::from_micros(100 * u64::from(chunk[0]));
+        let value = i32::from_be_bytes([chunk[4], chunk[5], chunk[6], chunk[7]]);
+        let instruction = tmcl_wire::Instruction::new(chunk[1].into(), chunk[2], chunk[3], value);
+        let _ = module.execute_instruction(now, instruction);
+        now += Duration::from_millis(u64::from(chunk[8] % 64));
+        let next = module.poll(now, &mut sink);
+        assert!(next.is_none_or(|t| t >= now), "a deadline in the past: {next:?} at {now}");
+        always_closed &= module.state().closed_loop().active;
+    }
+    now += Duration::from_millis(200);
+    module.poll(now, &mut sink);
+    always_closed &= module.state().closed_loop().active;
+    if always_closed {
+        assert_eq!(module.board().lost_full_steps(), 0, "a step lost in closed loop");
+    }
+}
+
 /// The mailbox's answer to one request (and what else fell due with it, which can only be 138 events).
 fn check_mailbox_reply(request: &[u8; MAILBOX_LEN], out: &[u8]) {
     assert_eq!(out.len() % MAILBOX_LEN, 0, "mailbox replies come whole: {out:02X?}");
@@ -266,6 +307,24 @@ mod tests {
         #[test]
         fn two_interfaces_never_mix(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {
             two_interfaces(&data);
+        }
+
+        #[test]
+        fn closed_loop_loses_no_step(data in proptest::collection::vec(proptest::num::u8::ANY, 0..270)) {
+            closed_loop(&data);
+        }
+
+        #[test]
+        fn closed_loop_under_motion_commands(
+            cmds in proptest::collection::vec((0u8..40, proptest::sample::select(vec![1u8, 2, 3, 4, 5, 6, 13, 14]),
+                proptest::sample::select(vec![0u8, 1, 2, 4, 5, 6, 14, 111, 113, 114, 122, 124, 125, 126, 129, 136, 138, 140, 193, 201, 202, 210]),
+                -200_000i32..200_000, 0u8..64), 0..30)
+        ) {
+            let data: Vec<u8> = cmds.iter().flat_map(|(gap, op, t, v, poll)| {
+                let v = v.to_be_bytes();
+                [*gap, *op, *t, 0, v[0], v[1], v[2], v[3], *poll]
+            }).collect();
+            closed_loop(&data);
         }
 
         #[test]
