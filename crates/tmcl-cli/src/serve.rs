@@ -101,6 +101,15 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
     if wanted.len() > 1 && (args.eeprom.is_some() || conn.address.is_some()) {
         return Err("with several modules give each its address as MODEL@ADDR and use --eeprom-dir".into());
     }
+    // A link whose modules answer every address (USB) holds one module: several would all answer.
+    if wanted.len() > 1 {
+        if let Some((spec, _)) = wanted.iter().find(|(spec, _)| !spec.interfaces[0].address_filter) {
+            return Err(format!(
+                "the {} is served on its {} interface, which answers every address: one module per link",
+                spec.name, spec.interfaces[0].name
+            ));
+        }
+    }
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop)).map_err(|e| format!("cannot handle signals: {e}"))?;

@@ -544,6 +544,8 @@ impl<B: Board> Module<B> {
             return Err(ParamError::OutOfRange.into());
         }
         self.unlocked_for(d)?;
+        // Another encoder input (AP 201): the position before the switch, read through the old one.
+        let encoder_before = if d.setting == Some(Setting::EncoderMode) { self.encoder_position() } else { 0 };
         match d.role {
             // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
             // result to target position" relies on it).
@@ -577,17 +579,6 @@ impl<B: Board> Module<B> {
             Role::EncoderInit => self.start_encoder_init(v)?,
             Role::ClearI2t => self.st.cl.i2t_exceeded = false,
             // Another encoder input (AP 201 bit 0): the position carries on from where it was.
-            Role::Plain if d.setting == Some(Setting::ClosedLoop) => {
-                self.st.axis[i] = v;
-                self.closed_loop_switched();
-            }
-            Role::Plain if d.setting == Some(Setting::EncoderMode) => {
-                let at = self.encoder_position();
-                self.st.axis[i] = v;
-                self.configure_driver();
-                self.st.ssi = (0, 0);
-                self.set_encoder(at);
-            }
             Role::I2tExceedCount => self.st.cl.i2t_count = v as u32,
             Role::EncoderPrescaler => {
                 let now_value = self.encoder_position();
@@ -596,9 +587,14 @@ impl<B: Board> Module<B> {
             }
             _ => self.st.axis[i] = v,
         }
-        // The driver's own settings (stallGuard2 filter and threshold, current range, encoder input).
-        if matches!(d.setting, Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange)) {
-            self.configure_driver();
+        // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
+        // range), the closed loop switched on or off, another encoder input (AP 201 bit 0: the position
+        // carries on from where it was).
+        match d.setting {
+            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange) => self.configure_driver(),
+            Some(Setting::ClosedLoop) => self.closed_loop_switched(),
+            Some(Setting::EncoderMode) => self.encoder_input_changed(encoder_before),
+            _ => {}
         }
 
         Ok(())

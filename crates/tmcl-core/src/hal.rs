@@ -98,10 +98,13 @@ pub trait SwitchInputs {
 /// What the step generator asks of the motor driver, passed to [`StepDriver::update`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DriveState {
-    /// Microsteps (of the current resolution) moved since the previous update, signed. Setting the step
-    /// counter (SAP 1) or a reset changes `position` without moving: `moved` is then 0.
+    /// Microsteps (of the current resolution) the field moved since the previous update, signed. Setting
+    /// the step counter (SAP 1) or a reset changes `position` without moving: `moved` is then 0. In open
+    /// loop the field moves with the step counter; in closed loop (TMCM-1310) the firmware commands it
+    /// from the encoder, so its moves add up to the step counter's plus the loop's corrections.
     pub moved: i64,
-    /// The step counter (axis parameter 1) in microsteps of the current resolution.
+    /// The step counter (axis parameter 1; in closed loop the virtual position, AP 233) in microsteps of
+    /// the current resolution.
     pub position: i32,
     /// Signed velocity in microsteps per second.
     pub velocity: i32,

@@ -579,6 +579,7 @@ impl<B: Board> Module<B> {
         };
         let mut ticked = false;
         let mut budget = BUDGET;
+        let closed_loop = self.has_closed_loop();
         // Instructions up to and including `now`.
         let horizon = now + Duration::from_micros(1);
         loop {
@@ -628,7 +629,7 @@ impl<B: Board> Module<B> {
                 let limits = self.limits();
                 let r = self.st.ramp.tick(Duration::from_micros(dt), &params, limits);
                 self.st.ramping = r.ramping;
-                let steps = if self.has_closed_loop() { self.closed_loop_tick(r.steps, dt as i64) } else { r.steps };
+                let steps = if closed_loop { self.closed_loop_tick(r.steps, dt as i64) } else { r.steps };
                 self.st.unreported_steps += steps;
                 let moving = self.st.ramp.velocity() != 0;
                 match (moving, self.st.standstill_since) {

@@ -77,6 +77,7 @@ impl<B: Board> Module<B> {
     /// One motion tick of a closed-loop model, after the ramp moved `step` microsteps in `dt_us`: measures
     /// the rotor, opens or closes the loop, runs the initialisation or the controller, and returns how far
     /// the field moves (what the board is told). In open loop that is the ramp's step.
+    #[inline(never)] // out of the open-loop tick's way
     pub(crate) fn closed_loop_tick(&mut self, step: i64, dt_us: i64) -> i64 {
         let actual = self.actual_now();
         let moved = actual - self.st.cl.actual;
@@ -194,6 +195,15 @@ impl<B: Board> Module<B> {
         let actual = self.actual_now();
         self.st.cl.actual = actual;
         self.sync_loop(actual);
+    }
+
+    /// AP 201 was written: the board reads the other encoder input from now on, and the encoder position
+    /// carries on from `at`, the value it had before.
+    pub(crate) fn encoder_input_changed(&mut self, at: i32) {
+        self.configure_driver();
+        self.st.ssi = (0, 0);
+        let counts = self.encoder_counts_now();
+        self.st.encoder = crate::module::EncoderBase { counts, value: at };
     }
 
     /// Closes the loop where the rotor is: the ramp takes the rotor's position, nothing moves.
@@ -323,6 +333,7 @@ impl<B: Board> Module<B> {
 
     /// Whether the target is reached: the ramp at its target in position mode and, in closed loop, the
     /// rotor within the window (AP 134) of it.
+    #[inline]
     pub(crate) fn target_reached(&mut self) -> bool {
         if !self.st.cl.active {
             return self.st.ramp.position_reached();
