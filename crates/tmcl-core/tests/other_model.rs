@@ -8,14 +8,10 @@
 //! interfaces: an RS232 port without address filter, with ASCII mode, and a mailbox.
 
 use std::vec::Vec;
-use tmcl_core::hal::{
-    Analog, DriveState, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, StepDriver, SwitchInputs, Switches,
-};
 use tmcl_core::model::{
     Access, Driver, Encoder, EncoderKind, FitError, Framing, InterfaceDesc, InterfaceKind, Interrupts, Kinematics,
     ModelDesc, ModelSpec, ParamDesc, PortDesc, PortKind, Range, ReferenceModes, Role, Setting, Table,
 };
-use tmcl_core::param::persist;
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CommandSet, Instruction, Opcode, Reply, ReplyFrame, Request, Status};
 
@@ -124,77 +120,8 @@ const _: () =
 // ... and protected parameters without a password do not fit either.
 const _: () = assert!(matches!(ModelSpec::check(&ModelDesc { password: None, ..DESC }), Err(FitError::Password)));
 
-/// The board: an ideal motor, RAM EEPROM, 8 inputs and 8 outputs.
-#[derive(Debug, Clone)]
-struct Board {
-    eeprom: Vec<u8>,
-    inputs: u8,
-    outputs: u8,
-    drive: DriveState,
-    steps: i64,
-}
-
-impl Board {
-    fn new() -> Board {
-        Board {
-            eeprom: vec![0xFF; persist::capacity(&TEST_428)],
-            inputs: 0,
-            outputs: 0,
-            drive: DriveState::default(),
-            steps: 0,
-        }
-    }
-}
-
-impl Nvm for Board {
-    type Error = ();
-    fn capacity(&self) -> usize {
-        self.eeprom.len()
-    }
-    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), ()> {
-        buf.copy_from_slice(self.eeprom.get(offset..offset + buf.len()).ok_or(())?);
-        Ok(())
-    }
-    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), ()> {
-        self.eeprom.get_mut(offset..offset + data.len()).ok_or(())?.copy_from_slice(data);
-        Ok(())
-    }
-}
-impl Inputs for Board {
-    fn digital_inputs(&mut self) -> u8 {
-        self.inputs
-    }
-}
-impl Outputs for Board {
-    fn set_outputs(&mut self, bits: u8) {
-        self.outputs = bits;
-    }
-}
-impl Analog for Board {
-    fn analog_input(&mut self, _channel: u8) -> u16 {
-        1234
-    }
-    fn temperature(&mut self) -> i32 {
-        30
-    }
-}
-impl SwitchInputs for Board {
-    fn switches(&mut self) -> Switches {
-        Switches::default()
-    }
-}
-impl StepDriver for Board {
-    fn update(&mut self, _now: Instant, state: &DriveState) {
-        self.steps += state.moved;
-        self.drive = *state;
-    }
-}
-impl LoadSensor for Board {}
-impl EncoderCounter for Board {
-    fn encoder_counts(&mut self) -> i64 {
-        self.steps * 4096 / 3200 // 200 full steps × 16 microsteps per revolution
-    }
-}
+mod support;
+use support::Board;
 
 struct Rig {
     module: Module<Board>,
@@ -204,7 +131,8 @@ struct Rig {
 impl Rig {
     fn new() -> Rig {
         let now = Instant::from_secs(1);
-        Rig { module: Module::new(Board::new(), &TEST_428, now), now }
+        let board = Board { analog: 1234, temperature: 30, ..Board::new(&TEST_428, 4096) };
+        Rig { module: Module::new(board, &TEST_428, now), now }
     }
 
     /// A 9-byte frame on the serial interface (port 0): the reply's (status, value).
@@ -339,11 +267,11 @@ fn tmc428_units_and_24_bit_positions() {
     r.cmd(Opcode::Mst, 0, 0, 0);
     r.run(Duration::from_secs(3));
     r.cmd(Opcode::Sap, 1, 0, (1 << 23) - 1000);
-    let before = r.module.board().steps;
+    let before = r.module.board().steps(4);
     assert_eq!(r.cmd(Opcode::Mvp, 0, 0, -(1 << 23) + 1000).0, Status::Ok);
     r.run(Duration::from_secs(5));
     assert_eq!(r.cmd(Opcode::Gap, 8, 0, 0), (Status::Ok, 1));
-    assert_eq!(r.module.board().steps - before, 2000);
+    assert_eq!(r.module.board().steps(4) - before, 2000);
 }
 
 #[test]

@@ -8,11 +8,7 @@
 //! address 1 with its checksum (§4.1: the 8-bit sum of the other eight bytes).
 
 use std::vec::Vec;
-use tmcl_core::hal::{
-    Analog, DriveState, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, StepDriver, SwitchInputs, Switches,
-};
 use tmcl_core::model::{pd28_1021, tmcm_1310, ModelSpec};
-use tmcl_core::param::persist;
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{
     CalcOp, Command, Condition, Instruction, MoveTarget, Opcode, Reply, ReplyFrame, Request, Status, StatusKind,
@@ -28,80 +24,8 @@ const PASSWORD: i32 = 4321;
 const USB: usize = 0;
 const MAILBOX: usize = 1;
 
-/// A board: an ideal motor (the physical position integrates the steps), RAM EEPROM, 8 inputs, 8 outputs.
-#[derive(Debug, Clone)]
-struct Board {
-    eeprom: Vec<u8>,
-    inputs: u8,
-    outputs: u8,
-    drive: DriveState,
-    /// Physical position in 1/256 microsteps.
-    physical: i64,
-}
-
-impl Board {
-    fn new(spec: &ModelSpec) -> Board {
-        Board {
-            eeprom: vec![0xFF; persist::capacity(spec)],
-            inputs: 0,
-            outputs: 0,
-            drive: DriveState::default(),
-            physical: 0,
-        }
-    }
-}
-
-impl Nvm for Board {
-    type Error = ();
-    fn capacity(&self) -> usize {
-        self.eeprom.len()
-    }
-    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), ()> {
-        buf.copy_from_slice(self.eeprom.get(offset..offset + buf.len()).ok_or(())?);
-        Ok(())
-    }
-    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), ()> {
-        self.eeprom.get_mut(offset..offset + data.len()).ok_or(())?.copy_from_slice(data);
-        Ok(())
-    }
-}
-impl Inputs for Board {
-    fn digital_inputs(&mut self) -> u8 {
-        self.inputs
-    }
-}
-impl Outputs for Board {
-    fn set_outputs(&mut self, bits: u8) {
-        self.outputs = bits;
-    }
-}
-impl Analog for Board {
-    fn analog_input(&mut self, channel: u8) -> u16 {
-        1000 + u16::from(channel)
-    }
-    fn temperature(&mut self) -> i32 {
-        25
-    }
-}
-impl SwitchInputs for Board {
-    fn switches(&mut self) -> Switches {
-        Switches::default()
-    }
-}
-impl StepDriver for Board {
-    fn update(&mut self, _now: Instant, state: &DriveState) {
-        let moved = state.moved << (8 - state.resolution.min(8));
-        self.physical += if state.reverse { -moved } else { moved };
-        self.drive = *state;
-    }
-}
-impl LoadSensor for Board {}
-impl EncoderCounter for Board {
-    fn encoder_counts(&mut self) -> i64 {
-        // 4096 counts per revolution (AP 210's default) of 200 full steps × 256.
-        self.physical * 4096 / 51200
-    }
-}
+mod support;
+use support::Board;
 
 /// A module on the board with a host clock.
 struct Rig {
@@ -117,7 +41,7 @@ impl Rig {
 
     fn of(spec: &'static ModelSpec) -> Rig {
         let now = Instant::from_secs(1);
-        Rig { module: Module::new(Board::new(spec), spec, now), spec, now }
+        Rig { module: Module::new(Board::new(spec, 4096), spec, now), spec, now }
     }
 
     /// Power off and on: same board (EEPROM), fresh firmware.

@@ -297,16 +297,11 @@ pub static GLOBAL_PARAMS: [ParamDesc; 15] = [
 /// Bank 3: the timer periods (§6.6: `SGP 0, 3, 1000` sets timer 0 to 1000 ms) and the trigger
 /// transitions of the stop switches and the eight inputs (numbered as their vectors, the PD28-1021's
 /// §5.4 scheme and the TMCM-1311's bank 3: 0 off, 1 rising, 2 falling, 3 both).
-pub static INTERRUPT_PARAMS: [ParamDesc; 13] = [
-    ParamDesc::plain(0, "Timer 0 period (ms)", "Timer0Period", Range::Unsigned32, Access::RW, 0, I),
-    ParamDesc::plain(1, "Timer 1 period (ms)", "Timer1Period", Range::Unsigned32, Access::RW, 0, I),
-    ParamDesc::plain(2, "Timer 2 period (ms)", "Timer2Period", Range::Unsigned32, Access::RW, 0, I),
-    ParamDesc::plain(27, "Stop left 0 trigger transition", "StopLeft0Trigger", r(0, 3), Access::RW, 0, I),
-    ParamDesc::plain(28, "Stop right 0 trigger transition", "StopRight0Trigger", r(0, 3), Access::RW, 0, I),
-    ParamDesc::plain(39, "Input 0 trigger transition", "Input0Trigger", r(0, 3), Access::RW, 0, I),
-    ParamDesc::plain(40, "Input 1 trigger transition", "Input1Trigger", r(0, 3), Access::RW, 0, I),
-    ParamDesc::plain(41, "Input 2 trigger transition", "Input2Trigger", r(0, 3), Access::RW, 0, I),
-    ParamDesc::plain(42, "Input 3 trigger transition", "Input3Trigger", r(0, 3), Access::RW, 0, I),
+pub static INTERRUPT_PARAMS: [ParamDesc; 13] = join(&[&INTERRUPT_SHARED, &INPUTS_4_TO_7]);
+
+/// Timers, stop switches and inputs 0–3: as the PD28-1021's bank 3.
+const INTERRUPT_SHARED: [ParamDesc; 9] = cited(&pd28_1021::INTERRUPT_PARAMS, 0, 42, I);
+const INPUTS_4_TO_7: [ParamDesc; 4] = [
     ParamDesc::plain(43, "Input 4 trigger transition", "Input4Trigger", r(0, 3), Access::RW, 0, I),
     ParamDesc::plain(44, "Input 5 trigger transition", "Input5Trigger", r(0, 3), Access::RW, 0, I),
     ParamDesc::plain(45, "Input 6 trigger transition", "Input6Trigger", r(0, 3), Access::RW, 0, I),
