@@ -37,8 +37,10 @@ fn gap(m: &mut Module<SimBoard>, param: u8, now: Instant) -> i32 {
     exec(m, Command::Gap { param, motor: 0 }, now).unwrap()
 }
 
+/// Runs the module to `t`, then lets the world catch up (its timeline, faults).
 fn run_to(m: &mut Module<SimBoard>, t: Instant) {
     m.poll(t, &mut |_: &[u8]| {});
+    m.board_mut().advance(t);
 }
 
 /// Runs until `done` or `limit`, polling every millisecond; returns the time.
@@ -192,4 +194,49 @@ fn an_ssi_encoder_is_read_when_selected() {
     sap(&mut m, 0, target, t + Duration::from_millis(5));
     let t = run_until(&mut m, t, Duration::from_secs(10), |m, t| gap(m, 8, t) == 1);
     assert!((gap(&mut m, 1, t) - target).abs() <= 100);
+}
+
+#[test]
+fn velocity_mode_in_closed_loop_is_measured_by_the_encoder() {
+    let mut m = module(&tmcm_1310::SPEC, "");
+    let t0 = close_the_loop(&mut m);
+    exec(&mut m, Command::Ror { motor: 0, velocity: 25600 }, t0).unwrap();
+    let t = t0 + Duration::from_secs(2);
+    run_to(&mut m, t);
+    let measured = gap(&mut m, 131, t);
+    assert!((measured - 25600).abs() <= 1600, "AP 131 = {measured}: the encoder's 8 ms, 4096 counts per turn");
+    assert_eq!(gap(&mut m, 16, t), 1, "velocity reached");
+    let status = gap(&mut m, 18, t);
+    assert_eq!(status & 0b11_1110, 0b01_0110, "velocity reached, closed loop, velocity mode: {status:b}");
+}
+
+#[test]
+fn supply_temperature_and_i2t_in_the_status_word() {
+    let world = "[[faults.supply_drop]]\nfrom = 0.5\nuntil = 0.6\nvoltage = 9.0\n\
+                 [[faults.supply_drop]]\nfrom = 0.7\nuntil = 0.8\nvoltage = 9.5\n\
+                 [[faults.driver]]\nfrom = 0.9\nuntil = 1.0\nflags = [\"overtemperature\"]\n";
+    let mut m = module(&tmcm_1310::SPEC, world);
+    let bits = |m: &mut Module<SimBoard>, ms: u64| {
+        let t = Instant::ZERO + Duration::from_millis(ms);
+        run_to(m, t);
+        gap(m, 18, t) & (0b111 << 9)
+    };
+    assert_eq!(bits(&mut m, 100), 0, "24 V, cool");
+    assert_eq!(bits(&mut m, 550), 1 << 9, "9 V: undervoltage");
+    assert_eq!(bits(&mut m, 950), 1 << 11, "driver overtemperature");
+    // I²t: with a 100 ms time constant and a limit below what the run current gives, the flag comes and
+    // stays until AP 29 clears it; AP 28 counts the event; the limits need the password (status 8).
+    let t0 = close_the_loop(&mut m);
+    assert_eq!(exec(&mut m, Command::Sap { param: 25, motor: 0, value: 100 }, t0), Err(Status::PasswordProtected));
+    exec(&mut m, Command::Sgp { param: 200, bank: 0, value: 4321 }, t0).unwrap();
+    sap(&mut m, 25, 100, t0);
+    sap(&mut m, 26, 10_000, t0);
+    let t = t0 + Duration::from_secs(1);
+    run_to(&mut m, t);
+    assert_eq!(gap(&mut m, 18, t) & (1 << 13), 1 << 13, "I²t exceeded");
+    assert_eq!(gap(&mut m, 28, t), 1);
+    assert!(gap(&mut m, 27, t) > 10_000, "the sum is over the limit");
+    sap(&mut m, 26, 0, t);
+    sap(&mut m, 29, 0, t);
+    assert_eq!(gap(&mut m, 18, t) & (1 << 13), 0, "cleared by AP 29");
 }

@@ -60,6 +60,11 @@
 
 use crate::time::Duration;
 
+/// AP 131 averages the rotor's moves over this many ticks (ms): one encoder count in the window is
+/// 1000 / 32 counts per second of noise — 390 pps with 4096 counts per revolution at 256 microsteps —
+/// for a lag of 16 ms.
+pub const VELOCITY_WINDOW: usize = 32;
+
 /// Encoder initialisation phases, each [`INIT_PHASE`] long.
 pub const INIT_PHASE: Duration = Duration::from_millis(100);
 
@@ -123,8 +128,8 @@ pub struct ClosedLoop {
     pub actual: i64,
     /// How far the rotor moved in the last tick (microsteps).
     pub last_move: i64,
-    /// Rotor moves of the last 8 ticks (AP 131 = their sum · 125).
-    pub moves: [i32; 8],
+    /// Rotor moves of the last [`VELOCITY_WINDOW`] ticks (AP 131 = their sum · 1000 / the window).
+    pub moves: [i16; VELOCITY_WINDOW],
     /// Where in `moves` the next one goes.
     pub moves_at: u8,
     /// Torque mode: (target, actual) current in mA.
@@ -146,17 +151,18 @@ impl ClosedLoop {
         self.active || matches!(self.init, Init::Running { .. })
     }
 
-    /// AP 131: the velocity measured over the last 8 ticks, pps.
+    /// AP 131: the velocity measured over the last [`VELOCITY_WINDOW`] ticks, pps.
     pub fn measured_velocity(&self) -> i32 {
         let sum: i64 = self.moves.iter().map(|m| i64::from(*m)).sum();
-        (sum * 125).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+        (sum * 1000 / VELOCITY_WINDOW as i64) as i32 // |sum| ≤ 32 · 32768
     }
 
     /// Records one tick's rotor move.
     pub fn record_move(&mut self, moved: i64) {
         self.last_move = moved;
-        self.moves[usize::from(self.moves_at & 7)] = moved.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
-        self.moves_at = (self.moves_at + 1) & 7;
+        let at = usize::from(self.moves_at) % VELOCITY_WINDOW;
+        self.moves[at] = moved.clamp(i16::MIN.into(), i16::MAX.into()) as i16;
+        self.moves_at = ((at + 1) % VELOCITY_WINDOW) as u8;
     }
 }
 
@@ -483,13 +489,15 @@ mod tests {
     }
 
     #[test]
-    fn measured_velocity_is_the_last_8_ms() {
+    fn measured_velocity_is_the_last_32_ms() {
         let mut cl = ClosedLoop::default();
-        for _ in 0..8 {
+        for _ in 0..32 {
             cl.record_move(51);
         }
         assert_eq!(cl.measured_velocity(), 51_000);
         cl.record_move(0);
-        assert_eq!(cl.measured_velocity(), 7 * 51 * 125);
+        assert_eq!(cl.measured_velocity(), 31 * 51 * 1000 / 32);
+        cl.record_move(1 << 40);
+        assert!(cl.measured_velocity() > 0, "a huge move is clamped, not wrapped");
     }
 }
