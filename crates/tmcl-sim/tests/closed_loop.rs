@@ -240,3 +240,26 @@ fn supply_temperature_and_i2t_in_the_status_word() {
     sap(&mut m, 29, 0, t);
     assert_eq!(gap(&mut m, 18, t) & (1 << 13), 0, "cleared by AP 29");
 }
+
+#[test]
+fn a_reference_search_in_closed_loop() {
+    use tmcl_wire::RfsAction;
+    // The left switch from -90° to -80°: mode 1 searches it and zeroes the counters at its edge.
+    let mut m = module(&tmcm_1310::SPEC, "[switches.left]\nat = [-90.0, -80.0]\n");
+    let t0 = close_the_loop(&mut m);
+    sap(&mut m, 194, 20000, t0);
+    sap(&mut m, 195, 2000, t0);
+    exec(&mut m, Command::Rfs { action: RfsAction::Start, motor: 0 }, t0).unwrap();
+    let t = run_until(&mut m, t0, Duration::from_secs(10), |m, t| {
+        exec(m, Command::Rfs { action: RfsAction::Status, motor: 0 }, t).unwrap() == 0
+    });
+    let t = run_until(&mut m, t, Duration::from_millis(200), |_, _| false);
+    assert_eq!(gap(&mut m, 18, t) & 4, 4, "still closed loop");
+    let (actual, virtual_position) = (gap(&mut m, 1, t), gap(&mut m, 233, t));
+    assert!((actual - virtual_position).abs() <= 100, "encoder {actual} and ramp {virtual_position} agree");
+    // The switch's edge at -80° is the new zero: the shaft stands there (±1 encoder count, 12.5 µsteps).
+    let edge = -80.0 / 360.0 * f64::from(REV);
+    let shaft = m.board().shaft() as f64;
+    assert!((shaft - actual as f64 - edge).abs() <= 150.0, "shaft {shaft} at zero {actual} + edge {edge}");
+    assert_eq!(m.board().lost_full_steps(), 0);
+}

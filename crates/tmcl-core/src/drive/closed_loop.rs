@@ -132,6 +132,10 @@ pub struct ClosedLoop {
     pub moves: [i16; VELOCITY_WINDOW],
     /// Where in `moves` the next one goes.
     pub moves_at: u8,
+    /// The rotor's move and the time since the last whole millisecond (sub-ticks).
+    pub pending_move: i64,
+    /// See `pending_move`.
+    pub pending_us: i64,
     /// Torque mode: (target, actual) current in mA.
     pub torque: Option<(i32, i32)>,
     /// I²t sum (mA²·s).
@@ -157,12 +161,22 @@ impl ClosedLoop {
         (sum * 1000 / VELOCITY_WINDOW as i64) as i32 // |sum| ≤ 32 · 32768
     }
 
-    /// Records one tick's rotor move.
-    pub fn record_move(&mut self, moved: i64) {
+    /// Records the rotor's move over `dt_us` (a tick, or part of one while a reference search looks at
+    /// its switches after every microstep); returns whether a whole millisecond is complete, for the
+    /// per-millisecond regulators. The velocity window takes whole milliseconds.
+    pub fn record_move(&mut self, moved: i64, dt_us: i64) -> bool {
         self.last_move = moved;
+        self.pending_move += moved;
+        self.pending_us += dt_us;
+        if self.pending_us < 1000 {
+            return false;
+        }
         let at = usize::from(self.moves_at) % VELOCITY_WINDOW;
-        self.moves[at] = moved.clamp(i16::MIN.into(), i16::MAX.into()) as i16;
+        self.moves[at] = self.pending_move.clamp(i16::MIN.into(), i16::MAX.into()) as i16;
         self.moves_at = ((at + 1) % VELOCITY_WINDOW) as u8;
+        self.pending_move = 0;
+        self.pending_us = 0;
+        true
     }
 }
 
@@ -492,12 +506,13 @@ mod tests {
     fn measured_velocity_is_the_last_32_ms() {
         let mut cl = ClosedLoop::default();
         for _ in 0..32 {
-            cl.record_move(51);
+            assert!(cl.record_move(51, 1000));
         }
         assert_eq!(cl.measured_velocity(), 51_000);
-        cl.record_move(0);
+        assert!(!cl.record_move(0, 400), "part of a tick");
+        assert!(cl.record_move(0, 600));
         assert_eq!(cl.measured_velocity(), 31 * 51 * 1000 / 32);
-        cl.record_move(1 << 40);
+        cl.record_move(1 << 40, 1000);
         assert!(cl.measured_velocity() > 0, "a huge move is clamped, not wrapped");
     }
 }

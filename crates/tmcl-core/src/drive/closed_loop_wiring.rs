@@ -81,7 +81,7 @@ impl<B: Board> Module<B> {
     pub(crate) fn closed_loop_tick(&mut self, step: i64, dt_us: i64) -> i64 {
         let actual = self.actual_now();
         let moved = actual - self.st.cl.actual;
-        self.st.cl.record_move(moved);
+        let whole_ms = self.st.cl.record_move(moved, dt_us);
         self.st.cl.actual = actual;
         self.sync_loop(actual);
         if let Init::Running { .. } = self.st.cl.init {
@@ -140,7 +140,9 @@ impl<B: Board> Module<B> {
         // Gamma: the field's lead over where the rotor is going (its last move continued), 256 = 90°.
         let lead = if self.st.cl.torque.is_some() { command.field } else { command.field - moved };
         self.st.cl.gamma = (lead * 256 / self.full_step()).clamp(-256, 256) as i32;
-        self.regulate_current(e, dt_us);
+        if whole_ms {
+            self.regulate_current(e);
+        }
         // Following error (AP 125): stop where the rotor is.
         let max = i64::from(self.ap(Setting::MaxFollowingError).unwrap_or(0));
         if max > 0 && e.abs() > max {
@@ -160,7 +162,8 @@ impl<B: Board> Module<B> {
     }
 
     /// Current scaling and I²t, once per tick while the loop is closed.
-    fn regulate_current(&mut self, e: i64, dt_us: i64) {
+    fn regulate_current(&mut self, e: i64) {
+        let dt_us = 1000;
         let ap = |s| self.ap(s).unwrap_or(0);
         let p = ScaleParams {
             enabled: ap(Setting::CurrentScaleEnable) == 1,
