@@ -191,8 +191,8 @@ pub fn two_interfaces(data: &[u8]) {
 /// then each 9-byte chunk `[gap, command, type, motor, value (4), poll]` runs one instruction (direct
 /// mode) after `gap` tenths of a millisecond, polling `poll` milliseconds afterwards, in a world where the
 /// shaft seizes for a while. Whatever is written — resolutions, gains, β, torques, the loop opened and
-/// closed again — nothing panics, deadlines never lie in the past, and while the loop stays closed no
-/// step is lost: the field never runs away from the rotor.
+/// closed again — nothing panics, deadlines never lie in the past, and while the loop stays closed the
+/// field stays within half an electrical period of the rotor: no step is lost, whatever the speed.
 pub fn closed_loop(data: &[u8]) {
     let spec = &tmcm_1310::SPEC;
     let world = crate::World::from_toml_str(
@@ -218,12 +218,19 @@ pub fn closed_loop(data: &[u8]) {
         let next = module.poll(now, &mut sink);
         assert!(next.is_none_or(|t| t >= now), "a deadline in the past: {next:?} at {now}");
         always_closed &= module.state().closed_loop().active;
+        if always_closed {
+            assert_eq!(module.board().lost_full_steps(), 0, "the field ran away from the rotor");
+        }
     }
-    now += Duration::from_millis(200);
+    // Stopped and left alone (at the steepest deceleration, so that the stop takes a tick, not seconds
+    // at an arbitrary speed), the loop still commutates on the rotor.
+    let _ = module.execute(Command::Sap { param: 5, motor: 0, value: i32::MAX }, now);
+    let _ = module.execute(Command::Mst { motor: 0 }, now);
+    now += Duration::from_millis(300);
     module.poll(now, &mut sink);
     always_closed &= module.state().closed_loop().active;
     if always_closed {
-        assert_eq!(module.board().lost_full_steps(), 0, "a step lost in closed loop");
+        assert_eq!(module.board().lost_full_steps(), 0, "the field is not on the rotor after a stop");
     }
 }
 
@@ -295,6 +302,20 @@ mod tests {
             138, 138, 138, 138, 138, 138, 138, 138, 138, 138, 138, 138, 138, 138, 138, 138, 0, 0, 15, 103, 36, 0, 252,
             0, 0, 2, 0, 103, 15, 36, 0, 252, 0, 0, 2, 138, 138, 138, 138, 103, 15, 3, 0, 3, 3, 0, 0, 0, 9, 3, 138, 138,
             138, 138, 138, 138, 138, 138, 138, 0, 0, 0, 0, 0, 0, 138, 0, 40, 128, 138, 138,
+        ]);
+    }
+
+    /// The campaign's find: at 1.4 M pps the rotor hits the seizure. The commutation window was centred
+    /// on the rotor's predicted position (its last move continued): the field ended more than half a
+    /// period ahead of the held rotor, and a rotor following the field fed the prediction — a runaway.
+    /// The window is now centred on the measured rotor.
+    #[test]
+    fn a_rotor_that_hits_the_seizure_at_speed() {
+        closed_loop(&[
+            48, 128, 42, 30, 0, 0, 0, 0, 0, 135, 135, 135, 135, 135, 135, 135, 135, 135, 135, 135, 135, 135, 203, 150,
+            216, 216, 216, 216, 216, 216, 216, 216, 216, 255, 255, 255, 255, 255, 255, 255, 10, 21, 21, 21, 5, 5, 1, 0,
+            0, 10, 5, 5, 5, 5, 5, 5, 5, 0, 21, 59, 59, 59, 50, 216, 216, 216, 135, 135, 135, 135, 0, 216, 115, 199, 0,
+            0, 0,
         ]);
     }
 

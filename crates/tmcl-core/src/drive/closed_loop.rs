@@ -18,11 +18,16 @@
 //!    AP 124 · |e| microsteps per second (a proportional gain in 1/s), never faster than AP 126 (pps).
 //!    After a blocked move the motor catches up with the ramp at that velocity.
 //! 4. **Commutation limit**: the field never leads (or lags) the measured rotor by more than β (AP 111,
-//!    255 ≈ 90° electrical = one full step) plus the distance the rotor moved in the last tick (velocity
-//!    feed-forward), and never by half an electrical period or more. So the field cannot run away from a
-//!    held rotor: at most the torque maximum is demanded, and no step is lost — the difference to open
-//!    loop, where a load above the holding torque lets the field run on and the rotor drop back four full
-//!    steps at a time. The lead actually used is gamma (AP 230, in 1/256 full step).
+//!    255 ≈ 90° electrical = one full step) plus what the rotor will move in this tick — the ramp's step,
+//!    but no more than the rotor moved in the last one (a blocked rotor gets β alone) — and never by half
+//!    an electrical period or more. So the field cannot run away from a held rotor: at most the torque
+//!    maximum is demanded, and no step is lost — the difference to open loop, where a load above the
+//!    holding torque lets the field run on and the rotor drop back four full steps at a time. The window
+//!    is centred on the measured rotor, never on a prediction, so a fast rotor cannot drag the field
+//!    along with it. Once per millisecond, this limits the closed loop to just under two full steps per
+//!    millisecond (10 rev/s of a 200-step motor); a faster ramp runs ahead of the rotor, and the
+//!    following error says so. Gamma (AP 230, in 1/256 full step) is the field's lead beyond the ramp's
+//!    step: the load angle.
 //! 5. **Current scaling** (AP 113–123): the current is AP 6 · scaler / 255. While the regulated error
 //!    — gamma (AP 115 = 0) or |e| (AP 115 = 1) — stays above AP 117 for AP 120 ms, the scaler rises by
 //!    AP 118; below AP 116 for AP 121 ms it falls by AP 119; it stays within AP 113..=AP 114. With
@@ -248,10 +253,10 @@ pub fn control(p: &LoopParams, input: &LoopInput) -> FieldCommand {
     let correction = (correction_pps * p.dt_us + 999_999) / 1_000_000;
     let base = field + step;
     let mut f = set_point.clamp(base - correction, base + correction);
-    // Commutation limit around where the rotor will be: β plus the last tick's move, below half a period.
-    let lead = (p.beta + rotor_move.abs()).min(p.max_lead);
-    let centre = actual + rotor_move;
-    f = f.clamp(centre - lead, centre + lead);
+    // Commutation limit around the measured rotor: β plus this tick's motion (the ramp's step, at most
+    // what the rotor moved last tick), below half a period.
+    let lead = (p.beta + step.abs().min(rotor_move.abs())).min(p.max_lead);
+    f = f.clamp(actual - lead, actual + lead);
     FieldCommand { field: f, hold }
 }
 

@@ -137,8 +137,8 @@ impl<B: Board> Module<B> {
         self.st.cl.hold = command.hold;
         self.st.cl.field_offset = command.field - e;
         self.st.cl.error = e.clamp(i32::MIN.into(), i32::MAX.into()) as i32;
-        // Gamma: the field's lead over where the rotor is going (its last move continued), 256 = 90°.
-        let lead = if self.st.cl.torque.is_some() { command.field } else { command.field - moved };
+        // Gamma: the field's lead beyond the ramp's step (the load angle), 256 = 90°.
+        let lead = if self.st.cl.torque.is_some() { command.field } else { command.field - step };
         self.st.cl.gamma = (lead * 256 / self.full_step()).clamp(-256, 256) as i32;
         if whole_ms {
             self.regulate_current(e);
