@@ -544,8 +544,13 @@ impl<B: Board> Module<B> {
             return Err(ParamError::OutOfRange.into());
         }
         self.unlocked_for(d)?;
-        // Another encoder input (AP 201): the position before the switch, read through the old one.
-        let encoder_before = if d.setting == Some(Setting::EncoderMode) { self.encoder_position() } else { 0 };
+        // The encoder's input or scale changes (AP 201, 202, 210, 140 on a closed-loop model): the
+        // position before, read through the old one.
+        let rescales =
+            (matches!(d.setting, Some(Setting::EncoderMode | Setting::EncoderResolution | Setting::MotorFullSteps))
+                || d.role == Role::MicrostepResolution)
+                && self.has_closed_loop();
+        let encoder_before = if rescales { self.encoder_position() } else { 0 };
         match d.role {
             // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
             // result to target position" relies on it).
@@ -588,13 +593,14 @@ impl<B: Board> Module<B> {
             _ => self.st.axis[i] = v,
         }
         // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
-        // range), the closed loop switched on or off, another encoder input (AP 201 bit 0: the position
-        // carries on from where it was).
+        // range), the closed loop switched on or off, the encoder's input or scale.
         match d.setting {
             Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange) => self.configure_driver(),
             Some(Setting::ClosedLoop) => self.closed_loop_switched(),
-            Some(Setting::EncoderMode) => self.encoder_input_changed(encoder_before),
             _ => {}
+        }
+        if rescales {
+            self.encoder_rescaled(encoder_before, d.setting == Some(Setting::EncoderMode));
         }
 
         Ok(())

@@ -319,6 +319,25 @@ mod tests {
         ]);
     }
 
+    /// Found by a structured search: encoder resolution, full steps or microsteps changed while the loop
+    /// was closed made the encoder's position jump, and the loop swung the rotor through millions of
+    /// microsteps per tick (minutes of computing, and a field off the rotor). Such a change now opens the
+    /// loop, and the encoder position carries on.
+    #[test]
+    fn the_encoder_rescaled_under_a_closed_loop() {
+        closed_loop(&[
+            15, 5, 210, 0, 0, 0, 5, 137, 53, 3, 6, 140, 0, 0, 2, 8, 160, 54, 39, 2, 126, 0, 255, 255, 144, 107, 45, 24,
+            4, 6, 0, 0, 1, 174, 120, 41, 26, 14, 129, 0, 0, 0, 129, 182, 9, 11, 5, 125, 0, 0, 0, 19, 143, 7, 33, 14,
+            129, 0, 255, 253, 110, 224, 55, 5, 13, 202, 0, 255, 255, 28, 98, 19,
+        ]);
+        closed_loop(&[
+            0, 4, 114, 0, 0, 2, 151, 97, 48, 8, 2, 111, 0, 255, 253, 216, 230, 0, 12, 14, 202, 0, 255, 253, 78, 157,
+            58, 10, 3, 114, 0, 0, 1, 57, 147, 51, 13, 4, 0, 0, 0, 0, 214, 55, 49, 23, 3, 4, 0, 0, 0, 57, 27, 34, 16, 3,
+            138, 0, 0, 1, 70, 164, 16, 31, 13, 5, 0, 0, 1, 97, 68, 57, 39, 6, 126, 0, 0, 1, 191, 75, 31, 29, 3, 202, 0,
+            255, 253, 161, 125, 19, 35, 5, 0, 0, 255, 253, 32, 138, 56, 33, 1, 2, 0, 0, 2, 220, 181, 26,
+        ]);
+    }
+
     proptest::proptest! {
         #[test]
         fn module_stream_never_panics(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {

@@ -263,3 +263,21 @@ fn a_reference_search_in_closed_loop() {
     assert!((shaft - actual as f64 - edge).abs() <= 150.0, "shaft {shaft} at zero {actual} + edge {edge}");
     assert_eq!(m.board().lost_full_steps(), 0);
 }
+
+#[test]
+fn changing_the_encoder_scale_opens_the_loop() {
+    let mut m = module(&tmcm_1310::SPEC, "");
+    let t0 = close_the_loop(&mut m);
+    sap(&mut m, 0, REV, t0);
+    let t = run_until(&mut m, t0, Duration::from_secs(5), |m, t| gap(m, 8, t) == 1);
+    let before = gap(&mut m, 209, t);
+    // A new encoder resolution: the loop opens, the initialisation is to be done again, the encoder
+    // position carries on (it does not jump by the ratio of the resolutions).
+    sap(&mut m, 210, 2048, t);
+    assert_eq!((gap(&mut m, 133, t), gap(&mut m, 132, t)), (0, 0));
+    assert_eq!(gap(&mut m, 209, t), before);
+    assert_eq!(gap(&mut m, 18, t) & 4, 0, "open loop");
+    let shaft = m.board().shaft();
+    run_to(&mut m, t + Duration::from_millis(500));
+    assert_eq!(m.board().shaft(), shaft, "nothing moved");
+}

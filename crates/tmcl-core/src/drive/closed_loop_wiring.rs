@@ -200,13 +200,30 @@ impl<B: Board> Module<B> {
         self.sync_loop(actual);
     }
 
-    /// AP 201 was written: the board reads the other encoder input from now on, and the encoder position
-    /// carries on from `at`, the value it had before.
-    pub(crate) fn encoder_input_changed(&mut self, at: i32) {
-        self.configure_driver();
-        self.st.ssi = (0, 0);
+    /// The encoder's input (AP 201) or scale (AP 202, 210, 140) was written: the encoder position carries
+    /// on from `at`, the value it had. A closed (or closing) loop opens and needs a new initialisation
+    /// (AP 132 reads 0, AP 133 0): its calibration and the meaning of its positions changed under it —
+    /// our decision; otherwise a loop would chase a rotor that only seemed to jump.
+    pub(crate) fn encoder_rescaled(&mut self, at: i32, input_changed: bool) {
+        if input_changed {
+            self.configure_driver();
+            self.st.ssi = (0, 0);
+        }
         let counts = self.encoder_counts_now();
         self.st.encoder = crate::module::EncoderBase { counts, value: at };
+        if self.st.cl.engaged() {
+            if self.st.cl.active {
+                self.open_loop();
+            } else if let Init::Running { start_offset, .. } = self.st.cl.init {
+                // The initialisation's field goes back to the step counter at once.
+                let back = start_offset - self.st.cl.field_offset;
+                self.st.cl.field_offset = start_offset;
+                self.st.unreported_steps += back;
+            }
+            self.st.cl.init = Init::Idle;
+        } else if self.st.cl.init == Init::Done {
+            self.st.cl.init = Init::Idle;
+        }
     }
 
     /// Closes the loop where the rotor is: the ramp takes the rotor's position, nothing moves.
