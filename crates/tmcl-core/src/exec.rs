@@ -61,10 +61,11 @@ impl<B: Board> Module<B> {
                 value(velocity)
             }
             // §3.7.2 ROL: as ROR to the left: AP 2 = −velocity (the manual leaves a negative velocity open; it
-            // turns right).
+            // turns right). Its range is the whole −2147483648..2147483647: the lowest value, whose negation
+            // does not fit, turns right at the highest velocity, 2147483647.
             C::Rol { motor, velocity } => {
                 self.motor(motor)?;
-                let v = velocity.checked_neg().ok_or(Status::InvalidValue)?;
+                let v = velocity.checked_neg().unwrap_or(i32::MAX);
                 self.start_rotation(self.units_to_pps(v));
                 value(velocity)
             }

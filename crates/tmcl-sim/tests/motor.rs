@@ -409,3 +409,25 @@ fn clock_runs_the_timeline_between_updates() {
     now.store(1_000_000, Ordering::Relaxed);
     assert_eq!(b.digital_inputs(), 5);
 }
+
+/// Table 22: the slow-run current AP 183 applies at or below the threshold speed AP 182 whether or not
+/// coolStep (AP 172) is on. Before the fix it took effect only with AP 172 ≠ 0: AP 180 read 31 here.
+#[test]
+fn slow_run_current_without_coolstep() {
+    let mut m = module("");
+    let t = Instant::ZERO;
+    sap(&mut m, 182, 100_000, t);
+    sap(&mut m, 183, 64, t);
+    m.execute(Command::Ror { motor: 0, velocity: 51200 }, t).unwrap();
+    let t = t + Duration::from_secs(2);
+    run_to(&mut m, t);
+    assert_eq!(gap(&mut m, 3, t), 51200);
+    assert_eq!(gap(&mut m, 180, t), 8, "AP 183 / 8");
+    assert_eq!(m.board().drive().current, 64);
+    // Above the threshold: the run current again.
+    sap(&mut m, 182, 10_000, t);
+    let t = t + Duration::from_millis(10);
+    run_to(&mut m, t);
+    assert_eq!(gap(&mut m, 180, t), i32::from(m.board().drive().current >> 3));
+    assert_eq!(m.board().drive().current, 128, "AP 6's default");
+}

@@ -21,11 +21,11 @@
 //!   for running (AP 6 / 8, or AP 200 / 8 while boosting). The minimum is ½ or ¼ of the *current*
 //!   (CS + 1)/32, rounded down to a scale: `((CS + 1) >> 1) − 1` or `((CS + 1) >> 2) − 1`, at least 0.
 //!   For CS = 31 that is 15 (16/32) and 7 (8/32).
-//! - **Off (AP 172 = 0).** SEMIN = 0 switches coolStep off in the TMC262; the manual does not say so
-//!   (Table 15, AP 172). Then the scale is CS, and AP 182/183 have no effect either.
-//! - **Speed (AP 182, 183).** With coolStep on, it regulates only while |AP 3| is **above** AP 182
-//!   ("Above this speed coolStep becomes enabled"); at or below it the scale is AP 183 / 8, the slow-run
-//!   current. Regulation restarts from CS each time it becomes active, so the motor starts with its full
+//! - **Off (AP 172 = 0).** SEMIN = 0 switches coolStep's regulation off in the TMC262; the manual does not
+//!   say so (Table 15, AP 172). Above AP 182 the scale is then CS.
+//! - **Speed (AP 182, 183).** coolStep regulates only while |AP 3| is **above** AP 182 ("Above this speed
+//!   coolStep becomes enabled"); at or below it the scale is AP 183 / 8, the slow-run current — whether
+//!   or not coolStep is on: Table 22 ties AP 183 to the threshold speed AP 182 alone. Regulation restarts from CS each time it becomes active, so the motor starts with its full
 //!   torque reserve. (Standby current after AP 214 and freewheeling are the core's business and come
 //!   before this.)
 
@@ -55,7 +55,7 @@ pub struct CoolStepParams {
 /// What the regulator is doing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Regime {
-    /// AP 172 = 0: coolStep off, full CS.
+    /// Above AP 182 with AP 172 = 0: coolStep off, full CS.
     Off,
     /// At or below AP 182: the slow-run current AP 183.
     SlowRun,
@@ -98,12 +98,12 @@ impl CoolStepParams {
 
     /// Which regime the parameters select.
     pub fn regime(&self) -> Regime {
-        if self.hysteresis_start == 0 {
-            Regime::Off
-        } else if self.speed > self.threshold_speed {
-            Regime::Regulating
-        } else {
+        if self.speed <= self.threshold_speed {
             Regime::SlowRun
+        } else if self.hysteresis_start == 0 {
+            Regime::Off
+        } else {
+            Regime::Regulating
         }
     }
 }
@@ -262,8 +262,10 @@ mod tests {
     fn off_when_semin_is_zero() {
         let p = CoolStepParams { hysteresis_start: 0, slow_run_current: 40, ..params() };
         let mut c = CoolStep::new();
-        assert_eq!(c.update(1023, p), 31);
-        assert_eq!(c.current(CoolStepParams { speed: 0, ..p }), 31);
+        assert_eq!(c.update(1023, p), 31, "above AP 182: CS, no regulation");
+        // At or below AP 182 the slow-run current, coolStep on or off (Table 22).
+        assert_eq!(c.current(CoolStepParams { speed: 0, ..p }), 5);
+        assert_eq!(c.current(CoolStepParams { speed: 10000, ..p }), 5);
     }
 
     #[test]

@@ -37,11 +37,13 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// The running current after coolStep (AP 180 is this / 8): `run` itself when coolStep is off.
+    /// The running current after coolStep (AP 180 is this / 8): the slow-run current AP 183 at or below
+    /// AP 182, else `run` itself when coolStep is off.
     #[inline]
     pub(crate) fn regulated_current(&self, run: i32) -> u8 {
-        if self.coolstep_off() {
-            return run.clamp(0, 255) as u8; // coolStep off (SEMIN = 0): the common case, no more lookups
+        if self.coolstep_off() && self.ap(Setting::CoolStepThresholdSpeed).unwrap_or(0) == 0 {
+            // coolStep off (SEMIN = 0) and no slow-run threshold: the common case, no more lookups.
+            return run.clamp(0, 255) as u8;
         }
         let params = self.coolstep_params(run);
         match params.regime() {

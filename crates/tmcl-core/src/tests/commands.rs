@@ -32,9 +32,10 @@ fn ror_rol_mst() {
     // pytrinamic's rotate(-v) is ROR with a negative velocity: turns left.
     assert_eq!(b.cmd(Command::Ror { motor: 0, velocity: -100 }).0, Status::Ok);
     assert_eq!(b.gap(2), -100);
-    // ROL with i32::MIN cannot be negated.
-    assert_eq!(b.cmd(Command::Rol { motor: 0, velocity: i32::MIN }).0, Status::InvalidValue);
-    assert_eq!(b.gap(2), -100);
+    // ROL's range is −2147483648..2147483647 (§3.7.2); the lowest value, whose negation does not fit,
+    // turns right at the highest velocity (it was refused with status 4).
+    assert_eq!(b.cmd(Command::Rol { motor: 0, velocity: i32::MIN }), (Status::Ok, i32::MIN));
+    assert_eq!(b.gap(2), i32::MAX);
     assert_eq!(b.cmd(Command::Ror { motor: 1, velocity: 5 }).0, Status::InvalidValue);
 }
 
