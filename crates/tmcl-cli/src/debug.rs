@@ -235,7 +235,7 @@ impl Debugger {
         let user = self.is_user_breakpoint(pc);
         self.module.vm_mut().set_breakpoint(pc, user);
         self.now += INSTRUCTION_TIME;
-        self.module.poll(self.now, &mut |_: &[u8]| {});
+        crate::sim::poll(&mut self.module, self.now);
     }
 
     /// Runs the program (command 129) until a user breakpoint, the end, the time limit, or `until`.
@@ -247,7 +247,7 @@ impl Debugger {
         }
         let _ = self.module.execute(Command::RunApplication { from: None }, self.now);
         let stop = loop {
-            let deadline = self.module.poll(self.now, &mut |_: &[u8]| {});
+            let deadline = crate::sim::poll(&mut self.module, self.now);
             let vm = self.module.vm();
             if vm.at_breakpoint() && vm.state == RunState::Stopped {
                 if until.is_some_and(|u| u == self.depth()) {
@@ -356,7 +356,7 @@ impl Debugger {
             return Ok(Err(format!("`{ms}` is not a number of milliseconds.")));
         };
         self.now += Duration::from_millis(ms);
-        self.module.poll(self.now, &mut |_: &[u8]| {});
+        crate::sim::poll(&mut self.module, self.now);
         self.status_line(out, "time passed")?;
         Ok(Ok(()))
     }

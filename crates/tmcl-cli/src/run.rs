@@ -236,15 +236,17 @@ fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, bar: &ProgressB
     let end = Instant::ZERO + duration;
     let mut t = Instant::ZERO;
     loop {
-        module.poll(t, &mut |_: &[u8]| {});
+        crate::sim::poll(module, t);
         if t.millis() % 1000 < COARSE_STEP.millis() {
             show_progress(bar, t);
         }
         if t >= end {
             break;
         }
-        // The module catches up on every tick and instruction up to `t` by itself.
-        t = (t + COARSE_STEP).min(end);
+        // The module catches up on every tick and instruction up to `t` by itself; the world's changes
+        // (an input timeline) are stepped on exactly.
+        let world = module.board().next_event().filter(|e| *e > t).unwrap_or(end);
+        t = (t + COARSE_STEP).min(end).min(world);
     }
 }
 
@@ -314,6 +316,7 @@ impl Traced {
         let mut last_executed = module.vm().executed();
         loop {
             let deadline = module.poll(t, &mut |_: &[u8]| {});
+            module.board_mut().advance(t);
             events.clear();
             if module.vm().at_breakpoint() && module.vm().state == RunState::Stopped {
                 // A handler's first instruction: name the interrupt(s) whose vector points here, go on.
@@ -350,6 +353,10 @@ impl Traced {
             let mut next = deadline.unwrap_or(self.end).max(t).min(next_sample).min(self.end);
             if next < next_sample && quiet_until(module, next_sample) {
                 next = next_sample.min(self.end); // nothing can happen but motion: skip its ticks
+            }
+            // The world's next change (an input timeline): stepped on exactly, not over.
+            if let Some(e) = module.board().next_event().filter(|e| *e > t) {
+                next = next.min(e);
             }
             // A deadline that is already due and brings nothing new (a timer that falls between motion
             // ticks is only sampled at the next tick): go on at the next tick.

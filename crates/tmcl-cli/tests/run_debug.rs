@@ -313,3 +313,47 @@ fn a_command_the_model_lacks_is_an_error_at_its_line() {
     assert!(!run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("1 command(s) the PD28-1021 does not have"));
 }
+
+/// A world's input timeline reaches a program while the motor stands (issue: with `tmcl run` only the
+/// change at 2 s was seen, the others were stepped over). The program copies GIO 255 into variable 0 and
+/// counts the changes in variable 1; the inputs change at 1, 2, 3 and 4 s.
+#[test]
+fn an_input_timeline_reaches_a_standing_module() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("inputs.tmc");
+    // Variable 1 counts the edges: each new value differs from variable 0's.
+    std::fs::write(
+        &program,
+        "    SGP 1, 2, 0\nLoop:\n    GIO 255, 0\n    CALCX SWAP\n    GGP 0, 2\n    CALCX SWAP\n    CALCX SUB\n    \
+         JC ZE, Same\n    GIO 255, 0\n    AGP 0, 2\n    GGP 1, 2\n    CALC ADD, 1\n    AGP 1, 2\nSame:\n    \
+         WAIT TICKS, 0, 1\n    JA Loop\n",
+    )
+    .unwrap();
+    let world = dir.path().join("timeline.toml");
+    std::fs::write(
+        &world,
+        "[[inputs.timeline]]\nat = 1.0\ndigital = 1\n[[inputs.timeline]]\nat = 2.0\ndigital = 3\n\
+         [[inputs.timeline]]\nat = 3.0\ndigital = 2\n[[inputs.timeline]]\nat = 4.0\ndigital = 0\n",
+    )
+    .unwrap();
+    for traced in [false, true] {
+        let trace = dir.path().join("t.csv");
+        let mut cmd = Command::new(TMCL);
+        cmd.arg("run").arg(&program).arg("--world").arg(&world).args(["--for", "5"]);
+        if traced {
+            cmd.arg("--trace").arg(&trace);
+        }
+        cmd.args(["--set", "gp0.2=0"]);
+        let out = cmd.output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        if traced {
+            let csv = std::fs::read_to_string(&trace).unwrap();
+            let last = csv.lines().last().unwrap().to_string();
+            let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+            let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+            let fields: Vec<&str> = last.split(',').collect();
+            assert_eq!(fields[col("var1")], "4", "four input changes seen: {last}");
+            assert_eq!(fields[col("var0")], "0", "the last value: {last}");
+        }
+    }
+}

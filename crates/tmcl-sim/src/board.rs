@@ -494,6 +494,13 @@ impl SimBoard {
         self.now
     }
 
+    /// When the world changes next by itself (a timeline entry: inputs, a scripted load, a fault window,
+    /// encoder slip), if it will. A simulation that steps from deadline to deadline stops there too, and
+    /// [`SimBoard::advance`]s the board, so that no change is stepped over while the motor stands.
+    pub fn next_event(&self) -> Option<Instant> {
+        self.plan.events.get(self.next_event).map(|(at, _)| *at)
+    }
+
     /// Runs the world forward to `now` (timeline, faults, a freewheeling rotor, the energy figure) with
     /// the driver as last updated. Earlier times are ignored.
     pub fn advance(&mut self, now: Instant) {

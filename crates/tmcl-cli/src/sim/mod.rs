@@ -238,6 +238,19 @@ fn board(spec: &'static ModelSpec, world: Option<&Path>) -> Result<SimBoard, Cli
     board.with_world(world).map_err(|e| CliError::Usage(format!("{}: {e}", path.display())))
 }
 
+/// Polls the module at `t`, then lets its world catch up to `t`: the board moves on by itself only when
+/// the driver is updated, which a motor at rest is not, so without this an input timeline or a fault
+/// window would stall while the motor stands. Returns the module's next deadline, or the world's next
+/// change if that comes first: a run never steps over a change of an input.
+pub(crate) fn poll(module: &mut Module<SimBoard>, t: Instant) -> Option<Instant> {
+    let deadline = module.poll(t, &mut |_: &[u8]| {});
+    module.board_mut().advance(t);
+    match (deadline, module.board().next_event()) {
+        (Some(d), Some(e)) => Some(d.min(e)),
+        (d, e) => d.or(e),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
