@@ -315,8 +315,7 @@ impl Traced {
         let mut stuck = 0u32;
         let mut last_executed = module.vm().executed();
         loop {
-            let deadline = module.poll(t, &mut |_: &[u8]| {});
-            module.board_mut().advance(t);
+            let deadline = crate::sim::poll(module, t);
             events.clear();
             if module.vm().at_breakpoint() && module.vm().state == RunState::Stopped {
                 // A handler's first instruction: name the interrupt(s) whose vector points here, go on.
@@ -354,7 +353,8 @@ impl Traced {
             if next < next_sample && quiet_until(module, next_sample) {
                 next = next_sample.min(self.end); // nothing can happen but motion: skip its ticks
             }
-            // The world's next change (an input timeline): stepped on exactly, not over.
+            // The world's next change (an input timeline, in `deadline` too): stepped on exactly, even
+            // when the skip above would pass it.
             if let Some(e) = module.board().next_event().filter(|e| *e > t) {
                 next = next.min(e);
             }

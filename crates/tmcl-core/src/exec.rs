@@ -526,14 +526,9 @@ impl<B: Board> Module<B> {
             Role::ClosedLoopActive => i32::from(self.st.cl.active),
             Role::Gamma => self.st.cl.gamma,
             Role::VirtualPosition => self.st.ramp.position,
-            Role::PositionError => {
-                let actual = self.encoder_position();
-                if self.st.cl.active {
-                    self.st.ramp.position.wrapping_sub(actual)
-                } else {
-                    0
-                }
-            }
+            // Virtual minus actual position in closed loop; in open loop there is no such error.
+            Role::PositionError if self.st.cl.active => self.st.ramp.position.wrapping_sub(self.encoder_position()),
+            Role::PositionError => 0,
             _ => self.st.axis[i],
         })
     }
@@ -574,8 +569,7 @@ impl<B: Board> Module<B> {
             Role::EncoderPosition if self.st.cl.active => {
                 let delta = v.wrapping_sub(self.encoder_position());
                 self.st.ramp.set_position(self.st.ramp.position.wrapping_add(delta));
-                self.set_encoder(v);
-                self.st.cl.actual += i64::from(delta);
+                self.relabel(delta);
             }
             Role::EncoderPosition => self.set_encoder(v),
             Role::TargetCurrent => {
@@ -584,7 +578,6 @@ impl<B: Board> Module<B> {
             }
             Role::EncoderInit => self.start_encoder_init(v)?,
             Role::ClearI2t => self.st.cl.i2t_exceeded = false,
-            // Another encoder input (AP 201 bit 0): the position carries on from where it was.
             Role::I2tExceedCount => self.st.cl.i2t_count = v as u32,
             Role::EncoderPrescaler => {
                 let now_value = self.encoder_position();
@@ -739,7 +732,8 @@ impl<B: Board> Module<B> {
         self.encoder_value(counts)
     }
 
-    fn set_encoder(&mut self, v: i32) {
+    /// Sets AP 209 to `v` at the counts the encoder reads now.
+    pub(crate) fn set_encoder(&mut self, v: i32) {
         let counts = self.encoder_counts_now();
         self.st.encoder = crate::module::EncoderBase { counts, value: v };
     }

@@ -32,6 +32,23 @@ impl<B: Board> Module<B> {
         Some(usteps.clamp(i64::MIN.into(), i64::MAX.into()) as i64)
     }
 
+    /// Encoder counts per electrical period (4 full steps): AP 210 · 4 / AP 202.
+    fn counts_per_period(&self) -> i64 {
+        let per_rev = i64::from(self.ap(Setting::EncoderResolution).unwrap_or(1).max(1));
+        let full_steps = i64::from(self.ap(Setting::MotorFullSteps).unwrap_or(200).max(1));
+        per_rev * 4 / full_steps
+    }
+
+    /// Ends a running encoder initialisation early: the field goes back to the step counter. Returns how
+    /// far the field moves for that.
+    fn abort_init(&mut self) -> i64 {
+        let Init::Running { start_offset, .. } = self.st.cl.init else { return 0 };
+        let back = start_offset - self.st.cl.field_offset;
+        self.st.cl.field_offset = start_offset;
+        self.st.cl.init = Init::Idle;
+        back
+    }
+
     /// The peak coil current at current setting 255 in the range in force (AP 179 where the model has it).
     fn peak_ma(&self) -> i64 {
         let high = self.ap(Setting::CurrentRange) == Some(0);
@@ -146,17 +163,11 @@ impl<B: Board> Module<B> {
         // Following error (AP 125): stop where the rotor is.
         let max = i64::from(self.ap(Setting::MaxFollowingError).unwrap_or(0));
         if max > 0 && e.abs() > max {
-            self.st.ramp.hard_stop();
+            self.st.regs.flags |= flags::DEVIATION;
+            self.fault_stop(error_flags::DEVIATION, self.spec.interrupts.deviation());
             self.st.ramp.set_position(actual as i32);
             self.st.cl.field_offset = command.field;
             self.st.cl.hold = 0;
-            self.st.regs.flags |= flags::DEVIATION;
-            self.st.error_flags |= error_flags::DEVIATION;
-            self.st.reference.stop();
-            self.st.event.pending = false;
-            if let Some(n) = self.spec.interrupts.deviation() {
-                self.raise_interrupt(n);
-            }
         }
         command.field - field_before
     }
@@ -209,19 +220,13 @@ impl<B: Board> Module<B> {
             self.configure_driver();
             self.st.ssi = (0, 0);
         }
-        let counts = self.encoder_counts_now();
-        self.st.encoder = crate::module::EncoderBase { counts, value: at };
-        if self.st.cl.engaged() {
-            if self.st.cl.active {
-                self.open_loop();
-            } else if let Init::Running { start_offset, .. } = self.st.cl.init {
-                // The initialisation's field goes back to the step counter at once.
-                let back = start_offset - self.st.cl.field_offset;
-                self.st.cl.field_offset = start_offset;
-                self.st.unreported_steps += back;
-            }
-            self.st.cl.init = Init::Idle;
-        } else if self.st.cl.init == Init::Done {
+        self.set_encoder(at);
+        if self.st.cl.active {
+            self.open_loop();
+        }
+        // A running initialisation's field goes back to the step counter at once; a done one is void.
+        self.st.unreported_steps += self.abort_init();
+        if self.st.cl.init == Init::Done {
             self.st.cl.init = Init::Idle;
         }
     }
@@ -255,13 +260,11 @@ impl<B: Board> Module<B> {
     /// One tick of the encoder initialisation (see [`closed_loop`]'s docs); returns the field's move.
     fn init_tick(&mut self, step: i64, dt_us: i64) -> i64 {
         let Init::Running { elapsed_us, start_counts, start_offset, ok } = self.st.cl.init else { return step };
-        let before = self.st.cl.field_offset;
         if step != 0 || !self.st.ramp.is_idle() {
-            // A move aborts the sequence; the field goes back to the step counter.
-            self.st.cl.init = Init::Idle;
-            self.st.cl.field_offset = start_offset;
-            return step + start_offset - before;
+            // A move aborts the sequence.
+            return step + self.abort_init();
         }
+        let before = self.st.cl.field_offset;
         let phase = INIT_PHASE.micros();
         let t = elapsed_us + dt_us as u64;
         let period = 4 * self.full_step();
@@ -272,9 +275,7 @@ impl<B: Board> Module<B> {
         }
         if elapsed_us < 2 * phase && t >= 2 * phase {
             // The forward move is over: did the encoder count one electrical period, in our direction?
-            let per_rev = i64::from(self.ap(Setting::EncoderResolution).unwrap_or(1).max(1));
-            let full_steps = i64::from(self.ap(Setting::MotorFullSteps).unwrap_or(200).max(1));
-            let expected = per_rev * 4 / full_steps;
+            let expected = self.counts_per_period();
             let got = counts - start;
             ok = Some(expected > 0 && (got - expected).abs() * 4 <= expected);
         }
@@ -292,8 +293,7 @@ impl<B: Board> Module<B> {
                 let field = i64::from(self.st.ramp.position) + start_offset;
                 let angle = field.rem_euclid(period);
                 let per_rev = i64::from(self.ap(Setting::EncoderResolution).unwrap_or(1).max(1));
-                let counts_per_period = per_rev * 4 / i64::from(self.ap(Setting::MotorFullSteps).unwrap_or(200).max(1));
-                let zero = (counts - angle * counts_per_period / period).rem_euclid(per_rev);
+                let zero = (counts - angle * self.counts_per_period() / period).rem_euclid(per_rev);
                 self.set_ap(Setting::EncoderOffset, zero as i32);
                 // The encoder now reads the step counter.
                 let position = self.st.ramp.position;

@@ -113,9 +113,9 @@ impl<B: Board> Module<B> {
         self.spec.encoder.map_or(1024, |e| e.counts_per_rev.max(1))
     }
 
-    /// Stops the motor at once for a stall or a deviation: AP 207 bit, interrupt (if the model has it),
-    /// no 138 event.
-    fn fault_stop(&mut self, flag: u8, interrupt: Option<u8>) {
+    /// Stops the motor at once for a stall, a deviation or a following error: AP 207 bit, interrupt (if
+    /// the model has it), no 138 event.
+    pub(super) fn fault_stop(&mut self, flag: u8, interrupt: Option<u8>) {
         self.st.ramp.hard_stop();
         self.st.reference.stop();
         self.st.event.pending = false;
