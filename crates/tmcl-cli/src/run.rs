@@ -19,7 +19,7 @@
 //! Without a trace or a plot, it polls every 100 ms of simulated time (the core catches up on
 //! everything in between).
 
-use crate::host::{CliError, Connection};
+use crate::error::{CliError, EXIT_CODES};
 use crate::sim::plot;
 use crate::sim::trace::Trace;
 use crate::sim::{SimOptions, Source};
@@ -29,7 +29,6 @@ use std::collections::BTreeSet;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
-use std::process::ExitCode;
 use std::time::Instant as WallInstant;
 use tmcl_core::model::GLOBAL_INTERRUPTS;
 use tmcl_core::motion::{Mode, TICK};
@@ -107,15 +106,14 @@ pub(crate) fn parse_seconds(s: &str) -> Result<Duration, String> {
         .ok_or_else(bad)
 }
 
+/// What `tmcl run --help` prints after the options: the trace columns and the exit codes.
+pub fn after_help() -> String {
+    format!("{TRACE_HELP}\n\n{EXIT_CODES}")
+}
+
 /// Runs `tmcl run`.
-pub fn run(conn: &Connection, args: RunArgs) -> ExitCode {
-    match execute(conn, &args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("tmcl run: {err}");
-            ExitCode::from(err.exit_code())
-        }
-    }
+pub(crate) fn run(args: RunArgs, json: bool) -> Result<(), CliError> {
+    execute(&args, json)
 }
 
 /// What a run did, for the summary line.
@@ -128,7 +126,7 @@ struct Summary {
     rows: u64,
 }
 
-fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
+fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     let source = Source::load(&args.file)?;
     let mut module = args.sim.build(&source)?;
     let bar = progress_bar(args.duration);
@@ -142,7 +140,7 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
     } else {
         let csv = match &args.trace {
             Some(path) => Some(BufWriter::new(
-                File::create(path).map_err(|e| CliError::Usage(format!("cannot create {}: {e}", path.display())))?,
+                File::create(path).map_err(|e| CliError::Io(format!("cannot create {}: {e}", path.display())))?,
             )),
             None => None,
         };
@@ -164,7 +162,7 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
         if let Some(path) = &args.plot {
             let title = format!("{} on a simulated {}", args.file.display(), module.spec().name);
             plot::draw(path, &title, &trace.samples, &trace.events, args.drive)
-                .map_err(|e| CliError::Usage(format!("cannot draw {}: {e}", path.display())))?;
+                .map_err(|e| CliError::Io(format!("cannot draw {}: {e}", path.display())))?;
         }
         trace.rows
     };
@@ -177,7 +175,7 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
         state: module.vm().state,
         rows,
     };
-    println!("{}", summary.line(conn.json));
+    println!("{}", summary.line(json));
     Ok(())
 }
 

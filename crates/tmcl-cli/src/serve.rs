@@ -5,7 +5,7 @@
 //! byte, whichever comes first.
 
 use crate::bus::{Bus, Node};
-use crate::host::Connection;
+use crate::error::CliError;
 use crate::pty::Pty;
 use clap::Args;
 use nix::poll::{ppoll, PollFd, PollFlags};
@@ -13,7 +13,6 @@ use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::os::fd::AsFd;
 use std::path::PathBuf;
-use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use tmcl_core::model::{self, ModelSpec};
@@ -25,8 +24,7 @@ use tmcl_wire::{Command, Frame, Instruction, Reply, ReplyFrame, Request};
 /// Longest sleep between two looks at the shutdown flag.
 const MAX_SLEEP: std::time::Duration = std::time::Duration::from_millis(50);
 
-/// Options of `tmcl serve` (the link comes from `--pty` or the global `--tcp`, the address from the global
-/// `--address`).
+/// Options of `tmcl serve`.
 #[derive(Debug, Args)]
 pub struct ServeArgs {
     /// The module to simulate, as MODEL or MODEL@ADDRESS. Give it several times to put several
@@ -34,8 +32,15 @@ pub struct ServeArgs {
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
     pub module: Vec<String>,
     /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
-    #[arg(long, value_name = "LINK", conflicts_with = "tcp")]
+    #[arg(long, value_name = "LINK", conflicts_with = "tcp", required_unless_present = "tcp")]
     pub pty: Option<PathBuf>,
+    /// Serve on a TCP port instead, HOST:PORT (e.g. 127.0.0.1:2323; port 0 picks a free one).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tcp: Option<String>,
+    /// The address a module with a new EEPROM answers at (default 1; a module keeps the address stored in
+    /// its EEPROM, global parameter 66).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..))]
+    pub address: Option<u8>,
     /// Keep the module's EEPROM in FILE (crash-safe; FILE.journal sits beside it). Without it the EEPROM
     /// lives in memory and is lost when the server stops. One module only: for a bus use --eeprom-dir.
     #[arg(long, value_name = "FILE", conflicts_with = "eeprom_dir")]
@@ -62,14 +67,8 @@ enum Link {
 }
 
 /// Runs the server until SIGINT or SIGTERM.
-pub fn run(conn: &Connection, args: ServeArgs) -> ExitCode {
-    match serve(conn, args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("tmcl serve: {e}");
-            ExitCode::FAILURE
-        }
-    }
+pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
+    serve(args, json)
 }
 
 /// One `--module MODEL[@ADDR]`.
@@ -93,41 +92,44 @@ fn parse_module(text: &str) -> Result<(&'static ModelSpec, Option<u8>), String> 
     Ok((spec, address))
 }
 
-fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
+fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
-        wanted.push(parse_module(text)?);
+        wanted.push(parse_module(text).map_err(CliError::Usage)?);
     }
-    if wanted.len() > 1 && (args.eeprom.is_some() || conn.address.is_some()) {
-        return Err("with several modules give each its address as MODEL@ADDR and use --eeprom-dir".into());
+    if wanted.len() > 1 && (args.eeprom.is_some() || args.address.is_some()) {
+        return Err(CliError::Usage(
+            "with several modules give each its address as MODEL@ADDR and use --eeprom-dir".into(),
+        ));
     }
     // A link whose modules answer every address (USB) holds one module: several would all answer.
     if wanted.len() > 1 {
         if let Some((spec, _)) = wanted.iter().find(|(spec, _)| !spec.interfaces[0].address_filter) {
-            return Err(format!(
+            return Err(CliError::Usage(format!(
                 "the {} is served on its {} interface, which answers every address: one module per link",
                 spec.name, spec.interfaces[0].name
-            ));
+            )));
         }
     }
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop)).map_err(|e| format!("cannot handle signals: {e}"))?;
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
     }
     let start = std::time::Instant::now();
     let clock = move || Instant::from_micros(start.elapsed().as_micros() as u64);
     let world = match &args.world {
-        Some(path) => tmcl_sim::World::load(path).map_err(|e| e.to_string())?,
+        Some(path) => tmcl_sim::World::load(path).map_err(|e| CliError::Input(e.to_string()))?,
         None => tmcl_sim::World::default(),
     };
     if let Some(dir) = &args.eeprom_dir {
-        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
     }
     let mut nodes = Vec::new();
     for (n, (spec, address)) in wanted.into_iter().enumerate() {
         // The address a module is started with: --address, MODEL@ADDR, or (on a bus without either) its
         // position on the line. It names the module's EEPROM file in --eeprom-dir.
-        let address = address.or(conn.address).or((n > 0).then_some(n as u8 + 1));
+        let address = address.or(args.address).or((n > 0).then_some(n as u8 + 1));
         let name = format!("{}@{}", spec.id, address.unwrap_or(1));
         let capacity = persist::capacity(spec);
         let path = match (&args.eeprom, &args.eeprom_dir) {
@@ -139,17 +141,19 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
         // stored automatically, §5.1), as a real module keeps its address across power cycles.
         let fresh = path.as_ref().is_none_or(|p| std::fs::metadata(p).map_or(true, |m| m.len() == 0));
         let eeprom = match path {
-            Some(path) => Eeprom::File(FileNvm::open(&path, capacity).map_err(|e| e.to_string())?),
+            Some(path) => Eeprom::File(FileNvm::open(&path, capacity).map_err(|e| CliError::Io(e.to_string()))?),
             None => Eeprom::Memory(MemNvm::new(capacity)),
         };
-        let board =
-            SimBoard::for_model(spec, eeprom).with_world(world.clone()).map_err(|e| e.to_string())?.with_clock(clock);
+        let board = SimBoard::for_model(spec, eeprom)
+            .with_world(world.clone())
+            .map_err(|e| CliError::Input(e.to_string()))?
+            .with_clock(clock);
         let mut module = Module::new(board, spec, clock());
         if let Some(address) = address {
             if fresh && module.address() != address {
                 module
                     .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
-                    .map_err(|s| format!("address {address}: {s}"))?;
+                    .map_err(|s| CliError::Usage(format!("address {address}: {s}")))?;
             } else if module.address() != address {
                 eprintln!(
                     "tmcl serve: {name}: keeping the address {} stored in its EEPROM (a start address applies to a new EEPROM)",
@@ -160,17 +164,18 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
         nodes.push(Node::new(module, name));
     }
     let mut bus = Bus::new(nodes, args.wire_timing);
-    let mut link = match (&args.pty, &conn.tcp) {
-        (Some(path), None) => {
-            Link::Pty(Pty::open(path).map_err(|e| format!("cannot open a pty at {}: {e}", path.display()))?)
-        }
+    let mut link = match (&args.pty, &args.tcp) {
+        (Some(path), None) => Link::Pty(
+            Pty::open(path).map_err(|e| CliError::Io(format!("cannot open a pty at {}: {e}", path.display())))?,
+        ),
         (None, Some(addr)) => {
-            let addr = parse_listen_address(addr)?;
-            let listener = TcpListener::bind(addr).map_err(|e| format!("cannot listen on {addr}: {e}"))?;
-            listener.set_nonblocking(true).map_err(|e| e.to_string())?;
+            let addr = parse_listen_address(addr).map_err(CliError::Usage)?;
+            let listener =
+                TcpListener::bind(addr).map_err(|e| CliError::Io(format!("cannot listen on {addr}: {e}")))?;
+            listener.set_nonblocking(true).map_err(|e| CliError::Io(e.to_string()))?;
             Link::Tcp { listener, peer: None }
         }
-        _ => return Err("give exactly one of --pty LINK or --tcp HOST:PORT".into()),
+        _ => return Err(CliError::Usage("give exactly one of --pty LINK or --tcp HOST:PORT".into())),
     };
     let place = match &link {
         Link::Pty(pty) => pty.link.display().to_string(),
@@ -178,7 +183,16 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
     };
     let modules: Vec<String> =
         bus.nodes.iter().map(|n| format!("{} at address {}", n.module.spec().name, n.module.address())).collect();
-    println!("serving {} on {place}", modules.join(", "));
+    if json {
+        let names: Vec<serde_json::Value> = bus
+            .nodes
+            .iter()
+            .map(|n| serde_json::json!({"model": n.module.spec().id, "address": n.module.address()}))
+            .collect();
+        println!("{}", serde_json::json!({"serving": names, "link": place}));
+    } else {
+        println!("serving {} on {place}", modules.join(", "));
+    }
     let _ = io::stdout().flush();
     if args.verbose {
         if let Link::Pty(pty) = &link {
@@ -197,7 +211,7 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
             .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
             .unwrap_or(MAX_SLEEP)
             .min(MAX_SLEEP);
-        let readable = wait(&link, sleep).map_err(|e| format!("poll: {e}"))?;
+        let readable = wait(&link, sleep).map_err(|e| CliError::Io(format!("poll: {e}")))?;
         if !readable {
             continue;
         }
@@ -241,7 +255,11 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
         }
     }
     for node in &mut bus.nodes {
-        node.module.board_mut().eeprom().sync().map_err(|e| format!("{}: EEPROM not flushed: {e}", node.name))?;
+        node.module
+            .board_mut()
+            .eeprom()
+            .sync()
+            .map_err(|e| CliError::Io(format!("{}: EEPROM not flushed: {e}", node.name)))?;
     }
     if args.verbose {
         eprintln!("[{}] stopped", clock());
