@@ -74,8 +74,9 @@ const HOST_COMMANDS: &[&str] = &[
     "start", "stop", "status",
 ];
 
-/// Connection options that take a value, as older versions took them before the subcommand.
-const CONNECTION_OPTIONS: &[&str] = &["--port", "--baud", "--tcp", "--address", "--timeout"];
+/// Options of the host commands that take a value and may come before the command's name: the connection
+/// options, and `--module` (the model whose parameter names are meant).
+const CONNECTION_OPTIONS: &[&str] = &["--port", "--baud", "--tcp", "--address", "--timeout", "--module"];
 
 /// Lets connection options come before the subcommand, as in `tmcl --port LINK get ap 4`: they are moved
 /// behind the subcommand's name when the subcommand talks to a module. For any other subcommand they stay
