@@ -158,6 +158,52 @@ mod tests {
         line.split_whitespace().map(OsString::from).collect()
     }
 
+    /// docs/cli.md: every command's `--help`, so that the reference can never drift from the program.
+    fn cli_reference() -> String {
+        let mut cmd = Cli::command();
+        cmd.build();
+        let mut text = String::from(
+            "# Command-line reference\n\n\
+             Generated from `tmcl --help` and each command's `--help` by the test `the_cli_reference_is_current`\n\
+             (`UPDATE_CLI_REFERENCE=1 cargo test -p tmcl-cli the_cli_reference` rewrites it). Connection options\n\
+             (`--port`, `--baud`, `--tcp`, `--address`, `--timeout`) and `--module` of the host commands may also\n\
+             come before the command's name: `tmcl --port /tmp/tmcl0 get ap 4`.\n",
+        );
+        fn walk(cmd: &mut clap::Command, path: &str, text: &mut String) {
+            let mut help = cmd.render_long_help().to_string();
+            if path != "tmcl" {
+                // The exit codes are the same for every command: said once, under `tmcl`.
+                help = help.replace(EXIT_CODES, "");
+            }
+            let help: Vec<&str> = help.trim_end().lines().map(str::trim_end).collect();
+            text.push_str(&format!("\n## `{path}`\n\n```text\n{}\n```\n", help.join("\n")));
+            for sub in cmd.get_subcommands_mut() {
+                if sub.get_name() == "help" {
+                    continue;
+                }
+                let path = format!("{path} {}", sub.get_name());
+                walk(sub, &path, text);
+            }
+        }
+        walk(&mut cmd, "tmcl", &mut text);
+        text
+    }
+
+    #[test]
+    fn the_cli_reference_is_current() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/cli.md");
+        let text = cli_reference();
+        if std::env::var_os("UPDATE_CLI_REFERENCE").is_some() {
+            std::fs::write(&path, &text).unwrap();
+        }
+        let stored = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            stored == text,
+            "docs/cli.md is not the help of this build: run `UPDATE_CLI_REFERENCE=1 cargo test -p tmcl-cli \
+             the_cli_reference` and commit it"
+        );
+    }
+
     #[test]
     fn the_command_line_is_consistent() {
         Cli::command().debug_assert();
