@@ -3,7 +3,11 @@
 import json
 import subprocess
 
+from pathlib import Path
+
 from tmcltest import pytrinamic_connection
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def tmcl(tmcl_bin, *args, timeout=20):
@@ -213,3 +217,18 @@ def test_json_of_the_program_commands(tmcl_bin, pty_server, tmp_path):
     r = tmcl(tmcl_bin, "--port", link, "--json", "get", "gp", "66")
     doc = json.loads(r.stdout)
     assert (doc["address"], doc["host"], doc["bank"], doc["type"]) == (1, 2, 0, 66)
+
+
+def test_debug_and_run_json(tmcl_bin):
+    program = str(ROOT / "tests/programs/manual_p01_first_steps.tmc")
+    r = subprocess.run([str(tmcl_bin), "--json", "debug", program], input="step 2\nprint\nquit\n",
+                       capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0, r.stderr
+    answers = [json.loads(line) for line in r.stdout.splitlines()]
+    assert answers[0]["command"] is None  # the banner
+    assert [a["command"] for a in answers[1:]] == ["step 2", "print", "quit"]
+    assert answers[1]["pc"] == 2 and answers[1]["state"] == "stopped"
+    assert any("pc 2" in line for line in answers[2]["output"])
+    r = tmcl(tmcl_bin, "--json", "run", program, "--for", "1")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["simulated_s"] == 1
