@@ -43,7 +43,9 @@ use tmcl_wire::{Command, WaitCondition};
 /// `--drive, closed loop:` those it adds on a closed-loop model. A test reads the names from here and
 /// compares them with the header of a run.
 pub const TRACE_HELP: &str = "\
-Trace columns (--trace OUT.csv), one row every --every ms and one at each event:
+Trace columns (--trace OUT.csv), in this order, one row every --every ms and one at each event.
+`--drive:` marks the columns --drive adds, `--drive, closed loop:` those it adds on a closed-loop model
+(--module tmcm-1310):
   time_s            simulated time in s, 6 decimals (µs)
   target_position   AP 0 target position, µsteps
   actual_position   AP 1 actual position, µsteps (the encoder while a closed loop is closed)
@@ -65,7 +67,6 @@ Trace columns (--trace OUT.csv), one row every --every ms and one at each event:
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
                     execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
                     MVP; the row shows where the motor was then); several are joined with `;`
-(closed loop: on a closed-loop model, --module tmcm-1310.)
 
 The plot (--plot OUT.svg) draws, over time: target and actual position; velocity; a logic-analyser lane
 for each input and output that changes (IN0.., OUT0..) and one for each kind of program event. With

@@ -124,15 +124,16 @@ pub(crate) struct Label {
 }
 
 /// Which labels to draw, `labels` in ascending `x`: a label is drawn if it keeps `gap` pixels from the
-/// label drawn before it, and its text ends `gap` pixels before the next mark (drawn or not), so that no
-/// text touches another text or a mark. Of several marks at one place the last keeps its label. The
-/// first label is always drawn unless the next mark is too close.
-pub(crate) fn spread(labels: &[Label], gap: f64) -> Vec<bool> {
+/// label drawn before it, and its text ends `gap` pixels before the next mark (drawn or not) and before
+/// `limit` (the plot's right edge), so that no text touches another text or a mark, or leaves the plot.
+/// Of several marks at one place the last keeps its label. The first label is always drawn unless the
+/// next mark or the edge is too close.
+pub(crate) fn spread(labels: &[Label], gap: f64, limit: f64) -> Vec<bool> {
     let mut keep = vec![false; labels.len()];
     let mut free_from = f64::NEG_INFINITY;
     for (i, label) in labels.iter().enumerate() {
         let end = label.x + label.width;
-        let next_mark = labels.get(i + 1).map_or(f64::INFINITY, |l| l.x);
+        let next_mark = labels.get(i + 1).map_or(limit, |l| l.x.min(limit));
         if label.x >= free_from && end + gap <= next_mark {
             keep[i] = true;
             free_from = end + gap;
@@ -246,12 +247,14 @@ mod tests {
         let l = |x: f64, width: f64| Label { x, width };
         // Three labels 40 px wide at 0, 10 and 100: the first would cover the mark at 10, the second fits.
         let labels = [l(0.0, 40.0), l(10.0, 40.0), l(100.0, 40.0)];
-        assert_eq!(spread(&labels, 4.0), [false, true, true]);
+        assert_eq!(spread(&labels, 4.0, 1000.0), [false, true, true]);
         // Marks at one place: the last one's label.
-        assert_eq!(spread(&[l(5.0, 20.0), l(5.0, 20.0)], 4.0), [false, true]);
+        assert_eq!(spread(&[l(5.0, 20.0), l(5.0, 20.0)], 4.0, 1000.0), [false, true]);
+        // A label that would leave the plot on the right.
+        assert_eq!(spread(&labels, 4.0, 120.0), [false, true, false]);
         // A dense run of marks: the drawn labels never touch each other or any mark.
         let dense: Vec<Label> = (0..200).map(|i| l(f64::from(i) * 7.0 + f64::from(i % 3), 30.0)).collect();
-        let keep = spread(&dense, 3.0);
+        let keep = spread(&dense, 3.0, f64::INFINITY);
         let drawn: Vec<&Label> = dense.iter().zip(&keep).filter(|(_, k)| **k).map(|(l, _)| l).collect();
         assert!(!drawn.is_empty());
         for d in &drawn {
@@ -261,6 +264,6 @@ mod tests {
         assert!(drawn.windows(2).all(|w| w[0].x + w[0].width + 3.0 <= w[1].x));
         // Sparse ones are all drawn.
         let sparse: Vec<Label> = (0..10).map(|i| l(f64::from(i) * 100.0, 60.0)).collect();
-        assert!(spread(&sparse, 4.0).iter().all(|k| *k));
+        assert!(spread(&sparse, 4.0, 1000.0).iter().all(|k| *k));
     }
 }

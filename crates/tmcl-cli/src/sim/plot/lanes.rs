@@ -15,6 +15,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// Event lanes at most; further kinds share the last lane ("other"), labelled with the whole event.
 pub(crate) const MAX_EVENT_LANES: usize = 8;
+/// The font size of the values at the marks.
+const LABEL_FONT: u32 = 13;
 /// Height of one lane in pixels.
 const LANE: u32 = 28;
 const INPUT: RGBColor = RGBColor(20, 130, 60);
@@ -165,8 +167,8 @@ impl Lanes {
             .x_label_formatter(&x_label)
             .y_label_formatter(&y_label)
             .x_desc(what)
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 13))
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 15))
             .disable_y_mesh()
             .bold_line_style(BLACK.mix(0.1))
             .light_line_style(TRANSPARENT)
@@ -193,7 +195,7 @@ impl Lanes {
         }
         let (xs, _) = chart.plotting_area().get_pixel_range();
         let px_per_s = f64::from(xs.end - xs.start) / (time.range.end - time.range.start).max(1e-9);
-        let style = TextStyle::from((FONT, 11).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+        let style = TextStyle::from((FONT, LABEL_FONT).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
         for (k, kind) in self.kinds.iter().enumerate() {
             let lane = self.signals.len() + k;
             let color = PALETTE[k % PALETTE.len()];
@@ -206,11 +208,11 @@ impl Lanes {
                 .marks
                 .iter()
                 .map(|(t, text)| Label {
-                    x: t * px_per_s,
-                    width: text.as_deref().map_or(0.0, |text| 4.0 + text_width(text, 11.0)),
+                    x: (t - time.range.start) * px_per_s,
+                    width: text.as_deref().map_or(0.0, |text| 4.0 + text_width(text, f64::from(LABEL_FONT))),
                 })
                 .collect();
-            let keep = spread(&labels, 3.0);
+            let keep = spread(&labels, 3.0, f64::from(xs.end - xs.start));
             chart.draw_series(kind.marks.iter().zip(keep).filter_map(|((t, text), keep)| {
                 let text = text.as_ref().filter(|_| keep)?;
                 Some(Text::new(text.clone(), (t + 4.0 / px_per_s, y(lane)), style.clone()))

@@ -51,6 +51,8 @@ const COLUMNS: usize = (WIDTH - Y_LABELS - MARGIN_LEFT - MARGIN_RIGHT) as usize;
 const ENVELOPE_REACH: usize = 10;
 
 const FONT: &str = "sans-serif";
+/// The key's font size (plotters draws text at 1/1.24 of the size it is given).
+const KEY_FONT: u32 = 14;
 const TARGET: RGBColor = RGBColor(230, 140, 30);
 const ACTUAL: RGBColor = RGBColor(30, 90, 200);
 const SPEED: RGBColor = RGBColor(20, 150, 70);
@@ -170,7 +172,7 @@ pub(crate) fn draw(
     let root = SVGBackend::new(path, (WIDTH, height)).into_drawing_area();
     root.fill(&WHITE)?;
     let (head, mut rest) = root.split_vertically(TITLE);
-    let style = TextStyle::from((FONT, 20).into_font()).pos(Pos::new(HPos::Center, VPos::Center));
+    let style = TextStyle::from((FONT, 24).into_font()).pos(Pos::new(HPos::Center, VPos::Center));
     head.draw(&Text::new(title.to_string(), (WIDTH as i32 / 2, TITLE as i32 / 2), style))?;
     let lines = if events.len() <= MAX_EVENT_LINES { events } else { &[] };
     for (i, panel) in panels.iter().enumerate() {
@@ -284,8 +286,8 @@ where
     mesh.x_label_formatter(&x_label)
         .y_label_formatter(&y_label)
         .y_desc(panel.unit)
-        .label_style((FONT, 12))
-        .axis_desc_style((FONT, 13))
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 15))
         .bold_line_style(BLACK.mix(0.1))
         .light_line_style(TRANSPARENT);
     if bottom {
@@ -313,11 +315,11 @@ where
     let (bx, by) = area.get_base_pixel();
     let mut x = xs.start - bx;
     let y = ys.start - by - KEY as i32 / 2;
-    let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    let style = TextStyle::from((FONT, KEY_FONT).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
     for s in series {
         area.draw(&PathElement::new(vec![(x, y), (x + 18, y)], s.color.stroke_width(3)))?;
         area.draw(&Text::new(s.name.clone(), (x + 24, y), style.clone()))?;
-        x += 24 + text_width(&s.name, 12.0) as i32 + 24;
+        x += 24 + text_width(&s.name, f64::from(KEY_FONT)) as i32 + 24;
     }
     Ok(())
 }
@@ -385,19 +387,23 @@ fn thin(samples: &[Sample], value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
 fn difference(samples: &[Sample], end: f64, value: impl Fn(&Sample) -> f64, name: &str) -> Series {
     let values: Vec<f64> = samples.iter().map(&value).collect();
     if jitters(&values) {
-        let name = format!("{name} (band: its range around each instant, the encoder's resolution)");
+        let name = format!("{name} (band: minimum to maximum over ±{ENVELOPE_REACH} pixels)");
         Series { points: envelope(samples, end, value), color: SLIP, style: Style::Envelope, name }
     } else {
         Series { points: thin(samples, value), color: SLIP, style: Style::Line(1), name: name.into() }
     }
 }
 
-/// Whether a series jitters: more than one sample in five turns (a rise then a fall, or a fall then a
-/// rise; steady stretches do not count).
+/// Whether a series jitters visibly: more than one sample in five turns (a rise then a fall, or a fall
+/// then a rise; steady stretches do not count), and its moves are on average at least 1/20 of its range.
+/// So the encoder's 50 µsteps on a range of 50 jitter; a closed loop's few µsteps of hold on a range of
+/// 9000 do not, nor do lost steps piling up.
 fn jitters(values: &[f64]) -> bool {
     let moves: Vec<f64> = values.windows(2).map(|w| w[1] - w[0]).filter(|d| *d != 0.0).collect();
     let turns = moves.windows(2).filter(|w| w[0].signum() != w[1].signum()).count();
-    turns * 5 > values.len()
+    let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let mean_move = moves.iter().map(|d| d.abs()).sum::<f64>() / moves.len().max(1) as f64;
+    turns * 5 > values.len() && mean_move * 20.0 >= hi - lo
 }
 
 /// The band around `value` over the time axis `0..end`: for each pixel column that has samples, the
@@ -470,5 +476,9 @@ mod tests {
         assert_eq!(line.points.len(), 300);
         let steps: Vec<Sample> = (0..3000u64).map(|i| sample(i * 1000, -((i / 500) as i32) * 800)).collect();
         assert!(!jitters(&steps.iter().map(|s| f64::from(s.actual)).collect::<Vec<_>>()));
+        // A hold that wobbles by a few µsteps under a peak of 9000: the wobble is not what the panel shows.
+        let wobble: Vec<f64> =
+            (0..300).map(|i| if (140..160).contains(&i) { 9000.0 } else { f64::from(i % 7) }).collect();
+        assert!(!jitters(&wobble));
     }
 }
