@@ -43,7 +43,7 @@ const MARGIN_RIGHT: u32 = 36;
 const KEY: u32 = 24;
 /// Below each panel: the time labels.
 const X_LABELS: u32 = 22;
-/// Below the last panel: also "time [s]".
+/// Below the last panel: also `time [s]`.
 const X_DESC: u32 = 20;
 /// The plot's width in pixels inside a panel: one pixel column per point pair when thinning.
 const COLUMNS: usize = (WIDTH - Y_LABELS - MARGIN_LEFT - MARGIN_RIGHT) as usize;
