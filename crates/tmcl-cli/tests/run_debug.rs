@@ -241,7 +241,7 @@ fn the_plot_is_an_svg_with_both_panels() {
     ok(&tmcl(&["run", prog.to_str().unwrap(), "--for", "5", "--plot", svg.to_str().unwrap()]));
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg"), "{}", &text[..text.len().min(200)]);
-    for label in ["position [µsteps]", "velocity [pps]", "interrupt 0", "out0=1"] {
+    for label in ["position [µsteps]", "velocity [pps]", "interrupt 0", "OUT0"] {
         assert!(text.contains(label), "{label} missing");
     }
 }
