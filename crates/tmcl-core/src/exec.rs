@@ -53,6 +53,14 @@ impl<B: Board> Module<B> {
     /// Executes one validated command from the host or the program at `now`.
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
+        // A parameter write may change what the driver sees (a current, the chopper, the resolution) while
+        // the motor stands and nothing ticks: the board is brought up to date at the end of this poll.
+        if matches!(
+            command,
+            C::Sap { .. } | C::Aap { .. } | C::Rsap { .. } | C::Sgp { .. } | C::Agp { .. } | C::Rsgp { .. }
+        ) {
+            self.st.drive_due = Some(self.st.drive_due.map_or(now, |t| t.min(now)));
+        }
         match command {
             // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
             C::Ror { motor, velocity } => {

@@ -504,3 +504,29 @@ fn manual_potentiometer_to_position() {
     b.run(Duration::from_secs(2));
     assert_eq!(b.gap(1), 16380);
 }
+
+#[test]
+fn a_current_set_at_rest_reaches_the_driver_at_once() {
+    // Table 15: AP 6 is the current of a moving motor and of one standing within the power-down delay
+    // (AP 214). Set by a program or through `Module::execute` while the motor stands and nothing ticks,
+    // it reached the driver only when the motor next moved.
+    let mut b = Bench::new();
+    b.run(Duration::from_millis(10));
+    assert_eq!(b.module.board().drive.current, 128);
+    download(
+        &mut b,
+        &[
+            C::Wait { condition: WaitCondition::Ticks, motor: 0, ticks: 10 },
+            C::Sap { param: 6, motor: 0, value: 200 },
+            C::Stop,
+        ],
+    );
+    run_from(&mut b, 0);
+    b.run(Duration::from_millis(200));
+    assert_eq!(b.module.vm().state, crate::vm::RunState::Stopped);
+    assert_eq!(b.module.board().drive.current, 200);
+    let now = b.now;
+    assert!(b.module.execute(C::Sap { param: 6, motor: 0, value: 64 }, now).is_ok());
+    b.module.poll(now, &mut |_: &[u8]| {});
+    assert_eq!(b.module.board().drive.current, 64);
+}
