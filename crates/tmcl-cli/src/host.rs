@@ -12,15 +12,16 @@ use tmcl_host::{Client, FirmwareVersion, HostError, SerialTransport, TcpTranspor
 use tmcl_wire::command::{
     CalcOp, CalcxOp, Condition, ErrorFlag, EventMode, MoveKind, RfsAction, StatusKind, VersionFormat, WaitCondition,
 };
-use tmcl_wire::{Instruction, Opcode, Reply};
+use tmcl_wire::{Command, Instruction, Opcode, Reply};
 
 /// The exit codes of the host commands, as printed in `--help`.
 pub const EXIT_CODES: &str = "\
 Exit codes of host commands:
   0  success
-  1  the module answered with an error status, or its reply was damaged (checksum)
+  1  the module answered with an error status
   2  usage error (bad arguments, no or both of --port/--tcp)
-  3  no reply in time, or the port/connection could not be opened or failed";
+  3  no reply in time, or the port/connection could not be opened, is in use or failed
+  4  a damaged, late or foreign reply (checksum wrong, or a reply to another request)";
 
 /// Exit code 1: the module said no, or its reply was damaged.
 const EXIT_REPLY: u8 = 1;
@@ -28,6 +29,8 @@ const EXIT_REPLY: u8 = 1;
 const EXIT_USAGE: u8 = 2;
 /// Exit code 3: timeout or I/O failure.
 const EXIT_IO: u8 = 3;
+/// Exit code 4: a damaged, late or foreign reply.
+const EXIT_BAD_REPLY: u8 = 4;
 
 /// How to reach the module: global options of every host command.
 #[derive(Debug, Clone, Args)]
@@ -93,7 +96,12 @@ pub enum HostCommand {
         value: i32,
     },
     /// List the modules answering on the line: every address from --first to --last is asked for its
-    /// version string (command 136), each with a short timeout.
+    /// version (command 136), each with a short wait. The modules go to stdout, progress and notes to
+    /// stderr; no module at all is exit code 3.
+    ///
+    /// A reply that comes after its --wait still counts for the address it names (the line is drained
+    /// after every unanswered address), and the scan says which addresses answered late.
+    #[command(after_help = EXIT_CODES)]
     Scan {
         /// First address to ask.
         #[arg(long, default_value_t = 1)]
@@ -101,9 +109,10 @@ pub enum HostCommand {
         /// Last address to ask.
         #[arg(long, default_value_t = 255)]
         last: u8,
-        /// How long to wait for each address, in milliseconds.
-        #[arg(long, value_name = "MS", default_value_t = 40)]
-        wait: u64,
+        /// How long to wait for each address, in milliseconds [default: the time of a request and its
+        /// reply at --baud plus 20 ms: 39 at 9600 baud].
+        #[arg(long, value_name = "MS")]
+        wait: Option<u64>,
     },
 }
 
@@ -189,6 +198,9 @@ pub(crate) enum CliError {
     /// Writing the output failed.
     #[error("cannot write the output: {0}")]
     Output(#[from] io::Error),
+    /// No module answered a scan.
+    #[error("{0}")]
+    NoModule(String),
 }
 
 impl CliError {
@@ -196,8 +208,9 @@ impl CliError {
     pub(crate) fn exit_code(&self) -> u8 {
         match self {
             CliError::Usage(_) => EXIT_USAGE,
-            CliError::Host(err) if err.is_reply_error() => EXIT_REPLY,
-            CliError::Host(_) | CliError::Output(_) => EXIT_IO,
+            CliError::Host(err) if err.is_bad_reply() => EXIT_BAD_REPLY,
+            CliError::Host(err) if err.is_status_error() => EXIT_REPLY,
+            CliError::Host(_) | CliError::Output(_) | CliError::NoModule(_) => EXIT_IO,
         }
     }
 }
@@ -224,7 +237,10 @@ fn execute(conn: &Connection, cmd: HostCommand, out: &mut dyn Write) -> Result<(
     let json = conn.json;
     match cmd {
         HostCommand::Version => version(&mut conn.open()?, json, out),
-        HostCommand::Scan { first, last, wait } => scan(&mut conn.open()?, first, last, wait, json, out),
+        HostCommand::Scan { first, last, wait } => {
+            let plan = ScanPlan::new(first, last, wait, conn)?;
+            scan(&mut conn.open()?, &plan, json, out)
+        }
         HostCommand::Get(p) => {
             let mut client = conn.open()?;
             let (reply, label) = match p {
@@ -314,36 +330,178 @@ fn version(client: &mut Client<Box<dyn Transport>>, json: bool, out: &mut dyn Wr
     Ok(())
 }
 
-/// `tmcl scan`: the modules on the line, by address.
-fn scan(
-    client: &mut Client<Box<dyn Transport>>,
+/// What `tmcl scan` asks and how long it waits.
+struct ScanPlan {
     first: u8,
     last: u8,
-    wait_ms: u64,
+    /// How long each address gets.
+    wait: Duration,
+    /// The quiet interval of the drain after an unanswered address.
+    quiet: Duration,
+    /// How long the version string of a module found may take (--timeout).
+    timeout: Duration,
+    /// The default wait at --baud, suggested when replies came late.
+    default_wait: Duration,
+}
+
+impl ScanPlan {
+    fn new(first: u8, last: u8, wait_ms: Option<u64>, conn: &Connection) -> Result<ScanPlan, CliError> {
+        if first > last {
+            return Err(CliError::Usage(format!("--first {first} is after --last {last}")));
+        }
+        // One 9-byte frame of 10-bit characters (8N1) at --baud: 9.4 ms at 9600.
+        let frame = Duration::from_micros(90_000_000 / u64::from(conn.baud.max(1)));
+        let default_wait = 2 * frame + Duration::from_millis(20);
+        let wait = wait_ms.map_or(default_wait, |ms| Duration::from_millis(ms.max(1)));
+        let quiet = (2 * frame).max(Duration::from_millis(10));
+        Ok(ScanPlan { first, last, wait, quiet, timeout: conn.timeout, default_wait })
+    }
+}
+
+/// The scan's progress line on stderr, when stderr is a terminal.
+struct Progress {
+    on: bool,
+    shown: bool,
+}
+
+impl Progress {
+    fn show(&mut self, plan: &ScanPlan, address: u8) {
+        if self.on {
+            let done = usize::from(address - plan.first) + 1;
+            let total = usize::from(plan.last - plan.first) + 1;
+            eprint!("\rscanning {}..{}: {done}/{total} ", plan.first, plan.last);
+            self.shown = true;
+        }
+    }
+
+    fn clear(&mut self) {
+        if self.shown {
+            eprint!("\r\x1b[K");
+            self.shown = false;
+        }
+    }
+}
+
+/// `tmcl scan`: the modules on the line, by address.
+///
+/// Each address is asked for its binary version (136 type 1): unlike the version string, its reply names the
+/// module, so a reply that comes late (during the drain after its address, or while a later address waits)
+/// still counts for the module that sent it. The version string of each module found is asked for then.
+fn scan(
+    client: &mut Client<Box<dyn Transport>>,
+    plan: &ScanPlan,
     json: bool,
     out: &mut dyn Write,
 ) -> Result<(), CliError> {
+    use std::io::IsTerminal;
+    let mut progress = Progress { on: io::stderr().is_terminal(), shown: false };
+    let mut probed = [false; 256];
     let mut found = Vec::new();
-    let timeout = std::time::Duration::from_millis(wait_ms.max(1));
-    for address in first..=last {
+    let mut late = Vec::new();
+    let mut elsewhere = Vec::new();
+    client.quiet = plan.quiet;
+    let probe = Command::GetVersion { format: VersionFormat::Binary }.encode();
+    for address in plan.first..=plan.last {
+        progress.show(plan, address);
+        probed[usize::from(address)] = true;
         client.module_address = address;
-        client.timeout = timeout;
-        match client.version_string() {
-            Ok(text) => {
-                if json {
-                    writeln!(out, "{}", json!({ "address": address, "version": text }))?;
-                } else {
-                    writeln!(out, "{address:>3}  {text}")?;
-                }
-                found.push(address);
+        client.timeout = plan.wait;
+        let answer = match client.request(probe) {
+            Ok(reply) | Err(HostError::Status { reply, .. }) => Some(reply),
+            Err(e @ (HostError::Io(_) | HostError::Open { .. } | HostError::InUse { .. })) => {
+                progress.clear();
+                return Err(e.into());
             }
-            // No module at this address (timeout), or something that is no answer to us: go on.
-            Err(HostError::Io(e)) => return Err(HostError::Io(e).into()),
-            Err(_) => client.clear_input(),
+            // Nothing, or a reply to another address: see the skipped replies below.
+            Err(_) => None,
+        };
+        // Drain now after an unanswered address, so that its late reply is counted for it at once.
+        client.settle()?;
+        let mut answered: Vec<(Reply, bool)> = answer.into_iter().map(|r| (r, false)).collect();
+        answered.extend(client.take_skipped().into_iter().map(|r| (r, true)));
+        for (reply, is_late) in answered {
+            let module = reply.module;
+            if reply.opcode != u8::from(Opcode::GetVersion) || !probed[usize::from(module)] {
+                progress.clear();
+                eprintln!(
+                    "tmcl scan: ignored a reply that answers no request of this scan: module {module}, command {}, value {}",
+                    Opcode::from(reply.opcode),
+                    reply.value
+                );
+            } else if found.contains(&module) {
+                // A module that answers from another address than the one asked (USB answers every address,
+                // a secondary address GP 87 answers from the primary one).
+                if !elsewhere.contains(&module) {
+                    elsewhere.push(module);
+                }
+            } else {
+                found.push(module);
+                if is_late {
+                    late.push(module);
+                }
+                progress.clear();
+                report_module(client, plan, &reply, json, out)?;
+            }
         }
     }
+    client.settle()?;
+    progress.clear();
     if !json {
         writeln!(out, "{} module(s) found", found.len())?;
+    }
+    let list = |modules: &[u8]| modules.iter().map(u8::to_string).collect::<Vec<_>>().join(", ");
+    if !elsewhere.is_empty() {
+        eprintln!(
+            "tmcl scan: module(s) {} also answered at other addresses (a USB link answers every address; a \
+             secondary address, GP 87, answers from the module's own)",
+            list(&elsewhere)
+        );
+    }
+    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+    if !late.is_empty() {
+        let suggest = plan.default_wait.max(plan.wait * 4);
+        eprintln!(
+            "tmcl scan: address(es) {} answered after --wait {:.0} ms (late replies, counted); give a longer wait, \
+             e.g. --wait {:.0}",
+            list(&late),
+            ms(plan.wait),
+            ms(suggest).ceil()
+        );
+    }
+    if found.is_empty() {
+        return Err(CliError::NoModule(format!(
+            "no module answered at addresses {}..{} (waited {:.0} ms each, and for late replies)",
+            plan.first,
+            plan.last,
+            ms(plan.wait)
+        )));
+    }
+    Ok(())
+}
+
+/// Prints one module found: its version string (with --timeout), or the binary version of `reply` if the
+/// string does not come.
+fn report_module(
+    client: &mut Client<Box<dyn Transport>>,
+    plan: &ScanPlan,
+    reply: &Reply,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<(), CliError> {
+    client.module_address = reply.module;
+    client.timeout = plan.timeout;
+    let text = match client.version_string() {
+        Ok(text) => text,
+        Err(e @ (HostError::Io(_) | HostError::Open { .. } | HostError::InUse { .. })) => return Err(e.into()),
+        Err(e) => {
+            eprintln!("tmcl scan: address {}: no version string ({e})", reply.module);
+            FirmwareVersion::from_value(reply.value).to_string()
+        }
+    };
+    if json {
+        writeln!(out, "{}", json!({ "address": reply.module, "version": text }))?;
+    } else {
+        writeln!(out, "{:>3}  {text}", reply.module)?;
     }
     Ok(())
 }
@@ -609,8 +767,8 @@ mod tests {
         assert_eq!(requests[0].instruction, Instruction::new(Opcode::Gap, 1, 0, 0));
         assert_eq!(requests[0].address, 1);
 
-        let (code, out, requests) =
-            run_against(&["--address", "7", "set", "gp", "77", "-3", "2"], vec![reply(Status::Ok, 9, -3)]);
+        let from_7 = Some(Reply { host: 2, module: 7, status: Status::Ok, opcode: 9, value: -3 }.to_bytes());
+        let (code, out, requests) = run_against(&["--address", "7", "set", "gp", "77", "-3", "2"], vec![from_7]);
         assert_eq!((code, out.as_str()), (0, "ok\n"));
         assert_eq!((requests[0].address, requests[0].instruction), (7, Instruction::new(Opcode::Sgp, 77, 2, -3)));
 
@@ -660,7 +818,10 @@ mod tests {
         let mut damaged = reply(Status::Ok, 6, 1).unwrap();
         damaged[8] ^= 1;
         let (code, _, _) = run_against(&["get", "ap", "1"], vec![Some(damaged)]);
-        assert_eq!(code, EXIT_REPLY);
+        assert_eq!(code, EXIT_BAD_REPLY);
+        // A reply from another module (a late one) is never the answer.
+        let (code, out, _) = run_against(&["--address", "2", "get", "ap", "5"], vec![reply(Status::Ok, 6, 1000)]);
+        assert_eq!((code, out.as_str()), (EXIT_BAD_REPLY, ""));
         let (code, _, _) = run_against(&["get", "ap", "1"], vec![None]);
         assert_eq!(code, EXIT_IO);
     }

@@ -6,11 +6,11 @@
 
 use crate::bus::{Bus, Node};
 use crate::host::Connection;
-use crate::pty::Pty;
+use crate::pty::{Pty, PtyError};
 use clap::Args;
 use nix::poll::{ppoll, PollFd, PollFlags};
 use std::io::{self, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::os::fd::AsFd;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -25,15 +25,37 @@ use tmcl_wire::{Command, Frame, Instruction, Reply, ReplyFrame, Request};
 /// Longest sleep between two looks at the shutdown flag.
 const MAX_SLEEP: std::time::Duration = std::time::Duration::from_millis(50);
 
+/// How often the pty's exclusive mode is checked for a host that died holding it.
+const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// Exit code when LINK or the TCP port is taken by another server (3, as a host's connection failure).
+const EXIT_BUSY: u8 = 3;
+
+/// What `tmcl serve --help` adds about sharing the line.
+pub const SERVE_HELP: &str = "\
+One line, one owner:
+  --pty LINK       the server holds LINK.lock (its PID, flock) beside LINK while it runs. A LINK another
+                   live server holds is refused (exit code 3, naming that server's PID); a LINK left by a
+                   server that died (kill -9) is replaced. On exit LINK and LINK.lock are removed, LINK
+                   only if it still points at this server's pty.
+  --tcp HOST:PORT  HOST may be a name (localhost:2324) or an IP literal; a bare PORT means 127.0.0.1.
+                   One client at a time, as on a serial line: while one is connected, a second connection
+                   is accepted and closed at once without a byte (`tmcl` reports the port in use). A port
+                   another program listens on is refused (exit code 3).
+Exit codes: 0 stopped by SIGINT/SIGTERM, 1 the server could not start or stopped on an error,
+  3 LINK or the TCP port is taken.";
+
 /// Options of `tmcl serve` (the link comes from `--pty` or the global `--tcp`, the address from the global
 /// `--address`).
 #[derive(Debug, Args)]
+#[command(after_help = SERVE_HELP)]
 pub struct ServeArgs {
     /// The module to simulate, as MODEL or MODEL@ADDRESS. Give it several times to put several
     /// independent modules on one line (an RS485 bus), e.g. `--module pd28-1021@1 --module pd28-1021@2`.
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
     pub module: Vec<String>,
-    /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
+    /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port. The
+    /// server owns LINK while it runs (LINK.lock beside it); a LINK held by another server is refused.
     #[arg(long, value_name = "LINK", conflicts_with = "tcp")]
     pub pty: Option<PathBuf>,
     /// Keep the module's EEPROM in FILE (crash-safe; FILE.journal sits beside it). Without it the EEPROM
@@ -66,10 +88,33 @@ pub fn run(conn: &Connection, args: ServeArgs) -> ExitCode {
     match serve(conn, args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("tmcl serve: {e}");
-            ExitCode::FAILURE
+            eprintln!("tmcl serve: {}", e.message);
+            ExitCode::from(e.code)
         }
     }
+}
+
+/// Why the server could not start or stopped, with its exit code.
+struct ServeError {
+    code: u8,
+    message: String,
+}
+
+impl From<String> for ServeError {
+    fn from(message: String) -> ServeError {
+        ServeError { code: 1, message }
+    }
+}
+
+impl From<&str> for ServeError {
+    fn from(message: &str) -> ServeError {
+        ServeError::from(message.to_owned())
+    }
+}
+
+/// The server's error for a taken LINK or TCP port (exit code 3).
+fn busy(message: String) -> ServeError {
+    ServeError { code: EXIT_BUSY, message }
 }
 
 /// One `--module MODEL[@ADDR]`.
@@ -93,7 +138,7 @@ fn parse_module(text: &str) -> Result<(&'static ModelSpec, Option<u8>), String> 
     Ok((spec, address))
 }
 
-fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
+fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
     let mut wanted = Vec::new();
     for text in &args.module {
         wanted.push(parse_module(text)?);
@@ -107,7 +152,8 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
             return Err(format!(
                 "the {} is served on its {} interface, which answers every address: one module per link",
                 spec.name, spec.interfaces[0].name
-            ));
+            )
+            .into());
         }
     }
     let stop = Arc::new(AtomicBool::new(false));
@@ -161,12 +207,12 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
     }
     let mut bus = Bus::new(nodes, args.wire_timing);
     let mut link = match (&args.pty, &conn.tcp) {
-        (Some(path), None) => {
-            Link::Pty(Pty::open(path).map_err(|e| format!("cannot open a pty at {}: {e}", path.display()))?)
-        }
+        (Some(path), None) => Link::Pty(Pty::open(path).map_err(|e| match e {
+            PtyError::Busy { .. } => busy(e.to_string()),
+            PtyError::Io(e) => format!("cannot open a pty at {}: {e}", path.display()).into(),
+        })?),
         (None, Some(addr)) => {
-            let addr = parse_listen_address(addr)?;
-            let listener = TcpListener::bind(addr).map_err(|e| format!("cannot listen on {addr}: {e}"))?;
+            let listener = listen(addr)?;
             listener.set_nonblocking(true).map_err(|e| e.to_string())?;
             Link::Tcp { listener, peer: None }
         }
@@ -187,12 +233,19 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
     }
 
     let mut buf = [0u8; 4096];
+    let mut exclusive_checked = std::time::Instant::now();
     while !stop.load(Ordering::Relaxed) {
         let now = clock();
         let deadline = {
             let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
             bus.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
         };
+        if let Link::Pty(pty) = &link {
+            if exclusive_checked.elapsed() >= EXCLUSIVE_CHECK {
+                pty.release_abandoned_exclusive_mode();
+                exclusive_checked = std::time::Instant::now();
+            }
+        }
         let sleep = deadline
             .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
             .unwrap_or(MAX_SLEEP)
@@ -201,24 +254,15 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
         if !readable {
             continue;
         }
+        // The host's bytes first: they are answered before a new TCP client is let in.
         let received = match &mut link {
             Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
-            Link::Tcp { listener, peer } => match peer {
-                None => {
-                    if let Ok((stream, from)) = listener.accept() {
-                        let _ = stream.set_nonblocking(true);
-                        let _ = stream.set_nodelay(true);
-                        if args.verbose {
-                            eprintln!("[{}] connection from {from}", clock());
-                        }
-                        *peer = Some(stream);
-                        // A partial frame of the previous connection must not join this one's.
-                        bus.reset_link();
-                    }
-                    0
-                }
+            Link::Tcp { peer, .. } => match peer {
+                None => 0,
                 Some(stream) => match stream.read(&mut buf) {
-                    Ok(0) | Err(_) if !would_block_or_ok(stream) => {
+                    Ok(n) if n > 0 => n,
+                    Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
+                    _ => {
                         if args.verbose {
                             eprintln!("[{}] connection closed", clock());
                         }
@@ -226,8 +270,6 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
                         bus.reset_link();
                         0
                     }
-                    Ok(n) => n,
-                    Err(_) => 0,
                 },
             },
         };
@@ -239,6 +281,9 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
             let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
             bus.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
         }
+        if let Link::Tcp { listener, peer } = &mut link {
+            accept_clients(listener, peer, &mut bus, args.verbose, clock());
+        }
     }
     for node in &mut bus.nodes {
         node.module.board_mut().eeprom().sync().map_err(|e| format!("{}: EEPROM not flushed: {e}", node.name))?;
@@ -249,18 +294,90 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// `HOST:PORT`, or just `PORT` for loopback.
-fn parse_listen_address(s: &str) -> Result<SocketAddr, String> {
-    if let Ok(port) = s.parse::<u16>() {
-        return Ok(SocketAddr::from(([127, 0, 0, 1], port)));
+/// Listens on `HOST:PORT` or a bare `PORT` (on 127.0.0.1). HOST may be a name, resolved as the host side
+/// resolves it (`localhost:2324`); of the addresses it resolves to, IPv4 ones are tried first, so that
+/// `localhost` means 127.0.0.1 as for most clients. An address another program listens on is not skipped
+/// for the next one: it is reported (exit code 3).
+fn listen(text: &str) -> Result<TcpListener, ServeError> {
+    let mut candidates: Vec<SocketAddr> = match text.parse::<u16>() {
+        Ok(port) => vec![SocketAddr::from(([127, 0, 0, 1], port))],
+        Err(_) => text
+            .to_socket_addrs()
+            .map_err(|e| format!("`{text}` is not HOST:PORT (e.g. localhost:2323, 127.0.0.1:2323) or a port: {e}"))?
+            .collect(),
+    };
+    candidates.sort_by_key(SocketAddr::is_ipv6);
+    let mut last = None;
+    for addr in candidates {
+        match TcpListener::bind(addr) {
+            Ok(listener) => return Ok(listener),
+            Err(e) if e.kind() == io::ErrorKind::AddrInUse => {
+                return Err(busy(format!("cannot listen on {addr}: another program listens there ({e})")))
+            }
+            Err(e) => last = Some(format!("cannot listen on {addr}: {e}")),
+        }
     }
-    s.parse().map_err(|_| format!("`{s}` is not HOST:PORT (e.g. 127.0.0.1:2323) or a port number"))
+    Err(last.unwrap_or_else(|| format!("`{text}` resolves to no address")).into())
 }
 
-/// After a failed or empty read: whether the stream is merely idle (true) or closed (false).
-fn would_block_or_ok(stream: &mut TcpStream) -> bool {
+/// Takes the connections waiting on the listener. The first becomes the client when there is none (or the
+/// one there has gone); any other is closed at once without a byte: one client at a time, as one host on a
+/// serial line (a second client would read the first one's replies). See docs/decisions.md.
+///
+/// While the client has unread bytes, new connections wait: those bytes may end in the client's close, and
+/// the next connection is then the next client, not a second one.
+fn accept_clients(listener: &TcpListener, peer: &mut Option<TcpStream>, bus: &mut Bus, verbose: bool, now: Instant) {
+    loop {
+        if let Some(stream) = peer.as_mut() {
+            match peer_state(stream) {
+                PeerState::Idle => {}
+                PeerState::Sending => return,
+                PeerState::Closed => {
+                    if verbose {
+                        eprintln!("[{now}] connection closed");
+                    }
+                    *peer = None;
+                    bus.reset_link();
+                }
+            }
+        }
+        let Ok((stream, from)) = listener.accept() else { return };
+        if peer.is_some() {
+            if verbose {
+                eprintln!("[{now}] connection from {from} turned away: another client is connected");
+            }
+            drop(stream);
+            continue;
+        }
+        let _ = stream.set_nonblocking(true);
+        let _ = stream.set_nodelay(true);
+        if verbose {
+            eprintln!("[{now}] connection from {from}");
+        }
+        *peer = Some(stream);
+        // A partial frame of the previous connection must not join this one's.
+        bus.reset_link();
+    }
+}
+
+/// What a connected client is doing, as far as the socket tells without reading.
+enum PeerState {
+    /// Connected, nothing unread.
+    Idle,
+    /// Bytes are waiting to be read.
+    Sending,
+    /// Closed or failed.
+    Closed,
+}
+
+fn peer_state(stream: &mut TcpStream) -> PeerState {
     let mut probe = [0u8; 1];
-    matches!(stream.peek(&mut probe), Err(e) if e.kind() == io::ErrorKind::WouldBlock)
+    match stream.peek(&mut probe) {
+        Ok(0) => PeerState::Closed,
+        Ok(_) => PeerState::Sending,
+        Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => PeerState::Idle,
+        Err(_) => PeerState::Closed,
+    }
 }
 
 fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
@@ -268,15 +385,18 @@ fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
     file.read(buf).unwrap_or_default()
 }
 
-/// Waits until the link is readable or `timeout` passes (with microsecond resolution: byte times at high
-/// baud rates are far below a millisecond).
+/// Waits until the link is readable (for TCP: the client, or the listener with a new connection) or
+/// `timeout` passes (with microsecond resolution: byte times at high baud rates are far below a
+/// millisecond).
 fn wait(link: &Link, timeout: std::time::Duration) -> io::Result<bool> {
-    let fd = match link {
-        Link::Pty(pty) => pty.master.as_fd(),
-        Link::Tcp { listener, peer: None } => listener.as_fd(),
-        Link::Tcp { peer: Some(stream), .. } => stream.as_fd(),
+    let mut fds = match link {
+        Link::Pty(pty) => vec![PollFd::new(pty.master.as_fd(), PollFlags::POLLIN)],
+        Link::Tcp { listener, peer } => {
+            let mut fds = vec![PollFd::new(listener.as_fd(), PollFlags::POLLIN)];
+            fds.extend(peer.iter().map(|stream| PollFd::new(stream.as_fd(), PollFlags::POLLIN)));
+            fds
+        }
     };
-    let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
     let timeout = nix::sys::time::TimeSpec::from_duration(timeout.max(std::time::Duration::from_micros(20)));
     match ppoll(&mut fds, Some(timeout), None) {
         Ok(n) => Ok(n > 0),
