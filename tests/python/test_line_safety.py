@@ -219,6 +219,6 @@ def test_serve_tcp_resolves_localhost(serve, tmcl_bin):
     r = tmcl(tmcl_bin, "--tcp", f"localhost:{server.port}", "get", "ap", 4)
     assert (r.returncode, r.stdout.strip()) == (0, "ap 4 = 51200"), r.stderr
     # The port is taken now: a second server says so.
-    r = tmcl(tmcl_bin, "--tcp", f"localhost:{server.port}", "serve", timeout=10)
+    r = tmcl(tmcl_bin, "serve", "--tcp", f"localhost:{server.port}", timeout=10)
     assert r.returncode == 3, (r.stdout, r.stderr)
     assert "another program listens there" in r.stderr, r.stderr

@@ -26,7 +26,7 @@ mod disasm;
 pub mod image;
 pub mod includes;
 mod model_check;
-mod suggest;
+pub mod suggest;
 
 pub use assemble::{assemble, assemble_file, assemble_str, Program, SourceLine, MAX_INSTRUCTIONS};
 pub use diag::Diagnostic;

@@ -1,8 +1,10 @@
 //! `tmcl asm` and `tmcl disasm`: the assembler and disassembler of `tmcl-asm` on files.
 
+use crate::error::CliError;
 use clap::Args;
+use serde_json::json;
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 use tmcl_asm::includes::{builtin_files, BuiltinResolver};
 use tmcl_asm::{assemble_file, disassemble, from_bin, DisasmOptions, FileResolver};
 
@@ -44,43 +46,28 @@ pub struct DisasmArgs {
 }
 
 /// Runs `tmcl asm`.
-pub fn run_asm(args: AsmArgs) -> ExitCode {
-    match asm(args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("tmcl asm: {e}");
-            ExitCode::FAILURE
-        }
-    }
-}
-
-fn asm(args: AsmArgs) -> Result<(), String> {
-    let model = tmcl_core::model::by_id(&args.module).ok_or_else(|| format!("unknown module `{}`", args.module))?;
+pub(crate) fn run_asm(args: AsmArgs, json: bool) -> Result<(), CliError> {
+    let model = crate::names::model_by_id(&args.module)?;
     if let Some(dir) = &args.emit_includes {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("{}: {e}", dir.display())))?;
         for (name, text) in builtin_files(model) {
             write(&dir.join(name), text.as_bytes())?;
         }
     }
-    let Some(input) = args.input else { return Ok(()) };
-    let mut resolver = FileResolver { include_dirs: args.include_dirs, builtins: BuiltinResolver { model } };
-    let program = match assemble_file(&input, &mut resolver) {
-        Ok(p) => p,
-        Err(diagnostics) => {
-            for d in &diagnostics {
-                eprintln!("{d}");
-            }
-            let n = diagnostics.len();
-            return Err(format!("{n} error{}; nothing written", if n == 1 { "" } else { "s" }));
+    let Some(input) = args.input else {
+        if json {
+            let dir = args.emit_includes.as_ref().map(|d| d.display().to_string());
+            writeln!(std::io::stdout(), "{}", json!({"includes": dir}))?;
         }
+        return Ok(());
     };
+    let mut resolver = FileResolver { include_dirs: args.include_dirs, builtins: BuiltinResolver { model } };
+    let file = input.display().to_string();
+    let program = assemble_file(&input, &mut resolver)
+        .map_err(|diagnostics| CliError::Assembly { file: file.clone(), diagnostics })?;
     let wrong = tmcl_asm::check_model(&program, model, &mut source_line);
     if !wrong.is_empty() {
-        for d in &wrong {
-            eprintln!("{d}");
-        }
-        let n = wrong.len();
-        return Err(format!("{n} error{}; nothing written", if n == 1 { "" } else { "s" }));
+        return Err(CliError::Assembly { file, diagnostics: wrong });
     }
     if program.instructions.len() > model.program_memory as usize {
         eprintln!(
@@ -95,31 +82,37 @@ fn asm(args: AsmArgs) -> Result<(), String> {
     if let Some(symbols) = &args.symbols {
         write(symbols, program.symbols().as_bytes())?;
     }
+    if json {
+        let row = json!({
+            "output": output.display().to_string(),
+            "instructions": program.instructions.len(),
+            "symbols": args.symbols.as_ref().map(|p| p.display().to_string()),
+        });
+        writeln!(std::io::stdout(), "{row}")?;
+    }
     Ok(())
 }
 
 /// Runs `tmcl disasm`.
-pub fn run_disasm(args: DisasmArgs) -> ExitCode {
-    match disasm(args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("tmcl disasm: {e}");
-            ExitCode::FAILURE
-        }
-    }
-}
-
-fn disasm(args: DisasmArgs) -> Result<(), String> {
-    let image = std::fs::read(&args.input).map_err(|e| format!("{}: {e}", args.input.display()))?;
-    let instructions = from_bin(&image).map_err(|e| format!("{}: {e}", args.input.display()))?;
+pub(crate) fn run_disasm(args: DisasmArgs, json: bool) -> Result<(), CliError> {
+    let image = std::fs::read(&args.input).map_err(|e| CliError::Input(format!("{}: {e}", args.input.display())))?;
+    let instructions = from_bin(&image).map_err(|e| CliError::Input(format!("{}: {e}", args.input.display())))?;
     let text = disassemble(&instructions, DisasmOptions { addresses: args.addresses });
-    match &args.output {
-        Some(path) => write(path, text.as_bytes()),
-        None => {
-            print!("{text}");
-            Ok(())
+    match (&args.output, json) {
+        (Some(path), _) => {
+            write(path, text.as_bytes())?;
+            if json {
+                writeln!(
+                    std::io::stdout(),
+                    "{}",
+                    json!({"output": path.display().to_string(), "instructions": instructions.len()})
+                )?;
+            }
         }
+        (None, true) => writeln!(std::io::stdout(), "{}", json!({"instructions": instructions.len(), "source": text}))?,
+        (None, false) => std::io::stdout().write_all(text.as_bytes())?,
     }
+    Ok(())
 }
 
 /// Line `line` (from 1) of the file `file` names, for diagnostics (`None` if it cannot be read).
@@ -128,8 +121,8 @@ pub(crate) fn source_line(file: &str, line: u32) -> Option<String> {
     text.lines().nth(usize::try_from(line).ok()?.checked_sub(1)?).map(String::from)
 }
 
-fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+fn write(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    std::fs::write(path, bytes).map_err(|e| CliError::Io(format!("cannot write {}: {e}", path.display())))
 }
 
 #[cfg(test)]
@@ -150,14 +143,14 @@ mod tests {
             emit_includes: Some(path("inc")),
             module: "pd28-1021".into(),
         };
-        assert_eq!(run_asm(args), ExitCode::SUCCESS);
+        run_asm(args, false).unwrap();
         let image = std::fs::read(path("p.bin")).unwrap();
         assert_eq!(image, [5, 5, 0, 0, 0, 0, 100, 110, 22, 0, 0, 0, 0, 0, 0, 22]);
         assert_eq!(std::fs::read_to_string(path("p.sym")).unwrap(), "Loop 0\n");
         assert!(path("inc/TMCLParam.tmc").is_file() && path("inc/Interrupts.inc").is_file());
 
         let args = DisasmArgs { input: path("p.bin"), output: Some(path("d.tmc")), addresses: false };
-        assert_eq!(run_disasm(args), ExitCode::SUCCESS);
+        run_disasm(args, false).unwrap();
         let text = std::fs::read_to_string(path("d.tmc")).unwrap();
         assert_eq!(text, "// 2 instructions\nL0000:\n    SAP 5, 0, 100\n    JA L0000\n");
 
@@ -170,7 +163,7 @@ mod tests {
             emit_includes: None,
             module: "pd28-1021".into(),
         };
-        assert_eq!(run_asm(args), ExitCode::FAILURE);
+        assert_eq!(run_asm(args, false).unwrap_err().exit_code(), crate::error::EXIT_USAGE);
         assert!(!path("bad.bin").exists());
     }
 }

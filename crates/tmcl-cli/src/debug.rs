@@ -15,14 +15,13 @@
 //! The core lets a breakpoint pass once after stopping at it (so that `continue` goes on); the debugger
 //! keeps that flag consistent when breakpoints are deleted or the PC is moved (see `Debugger::step_raw`).
 
-use crate::host::CliError;
+use crate::error::{CliError, EXIT_CODES};
 use crate::run::{parse_seconds, state_name};
 use crate::sim::{parse_number, SimOptions, Source, USER_BANK};
 use clap::Args;
 use std::collections::{BTreeSet, HashMap};
 use std::io::{self, BufRead, IsTerminal, Write};
 use std::path::PathBuf;
-use std::process::ExitCode;
 use tmcl_core::module::flags;
 use tmcl_core::vm::{RunState, INSTRUCTION_TIME, MAX_VECTORS};
 use tmcl_core::{Duration, Instant, Module};
@@ -60,25 +59,22 @@ pub struct DebugArgs {
     pub limit: Duration,
 }
 
-/// Runs `tmcl debug`.
-pub fn run(args: DebugArgs) -> ExitCode {
-    match session(args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("tmcl debug: {err}");
-            ExitCode::from(err.exit_code())
-        }
-    }
+/// What `tmcl debug --help` prints after the options: the debugger's commands and the exit codes.
+pub fn after_help() -> String {
+    format!("{COMMANDS_HELP}\n\nWith --json, each command's answer is one JSON object: the command, its output lines, and\nthe program's pc, state and simulated time after it.\n\n{EXIT_CODES}")
 }
 
-fn session(args: DebugArgs) -> Result<(), CliError> {
+/// Runs `tmcl debug`.
+pub(crate) fn run(args: DebugArgs, json: bool) -> Result<(), CliError> {
     let source = Source::load(&args.file)?;
     let module = args.sim.build(&source)?;
     let mut debugger = Debugger::new(args.sim, source, module, args.limit);
     let stdin = io::stdin();
-    let interactive = stdin.is_terminal();
+    let interactive = stdin.is_terminal() && !json;
     let mut out = io::stdout().lock();
-    debugger.banner(&mut out)?;
+    let mut answer = Vec::new();
+    debugger.banner(&mut answer)?;
+    emit(&mut out, &debugger, None, &mut answer, json)?;
     let mut lines = stdin.lock().lines();
     loop {
         if interactive {
@@ -87,11 +83,38 @@ fn session(args: DebugArgs) -> Result<(), CliError> {
         }
         let Some(line) = lines.next() else { break };
         let line = line?;
-        if debugger.command(&line, &mut out)? == Flow::Quit {
+        let flow = debugger.command(&line, &mut answer)?;
+        emit(&mut out, &debugger, Some(&line), &mut answer, json)?;
+        if flow == Flow::Quit {
             break;
         }
         out.flush()?;
     }
+    Ok(())
+}
+
+/// Prints one answer: as it is, or with `--json` as an object with the program's state.
+fn emit(
+    out: &mut dyn Write,
+    debugger: &Debugger,
+    command: Option<&str>,
+    answer: &mut Vec<u8>,
+    json: bool,
+) -> io::Result<()> {
+    if json {
+        let text = String::from_utf8_lossy(answer);
+        let row = serde_json::json!({
+            "command": command,
+            "output": text.lines().collect::<Vec<_>>(),
+            "pc": debugger.module.vm().pc,
+            "state": state_name(debugger.module.vm().state),
+            "time_s": debugger.now.micros() as f64 / 1e6,
+        });
+        writeln!(out, "{row}")?;
+    } else {
+        out.write_all(answer)?;
+    }
+    answer.clear();
     Ok(())
 }
 

@@ -1,12 +1,14 @@
 //! Host commands of `tmcl`: talk to a real or virtual module over a serial port, a pty or TCP.
 //!
 //! Each command opens the connection, sends its requests with [`tmcl_host::Client`], prints one line (or one
-//! JSON object with `--json`) and exits with a code that says what happened (see [`EXIT_CODES`]).
+//! JSON object with `--json`) and returns what happened; `main` turns a failure into its exit code
+//! ([`crate::error::EXIT_CODES`]).
 
+use crate::error::{reply_json, CliError, EXIT_CODES};
+use crate::names::{self, ModelOption, ParamRef};
 use clap::{Args, Subcommand};
 use serde_json::json;
 use std::io::{self, Write};
-use std::process::ExitCode;
 use std::time::Duration;
 use tmcl_host::{Client, FirmwareVersion, HostError, SerialTransport, TcpTransport, Transport};
 use tmcl_wire::command::{
@@ -14,27 +16,12 @@ use tmcl_wire::command::{
 };
 use tmcl_wire::{Command, Instruction, Opcode, Reply};
 
-/// The exit codes of the host commands, as printed in `--help`.
-pub const EXIT_CODES: &str = "\
-Exit codes of host commands:
-  0  success
-  1  the module answered with an error status
-  2  usage error (bad arguments, no or both of --port/--tcp)
-  3  no reply in time, or the port/connection could not be opened, is in use or failed
-  4  a damaged, late or foreign reply (checksum wrong, or a reply to another request)";
+/// A client on whatever link the options name.
+pub(crate) type HostClient = Client<Box<dyn Transport>>;
 
-/// Exit code 1: the module said no, or its reply was damaged.
-const EXIT_REPLY: u8 = 1;
-/// Exit code 2: usage error (also clap's own code).
-const EXIT_USAGE: u8 = 2;
-/// Exit code 3: timeout or I/O failure.
-const EXIT_IO: u8 = 3;
-/// Exit code 4: a damaged, late or foreign reply.
-const EXIT_BAD_REPLY: u8 = 4;
-
-/// How to reach the module: global options of every host command.
+/// How to reach the module: the options of every command that talks to one. They may also come before
+/// the command's name (`tmcl --port LINK get ap 4`).
 #[derive(Debug, Clone, Args)]
-#[command(after_help = EXIT_CODES)]
 pub struct Connection {
     /// Serial port or pty to use, e.g. /dev/ttyUSB0 or the LINK made by `tmcl serve --pty LINK`.
     #[arg(long, global = true, value_name = "PATH", conflicts_with = "tcp", help_heading = "Connection")]
@@ -45,17 +32,13 @@ pub struct Connection {
     /// TCP address of the module, HOST:PORT (e.g. 127.0.0.1:2323 for `tmcl serve --tcp`).
     #[arg(long, global = true, value_name = "HOST:PORT", help_heading = "Connection")]
     pub tcp: Option<String>,
-    /// Module address (global parameter 66; default 1). For `serve`: the address a module with a new
-    /// EEPROM answers at (a module keeps the address stored in its EEPROM).
-    #[arg(long, global = true, value_name = "N", help_heading = "Connection")]
-    pub address: Option<u8>,
+    /// Module address (global parameter 66).
+    #[arg(long, global = true, value_name = "N", default_value_t = 1, help_heading = "Connection")]
+    pub address: u8,
     /// How long to wait for each reply, in seconds (fractions allowed).
     #[arg(long, global = true, value_name = "SECONDS", default_value = "5", value_parser = parse_seconds,
           help_heading = "Connection")]
     pub timeout: Duration,
-    /// Print one JSON object per command instead of text.
-    #[arg(long, global = true, help_heading = "Connection")]
-    pub json: bool,
 }
 
 /// Commands sent to a module (PD28-1021 TMCL manual §3.7).
@@ -63,19 +46,50 @@ pub struct Connection {
 pub enum HostCommand {
     /// Print the firmware version (command 136: the string, such as 1021V142, and the binary form).
     #[command(after_help = EXIT_CODES)]
-    Version,
-    /// Read an axis parameter (GAP) or a global parameter (GGP).
-    #[command(subcommand)]
-    Get(Parameter),
-    /// Write an axis parameter (SAP) or a global parameter (SGP).
-    #[command(subcommand)]
-    Set(ParameterValue),
+    Version {
+        #[command(flatten)]
+        conn: Connection,
+    },
+    /// Read an axis parameter (GAP) or a global parameter (GGP), by number or name.
+    #[command(after_help = EXIT_CODES)]
+    Get {
+        #[command(flatten)]
+        conn: Connection,
+        #[command(flatten)]
+        model: ModelOption,
+        #[command(subcommand)]
+        param: Parameter,
+    },
+    /// Write an axis parameter (SAP) or a global parameter (SGP), by number or name.
+    #[command(after_help = EXIT_CODES)]
+    Set {
+        #[command(flatten)]
+        conn: Connection,
+        #[command(flatten)]
+        model: ModelOption,
+        #[command(subcommand)]
+        param: ParameterValue,
+    },
     /// Store a parameter in the EEPROM (STAP, STGP).
-    #[command(subcommand)]
-    Store(Parameter),
+    #[command(after_help = EXIT_CODES)]
+    Store {
+        #[command(flatten)]
+        conn: Connection,
+        #[command(flatten)]
+        model: ModelOption,
+        #[command(subcommand)]
+        param: Parameter,
+    },
     /// Restore a parameter from the EEPROM (RSAP, RSGP).
-    #[command(subcommand)]
-    Restore(Parameter),
+    #[command(after_help = EXIT_CODES)]
+    Restore {
+        #[command(flatten)]
+        conn: Connection,
+        #[command(flatten)]
+        model: ModelOption,
+        #[command(subcommand)]
+        param: Parameter,
+    },
     /// Send one raw command and print the reply's status and value.
     ///
     /// OPCODE is a number (0-255) or a mnemonic (MVP, SAP, ...); TYPE is a number or the command's type word
@@ -83,6 +97,8 @@ pub enum HostCommand {
     /// get no reply, 255 may not; for them `tmcl` only sends. 136 type 0 prints the version string.
     #[command(after_help = EXIT_CODES, allow_negative_numbers = true)]
     Send {
+        #[command(flatten)]
+        conn: Connection,
         /// Command number or mnemonic.
         opcode: String,
         /// Type number or type word.
@@ -103,6 +119,8 @@ pub enum HostCommand {
     /// after every unanswered address), and the scan says which addresses answered late.
     #[command(after_help = EXIT_CODES)]
     Scan {
+        #[command(flatten)]
+        conn: Connection,
         /// First address to ask.
         #[arg(long, default_value_t = 1)]
         first: u8,
@@ -114,16 +132,44 @@ pub enum HostCommand {
         #[arg(long, value_name = "MS")]
         wait: Option<u64>,
     },
+    /// List a model's parameters: number, name, access, range, unit, and each value read from the module.
+    #[command(after_help = EXIT_CODES)]
+    Params(names::ParamsArgs),
+    /// Wait until a move has ended, a reference search is done, or a value meets a condition.
+    #[command(after_help = EXIT_CODES)]
+    Wait(crate::watch::WaitArgs),
+    /// Read values over and over and print them as a table (or JSON lines), until interrupted.
+    #[command(after_help = EXIT_CODES)]
+    Watch(crate::watch::WatchArgs),
 }
 
-/// Which parameter: `ap N [--motor M]` or `gp N [BANK]`.
+impl HostCommand {
+    /// The command's name, for error messages.
+    pub(crate) fn name(&self) -> &'static str {
+        match self {
+            HostCommand::Version { .. } => "version",
+            HostCommand::Get { .. } => "get",
+            HostCommand::Set { .. } => "set",
+            HostCommand::Store { .. } => "store",
+            HostCommand::Restore { .. } => "restore",
+            HostCommand::Send { .. } => "send",
+            HostCommand::Scan { .. } => "scan",
+            HostCommand::Params(_) => "params",
+            HostCommand::Wait(_) => "wait",
+            HostCommand::Watch(_) => "watch",
+        }
+    }
+}
+
+/// Which parameter: `ap P [--motor M]` or `gp P [BANK]`; P is a number or a name.
 #[derive(Debug, Clone, Subcommand)]
 pub enum Parameter {
     /// An axis parameter.
     #[command(after_help = EXIT_CODES)]
     Ap {
-        /// Parameter number (manual chapter 4).
-        number: u8,
+        /// Parameter number (manual chapter 4) or name, e.g. 4 or MaxPositioningSpeed (any case).
+        #[arg(value_name = "NUMBER|NAME")]
+        param: String,
         /// Motor number.
         #[arg(long, short, default_value_t = 0)]
         motor: u8,
@@ -131,22 +177,24 @@ pub enum Parameter {
     /// A global parameter.
     #[command(after_help = EXIT_CODES)]
     Gp {
-        /// Parameter number (manual chapter 5).
-        number: u8,
-        /// Bank number.
-        #[arg(default_value_t = 0)]
-        bank: u8,
+        /// Parameter number (manual chapter 5) or name, e.g. 66 or SerialAddress (any case).
+        #[arg(value_name = "NUMBER|NAME")]
+        param: String,
+        /// Bank number (default 0; a name of a bank 3 parameter selects bank 3).
+        #[arg(value_parser = parse_byte)]
+        bank: Option<u8>,
     },
 }
 
-/// Which parameter and what to write: `ap N V [--motor M]` or `gp N V [BANK]`.
+/// Which parameter and what to write: `ap P V [--motor M]` or `gp P V [BANK]`.
 #[derive(Debug, Clone, Subcommand)]
 pub enum ParameterValue {
     /// An axis parameter.
     #[command(after_help = EXIT_CODES, allow_negative_numbers = true)]
     Ap {
-        /// Parameter number (manual chapter 4).
-        number: u8,
+        /// Parameter number (manual chapter 4) or name, e.g. 4 or MaxPositioningSpeed (any case).
+        #[arg(value_name = "NUMBER|NAME")]
+        param: String,
         /// Value: decimal (may be negative) or 0x-prefixed hexadecimal.
         #[arg(value_parser = parse_value)]
         value: i32,
@@ -157,67 +205,45 @@ pub enum ParameterValue {
     /// A global parameter.
     #[command(after_help = EXIT_CODES, allow_negative_numbers = true)]
     Gp {
-        /// Parameter number (manual chapter 5).
-        number: u8,
+        /// Parameter number (manual chapter 5) or name, e.g. 66 or SerialAddress (any case).
+        #[arg(value_name = "NUMBER|NAME")]
+        param: String,
         /// Value: decimal (may be negative) or 0x-prefixed hexadecimal.
         #[arg(value_parser = parse_value)]
         value: i32,
-        /// Bank number.
-        #[arg(default_value_t = 0)]
-        bank: u8,
+        /// Bank number (default 0; a name of a bank 3 parameter selects bank 3).
+        #[arg(value_parser = parse_byte)]
+        bank: Option<u8>,
     },
 }
 
-/// Runs one host command and returns the process exit code (see [`EXIT_CODES`]).
-pub fn run(conn: &Connection, cmd: HostCommand) -> ExitCode {
-    let stdout = io::stdout();
-    let mut out = stdout.lock();
-    match execute(conn, cmd, &mut out) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            if conn.json {
-                if let CliError::Host(HostError::Status { reply, .. }) = &err {
-                    let _ = writeln!(out, "{}", reply_json(reply));
-                }
-            }
-            eprintln!("tmcl: {err}");
-            ExitCode::from(err.exit_code())
-        }
-    }
-}
-
-/// Why a host command failed.
-#[derive(Debug, thiserror::Error)]
-pub(crate) enum CliError {
-    /// Bad arguments that clap could not catch.
-    #[error("{0}")]
-    Usage(String),
-    /// The module or the connection failed.
-    #[error(transparent)]
-    Host(#[from] HostError),
-    /// Writing the output failed.
-    #[error("cannot write the output: {0}")]
-    Output(#[from] io::Error),
-    /// No module answered a scan.
-    #[error("{0}")]
-    NoModule(String),
-}
-
-impl CliError {
-    /// The process exit code for this failure (see [`EXIT_CODES`]).
-    pub(crate) fn exit_code(&self) -> u8 {
+impl Parameter {
+    /// The parameter's kind, text and motor or bank.
+    fn parts(&self) -> ParamRef<'_> {
         match self {
-            CliError::Usage(_) => EXIT_USAGE,
-            CliError::Host(err) if err.is_bad_reply() => EXIT_BAD_REPLY,
-            CliError::Host(err) if err.is_status_error() => EXIT_REPLY,
-            CliError::Host(_) | CliError::Output(_) | CliError::NoModule(_) => EXIT_IO,
+            Parameter::Ap { param, motor } => ParamRef::Axis { param, motor: *motor },
+            Parameter::Gp { param, bank } => ParamRef::Global { param, bank: *bank },
         }
     }
+}
+
+impl ParameterValue {
+    fn parts(&self) -> (ParamRef<'_>, i32) {
+        match self {
+            ParameterValue::Ap { param, value, motor } => (ParamRef::Axis { param, motor: *motor }, *value),
+            ParameterValue::Gp { param, value, bank } => (ParamRef::Global { param, bank: *bank }, *value),
+        }
+    }
+}
+
+/// Runs one host command, printing its result on standard output.
+pub(crate) fn run(cmd: HostCommand, json: bool) -> Result<(), CliError> {
+    execute(cmd, json, &mut io::stdout().lock())
 }
 
 impl Connection {
     /// Opens the one connection the options name.
-    pub(crate) fn open(&self) -> Result<Client<Box<dyn Transport>>, CliError> {
+    pub(crate) fn open(&self) -> Result<HostClient, CliError> {
         let transport: Box<dyn Transport> = match (&self.port, &self.tcp) {
             (Some(path), None) => Box::new(SerialTransport::open(path, self.baud)?),
             (None, Some(addr)) => Box::new(TcpTransport::connect(addr)?),
@@ -228,42 +254,63 @@ impl Connection {
                 ))
             }
         };
-        Ok(Client::new(transport).with_module_address(self.address.unwrap_or(1)).with_timeout(self.timeout))
+        Ok(Client::new(transport).with_module_address(self.address).with_timeout(self.timeout))
+    }
+
+    /// Whether a port or TCP address was given.
+    pub(crate) fn given(&self) -> bool {
+        self.port.is_some() || self.tcp.is_some()
     }
 }
 
 /// Runs `cmd`, printing its result to `out`.
-fn execute(conn: &Connection, cmd: HostCommand, out: &mut dyn Write) -> Result<(), CliError> {
-    let json = conn.json;
+fn execute(cmd: HostCommand, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     match cmd {
-        HostCommand::Version => version(&mut conn.open()?, json, out),
-        HostCommand::Scan { first, last, wait } => {
-            let plan = ScanPlan::new(first, last, wait, conn)?;
+        HostCommand::Version { conn } => version(&mut conn.open()?, json, out),
+        HostCommand::Scan { conn, first, last, wait } => {
+            let plan = ScanPlan::new(first, last, wait, &conn)?;
             scan(&mut conn.open()?, &plan, json, out)
         }
-        HostCommand::Get(p) => {
+        HostCommand::Params(args) => names::params(args, json, out),
+        HostCommand::Wait(args) => crate::watch::wait(args, json, out),
+        HostCommand::Watch(args) => crate::watch::watch(args, json, out),
+        HostCommand::Get { conn, model, param } => {
             let mut client = conn.open()?;
-            let (reply, label) = match p {
-                Parameter::Ap { number, motor } => (gap(&mut client, number, motor)?, ap_label(number, motor)),
-                Parameter::Gp { number, bank } => (ggp(&mut client, number, bank)?, gp_label(number, bank)),
-            };
+            let mut models = names::Models::new(&model)?;
+            let target = models.resolve(param.parts(), &mut client)?;
+            let reply = client
+                .request(target.instruction(target.read_opcode(), 0))
+                .map_err(|e| explain(&mut models, &mut client, target, e, None))?;
             if json {
-                writeln!(out, "{}", reply_json(&reply))?;
+                writeln!(out, "{}", target.json(&reply))?;
             } else {
-                writeln!(out, "{label} = {}", reply.value)?;
+                writeln!(out, "{} = {}", target.label(), target.with_unit(reply.value))?;
             }
             Ok(())
         }
-        HostCommand::Set(p) => {
-            let instruction = match p {
-                ParameterValue::Ap { number, value, motor } => Instruction::new(Opcode::Sap, number, motor, value),
-                ParameterValue::Gp { number, value, bank } => Instruction::new(Opcode::Sgp, number, bank, value),
-            };
-            ok(conn.open()?.request(instruction)?, json, out)
+        HostCommand::Set { conn, model, param } => {
+            let mut client = conn.open()?;
+            let mut models = names::Models::new(&model)?;
+            let (param, value) = param.parts();
+            let target = models.resolve(param, &mut client)?;
+            let reply = client
+                .request(target.instruction(target.write_opcode(), value))
+                .map_err(|e| explain(&mut models, &mut client, target, e, Some(value)))?;
+            ok(&target, reply, json, out)
         }
-        HostCommand::Store(p) => ok(conn.open()?.request(parameter(p, Opcode::Stap, Opcode::Stgp))?, json, out),
-        HostCommand::Restore(p) => ok(conn.open()?.request(parameter(p, Opcode::Rsap, Opcode::Rsgp))?, json, out),
-        HostCommand::Send { opcode, kind, motor, value } => {
+        HostCommand::Store { conn, model, param } => {
+            let mut client = conn.open()?;
+            let target = names::Models::new(&model)?.resolve(param.parts(), &mut client)?;
+            let reply = client.request(target.instruction(target.store_opcode(Opcode::Stap, Opcode::Stgp), 0))?;
+            ok(&target, reply, json, out)
+        }
+        HostCommand::Restore { conn, model, param } => {
+            let mut client = conn.open()?;
+            let target = names::Models::new(&model)?.resolve(param.parts(), &mut client)?;
+            let reply = client.request(target.instruction(target.store_opcode(Opcode::Rsap, Opcode::Rsgp), 0))?;
+            ok(&target, reply, json, out)
+        }
+        HostCommand::Send { conn, opcode, kind, motor, value } => {
             // Usage errors first: they should not wait for a port.
             let instruction = parse_instruction(&opcode, &kind, motor, value)?;
             send(&mut conn.open()?, instruction, json, out)
@@ -271,39 +318,27 @@ fn execute(conn: &Connection, cmd: HostCommand, out: &mut dyn Write) -> Result<(
     }
 }
 
-fn gap(client: &mut Client<Box<dyn Transport>>, number: u8, motor: u8) -> Result<Reply, HostError> {
-    client.request(Instruction::new(Opcode::Gap, number, motor, 0))
-}
-
-fn ggp(client: &mut Client<Box<dyn Transport>>, number: u8, bank: u8) -> Result<Reply, HostError> {
-    client.request(Instruction::new(Opcode::Ggp, number, bank, 0))
-}
-
-fn parameter(p: Parameter, axis: Opcode, global: Opcode) -> Instruction {
-    match p {
-        Parameter::Ap { number, motor } => Instruction::new(axis, number, motor, 0),
-        Parameter::Gp { number, bank } => Instruction::new(global, number, bank, 0),
+/// A refusal explained from the parameter tables; the model is asked for if it is not known yet (only on
+/// this error path, so that a read by number costs one request).
+fn explain(
+    models: &mut names::Models,
+    client: &mut HostClient,
+    mut target: names::Target,
+    err: HostError,
+    value: Option<i32>,
+) -> CliError {
+    if matches!(err, HostError::Status { .. }) && target.model.is_none() {
+        if let Ok(model) = models.get(client) {
+            target = names::lookup_number(model, target);
+        }
     }
-}
-
-fn ap_label(number: u8, motor: u8) -> String {
-    match motor {
-        0 => format!("ap {number}"),
-        m => format!("ap {number} (motor {m})"),
-    }
-}
-
-fn gp_label(number: u8, bank: u8) -> String {
-    match bank {
-        0 => format!("gp {number}"),
-        b => format!("gp {number} (bank {b})"),
-    }
+    target.explain(err, value)
 }
 
 /// Prints `ok` (or the reply as JSON) for commands whose value means nothing.
-fn ok(reply: Reply, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+fn ok(target: &names::Target, reply: Reply, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     if json {
-        writeln!(out, "{}", reply_json(&reply))?;
+        writeln!(out, "{}", target.json(&reply))?;
     } else {
         writeln!(out, "ok")?;
     }
@@ -311,7 +346,7 @@ fn ok(reply: Reply, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
 }
 
 /// `tmcl version`: command 136 type 0, then type 1.
-fn version(client: &mut Client<Box<dyn Transport>>, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+fn version(client: &mut HostClient, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     let text = client.version_string()?;
     let binary = client.version_binary()?;
     let decoded = FirmwareVersion::from_value_and_string(binary, &text);
@@ -320,7 +355,8 @@ fn version(client: &mut Client<Box<dyn Transport>>, json: bool, out: &mut dyn Wr
             "version": text,
             "binary": binary,
             "firmware": format!("{}.{:02}", decoded.major, decoded.minor),
-            "module": decoded.module,
+            "model": decoded.module,
+            "address": client.module_address,
         });
         writeln!(out, "{value}")?;
     } else {
@@ -469,7 +505,7 @@ fn scan(
         );
     }
     if found.is_empty() {
-        return Err(CliError::NoModule(format!(
+        return Err(CliError::Io(format!(
             "no module answered at addresses {}..{} (waited {:.0} ms each, and for late replies)",
             plan.first,
             plan.last,
@@ -507,12 +543,7 @@ fn report_module(
 }
 
 /// `tmcl send`: one raw command, with the special cases of the control commands.
-fn send(
-    client: &mut Client<Box<dyn Transport>>,
-    instruction: Instruction,
-    json: bool,
-    out: &mut dyn Write,
-) -> Result<(), CliError> {
+fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     match (instruction.opcode, instruction.kind) {
         (Opcode::GetVersion, 0) => {
             // The raw 136 type 0 reply has no status: the version string is the answer.
@@ -541,17 +572,6 @@ fn send(
         }
     }
     Ok(())
-}
-
-/// One reply as a JSON object.
-fn reply_json(reply: &Reply) -> serde_json::Value {
-    json!({
-        "status": u8::from(reply.status),
-        "status_text": reply.status.description(),
-        "value": reply.value,
-        "module": reply.module,
-        "opcode": reply.opcode,
-    })
 }
 
 /// Builds the instruction of `tmcl send` from its words.
@@ -612,7 +632,7 @@ fn parse_number(text: &str) -> Option<i64> {
 
 /// A 32-bit value: -2147483648..=2147483647, or up to 0xFFFFFFFF written in hex or decimal (two's complement,
 /// as pytrinamic packs values unsigned).
-fn parse_value(text: &str) -> Result<i32, String> {
+pub(crate) fn parse_value(text: &str) -> Result<i32, String> {
     let n = parse_number(text).ok_or_else(|| format!("{text:?} is not a number"))?;
     if let Ok(v) = i32::try_from(n) {
         Ok(v)
@@ -624,13 +644,13 @@ fn parse_value(text: &str) -> Result<i32, String> {
 }
 
 /// A byte, decimal or `0x` hexadecimal.
-fn parse_byte(text: &str) -> Result<u8, String> {
+pub(crate) fn parse_byte(text: &str) -> Result<u8, String> {
     let n = parse_number(text).ok_or_else(|| format!("{text:?} is not a number"))?;
     u8::try_from(n).map_err(|_| format!("{text} is out of range 0..255"))
 }
 
 /// A positive number of seconds.
-fn parse_seconds(text: &str) -> Result<Duration, String> {
+pub(crate) fn parse_seconds(text: &str) -> Result<Duration, String> {
     let seconds: f64 = text.parse().map_err(|_| format!("{text:?} is not a number of seconds"))?;
     if seconds.is_finite() && seconds > 0.0 && seconds < 1e9 {
         Ok(Duration::from_secs_f64(seconds))
@@ -642,6 +662,7 @@ fn parse_seconds(text: &str) -> Result<Duration, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::{EXIT_BAD_REPLY, EXIT_IO, EXIT_STATUS, EXIT_USAGE};
     use clap::Parser;
     use std::io::Read;
     use std::net::TcpListener;
@@ -652,43 +673,85 @@ mod tests {
     #[derive(Debug, Parser)]
     #[command(name = "tmcl")]
     struct TestCli {
-        #[command(flatten)]
-        connection: Connection,
+        #[arg(long, global = true)]
+        json: bool,
         #[command(subcommand)]
         command: HostCommand,
     }
 
+    /// Parses a command line; connection options may come first, as `main` lets them.
     fn parse(args: &[&str]) -> Result<TestCli, clap::Error> {
-        TestCli::try_parse_from(std::iter::once("tmcl").chain(args.iter().copied()))
+        let mut leading = Vec::new();
+        let mut rest = args;
+        while let Some((first, tail)) = rest.split_first() {
+            if first.starts_with("--") {
+                leading.push(*first);
+                if *first != "--json" {
+                    leading.push(tail[0]);
+                    rest = &tail[1..];
+                } else {
+                    rest = tail;
+                }
+            } else {
+                break;
+            }
+        }
+        let line: Vec<&str> = std::iter::once("tmcl")
+            .chain(rest.first().copied())
+            .chain(leading)
+            .chain(rest.iter().skip(1).copied())
+            .collect();
+        TestCli::try_parse_from(line)
+    }
+
+    fn connection(command: &HostCommand) -> &Connection {
+        match command {
+            HostCommand::Version { conn }
+            | HostCommand::Get { conn, .. }
+            | HostCommand::Set { conn, .. }
+            | HostCommand::Store { conn, .. }
+            | HostCommand::Restore { conn, .. }
+            | HostCommand::Send { conn, .. }
+            | HostCommand::Scan { conn, .. } => conn,
+            HostCommand::Params(a) => &a.conn,
+            HostCommand::Wait(a) => &a.conn,
+            HostCommand::Watch(a) => &a.conn,
+        }
     }
 
     #[test]
     fn connection_options_anywhere() {
         let cli = parse(&["get", "ap", "1", "--tcp", "127.0.0.1:2323", "--timeout", "0.5", "--json"]).unwrap();
-        assert_eq!(cli.connection.tcp.as_deref(), Some("127.0.0.1:2323"));
-        assert_eq!(cli.connection.timeout, Duration::from_millis(500));
-        assert!(cli.connection.json);
+        assert_eq!(connection(&cli.command).tcp.as_deref(), Some("127.0.0.1:2323"));
+        assert_eq!(connection(&cli.command).timeout, Duration::from_millis(500));
+        assert!(cli.json);
+        let cli = parse(&["get", "--port", "/tmp/link", "gp", "66"]).unwrap();
+        assert_eq!(connection(&cli.command).port.as_deref(), Some("/tmp/link"));
         let cli = parse(&["--port", "/tmp/link", "--baud", "115200", "--address", "3", "version"]).unwrap();
-        assert_eq!(cli.connection.port.as_deref(), Some("/tmp/link"));
-        assert_eq!((cli.connection.baud, cli.connection.address), (115_200, Some(3)));
+        let conn = connection(&cli.command);
+        assert_eq!(conn.port.as_deref(), Some("/tmp/link"));
+        assert_eq!((conn.baud, conn.address), (115_200, 3));
         let cli = parse(&["version"]).unwrap();
-        assert_eq!((cli.connection.baud, cli.connection.address), (9600, None));
-        assert_eq!(cli.connection.timeout, Duration::from_secs(5));
+        let conn = connection(&cli.command);
+        assert_eq!((conn.baud, conn.address), (9600, 1));
+        assert_eq!(conn.timeout, Duration::from_secs(5));
     }
 
     #[test]
     fn negative_and_hex_values_parse() {
         let cli = parse(&["set", "ap", "4", "-5000", "--motor", "1"]).unwrap();
-        assert!(matches!(cli.command, HostCommand::Set(ParameterValue::Ap { number: 4, value: -5000, motor: 1 })));
+        assert!(matches!(cli.command,
+            HostCommand::Set { param: ParameterValue::Ap { ref param, value: -5000, motor: 1 }, .. } if param == "4"));
         let cli = parse(&["set", "gp", "77", "-1", "2"]).unwrap();
-        assert!(matches!(cli.command, HostCommand::Set(ParameterValue::Gp { number: 77, value: -1, bank: 2 })));
+        assert!(matches!(cli.command,
+            HostCommand::Set { param: ParameterValue::Gp { ref param, value: -1, bank: Some(2) }, .. } if param == "77"));
         let cli = parse(&["send", "242", "0x81", "0x92", "0xA3B4C5D6"]).unwrap();
         assert!(matches!(cli.command, HostCommand::Send { value, .. } if value == 0xA3B4C5D6u32 as i32));
         let cli = parse(&["send", "MVP", "ABS", "0", "-2147483648"]).unwrap();
         assert!(matches!(cli.command, HostCommand::Send { value: i32::MIN, .. }));
         assert!(parse(&["send", "MVP", "ABS", "0", "4294967296"]).is_err());
         assert!(parse(&["get", "gp", "66"])
-            .is_ok_and(|c| matches!(c.command, HostCommand::Get(Parameter::Gp { bank: 0, .. }))));
+            .is_ok_and(|c| matches!(c.command, HostCommand::Get { param: Parameter::Gp { bank: None, .. }, .. })));
     }
 
     #[test]
@@ -696,7 +759,6 @@ mod tests {
         assert!(parse(&["--port", "a", "--tcp", "b", "version"]).is_err());
         assert!(parse(&["--timeout", "0", "version"]).is_err());
         assert!(parse(&["--timeout", "-1", "version"]).is_err());
-        assert!(parse(&["get", "ap", "256"]).is_err());
         assert!(parse(&["set", "ap", "4"]).is_err());
         assert_eq!(parse(&["frobnicate"]).unwrap_err().exit_code(), 2);
     }
@@ -718,7 +780,7 @@ mod tests {
     #[test]
     fn missing_connection_is_a_usage_error() {
         let cli = parse(&["version"]).unwrap();
-        let err = execute(&cli.connection, cli.command, &mut Vec::new()).unwrap_err();
+        let err = execute(cli.command, false, &mut Vec::new()).unwrap_err();
         assert_eq!(err.exit_code(), EXIT_USAGE);
         assert!(err.to_string().contains("--port"));
     }
@@ -756,7 +818,7 @@ mod tests {
         full.extend_from_slice(args);
         let cli = parse(&full).unwrap();
         let mut out = Vec::new();
-        let code = execute(&cli.connection, cli.command, &mut out).map_or_else(|e| e.exit_code(), |()| 0);
+        let code = execute(cli.command, cli.json, &mut out).map_or_else(|e| e.exit_code(), |()| 0);
         (code, String::from_utf8(out).unwrap(), module.join().unwrap())
     }
 
@@ -784,7 +846,8 @@ mod tests {
         let v: serde_json::Value = serde_json::from_str(&out).unwrap();
         assert_eq!(
             v,
-            json!({"status":100,"status_text":"successfully executed, no error","value":1,"module":1,"opcode":10})
+            json!({"status":100,"status_text":"successfully executed, no error","value":1,"address":1,"host":2,
+                   "opcode":10,"type":66,"bank":0})
         );
     }
 
@@ -808,13 +871,13 @@ mod tests {
         assert_eq!(out, "1021V142\nfirmware 1.42 (module 1021), binary 0x0a15012a\n");
         let (_, out, _) = run_against(&["--json", "version"], vec![Some(raw), reply(Status::Ok, 136, 0x0A15_012A)]);
         let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-        assert_eq!(v, json!({"version":"1021V142","binary":0x0A15_012A,"firmware":"1.42","module":1021}));
+        assert_eq!(v, json!({"version":"1021V142","binary":0x0A15_012A,"firmware":"1.42","model":1021,"address":1}));
     }
 
     #[test]
     fn exit_codes() {
         let (code, out, _) = run_against(&["set", "ap", "4", "99999999"], vec![reply(Status::InvalidValue, 5, 0)]);
-        assert_eq!((code, out.as_str()), (EXIT_REPLY, ""));
+        assert_eq!((code, out.as_str()), (EXIT_STATUS, ""));
         let mut damaged = reply(Status::Ok, 6, 1).unwrap();
         damaged[8] ^= 1;
         let (code, _, _) = run_against(&["get", "ap", "1"], vec![Some(damaged)]);

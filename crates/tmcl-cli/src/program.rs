@@ -1,12 +1,13 @@
 //! Host commands for standalone programs: `tmcl download`, `upload`, `start`, `stop`, `status`
 //! (PD28-1021 manual §3.7.38, commands 128–135), for real and virtual modules alike.
 
-use crate::host::{CliError, Connection};
+use crate::error::{CliError, EXIT_CODES};
+use crate::host::Connection;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 use tmcl_asm::DisasmOptions;
 use tmcl_wire::Instruction;
 
@@ -14,20 +15,46 @@ use tmcl_wire::Instruction;
 #[derive(Debug, Subcommand)]
 pub enum ProgramCommand {
     /// Download a program (.tmc source, assembled first, or a .bin image) into the module's memory.
+    #[command(after_help = EXIT_CODES)]
     Download(DownloadArgs),
     /// Read the program back from the module (command 134) and disassemble it.
+    #[command(after_help = EXIT_CODES)]
     Upload(UploadArgs),
     /// Run the stored program (command 129), from where it stands or from a label or address.
+    #[command(after_help = EXIT_CODES)]
     Start(StartArgs),
     /// Stop the stored program (command 128).
-    Stop,
+    #[command(after_help = EXIT_CODES)]
+    Stop {
+        #[command(flatten)]
+        conn: Connection,
+    },
     /// Show the program's state: mode, wait flag, PC, accumulator, X (commands 135, GP 128–130).
-    Status,
+    #[command(after_help = EXIT_CODES)]
+    Status {
+        #[command(flatten)]
+        conn: Connection,
+    },
+}
+
+impl ProgramCommand {
+    /// The command's name, for error messages.
+    pub(crate) fn name(&self) -> &'static str {
+        match self {
+            ProgramCommand::Download(_) => "download",
+            ProgramCommand::Upload(_) => "upload",
+            ProgramCommand::Start(_) => "start",
+            ProgramCommand::Stop { .. } => "stop",
+            ProgramCommand::Status { .. } => "status",
+        }
+    }
 }
 
 /// `tmcl download`.
 #[derive(Debug, Args)]
 pub struct DownloadArgs {
+    #[command(flatten)]
+    pub conn: Connection,
     /// The program: TMCL source (.tmc) or an image (.bin, 8 bytes per instruction).
     pub file: PathBuf,
     /// First address to store at.
@@ -41,6 +68,8 @@ pub struct DownloadArgs {
 /// `tmcl upload`.
 #[derive(Debug, Args)]
 pub struct UploadArgs {
+    #[command(flatten)]
+    pub conn: Connection,
     /// Write to FILE instead of standard output (.bin writes the image, anything else source).
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
@@ -52,6 +81,8 @@ pub struct UploadArgs {
 /// `tmcl start`.
 #[derive(Debug, Args)]
 pub struct StartArgs {
+    #[command(flatten)]
+    pub conn: Connection,
     /// Start at a label or address instead of the current PC (command 129 type 1).
     #[arg(long = "at", value_name = "LABEL|ADDR")]
     pub at: Option<String>,
@@ -61,21 +92,12 @@ pub struct StartArgs {
 }
 
 /// Runs a program command.
-pub fn run(conn: &Connection, cmd: ProgramCommand) -> ExitCode {
-    match execute(conn, cmd) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("tmcl: {err}");
-            ExitCode::from(err.exit_code())
-        }
-    }
-}
-
-fn execute(conn: &Connection, cmd: ProgramCommand) -> Result<(), CliError> {
+pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
+    let mut out = std::io::stdout().lock();
     match cmd {
         ProgramCommand::Download(args) => {
             let program = load(&args.file)?;
-            let mut client = conn.open()?;
+            let mut client = args.conn.open()?;
             let bar = progress(program.len() as u64, "download");
             client.download_program(&program, args.at, |n| bar.set_position(n as u64))?;
             bar.finish_and_clear();
@@ -83,84 +105,93 @@ fn execute(conn: &Connection, cmd: ProgramCommand) -> Result<(), CliError> {
                 for (n, expected) in program.iter().enumerate() {
                     let got = client.read_program_memory(args.at + n as u16)?;
                     if got != *expected {
-                        return Err(CliError::Usage(format!(
+                        return Err(CliError::Io(format!(
                             "verify failed at address {}: stored {got}, expected {expected}",
                             usize::from(args.at) + n
                         )));
                     }
                 }
             }
-            if conn.json {
-                println!("{{\"stored\":{},\"at\":{}}}", program.len(), args.at);
+            if json {
+                let verified = args.verify;
+                writeln!(out, "{}", json!({"stored": program.len(), "at": args.at, "verified": verified}))?;
             } else {
-                println!(
-                    "stored {} instructions at {}..{}",
+                writeln!(
+                    out,
+                    "stored {} instructions at {}..{}{}",
                     program.len(),
                     args.at,
-                    usize::from(args.at) + program.len()
-                );
+                    usize::from(args.at) + program.len(),
+                    if args.verify { ", verified" } else { "" }
+                )?;
             }
-            Ok(())
         }
         ProgramCommand::Upload(args) => {
-            let mut client = conn.open()?;
+            let mut client = args.conn.open()?;
             let bar = progress(u64::from(args.count), "upload");
             let program = client.upload_program(args.count, |n| bar.set_position(n as u64))?;
             bar.finish_and_clear();
+            let output = |e: std::io::Error, path: &Path| CliError::Io(format!("cannot write {}: {e}", path.display()));
             match &args.output {
                 Some(path) if path.extension().is_some_and(|e| e == "bin") => {
-                    std::fs::write(path, tmcl_asm::to_bin(&program))?;
+                    std::fs::write(path, tmcl_asm::to_bin(&program)).map_err(|e| output(e, path))?;
                 }
-                Some(path) => std::fs::write(path, disassemble(&program))?,
-                None => std::io::stdout().write_all(disassemble(&program).as_bytes())?,
+                Some(path) => std::fs::write(path, disassemble(&program)).map_err(|e| output(e, path))?,
+                None if json => {}
+                None => out.write_all(disassemble(&program).as_bytes())?,
             }
-            if args.output.is_some() {
-                eprintln!("read {} instructions", program.len());
+            match (&args.output, json) {
+                (Some(path), true) => {
+                    writeln!(out, "{}", json!({"read": program.len(), "output": path.display().to_string()}))?
+                }
+                (None, true) => {
+                    let source = disassemble(&program);
+                    writeln!(out, "{}", json!({"read": program.len(), "source": source}))?
+                }
+                (Some(_), false) => eprintln!("read {} instructions", program.len()),
+                (None, false) => {}
             }
-            Ok(())
         }
         ProgramCommand::Start(args) => {
             let at = match &args.at {
                 None => None,
                 Some(at) => Some(resolve(at, args.program.as_deref())?),
             };
-            conn.open()?.run_program(at)?;
-            match at {
-                Some(a) => println!("running from {a}"),
-                None => println!("running"),
+            args.conn.open()?.run_program(at)?;
+            match (at, json) {
+                (at, true) => writeln!(out, "{}", json!({"running": true, "from": at}))?,
+                (Some(a), false) => writeln!(out, "running from {a}")?,
+                (None, false) => writeln!(out, "running")?,
             }
-            Ok(())
         }
-        ProgramCommand::Stop => {
+        ProgramCommand::Stop { conn } => {
             conn.open()?.stop_program()?;
-            println!("stopped");
-            Ok(())
-        }
-        ProgramCommand::Status => {
-            let s = conn.open()?.application_status()?;
-            if conn.json {
-                println!(
-                    "{{\"mode\":{},\"mode_text\":\"{}\",\"waiting\":{},\"pc\":{},\"accumulator\":{},\"x\":{}}}",
-                    s.mode,
-                    s.mode_name(),
-                    s.waiting,
-                    s.pc,
-                    s.accumulator,
-                    s.x
-                );
+            if json {
+                writeln!(out, "{}", json!({"stopped": true}))?;
             } else {
-                println!(
+                writeln!(out, "stopped")?;
+            }
+        }
+        ProgramCommand::Status { conn } => {
+            let s = conn.open()?.application_status()?;
+            if json {
+                let row = json!({"mode": s.mode, "mode_text": s.mode_name(), "waiting": s.waiting, "pc": s.pc,
+                                 "accumulator": s.accumulator, "x": s.x});
+                writeln!(out, "{row}")?;
+            } else {
+                writeln!(
+                    out,
                     "{}{}, pc {}, accumulator {}, x {}",
                     s.mode_name(),
                     if s.waiting { " (waiting)" } else { "" },
                     s.pc,
                     s.accumulator,
                     s.x
-                );
+                )?;
             }
-            Ok(())
         }
     }
+    Ok(())
 }
 
 fn progress(len: u64, what: &'static str) -> ProgressBar {
@@ -180,20 +211,15 @@ fn disassemble(program: &[Instruction]) -> String {
 /// Reads a program: a `.bin` image, or TMCL source assembled with the built-in include files.
 pub(crate) fn load(path: &Path) -> Result<Vec<Instruction>, CliError> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bin")) {
-        let bytes = std::fs::read(path).map_err(|e| CliError::Usage(format!("cannot read {}: {e}", path.display())))?;
-        return tmcl_asm::from_bin(&bytes).map_err(|e| CliError::Usage(format!("{}: {e}", path.display())));
+        let bytes = std::fs::read(path).map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
+        return tmcl_asm::from_bin(&bytes).map_err(|e| CliError::Input(format!("{}: {e}", path.display())));
     }
     Ok(assemble(path)?.instructions)
 }
 
-/// Assembles a source file, printing every diagnostic.
+/// Assembles a source file (with the built-in include files).
 pub(crate) fn assemble(path: &Path) -> Result<tmcl_asm::Program, CliError> {
-    tmcl_asm::assemble(path).map_err(|diagnostics| {
-        for d in &diagnostics {
-            eprintln!("{d}");
-        }
-        CliError::Usage(format!("{}: {} error(s)", path.display(), diagnostics.len()))
-    })
+    tmcl_asm::assemble(path).map_err(|diagnostics| CliError::Assembly { file: path.display().to_string(), diagnostics })
 }
 
 /// A start address: a number, or a label from the program's source or symbol file.
@@ -208,7 +234,7 @@ fn resolve(at: &str, program: Option<&Path>) -> Result<u16, CliError> {
     };
     let labels: Vec<(String, u16)> = if path.extension().is_some_and(|e| e == "sym") {
         std::fs::read_to_string(path)
-            .map_err(|e| CliError::Usage(format!("cannot read {}: {e}", path.display())))?
+            .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?
             .lines()
             .filter_map(|l| {
                 let (name, addr) = l.split_once(char::is_whitespace)?;

@@ -19,7 +19,7 @@
 //! Without a trace or a plot, it polls every 100 ms of simulated time (the core catches up on
 //! everything in between).
 
-use crate::host::{CliError, Connection};
+use crate::error::{CliError, EXIT_CODES};
 use crate::sim::plot;
 use crate::sim::trace::Trace;
 use crate::sim::{SimOptions, Source};
@@ -29,7 +29,6 @@ use std::collections::BTreeSet;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
-use std::process::ExitCode;
 use std::time::Instant as WallInstant;
 use tmcl_core::model::GLOBAL_INTERRUPTS;
 use tmcl_core::motion::{Mode, TICK};
@@ -38,26 +37,40 @@ use tmcl_core::{Duration, Instant, Module};
 use tmcl_sim::SimBoard;
 use tmcl_wire::{Command, WaitCondition};
 
-/// The trace columns, for `tmcl run --help`.
+/// The trace columns with their units, for `tmcl run --help`: one line per column (continuation lines
+/// indented further), in the order of the CSV header; `--drive:` marks the columns of `--drive`, and
+/// `--drive, closed loop:` those it adds on a closed-loop model. A test reads the names from here and
+/// compares them with the header of a run.
 pub const TRACE_HELP: &str = "\
-Trace columns (--trace OUT.csv), one row every --every ms and one at each event:
-  time_s            simulated time in seconds (6 decimals)
-  target_position   AP 0, microsteps
-  actual_position   AP 1, microsteps (the encoder while a closed loop is closed)
-  velocity          AP 3, actual speed in pps (signed)
-  accumulator, x    the program's accumulator and X register
-  pc                program counter (next instruction)
+Trace columns (--trace OUT.csv), in this order, one row every --every ms and one at each event.
+`--drive:` marks the columns --drive adds, `--drive, closed loop:` those it adds on a closed-loop model
+(--module tmcm-1310):
+  time_s            simulated time in s, 6 decimals (µs)
+  target_position   AP 0 target position, µsteps
+  actual_position   AP 1 actual position, µsteps (the encoder while a closed loop is closed)
+  velocity          AP 3 actual speed, pps (µsteps per second), signed
+  accumulator       the program's accumulator
+  x                 the program's X register
+  pc                program counter: the address of the next instruction
   outputs           digital outputs as a number, bit n = OUTn
-  varN              user variable N (bank 2), for each variable the program or --set names
-  load, current_scale, encoder, energy_mas2
-                    with --drive: AP 206, AP 180, AP 209, the motor's energy
-  virtual_position, position_error, scaler, status_word
-                    with --drive on a closed-loop model (tmcm-1310): AP 233, 237, 123, 18
+  varN              user variable N (bank 2), one column for each variable the program or --set names
+  load              --drive: AP 206 stallGuard2 load value, 0..1023 (0: load at the torque limit)
+  current_scale     --drive: AP 180 coolStep current scale, 0..31 = 1/32..32/32 of the set current
+  encoder           --drive: AP 209 encoder position, µsteps
+  energy_a2s        --drive: the coils' ∫ I_peak² dt since power-up, A²·s (6 decimals); times the
+                    coil resistance in Ω it is the copper loss in J
+  virtual_position  --drive, closed loop: AP 233 virtual position (the loop's set point), µsteps
+  position_error    --drive, closed loop: AP 237 virtual − actual position, µsteps
+  scaler            --drive, closed loop: AP 123 current scaler, the current is AP 6 × scaler / 255
+  status_word       --drive, closed loop: AP 18 status word, bit field (bit 2 = closed loop)
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
                     execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
                     MVP; the row shows where the motor was then); several are joined with `;`
 
-The plot (--plot OUT.svg) shows target and actual position, velocity, and the events over time.
+The plot (--plot OUT.svg) draws, over time: target and actual position; velocity; a logic-analyser lane
+for each input and output that changes (IN0.., OUT0..) and one for each kind of program event. With
+--drive also the load value, the current scale (closed loop: the current scaler and the position error),
+the encoder minus the step position, and the coil energy, each on its own axis with its unit.
 The run is deterministic: the same program and options give byte-identical traces.";
 
 /// Without a trace, how far one poll may jump at most (for the progress bar).
@@ -76,14 +89,14 @@ pub struct RunArgs {
     /// Write the trace to this CSV file (columns below).
     #[arg(long, value_name = "OUT.csv")]
     pub trace: Option<PathBuf>,
-    /// Draw position, velocity and events over time into this SVG file.
+    /// Draw position, velocity, inputs, outputs and events over time into this SVG file (panels below).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<PathBuf>,
     /// Sample the trace every MS milliseconds of simulated time.
     #[arg(long, value_name = "MS", default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..))]
     pub every: u64,
     /// Also trace and plot the drive: stallGuard2 load value (AP 206), coolStep current scale (AP 180),
-    /// encoder position (AP 209) beside the step position, and the motor's energy (A²·s); on a
+    /// encoder position (AP 209) beside the step position, and the coils' energy ∫ I² dt (A²·s); on a
     /// closed-loop model also the virtual position, position error, current scaler and status word.
     #[arg(long)]
     pub drive: bool,
@@ -107,15 +120,14 @@ pub(crate) fn parse_seconds(s: &str) -> Result<Duration, String> {
         .ok_or_else(bad)
 }
 
+/// What `tmcl run --help` prints after the options: the trace columns and the exit codes.
+pub fn after_help() -> String {
+    format!("{TRACE_HELP}\n\n{EXIT_CODES}")
+}
+
 /// Runs `tmcl run`.
-pub fn run(conn: &Connection, args: RunArgs) -> ExitCode {
-    match execute(conn, &args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("tmcl run: {err}");
-            ExitCode::from(err.exit_code())
-        }
-    }
+pub(crate) fn run(args: RunArgs, json: bool) -> Result<(), CliError> {
+    execute(&args, json)
 }
 
 /// What a run did, for the summary line.
@@ -128,7 +140,7 @@ struct Summary {
     rows: u64,
 }
 
-fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
+fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     let source = Source::load(&args.file)?;
     let mut module = args.sim.build(&source)?;
     let bar = progress_bar(args.duration);
@@ -142,7 +154,7 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
     } else {
         let csv = match &args.trace {
             Some(path) => Some(BufWriter::new(
-                File::create(path).map_err(|e| CliError::Usage(format!("cannot create {}: {e}", path.display())))?,
+                File::create(path).map_err(|e| CliError::Io(format!("cannot create {}: {e}", path.display())))?,
             )),
             None => None,
         };
@@ -163,8 +175,8 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
         trace.finish()?;
         if let Some(path) = &args.plot {
             let title = format!("{} on a simulated {}", args.file.display(), module.spec().name);
-            plot::draw(path, &title, &trace.samples, &trace.events, args.drive)
-                .map_err(|e| CliError::Usage(format!("cannot draw {}: {e}", path.display())))?;
+            plot::draw(path, &title, &trace.samples, &trace.events, &trace.levels, args.drive)
+                .map_err(|e| CliError::Io(format!("cannot draw {}: {e}", path.display())))?;
         }
         trace.rows
     };
@@ -177,7 +189,8 @@ fn execute(conn: &Connection, args: &RunArgs) -> Result<(), CliError> {
         state: module.vm().state,
         rows,
     };
-    println!("{}", summary.line(conn.json));
+    use std::io::Write;
+    writeln!(std::io::stdout(), "{}", summary.line(json))?;
     Ok(())
 }
 
@@ -316,6 +329,7 @@ impl Traced {
         let mut last_executed = module.vm().executed();
         loop {
             let deadline = crate::sim::poll(module, t);
+            trace.watch_io(module, t);
             events.clear();
             if module.vm().at_breakpoint() && module.vm().state == RunState::Stopped {
                 // A handler's first instruction: name the interrupt(s) whose vector points here, go on.

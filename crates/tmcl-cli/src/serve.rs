@@ -5,7 +5,7 @@
 //! byte, whichever comes first.
 
 use crate::bus::{Bus, Node};
-use crate::host::Connection;
+use crate::error::CliError;
 use crate::pty::{Pty, PtyError};
 use clap::Args;
 use nix::poll::{ppoll, PollFd, PollFlags};
@@ -13,7 +13,6 @@ use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::os::fd::AsFd;
 use std::path::PathBuf;
-use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use tmcl_core::model::{self, ModelSpec};
@@ -28,36 +27,34 @@ const MAX_SLEEP: std::time::Duration = std::time::Duration::from_millis(50);
 /// How often the pty's exclusive mode is checked for a host that died holding it.
 const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
 
-/// Exit code when LINK or the TCP port is taken by another server (3, as a host's connection failure).
-const EXIT_BUSY: u8 = 3;
-
-/// What `tmcl serve --help` adds about sharing the line.
-pub const SERVE_HELP: &str = "\
-One line, one owner:
-  --pty LINK       the server holds LINK.lock (its PID, flock) beside LINK while it runs. A LINK another
-                   live server holds is refused (exit code 3, naming that server's PID); a LINK left by a
-                   server that died (kill -9) is replaced. On exit LINK and LINK.lock are removed, LINK
-                   only if it still points at this server's pty.
-  --tcp HOST:PORT  HOST may be a name (localhost:2324) or an IP literal; a bare PORT means 127.0.0.1.
-                   One client at a time, as on a serial line: while one is connected, a second connection
-                   is accepted and closed at once without a byte (`tmcl` reports the port in use). A port
-                   another program listens on is refused (exit code 3).
-Exit codes: 0 stopped by SIGINT/SIGTERM, 1 the server could not start or stopped on an error,
-  3 LINK or the TCP port is taken.";
-
-/// Options of `tmcl serve` (the link comes from `--pty` or the global `--tcp`, the address from the global
-/// `--address`).
+/// Options of `tmcl serve`.
 #[derive(Debug, Args)]
-#[command(after_help = SERVE_HELP)]
 pub struct ServeArgs {
     /// The module to simulate, as MODEL or MODEL@ADDRESS. Give it several times to put several
     /// independent modules on one line (an RS485 bus), e.g. `--module pd28-1021@1 --module pd28-1021@2`.
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
     pub module: Vec<String>,
-    /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port. The
-    /// server owns LINK while it runs (LINK.lock beside it); a LINK held by another server is refused.
-    #[arg(long, value_name = "LINK", conflicts_with = "tcp")]
+    /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
+    ///
+    /// One server per LINK: while it runs, the server holds LINK.lock beside it (its PID, with a flock). A
+    /// LINK another live server holds is refused (exit code 3, naming that server's PID); a LINK left behind
+    /// by a server that died (kill -9) is replaced. On exit LINK and LINK.lock are removed, LINK only if it
+    /// still points at this server's pty.
+    #[arg(long, value_name = "LINK", conflicts_with = "tcp", required_unless_present = "tcp")]
     pub pty: Option<PathBuf>,
+    /// Serve on a TCP port instead, HOST:PORT (e.g. localhost:2323 or 127.0.0.1:2323; a bare PORT means
+    /// 127.0.0.1; port 0 picks a free one).
+    ///
+    /// HOST may be a name; of its addresses IPv4 ones are tried first. One client at a time, as one host on a
+    /// serial line: while a client is connected, a second connection is accepted and closed at once without
+    /// a byte, and `tmcl` reports the port in use by another client. A port another program listens on is
+    /// refused (exit code 3).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tcp: Option<String>,
+    /// The address a module with a new EEPROM answers at (default 1; a module keeps the address stored in
+    /// its EEPROM, global parameter 66).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..))]
+    pub address: Option<u8>,
     /// Keep the module's EEPROM in FILE (crash-safe; FILE.journal sits beside it). Without it the EEPROM
     /// lives in memory and is lost when the server stops. One module only: for a bus use --eeprom-dir.
     #[arg(long, value_name = "FILE", conflicts_with = "eeprom_dir")]
@@ -84,37 +81,8 @@ enum Link {
 }
 
 /// Runs the server until SIGINT or SIGTERM.
-pub fn run(conn: &Connection, args: ServeArgs) -> ExitCode {
-    match serve(conn, args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("tmcl serve: {}", e.message);
-            ExitCode::from(e.code)
-        }
-    }
-}
-
-/// Why the server could not start or stopped, with its exit code.
-struct ServeError {
-    code: u8,
-    message: String,
-}
-
-impl From<String> for ServeError {
-    fn from(message: String) -> ServeError {
-        ServeError { code: 1, message }
-    }
-}
-
-impl From<&str> for ServeError {
-    fn from(message: &str) -> ServeError {
-        ServeError::from(message.to_owned())
-    }
-}
-
-/// The server's error for a taken LINK or TCP port (exit code 3).
-fn busy(message: String) -> ServeError {
-    ServeError { code: EXIT_BUSY, message }
+pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
+    serve(args, json)
 }
 
 /// One `--module MODEL[@ADDR]`.
@@ -138,42 +106,44 @@ fn parse_module(text: &str) -> Result<(&'static ModelSpec, Option<u8>), String> 
     Ok((spec, address))
 }
 
-fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
+fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
-        wanted.push(parse_module(text)?);
+        wanted.push(parse_module(text).map_err(CliError::Usage)?);
     }
-    if wanted.len() > 1 && (args.eeprom.is_some() || conn.address.is_some()) {
-        return Err("with several modules give each its address as MODEL@ADDR and use --eeprom-dir".into());
+    if wanted.len() > 1 && (args.eeprom.is_some() || args.address.is_some()) {
+        return Err(CliError::Usage(
+            "with several modules give each its address as MODEL@ADDR and use --eeprom-dir".into(),
+        ));
     }
     // A link whose modules answer every address (USB) holds one module: several would all answer.
     if wanted.len() > 1 {
         if let Some((spec, _)) = wanted.iter().find(|(spec, _)| !spec.interfaces[0].address_filter) {
-            return Err(format!(
+            return Err(CliError::Usage(format!(
                 "the {} is served on its {} interface, which answers every address: one module per link",
                 spec.name, spec.interfaces[0].name
-            )
-            .into());
+            )));
         }
     }
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop)).map_err(|e| format!("cannot handle signals: {e}"))?;
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
     }
     let start = std::time::Instant::now();
     let clock = move || Instant::from_micros(start.elapsed().as_micros() as u64);
     let world = match &args.world {
-        Some(path) => tmcl_sim::World::load(path).map_err(|e| e.to_string())?,
+        Some(path) => tmcl_sim::World::load(path).map_err(|e| CliError::Input(e.to_string()))?,
         None => tmcl_sim::World::default(),
     };
     if let Some(dir) = &args.eeprom_dir {
-        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
     }
     let mut nodes = Vec::new();
     for (n, (spec, address)) in wanted.into_iter().enumerate() {
         // The address a module is started with: --address, MODEL@ADDR, or (on a bus without either) its
         // position on the line. It names the module's EEPROM file in --eeprom-dir.
-        let address = address.or(conn.address).or((n > 0).then_some(n as u8 + 1));
+        let address = address.or(args.address).or((n > 0).then_some(n as u8 + 1));
         let name = format!("{}@{}", spec.id, address.unwrap_or(1));
         let capacity = persist::capacity(spec);
         let path = match (&args.eeprom, &args.eeprom_dir) {
@@ -185,17 +155,19 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
         // stored automatically, §5.1), as a real module keeps its address across power cycles.
         let fresh = path.as_ref().is_none_or(|p| std::fs::metadata(p).map_or(true, |m| m.len() == 0));
         let eeprom = match path {
-            Some(path) => Eeprom::File(FileNvm::open(&path, capacity).map_err(|e| e.to_string())?),
+            Some(path) => Eeprom::File(FileNvm::open(&path, capacity).map_err(|e| CliError::Io(e.to_string()))?),
             None => Eeprom::Memory(MemNvm::new(capacity)),
         };
-        let board =
-            SimBoard::for_model(spec, eeprom).with_world(world.clone()).map_err(|e| e.to_string())?.with_clock(clock);
+        let board = SimBoard::for_model(spec, eeprom)
+            .with_world(world.clone())
+            .map_err(|e| CliError::Input(e.to_string()))?
+            .with_clock(clock);
         let mut module = Module::new(board, spec, clock());
         if let Some(address) = address {
             if fresh && module.address() != address {
                 module
                     .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
-                    .map_err(|s| format!("address {address}: {s}"))?;
+                    .map_err(|s| CliError::Usage(format!("address {address}: {s}")))?;
             } else if module.address() != address {
                 eprintln!(
                     "tmcl serve: {name}: keeping the address {} stored in its EEPROM (a start address applies to a new EEPROM)",
@@ -206,17 +178,17 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
         nodes.push(Node::new(module, name));
     }
     let mut bus = Bus::new(nodes, args.wire_timing);
-    let mut link = match (&args.pty, &conn.tcp) {
+    let mut link = match (&args.pty, &args.tcp) {
         (Some(path), None) => Link::Pty(Pty::open(path).map_err(|e| match e {
-            PtyError::Busy { .. } => busy(e.to_string()),
-            PtyError::Io(e) => format!("cannot open a pty at {}: {e}", path.display()).into(),
+            PtyError::Busy { .. } => CliError::Io(e.to_string()),
+            PtyError::Io(e) => CliError::Io(format!("cannot open a pty at {}: {e}", path.display())),
         })?),
         (None, Some(addr)) => {
             let listener = listen(addr)?;
-            listener.set_nonblocking(true).map_err(|e| e.to_string())?;
+            listener.set_nonblocking(true).map_err(|e| CliError::Io(e.to_string()))?;
             Link::Tcp { listener, peer: None }
         }
-        _ => return Err("give exactly one of --pty LINK or --tcp HOST:PORT".into()),
+        _ => return Err(CliError::Usage("give exactly one of --pty LINK or --tcp HOST:PORT".into())),
     };
     let place = match &link {
         Link::Pty(pty) => pty.link.display().to_string(),
@@ -224,7 +196,16 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
     };
     let modules: Vec<String> =
         bus.nodes.iter().map(|n| format!("{} at address {}", n.module.spec().name, n.module.address())).collect();
-    println!("serving {} on {place}", modules.join(", "));
+    if json {
+        let names: Vec<serde_json::Value> = bus
+            .nodes
+            .iter()
+            .map(|n| serde_json::json!({"model": n.module.spec().id, "address": n.module.address()}))
+            .collect();
+        println!("{}", serde_json::json!({"serving": names, "link": place}));
+    } else {
+        println!("serving {} on {place}", modules.join(", "));
+    }
     let _ = io::stdout().flush();
     if args.verbose {
         if let Link::Pty(pty) = &link {
@@ -250,7 +231,7 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
             .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
             .unwrap_or(MAX_SLEEP)
             .min(MAX_SLEEP);
-        let readable = wait(&link, sleep).map_err(|e| format!("poll: {e}"))?;
+        let readable = wait(&link, sleep).map_err(|e| CliError::Io(format!("poll: {e}")))?;
         if !readable {
             continue;
         }
@@ -286,7 +267,11 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
         }
     }
     for node in &mut bus.nodes {
-        node.module.board_mut().eeprom().sync().map_err(|e| format!("{}: EEPROM not flushed: {e}", node.name))?;
+        node.module
+            .board_mut()
+            .eeprom()
+            .sync()
+            .map_err(|e| CliError::Io(format!("{}: EEPROM not flushed: {e}", node.name)))?;
     }
     if args.verbose {
         eprintln!("[{}] stopped", clock());
@@ -298,12 +283,16 @@ fn serve(conn: &Connection, args: ServeArgs) -> Result<(), ServeError> {
 /// resolves it (`localhost:2324`); of the addresses it resolves to, IPv4 ones are tried first, so that
 /// `localhost` means 127.0.0.1 as for most clients. An address another program listens on is not skipped
 /// for the next one: it is reported (exit code 3).
-fn listen(text: &str) -> Result<TcpListener, ServeError> {
+fn listen(text: &str) -> Result<TcpListener, CliError> {
     let mut candidates: Vec<SocketAddr> = match text.parse::<u16>() {
         Ok(port) => vec![SocketAddr::from(([127, 0, 0, 1], port))],
         Err(_) => text
             .to_socket_addrs()
-            .map_err(|e| format!("`{text}` is not HOST:PORT (e.g. localhost:2323, 127.0.0.1:2323) or a port: {e}"))?
+            .map_err(|e| {
+                CliError::Usage(format!(
+                    "`{text}` is not HOST:PORT (e.g. localhost:2323, 127.0.0.1:2323) or a port: {e}"
+                ))
+            })?
             .collect(),
     };
     candidates.sort_by_key(SocketAddr::is_ipv6);
@@ -312,12 +301,12 @@ fn listen(text: &str) -> Result<TcpListener, ServeError> {
         match TcpListener::bind(addr) {
             Ok(listener) => return Ok(listener),
             Err(e) if e.kind() == io::ErrorKind::AddrInUse => {
-                return Err(busy(format!("cannot listen on {addr}: another program listens there ({e})")))
+                return Err(CliError::Io(format!("cannot listen on {addr}: another program listens there ({e})")))
             }
             Err(e) => last = Some(format!("cannot listen on {addr}: {e}")),
         }
     }
-    Err(last.unwrap_or_else(|| format!("`{text}` resolves to no address")).into())
+    Err(CliError::Io(last.unwrap_or_else(|| format!("`{text}` resolves to no address"))))
 }
 
 /// Takes the connections waiting on the listener. The first becomes the client when there is none (or the

@@ -241,7 +241,7 @@ fn the_plot_is_an_svg_with_both_panels() {
     ok(&tmcl(&["run", prog.to_str().unwrap(), "--for", "5", "--plot", svg.to_str().unwrap()]));
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg"), "{}", &text[..text.len().min(200)]);
-    for label in ["position [µsteps]", "velocity [pps]", "interrupt 0", "out0=1"] {
+    for label in ["position [µsteps]", "velocity [pps]", "interrupt 0", "OUT0"] {
         assert!(text.contains(label), "{label} missing");
     }
 }
@@ -305,12 +305,12 @@ fn a_command_the_model_lacks_is_an_error_at_its_line() {
     let bin = dir.path().join("sac.bin");
     let asm = Command::new(TMCL).arg("asm").arg(&src).arg("-o").arg(&bin).output().unwrap();
     let err = String::from_utf8_lossy(&asm.stderr);
-    assert_eq!(asm.status.code(), Some(1), "{err}");
+    assert_eq!(asm.status.code(), Some(2), "assembly errors are input errors: {err}");
     assert!(err.contains("sac.tmc:2:3: error: `SAC` is not a command of the PD28-1021"), "{err}");
     assert!(err.contains("\n      SAC 0, 1, 5\n      ^^^"), "{err}");
     assert!(!bin.exists(), "nothing written");
     let run = Command::new(TMCL).arg("run").arg(&src).arg("--for").arg("1").output().unwrap();
-    assert!(!run.status.success());
+    assert_eq!(run.status.code(), Some(2), "the same exit code as `tmcl asm`");
     assert!(String::from_utf8_lossy(&run.stderr).contains("1 command(s) the PD28-1021 does not have"));
 }
 

@@ -39,7 +39,7 @@ pub mod variant;
 pub use interface::{Framing, InterfaceDesc, InterfaceKind};
 pub use interrupt::{InterruptDesc, Interrupts, Source, GLOBAL_INTERRUPTS};
 pub use layout::Layout;
-pub use param::{Access, ParamDesc, ParamError, Range, Role, Setting, Table};
+pub use param::{Access, ParamDesc, ParamError, Range, Role, Setting, Table, Unit};
 pub use port::{PortDesc, PortKind};
 pub use variant::{is_closed_loop, Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
 
@@ -354,6 +354,27 @@ mod tests {
         assert_eq!(ModelSpec::check(&ModelDesc { interrupt: Table::EMPTY, ..d() }), Err(FitError::InterruptConfig));
         assert_eq!(ModelSpec::check(&ModelDesc { global: Table::EMPTY, ..d() }), Err(FitError::MissingSetting));
         assert!(ModelSpec::check(&d()).is_ok());
+    }
+
+    /// The units follow the meaning: every speed the firmware reads is in pps, every acceleration in pps/s,
+    /// every position in microsteps (the manuals' "Range [Units]" columns), on every model.
+    #[test]
+    fn units_follow_the_meaning() {
+        for model in MODELS {
+            for p in model.axis.params {
+                let expected = match (p.role, p.setting) {
+                    (Role::TargetPosition | Role::ActualPosition, _) => Some(Unit::Microsteps),
+                    (Role::TargetSpeed | Role::ActualSpeed, _) => Some(Unit::Pps),
+                    (_, Some(Setting::MaxPositioningSpeed | Setting::MinimumSpeed)) => Some(Unit::Pps),
+                    (_, Some(Setting::MaxAcceleration)) => Some(Unit::PpsPerSecond),
+                    (_, Some(Setting::RunCurrent | Setting::StandbyCurrent)) => Some(Unit::CurrentOf255),
+                    _ => None,
+                };
+                if let Some(unit) = expected {
+                    assert_eq!(p.unit, unit, "{} AP {} {}", model.id, p.number, p.name);
+                }
+            }
+        }
     }
 
     #[test]

@@ -363,6 +363,62 @@ pub struct ParamDesc {
     pub role: Role,
     /// Which setting the firmware reads it as, if any.
     pub setting: Option<Setting>,
+    /// The unit of the value, from the manual's "Range [Units]" column (for host tools: `tmcl params`).
+    pub unit: Unit,
+}
+
+/// The unit of a parameter's value, as the manuals' parameter tables give it ("Range [Units]").
+///
+/// Data for host tools (`tmcl params`, the workbench); the firmware never reads it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unit {
+    /// A number without unit: a flag, a mode, a count, a bit field.
+    None,
+    /// Microsteps (positions).
+    Microsteps,
+    /// Microsteps per second (pps, PD28-1021 manual §4 Table 15).
+    Pps,
+    /// Microsteps per second² (pps², Table 15).
+    PpsPerSecond,
+    /// A current as a fraction of the module's maximum, 0..255 = 0..100 % (Table 15, AP 6).
+    CurrentOf255,
+    /// A current scale in 32 steps, 0..31 = 1/32..32/32 (Table 15, AP 180).
+    CurrentOf32,
+    /// Milliamperes.
+    Milliamps,
+    /// Milliseconds.
+    Milliseconds,
+    /// Units of 10 ms (Table 15, AP 204 and 214).
+    TenMilliseconds,
+    /// Encoder counts.
+    EncoderCounts,
+    /// Full steps.
+    FullSteps,
+    /// Units of 0.1 V (supply voltage).
+    TenthVolts,
+    /// Degrees Celsius.
+    Celsius,
+}
+
+impl Unit {
+    /// The unit as printed after a value; empty for [`Unit::None`].
+    pub const fn symbol(self) -> &'static str {
+        match self {
+            Unit::None => "",
+            Unit::Microsteps => "µsteps",
+            Unit::Pps => "pps",
+            Unit::PpsPerSecond => "pps/s",
+            Unit::CurrentOf255 => "/255 of max. current",
+            Unit::CurrentOf32 => "/32 of max. current (value + 1)",
+            Unit::Milliamps => "mA",
+            Unit::Milliseconds => "ms",
+            Unit::TenMilliseconds => "× 10 ms",
+            Unit::EncoderCounts => "encoder counts",
+            Unit::FullSteps => "full steps",
+            Unit::TenthVolts => "× 0.1 V",
+            Unit::Celsius => "°C",
+        }
+    }
 }
 
 impl ParamDesc {
@@ -376,7 +432,18 @@ impl ParamDesc {
         default: i32,
         section: &'static str,
     ) -> ParamDesc {
-        ParamDesc { number, name, ident, range, access, default, section, role: Role::Plain, setting: None }
+        ParamDesc {
+            number,
+            name,
+            ident,
+            range,
+            access,
+            default,
+            section,
+            role: Role::Plain,
+            setting: None,
+            unit: Unit::None,
+        }
     }
 
     /// The same descriptor with a role.
@@ -387,6 +454,11 @@ impl ParamDesc {
     /// The same descriptor, read by the firmware as `setting`.
     pub const fn with_setting(self, setting: Setting) -> ParamDesc {
         ParamDesc { setting: Some(setting), ..self }
+    }
+
+    /// The same descriptor with the unit of its value.
+    pub const fn with_unit(self, unit: Unit) -> ParamDesc {
+        ParamDesc { unit, ..self }
     }
 }
 

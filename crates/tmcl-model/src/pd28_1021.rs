@@ -24,7 +24,7 @@
 
 use crate::interface::InterfaceDesc;
 use crate::interrupt::{InterruptDesc, Interrupts, Source};
-use crate::param::{Access, ParamDesc, Range, Role, Setting, Table};
+use crate::param::{Access, ParamDesc, Range, Role, Setting, Table, Unit};
 use crate::port::{PortDesc, PortKind};
 use crate::variant::{Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
 use crate::{ModelDesc, ModelSpec};
@@ -48,20 +48,32 @@ const RFS_MODES: Range = Range::OneOf(&[1..=8, 65..=68, 129..=136]);
 
 /// Axis parameters of motor 0 (manual chapter 4, Table 15): 58 entries.
 pub static AXIS_PARAMS: [ParamDesc; 58] = [
-    ParamDesc::plain(0, "Target position", "TargetPosition", POS, Access::RW, 0, A).with_role(Role::TargetPosition),
-    ParamDesc::plain(1, "Actual position", "ActualPosition", POS, Access::RW, 0, A).with_role(Role::ActualPosition),
-    ParamDesc::plain(2, "Target speed", "TargetSpeed", POS, Access::RW, 0, A).with_role(Role::TargetSpeed),
+    ParamDesc::plain(0, "Target position", "TargetPosition", POS, Access::RW, 0, A)
+        .with_role(Role::TargetPosition)
+        .with_unit(Unit::Microsteps),
+    ParamDesc::plain(1, "Actual position", "ActualPosition", POS, Access::RW, 0, A)
+        .with_role(Role::ActualPosition)
+        .with_unit(Unit::Microsteps),
+    ParamDesc::plain(2, "Target speed", "TargetSpeed", POS, Access::RW, 0, A)
+        .with_role(Role::TargetSpeed)
+        .with_unit(Unit::Pps),
     // Table 15 lists it RW without saying what a write does: accepted, no effect (the ramp generator owns
     // the value).
-    ParamDesc::plain(3, "Actual speed", "ActualSpeed", POS, Access::RW, 0, A).with_role(Role::ActualSpeed),
+    ParamDesc::plain(3, "Actual speed", "ActualSpeed", POS, Access::RW, 0, A)
+        .with_role(Role::ActualSpeed)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(4, "Maximum positioning speed", "MaxPositioningSpeed", r(1, i32::MAX), Access::RWE, 51200, A)
-        .with_setting(Setting::MaxPositioningSpeed),
+        .with_setting(Setting::MaxPositioningSpeed)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(5, "Maximum acceleration", "MaxAcceleration", r(1, i32::MAX), Access::RWE, 51200, A)
-        .with_setting(Setting::MaxAcceleration),
+        .with_setting(Setting::MaxAcceleration)
+        .with_unit(Unit::PpsPerSecond),
     ParamDesc::plain(6, "Maximum current", "MaxCurrent", CURRENT, Access::RWE, 128, A)
-        .with_setting(Setting::RunCurrent),
+        .with_setting(Setting::RunCurrent)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(7, "Standby current", "StandbyCurrent", CURRENT, Access::RWE, 16, A)
-        .with_setting(Setting::StandbyCurrent),
+        .with_setting(Setting::StandbyCurrent)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(8, "Position reached flag", "PositionReachedFlag", Range::FLAG, Access::R, 1, A)
         .with_role(Role::PositionReached),
     ParamDesc::plain(9, "Home switch state", "HomeSwitchState", Range::FLAG, Access::R, 0, A)
@@ -76,7 +88,8 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
         .with_setting(Setting::LeftSwitchDisable),
     ParamDesc::plain(128, "Ramp mode", "RampMode", Range::FLAG, Access::RW, 0, A).with_role(Role::RampMode),
     ParamDesc::plain(130, "Minimum speed", "MinimumSpeed", SPEED, Access::RWE, 0, A)
-        .with_setting(Setting::MinimumSpeed),
+        .with_setting(Setting::MinimumSpeed)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(140, "Microstep resolution", "MicrostepResolution", r(0, 8), Access::RWE, 8, A)
         .with_role(Role::MicrostepResolution),
     ParamDesc::plain(160, "Step interpolation enable", "StepInterpolationEnable", Range::FLAG, Access::RW, 0, A),
@@ -132,31 +145,42 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
     ParamDesc::plain(178, "Short detection timer", "ShortDetectionTimer", r(0, 3), Access::RW, 0, A),
     ParamDesc::plain(179, "Vsense", "Vsense", Range::FLAG, Access::RW, 1, A).with_setting(Setting::CurrentRange),
     ParamDesc::plain(180, "smartEnergy actual current", "SmartEnergyActualCurrent", r(0, 31), Access::R, 0, A)
-        .with_role(Role::ActualCurrent),
+        .with_role(Role::ActualCurrent)
+        .with_unit(Unit::CurrentOf32),
     // 0 = stop on stall off: Table 15 does not say what 0 does ("below this speed the motor is never
     // stopped" would make it stop at any speed); off is the TMCL convention.
-    ParamDesc::plain(181, "Stop on stall", "StopOnStall", SPEED, Access::RW, 0, A).with_setting(Setting::StopOnStall),
+    ParamDesc::plain(181, "Stop on stall", "StopOnStall", SPEED, Access::RW, 0, A)
+        .with_setting(Setting::StopOnStall)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(182, "smartEnergy threshold speed", "SmartEnergyThresholdSpeed", SPEED, Access::RW, 0, A)
-        .with_setting(Setting::CoolStepThresholdSpeed),
+        .with_setting(Setting::CoolStepThresholdSpeed)
+        .with_unit(Unit::Pps),
     // Our default: the run current's default, so that switching coolStep on (AP 172) does not leave the
     // motor without current below the threshold speed AP 182.
     ParamDesc::plain(183, "smartEnergy slow run current", "SmartEnergySlowRunCurrent", CURRENT, Access::RW, 128, A)
-        .with_setting(Setting::SlowRunCurrent),
+        .with_setting(Setting::SlowRunCurrent)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(184, "Random TOff mode", "RandomTOffMode", Range::FLAG, Access::RW, 0, A),
     ParamDesc::plain(193, "Reference search mode", "ReferenceSearchMode", RFS_MODES, Access::RW, 1, A)
         .with_setting(Setting::ReferenceSearchMode),
     ParamDesc::plain(194, "Reference search speed", "ReferenceSearchSpeed", SPEED, Access::RW, 51200, A)
-        .with_setting(Setting::ReferenceSearchSpeed),
+        .with_setting(Setting::ReferenceSearchSpeed)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(195, "Reference switch speed", "ReferenceSwitchSpeed", SPEED, Access::RW, 5120, A)
-        .with_setting(Setting::ReferenceSwitchSpeed),
+        .with_setting(Setting::ReferenceSwitchSpeed)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(196, "End switch distance", "EndSwitchDistance", POS, Access::R, 0, A)
-        .with_setting(Setting::EndSwitchDistance),
+        .with_setting(Setting::EndSwitchDistance)
+        .with_unit(Unit::Microsteps),
     ParamDesc::plain(197, "Last reference position", "LastReferencePosition", POS, Access::R, 0, A)
-        .with_setting(Setting::LastReferencePosition),
+        .with_setting(Setting::LastReferencePosition)
+        .with_unit(Unit::Microsteps),
     ParamDesc::plain(200, "Boost current", "BoostCurrent", CURRENT, Access::RW, 0, A)
-        .with_setting(Setting::BoostCurrent),
+        .with_setting(Setting::BoostCurrent)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(204, "Freewheeling delay", "FreewheelingDelay", r(0, 65535), Access::RWE, 0, A)
-        .with_setting(Setting::FreewheelingDelay),
+        .with_setting(Setting::FreewheelingDelay)
+        .with_unit(Unit::TenMilliseconds),
     ParamDesc::plain(206, "Actual load value", "ActualLoadValue", r(0, 1023), Access::R, 0, A)
         .with_role(Role::LoadValue),
     ParamDesc::plain(207, "Extended error flags", "ExtendedErrorFlags", r(0, 3), Access::R, 0, A)
@@ -164,15 +188,18 @@ pub static AXIS_PARAMS: [ParamDesc; 58] = [
     ParamDesc::plain(208, "TMC262 error flags", "DriverErrorFlags", r(0, 255), Access::R, 0, A)
         .with_role(Role::DriverFlags),
     ParamDesc::plain(209, "Encoder position", "EncoderPosition", POS, Access::RW, 0, A)
-        .with_role(Role::EncoderPosition),
+        .with_role(Role::EncoderPosition)
+        .with_unit(Unit::Microsteps),
     // §6.2.1–6.2.2: p = prescaler × 512; the value 4 (bit 2) is the clear-on-null function. Table 20's p = 200
     // has bit 3 set although the low four bits are reserved, so only bit 2 is taken as a function bit.
     ParamDesc::plain(210, "Encoder prescaler", "EncoderPrescaler", POS, Access::RW, 25600, A)
         .with_role(Role::EncoderPrescaler),
     ParamDesc::plain(212, "Maximum encoder deviation", "MaxEncoderDeviation", SPEED, Access::RW, 0, A)
-        .with_setting(Setting::MaxEncoderDeviation),
+        .with_setting(Setting::MaxEncoderDeviation)
+        .with_unit(Unit::EncoderCounts),
     ParamDesc::plain(214, "Power down delay", "PowerDownDelay", r(1, 65535), Access::RWE, 200, A)
-        .with_setting(Setting::PowerDownDelay),
+        .with_setting(Setting::PowerDownDelay)
+        .with_unit(Unit::TenMilliseconds),
     ParamDesc::plain(215, "Absolute resolver value", "AbsoluteResolverValue", r(0, 1023), Access::R, 0, A)
         .with_role(Role::EncoderAbsolute),
     ParamDesc::plain(254, "Step/direction mode", "StepDirectionMode", r(0, 5), Access::RWE, 0, A),
@@ -187,10 +214,12 @@ pub static GLOBAL_PARAMS: [ParamDesc; 19] = [
     ParamDesc::plain(67, "ASCII mode", "AsciiMode", r(0, 63), Access::RWA, 0, G).with_setting(Setting::AsciiMode),
     // Table 17 gives no unit for the heartbeat time; milliseconds.
     ParamDesc::plain(68, "Serial heartbeat", "SerialHeartbeat", r(0, 65535), Access::RWA, 0, G)
-        .with_setting(Setting::SerialHeartbeat),
+        .with_setting(Setting::SerialHeartbeat)
+        .with_unit(Unit::Milliseconds),
     // Table 17 gives no unit for the pause time; milliseconds.
     ParamDesc::plain(75, "Telegram pause time", "TelegramPauseTime", r(0, 255), Access::RWA, 0, G)
-        .with_setting(Setting::TelegramPause),
+        .with_setting(Setting::TelegramPause)
+        .with_unit(Unit::Milliseconds),
     ParamDesc::plain(76, "Serial host address", "SerialHostAddress", r(0, 255), Access::RWA, 2, G)
         .with_setting(Setting::HostAddress),
     ParamDesc::plain(77, "Auto start mode", "AutoStartMode", Range::FLAG, Access::RWA, 0, G)
@@ -212,7 +241,9 @@ pub static GLOBAL_PARAMS: [ParamDesc; 19] = [
     ParamDesc::plain(129, "Download mode", "DownloadMode", Range::FLAG, Access::R, 0, G).with_role(Role::DownloadMode),
     ParamDesc::plain(130, "TMCL program counter", "ProgramCounter", POS, Access::R, 0, G)
         .with_role(Role::ProgramCounter),
-    ParamDesc::plain(132, "TMCL tick timer", "TickTimer", r(0, i32::MAX), Access::RW, 0, G).with_role(Role::TickTimer),
+    ParamDesc::plain(132, "TMCL tick timer", "TickTimer", r(0, i32::MAX), Access::RW, 0, G)
+        .with_role(Role::TickTimer)
+        .with_unit(Unit::Milliseconds),
     ParamDesc::plain(133, "Random number", "RandomNumber", r(0, i32::MAX), Access::RW, 0, G)
         .with_role(Role::RandomNumber),
     // "cannot be stored to EEPROM and will be reset to 0 on startup".
@@ -223,9 +254,12 @@ pub static GLOBAL_PARAMS: [ParamDesc; 19] = [
 /// Bank 3 (manual §5.4, Table 19): interrupt configuration, 9 entries. The manual states no defaults:
 /// all 0 (timers and triggers off).
 pub static INTERRUPT_PARAMS: [ParamDesc; 9] = [
-    ParamDesc::plain(0, "Timer 0 period (ms)", "Timer0Period", Range::Unsigned32, Access::RW, 0, I),
-    ParamDesc::plain(1, "Timer 1 period (ms)", "Timer1Period", Range::Unsigned32, Access::RW, 0, I),
-    ParamDesc::plain(2, "Timer 2 period (ms)", "Timer2Period", Range::Unsigned32, Access::RW, 0, I),
+    ParamDesc::plain(0, "Timer 0 period (ms)", "Timer0Period", Range::Unsigned32, Access::RW, 0, I)
+        .with_unit(Unit::Milliseconds),
+    ParamDesc::plain(1, "Timer 1 period (ms)", "Timer1Period", Range::Unsigned32, Access::RW, 0, I)
+        .with_unit(Unit::Milliseconds),
+    ParamDesc::plain(2, "Timer 2 period (ms)", "Timer2Period", Range::Unsigned32, Access::RW, 0, I)
+        .with_unit(Unit::Milliseconds),
     ParamDesc::plain(27, "Stop left 0 trigger transition", "StopLeft0Trigger", r(0, 3), Access::RW, 0, I),
     ParamDesc::plain(28, "Stop right 0 trigger transition", "StopRight0Trigger", r(0, 3), Access::RW, 0, I),
     ParamDesc::plain(39, "Input 0 trigger transition", "Input0Trigger", r(0, 3), Access::RW, 0, I),

@@ -46,7 +46,7 @@
 
 use crate::interface::InterfaceDesc;
 use crate::interrupt::{InterruptDesc, Interrupts, Source};
-use crate::param::{cited, join, Access, ParamDesc, Range, Role, Setting, Table};
+use crate::param::{cited, join, Access, ParamDesc, Range, Role, Setting, Table, Unit};
 use crate::pd28_1021;
 use crate::port::{PortDesc, PortKind};
 use crate::variant::{Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
@@ -78,20 +78,32 @@ const fn r(min: i32, max: i32) -> Range {
 }
 
 const HEAD: [ParamDesc; 29] = [
-    ParamDesc::plain(0, "Target position", "TargetPosition", POS, Access::RW, 0, PD).with_role(Role::TargetPosition),
-    ParamDesc::plain(1, "Actual position", "ActualPosition", POS, Access::RW, 0, PD).with_role(Role::ActualPosition),
-    ParamDesc::plain(2, "Target velocity", "TargetVelocity", POS, Access::RW, 0, PD).with_role(Role::TargetSpeed),
-    ParamDesc::plain(3, "Actual velocity", "ActualVelocity", POS, Access::RW, 0, PD).with_role(Role::ActualSpeed),
+    ParamDesc::plain(0, "Target position", "TargetPosition", POS, Access::RW, 0, PD)
+        .with_role(Role::TargetPosition)
+        .with_unit(Unit::Microsteps),
+    ParamDesc::plain(1, "Actual position", "ActualPosition", POS, Access::RW, 0, PD)
+        .with_role(Role::ActualPosition)
+        .with_unit(Unit::Microsteps),
+    ParamDesc::plain(2, "Target velocity", "TargetVelocity", POS, Access::RW, 0, PD)
+        .with_role(Role::TargetSpeed)
+        .with_unit(Unit::Pps),
+    ParamDesc::plain(3, "Actual velocity", "ActualVelocity", POS, Access::RW, 0, PD)
+        .with_role(Role::ActualSpeed)
+        .with_unit(Unit::Pps),
     // Our defaults: 1 rps at 256 microsteps, as the PD28-1021.
     ParamDesc::plain(4, "Maximum positioning speed", "MaxVelocity", r(1, i32::MAX), Access::RWE, 51200, P28)
-        .with_setting(Setting::MaxPositioningSpeed),
+        .with_setting(Setting::MaxPositioningSpeed)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(5, "Maximum acceleration", "MaxAcceleration", r(1, i32::MAX), Access::RWE, 51200, P28)
-        .with_setting(Setting::MaxAcceleration),
+        .with_setting(Setting::MaxAcceleration)
+        .with_unit(Unit::PpsPerSecond),
     // Our default: half of the 3 A RMS (manual §1).
     ParamDesc::plain(6, "Maximum current", "MaxCurrent", CURRENT, Access::RWE, 128, P28)
-        .with_setting(Setting::RunCurrent),
+        .with_setting(Setting::RunCurrent)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(7, "Standby current", "StandbyCurrent", CURRENT, Access::RWE, 32, P28)
-        .with_setting(Setting::StandbyCurrent),
+        .with_setting(Setting::StandbyCurrent)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(8, "Position reached flag", "PositionReachedFlag", Range::FLAG, Access::R, 1, P28)
         .with_role(Role::PositionReached),
     ParamDesc::plain(9, "Home switch state", "HomeSwitch", Range::FLAG, Access::R, 0, P28).with_role(Role::HomeSwitch),
@@ -105,15 +117,18 @@ const HEAD: [ParamDesc; 29] = [
         .with_setting(Setting::LeftSwitchDisable),
     // "Delta / torque" in §3.4; the torque-mode target current in mA (TMCM-1311 AP 19's range ±3000 mA).
     ParamDesc::plain(14, "Torque mode target current", "TargetTorque", r(-3000, 3000), Access::RW, 0, PD)
-        .with_role(Role::TargetCurrent),
+        .with_role(Role::TargetCurrent)
+        .with_unit(Unit::Milliamps),
     ParamDesc::plain(16, "Velocity reached flag", "VelocityReachedFlag", Range::FLAG, Access::R, 0, PY)
         .with_role(Role::VelocityReached),
     // Our default window: 1 % of the default maximum speed.
     ParamDesc::plain(17, "Velocity reached window", "VelocityReachedWindow", SPEED, Access::RW, 512, PY)
-        .with_setting(Setting::VelocityWindow),
+        .with_setting(Setting::VelocityWindow)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(18, "Status word", "StatusWord", r(0, 0x3FFF), Access::R, 0, PD).with_role(Role::StatusWord),
     ParamDesc::plain(19, "Torque mode actual current", "ActualTorque", r(-3000, 3000), Access::R, 0, M11)
-        .with_role(Role::ActualTorqueCurrent),
+        .with_role(Role::ActualTorqueCurrent)
+        .with_unit(Unit::Milliamps),
     ParamDesc::plain(20, "Torque mode current slope", "TorqueSlope", SPEED, Access::RW, 0, M11)
         .with_setting(Setting::TorqueSlope),
     // Our defaults: a 3 s winding time constant; the limit 0 = off.
@@ -135,8 +150,10 @@ const HEAD: [ParamDesc; 29] = [
     ParamDesc::plain(28, "I2t exceed counter", "I2tExceedCounter", SPEED, Access::RW, 0, M11)
         .with_role(Role::I2tExceedCount),
     ParamDesc::plain(29, "Clear I2t exceeded flag", "ClearI2tFlag", POS, Access::W, 0, M11).with_role(Role::ClearI2t),
-    ParamDesc::plain(108, "Field weakening minimum velocity", "GammaVMin", r(0, 327_679_999), Access::RW, 300_000, M11),
-    ParamDesc::plain(109, "Field weakening maximum velocity", "GammaVMax", r(0, 327_679_999), Access::RW, 600_000, M11),
+    ParamDesc::plain(108, "Field weakening minimum velocity", "GammaVMin", r(0, 327_679_999), Access::RW, 300_000, M11)
+        .with_unit(Unit::Pps),
+    ParamDesc::plain(109, "Field weakening maximum velocity", "GammaVMax", r(0, 327_679_999), Access::RW, 600_000, M11)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(110, "Maximum gamma", "MaxGamma", CURRENT, Access::RW, 255, IDE),
     // Beta: how far the field may lead the rotor, 255 ≈ 90° electrical (one full step).
     ParamDesc::plain(111, "Beta (commutation limit)", "Beta", CURRENT, Access::RW, 255, IDE)
@@ -148,9 +165,11 @@ const CLOSED_LOOP: [ParamDesc; 26] = [
     ParamDesc::plain(112, "Encoder offset", "EncoderOffset", POS, Access::RWE.protected(), 0, M11)
         .with_setting(Setting::EncoderOffset),
     ParamDesc::plain(113, "Current scale minimum", "CurrentScaleMin", CURRENT, Access::RW, 100, PY)
-        .with_setting(Setting::CurrentScaleMin),
+        .with_setting(Setting::CurrentScaleMin)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(114, "Current scale maximum", "CurrentScaleMax", CURRENT, Access::RW, 240, PY)
-        .with_setting(Setting::CurrentScaleMax),
+        .with_setting(Setting::CurrentScaleMax)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(115, "Current scale input", "CurrentScaleInput", Range::FLAG, Access::RW, 0, PY)
         .with_setting(Setting::CurrentScaleInput),
     ParamDesc::plain(116, "Current scale lower error limit", "CurrentScaleLowerLimit", SPEED, Access::RW, 32, PY)
@@ -176,28 +195,34 @@ const CLOSED_LOOP: [ParamDesc; 26] = [
     ParamDesc::plain(122, "Current scale enable", "CurrentScaleEnable", Range::FLAG, Access::RW, 1, PY)
         .with_setting(Setting::CurrentScaleEnable),
     ParamDesc::plain(123, "Actual current scale", "CurrentScale", CURRENT, Access::R, 0, PD)
-        .with_role(Role::CurrentScale),
+        .with_role(Role::CurrentScale)
+        .with_unit(Unit::CurrentOf255),
     ParamDesc::plain(124, "Correction velocity P", "CorrectionVelocityP", r(0, 10_000), Access::RW, 20, PY)
         .with_setting(Setting::CorrectionGain),
     ParamDesc::plain(125, "Maximum following error", "MaxFollowingError", SPEED, Access::RW, 0, PY)
-        .with_setting(Setting::MaxFollowingError),
+        .with_setting(Setting::MaxFollowingError)
+        .with_unit(Unit::Microsteps),
     ParamDesc::plain(126, "Maximum correction velocity", "MaxCorrectionVelocity", SPEED, Access::RW, 51200, PY)
-        .with_setting(Setting::MaxCorrectionVelocity),
+        .with_setting(Setting::MaxCorrectionVelocity)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(127, "Relative positioning option", "RelativePositioningOption", r(0, 2), Access::RW, 0, PY)
         .with_setting(Setting::RelativePositioning),
     ParamDesc::plain(128, "Ramp mode", "RampMode", Range::FLAG, Access::RW, 0, PY).with_role(Role::RampMode),
     ParamDesc::plain(129, "Closed loop mode", "ClosedLoopMode", Range::FLAG, Access::RW, 0, PY)
         .with_setting(Setting::ClosedLoop),
     ParamDesc::plain(130, "Minimum speed", "MinimumSpeed", SPEED, Access::RWE, 0, P28)
-        .with_setting(Setting::MinimumSpeed),
+        .with_setting(Setting::MinimumSpeed)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(131, "Measured velocity", "MeasuredVelocity", POS, Access::R, 0, PD)
-        .with_role(Role::MeasuredVelocity),
+        .with_role(Role::MeasuredVelocity)
+        .with_unit(Unit::Pps),
     ParamDesc::plain(132, "Encoder initialisation", "EncoderInitialization", Range::FLAG, Access::RW, 0, PY)
         .with_role(Role::EncoderInit),
     ParamDesc::plain(133, "Closed loop init flag", "ClosedLoopInitFlag", Range::FLAG, Access::R, 0, PY)
         .with_role(Role::ClosedLoopActive),
     ParamDesc::plain(134, "Position reached window", "PositionWindow", SPEED, Access::RW, 100, PY)
-        .with_setting(Setting::PositionWindow),
+        .with_setting(Setting::PositionWindow)
+        .with_unit(Unit::Microsteps),
     ParamDesc::plain(136, "Standstill correction gain", "StandstillGain", r(0, 1024), Access::RW, 64, PY)
         .with_setting(Setting::HoldGain),
     ParamDesc::plain(137, "Standstill correction damping", "StandstillDamping", r(0, 1024), Access::RW, 0, PY),
@@ -218,15 +243,18 @@ const REFERENCE: [ParamDesc; 4] = cited(&pd28_1021::AXIS_PARAMS, 193, 196, P28);
 
 const TAIL: [ParamDesc; 15] = [
     ParamDesc::plain(200, "Boost current", "BoostCurrent", CURRENT, Access::RW, 0, P28)
-        .with_setting(Setting::BoostCurrent),
+        .with_setting(Setting::BoostCurrent)
+        .with_unit(Unit::CurrentOf255),
     // P.82: bit 2 clear on next N, bit 3 clear on every N, bit 4 N active high. Bit 0 (our decision, the
     // manual's "A/B/N or SSI, chosen in software"): 1 = the SSI interface.
     ParamDesc::plain(201, "Encoder mode", "EncoderMode", r(0, 31), Access::RWE, 0, M11)
         .with_setting(Setting::EncoderMode),
     ParamDesc::plain(202, "Motor full step resolution", "MotorFullStepResolution", r(1, 400), Access::RWE, 200, M11)
-        .with_setting(Setting::MotorFullSteps),
+        .with_setting(Setting::MotorFullSteps)
+        .with_unit(Unit::FullSteps),
     ParamDesc::plain(204, "Freewheeling delay", "FreewheelingDelay", r(0, 65535), Access::RWE, 0, P28)
-        .with_setting(Setting::FreewheelingDelay),
+        .with_setting(Setting::FreewheelingDelay)
+        .with_unit(Unit::TenMilliseconds),
     ParamDesc::plain(206, "Actual load value", "ActualLoadValue", r(0, 1023), Access::R, 0, P28)
         .with_role(Role::LoadValue),
     ParamDesc::plain(207, "Extended error flags", "ExtendedErrorFlags", r(0, 3), Access::R, 0, P28)
@@ -236,16 +264,23 @@ const TAIL: [ParamDesc; 15] = [
     ParamDesc::plain(209, "Encoder position", "EncoderPosition", POS, Access::RW, 0, PD)
         .with_role(Role::EncoderPosition),
     ParamDesc::plain(210, "Encoder resolution", "EncoderResolution", r(1, 65535), Access::RWE, 4096, M11)
-        .with_setting(Setting::EncoderResolution),
+        .with_setting(Setting::EncoderResolution)
+        .with_unit(Unit::EncoderCounts),
     ParamDesc::plain(212, "Maximum encoder deviation", "MaxEncoderDeviation", SPEED, Access::RW, 0, P28)
-        .with_setting(Setting::MaxEncoderDeviation),
+        .with_setting(Setting::MaxEncoderDeviation)
+        .with_unit(Unit::EncoderCounts),
     ParamDesc::plain(214, "Power down delay", "PowerDownDelay", r(1, 65535), Access::RWE, 200, P28)
-        .with_setting(Setting::PowerDownDelay),
+        .with_setting(Setting::PowerDownDelay)
+        .with_unit(Unit::TenMilliseconds),
     ParamDesc::plain(230, "Gamma", "Gamma", r(-256, 256), Access::R, 0, PD).with_role(Role::Gamma),
     ParamDesc::plain(233, "Virtual actual position", "VirtualActualPosition", POS, Access::R, 0, PD)
-        .with_role(Role::VirtualPosition),
-    ParamDesc::plain(236, "Actual target current scale", "TargetCurrentScale", CURRENT, Access::R, 0, PY),
-    ParamDesc::plain(237, "Position error", "PositionError", POS, Access::R, 0, PY).with_role(Role::PositionError),
+        .with_role(Role::VirtualPosition)
+        .with_unit(Unit::Microsteps),
+    ParamDesc::plain(236, "Actual target current scale", "TargetCurrentScale", CURRENT, Access::R, 0, PY)
+        .with_unit(Unit::CurrentOf255),
+    ParamDesc::plain(237, "Position error", "PositionError", POS, Access::R, 0, PY)
+        .with_role(Role::PositionError)
+        .with_unit(Unit::Microsteps),
 ];
 
 /// Axis parameters of motor 0: 97 entries.
@@ -286,7 +321,8 @@ pub static GLOBAL_PARAMS: [ParamDesc; 15] = [
     ParamDesc::plain(130, "TMCL program counter", "ProgramCounter", POS, Access::R, 0, G28)
         .with_role(Role::ProgramCounter),
     ParamDesc::plain(132, "TMCL tick timer", "TickTimer", r(0, i32::MAX), Access::RW, 0, G28)
-        .with_role(Role::TickTimer),
+        .with_role(Role::TickTimer)
+        .with_unit(Unit::Milliseconds),
     ParamDesc::plain(133, "Random number", "RandomNumber", r(0, i32::MAX), Access::RW, 0, G28)
         .with_role(Role::RandomNumber),
     ParamDesc::plain(200, "Password", "Password", POS, Access::RW, 0, OURS).with_role(Role::Password),

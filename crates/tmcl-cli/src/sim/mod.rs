@@ -10,7 +10,7 @@
 pub(crate) mod plot;
 pub(crate) mod trace;
 
-use crate::host::CliError;
+use crate::error::CliError;
 use clap::Args;
 use std::collections::BTreeSet;
 use std::fmt;

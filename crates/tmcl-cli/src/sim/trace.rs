@@ -1,32 +1,43 @@
 //! The trace of a simulated run: one row per sample and per program event, written as CSV.
 //!
-//! Columns, in order (also in `tmcl run --help`):
+//! The columns, in order, with their units are listed once, in `tmcl run --help`
+//! ([`crate::run::TRACE_HELP`]); a test checks that the header written here is the list given there.
+//! [`FIXED_COLUMNS`] come first, then a `varN` column per user variable, then [`DRIVE_COLUMNS`] and
+//! [`CLOSED_LOOP_COLUMNS`] with `--drive`, and `event` last.
 //!
-//! | column | meaning |
-//! |---|---|
-//! | `time_s` | simulated time in seconds, with 6 decimals (µs) |
-//! | `target_position` | AP 0, microsteps |
-//! | `actual_position` | AP 1, microsteps (the encoder's position while a closed loop is closed) |
-//! | `velocity` | AP 3, the actual speed in pps (signed) |
-//! | `accumulator`, `x` | the program's accumulator and X register |
-//! | `pc` | the program counter (GP 130): the next instruction |
-//! | `outputs` | the digital outputs as a number, bit n = OUTn |
-//! | `varN` | user variable N (bank 2), one column per variable the program names or `--set` writes |
-//! | `load`, `current_scale`, `encoder`, `energy_mas2` | with `--drive`: AP 206, AP 180, AP 209, and the motor's energy in mA²·s |
-//! | `virtual_position`, `position_error`, `scaler`, `status_word` | with `--drive` on a closed-loop model (TMCM-1310): AP 233, AP 237, AP 123, AP 18 |
-//! | `event` | what happened at this time: `interrupt N`, `stop`, `end`, `out0=1`, `target=N`, … (`;`-separated) |
+//! Every value is an integer, except two with six decimals that are formatted from integers: the time
+//! (from integer microseconds) and the coil energy (from integer µA²·s). The same run gives byte-identical
+//! files everywhere.
 //!
-//! Every value is an integer and the time is formatted from integer microseconds, so the same run gives
-//! byte-identical files.
+//! For a plot the trace also keeps the samples, the events, and every change of the digital inputs and
+//! outputs at the time it happened ([`Trace::watch_io`]), not only at the samples.
 
 use std::fmt::Write as _;
 use std::io::{self, Write};
+use tmcl_core::hal::Inputs as _;
 use tmcl_core::{Instant, Module};
 use tmcl_sim::SimBoard;
 
 /// The columns before the user variables.
 pub(crate) const FIXED_COLUMNS: [&str; 8] =
     ["time_s", "target_position", "actual_position", "velocity", "accumulator", "x", "pc", "outputs"];
+/// The columns `--drive` adds after the user variables.
+pub(crate) const DRIVE_COLUMNS: [&str; 4] = ["load", "current_scale", "encoder", "energy_a2s"];
+/// The columns `--drive` adds after [`DRIVE_COLUMNS`] on a closed-loop model.
+pub(crate) const CLOSED_LOOP_COLUMNS: [&str; 4] = ["virtual_position", "position_error", "scaler", "status_word"];
+
+/// With `--drive`: what the driver reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Drive {
+    /// AP 206, the stallGuard2 load value 0..=1023.
+    pub load: i32,
+    /// AP 180, the coolStep current scale 0..=31 ((n + 1)/32 of the set current).
+    pub current_scale: i32,
+    /// AP 209, the encoder position in microsteps.
+    pub encoder: i32,
+    /// ∫ I_peak² dt of the coils since power-up, in µA²·s (millionths of an A²·s).
+    pub energy: u64,
+}
 
 /// One sample kept for the plot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -39,8 +50,8 @@ pub(crate) struct Sample {
     pub actual: i32,
     /// AP 3.
     pub velocity: i32,
-    /// With `--drive`: AP 206, AP 180, AP 209.
-    pub drive: Option<(i32, i32, i32)>,
+    /// With `--drive`: AP 206, AP 180, AP 209 and the coil energy.
+    pub drive: Option<Drive>,
     /// With `--drive` on a closed-loop model: AP 233, AP 237, AP 123, AP 18.
     pub closed_loop: Option<[i32; 4]>,
 }
@@ -52,6 +63,17 @@ pub(crate) struct Event {
     pub micros: u64,
     /// `interrupt 0`, `stop`, `out0=1`, ...
     pub text: String,
+}
+
+/// The digital inputs and outputs from a time on (kept for the plot at every change).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Levels {
+    /// Simulated time in µs.
+    pub micros: u64,
+    /// Bit n = INn.
+    pub inputs: u8,
+    /// Bit n = OUTn.
+    pub outputs: u8,
 }
 
 /// Records rows: writes them as CSV (if asked to) and keeps samples and events for a plot (if asked to).
@@ -66,6 +88,8 @@ pub(crate) struct Trace<W: Write> {
     pub samples: Vec<Sample>,
     /// Events, when kept.
     pub events: Vec<Event>,
+    /// The inputs and outputs at the start and after each change, when kept.
+    pub levels: Vec<Levels>,
     /// Rows written.
     pub rows: u64,
 }
@@ -84,6 +108,7 @@ impl<W: Write> Trace<W> {
             line: String::new(),
             samples: Vec::new(),
             events: Vec::new(),
+            levels: Vec::new(),
             rows: 0,
         };
         if let Some(out) = &mut trace.csv {
@@ -91,11 +116,11 @@ impl<W: Write> Trace<W> {
             for n in &trace.variables {
                 let _ = write!(header, ",var{n}");
             }
-            if trace.drive {
-                header.push_str(",load,current_scale,encoder,energy_mas2");
-            }
-            if trace.closed_loop {
-                header.push_str(",virtual_position,position_error,scaler,status_word");
+            let drive: &[&str] = if trace.drive { &DRIVE_COLUMNS } else { &[] };
+            let closed_loop: &[&str] = if trace.closed_loop { &CLOSED_LOOP_COLUMNS } else { &[] };
+            for column in drive.iter().chain(closed_loop) {
+                header.push(',');
+                header.push_str(column);
             }
             header.push_str(",event\n");
             out.write_all(header.as_bytes())?;
@@ -109,7 +134,10 @@ impl<W: Write> Trace<W> {
         let micros = now.micros();
         let drive = self.drive.then(|| {
             let mut ap = |n| module.get_axis(n).unwrap_or(0);
-            (ap(206), ap(180), ap(209))
+            let (load, current_scale, encoder) = (ap(206), ap(180), ap(209));
+            // Rounded to an integer number of µA²·s, so traces stay byte-identical everywhere.
+            let energy = (module.board().energy() * 1e6).round() as u64;
+            Drive { load, current_scale, encoder, energy }
         });
         let closed_loop = self.closed_loop.then(|| [233, 237, 123, 18].map(|n| module.get_axis(n).unwrap_or(0)));
         // AP 1: the step counter, or the encoder while a closed loop is closed.
@@ -149,10 +177,8 @@ impl<W: Write> Trace<W> {
             let v = module.get_global(n, super::USER_BANK, now).unwrap_or(0);
             let _ = write!(line, ",{v}");
         }
-        if let Some((load, scale, encoder)) = drive {
-            // Energy in mA²·s, rounded to an integer so traces stay byte-identical everywhere.
-            let energy = (module.board().energy() * 1e6).round() as i64;
-            let _ = write!(line, ",{load},{scale},{encoder},{energy}");
+        if let Some(Drive { load, current_scale, encoder, energy }) = drive {
+            let _ = write!(line, ",{load},{current_scale},{encoder},{}", seconds(energy));
         }
         if let Some([virtual_position, error, scaler, status]) = closed_loop {
             let _ = write!(line, ",{virtual_position},{error},{scaler},{status}");
@@ -164,6 +190,20 @@ impl<W: Write> Trace<W> {
         out.write_all(line.as_bytes())
     }
 
+    /// Notes the digital inputs and outputs at `now` if they changed since the last call (or if this is
+    /// the first), for the plot's logic-analyser lanes. Called after every poll, so a change is kept at
+    /// the time it happened, between samples too. Nothing is written to the CSV file.
+    pub fn watch_io(&mut self, module: &mut Module<SimBoard>, now: Instant) {
+        if !self.keep {
+            return;
+        }
+        let outputs = module.board().outputs();
+        let inputs = module.board_mut().digital_inputs();
+        if self.levels.last().is_none_or(|l| (l.inputs, l.outputs) != (inputs, outputs)) {
+            self.levels.push(Levels { micros: now.micros(), inputs, outputs });
+        }
+    }
+
     /// Flushes the CSV output.
     pub fn finish(&mut self) -> io::Result<()> {
         match &mut self.csv {
@@ -173,7 +213,8 @@ impl<W: Write> Trace<W> {
     }
 }
 
-/// Integer microseconds as seconds with six decimals (no floating point: the same everywhere).
+/// Integer millionths as a decimal number with six decimals (no floating point: the same everywhere):
+/// microseconds as seconds, µA²·s as A²·s.
 pub(crate) fn seconds(micros: u64) -> String {
     format!("{}.{:06}", micros / 1_000_000, micros % 1_000_000)
 }

@@ -1,0 +1,531 @@
+//! Parameters by name in the host commands, and `tmcl params`.
+//!
+//! The names are the firmware tables' identifiers, the ones the assembler's include file `TMCLParam.tmc`
+//! defines (`MaxPositioningSpeed`, with or without its `AP`/`GP`/`IP` prefix), or the manual's names
+//! ("Maximum positioning speed"), in any case and with or without spaces. Which table: `--module MODEL`,
+//! or else the module is asked for its version string (command 136) and the model is found by it.
+
+use crate::error::{reply_json, CliError};
+use crate::host::{Connection, HostClient};
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use std::io::Write;
+use tmcl_core::model::{self, Access, ModelSpec, ParamDesc, Range, Table, Unit};
+use tmcl_host::HostError;
+use tmcl_wire::{Instruction, Opcode, Reply, Status};
+
+/// The bank of the interrupt configuration (PD28-1021 manual §5.4).
+const INTERRUPT_BANK: u8 = 3;
+
+/// `--module MODEL`: which parameter tables the names come from.
+#[derive(Debug, Clone, Args)]
+pub struct ModelOption {
+    /// The module's model, for parameter names, ranges and units (pd28-1021, tmcm-1310, ...). Default: ask
+    /// the module for its version string (command 136) when a name needs it.
+    #[arg(long = "module", value_name = "MODEL", global = true)]
+    pub module: Option<String>,
+}
+
+/// A parameter as the user wrote it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum ParamRef<'a> {
+    /// `ap P --motor M`.
+    Axis { param: &'a str, motor: u8 },
+    /// `gp P [BANK]`.
+    Global { param: &'a str, bank: Option<u8> },
+}
+
+/// The model, from `--module` or, once needed, from the module itself.
+pub(crate) struct Models {
+    known: Option<&'static ModelSpec>,
+    asked: bool,
+}
+
+/// A model by id, or a usage error listing the known ones.
+pub(crate) fn model_by_id(id: &str) -> Result<&'static ModelSpec, CliError> {
+    model::by_id(id).ok_or_else(|| {
+        let known: Vec<&str> = model::MODELS.iter().map(|m| m.id).collect();
+        CliError::Usage(format!("unknown module `{id}`; known: {}", known.join(", ")))
+    })
+}
+
+/// The model whose version string starts like `text` (the module number and the `V`, e.g. `1021V`).
+pub(crate) fn model_by_version(text: &str) -> Option<&'static ModelSpec> {
+    let prefix = text.get(..5)?;
+    model::MODELS.iter().copied().find(|m| m.version_string.get(..5) == Some(prefix.as_bytes()))
+}
+
+impl Models {
+    /// From `--module` (checked now), or to be asked.
+    pub(crate) fn new(option: &ModelOption) -> Result<Models, CliError> {
+        Ok(Models { known: option.module.as_deref().map(model_by_id).transpose()?, asked: false })
+    }
+
+    /// The model if it is known without asking.
+    pub(crate) fn known(&self) -> Option<&'static ModelSpec> {
+        self.known
+    }
+
+    /// The model, asking the module for its version string the first time.
+    pub(crate) fn get(&mut self, client: &mut HostClient) -> Result<&'static ModelSpec, CliError> {
+        if let Some(model) = self.known {
+            return Ok(model);
+        }
+        let text = client.version_string()?;
+        self.asked = true;
+        let model = model_by_version(&text).ok_or_else(|| {
+            CliError::Usage(format!(
+                "the module's version string is {text:?}, a model OpenTMCL has no parameter table of: give parameters \
+                 by number (or --module MODEL)"
+            ))
+        })?;
+        self.known = Some(model);
+        Ok(model)
+    }
+
+    /// The parameter `p` names: by number (no request), or by name (asks for the model if needed).
+    pub(crate) fn resolve(&mut self, p: ParamRef<'_>, client: &mut HostClient) -> Result<Target, CliError> {
+        let (text, axis, index) = match p {
+            ParamRef::Axis { param, motor } => (param, true, Some(motor)),
+            ParamRef::Global { param, bank } => (param, false, bank),
+        };
+        if let Some(number) = parse_number(text) {
+            let index = index.unwrap_or(0);
+            let desc = self.known.and_then(|m| table_of(m, axis, index)).and_then(|t| find(t, number));
+            return Ok(Target { axis, number, index, desc, model: self.known });
+        }
+        let model = self.get(client)?;
+        lookup(model, text, axis, index)
+    }
+}
+
+/// The table of axis parameters, or of global parameters in `bank` (0 or 3), if the model has one there.
+fn table_of(model: &'static ModelSpec, axis: bool, bank: u8) -> Option<&'static Table> {
+    match (axis, bank) {
+        (true, _) => Some(&model.axis),
+        (false, 0) => Some(&model.global),
+        (false, INTERRUPT_BANK) => Some(&model.interrupt),
+        (false, _) => None,
+    }
+}
+
+fn find(table: &'static Table, number: u8) -> Option<&'static ParamDesc> {
+    table.params.iter().find(|d| d.number == number)
+}
+
+/// `target` with the descriptor `model` has for its number.
+pub(crate) fn lookup_number(model: &'static ModelSpec, target: Target) -> Target {
+    let desc = table_of(model, target.axis, target.index).and_then(|t| find(t, target.number));
+    Target { desc, model: Some(model), ..target }
+}
+
+/// Letters and digits only, lower case: how names are compared.
+fn normalize(text: &str) -> String {
+    text.chars().filter(char::is_ascii_alphanumeric).map(|c| c.to_ascii_lowercase()).collect()
+}
+
+/// Finds a parameter of `model` by name.
+pub(crate) fn lookup(model: &'static ModelSpec, text: &str, axis: bool, index: Option<u8>) -> Result<Target, CliError> {
+    let wanted = normalize(text);
+    // (table, bank or motor, include-file prefix)
+    let tables: Vec<(&'static Table, u8, &str)> = if axis {
+        vec![(&model.axis, index.unwrap_or(0), "ap")]
+    } else {
+        vec![(&model.global, 0, "gp"), (&model.interrupt, INTERRUPT_BANK, "ip")]
+    };
+    for (table, table_index, prefix) in &tables {
+        for desc in table.params {
+            let ident = normalize(desc.ident);
+            let matches = wanted == ident
+                || wanted.strip_prefix(prefix).is_some_and(|w| w == ident)
+                || wanted == normalize(desc.name);
+            if !matches {
+                continue;
+            }
+            if let (false, Some(bank)) = (axis, index) {
+                if bank != *table_index {
+                    return Err(CliError::Usage(format!(
+                        "{} is a parameter of bank {table_index}, not of bank {bank}",
+                        desc.ident
+                    )));
+                }
+            }
+            return Ok(Target { axis, number: desc.number, index: *table_index, desc: Some(desc), model: Some(model) });
+        }
+    }
+    let kind = if axis { "axis" } else { "global" };
+    let candidates: Vec<&str> = tables.iter().flat_map(|(t, _, _)| t.params.iter().map(|d| d.ident)).collect();
+    let hint = match suggestions(text, &candidates).as_slice() {
+        [] => String::new(),
+        [one] => format!("; did you mean {one}?"),
+        several => format!("; did you mean one of {}?", several.join(", ")),
+    };
+    Err(CliError::Usage(format!(
+        "the {} has no {kind} parameter named {text:?}{hint} (`tmcl params --module {}` lists them)",
+        model.name, model.id
+    )))
+}
+
+/// The names a user probably meant by `text`: the closest by spelling, else those that contain its letters
+/// in order (`maxspeed` → `MaxPositioningSpeed`), shortest first, at most three.
+fn suggestions<'c>(text: &str, candidates: &[&'c str]) -> Vec<&'c str> {
+    if let Some(name) = tmcl_asm::suggest::closest(text, candidates.iter().copied()) {
+        return vec![name];
+    }
+    let wanted = normalize(text);
+    if wanted.len() < 3 {
+        return Vec::new();
+    }
+    let mut found: Vec<&str> = candidates
+        .iter()
+        .copied()
+        .filter(|c| {
+            let mut letters = normalize(c).into_bytes().into_iter();
+            wanted.bytes().all(|w| letters.any(|l| l == w))
+        })
+        .collect();
+    found.sort_by_key(|c| c.len());
+    found.truncate(3);
+    found
+}
+
+/// A resolved parameter: what to send, and what the tables say about it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Target {
+    /// An axis parameter (else global).
+    pub axis: bool,
+    /// Its number (the type byte).
+    pub number: u8,
+    /// The motor (axis) or bank (global).
+    pub index: u8,
+    /// The descriptor, if the model is known and has the parameter.
+    pub desc: Option<&'static ParamDesc>,
+    /// The model, if known.
+    pub model: Option<&'static ModelSpec>,
+}
+
+impl Target {
+    /// The instruction `opcode` on this parameter with `value`.
+    pub(crate) fn instruction(&self, opcode: Opcode, value: i32) -> Instruction {
+        Instruction::new(opcode, self.number, self.index, value)
+    }
+
+    /// GAP or GGP.
+    pub(crate) fn read_opcode(&self) -> Opcode {
+        if self.axis {
+            Opcode::Gap
+        } else {
+            Opcode::Ggp
+        }
+    }
+
+    /// SAP or SGP.
+    pub(crate) fn write_opcode(&self) -> Opcode {
+        if self.axis {
+            Opcode::Sap
+        } else {
+            Opcode::Sgp
+        }
+    }
+
+    /// `axis` for axis parameters, else `global`.
+    pub(crate) fn store_opcode(&self, axis: Opcode, global: Opcode) -> Opcode {
+        if self.axis {
+            axis
+        } else {
+            global
+        }
+    }
+
+    /// `ap 4`, `ap 4 (motor 1)`, `gp 0 (bank 3)`, followed by the name when it is known.
+    pub(crate) fn label(&self) -> String {
+        let mut label = match (self.axis, self.index) {
+            (true, 0) => format!("ap {}", self.number),
+            (true, m) => format!("ap {} (motor {m})", self.number),
+            (false, 0) => format!("gp {}", self.number),
+            (false, b) => format!("gp {} (bank {b})", self.number),
+        };
+        if let Some(desc) = self.desc {
+            label.push(' ');
+            label.push_str(desc.ident);
+        }
+        label
+    }
+
+    /// `value` followed by the unit, when it is known.
+    pub(crate) fn with_unit(&self, value: i32) -> String {
+        match self.desc.map(|d| d.unit) {
+            Some(unit) if unit != Unit::None => format!("{value} {}", unit.symbol()),
+            _ => value.to_string(),
+        }
+    }
+
+    /// The reply as JSON, with the parameter's name and unit when they are known.
+    pub(crate) fn json(&self, reply: &Reply) -> serde_json::Value {
+        let mut value = reply_json(reply);
+        value["type"] = json!(self.number);
+        value[if self.axis { "motor" } else { "bank" }] = json!(self.index);
+        if let Some(desc) = self.desc {
+            value["name"] = json!(desc.ident);
+            value["unit"] = json!(desc.unit.symbol());
+        }
+        value
+    }
+
+    /// A refusal of the module, explained from the tables where they say why.
+    pub(crate) fn explain(&self, err: HostError, value: Option<i32>) -> CliError {
+        let HostError::Status { status, .. } = &err else { return err.into() };
+        let kind = if self.axis { "axis" } else { "global" };
+        let explanation = match (self.model, self.desc, status) {
+            (Some(model), None, Status::WrongType) => {
+                let place = if self.axis { String::new() } else { format!(" in bank {}", self.index) };
+                format!(
+                    "the {} has no {kind} parameter {}{place} (`tmcl params --module {}` lists them)",
+                    model.name, self.number, model.id
+                )
+            }
+            (_, Some(desc), Status::WrongType) if value.is_some() && !desc.access.write => {
+                format!("{} is read-only ({})", desc.ident, access_letters(desc.access))
+            }
+            (_, Some(desc), Status::WrongType) if value.is_none() && !desc.access.read => {
+                format!("{} cannot be read ({})", desc.ident, access_letters(desc.access))
+            }
+            (_, Some(desc), Status::InvalidValue) if value.is_some_and(|v| !desc.range.contains(v)) => {
+                format!("{} takes {}", desc.ident, range_text(&desc.range))
+            }
+            (_, _, Status::PasswordProtected) => {
+                "the parameter is password protected: write the password to the model's password parameter first".into()
+            }
+            _ => return err.into(),
+        };
+        CliError::Explained { source: err, explanation }
+    }
+}
+
+/// The access letters of the manuals' tables: R, W, E, A (and P for password protected).
+pub(crate) fn access_letters(access: Access) -> String {
+    let mut s = String::new();
+    for (on, letter) in
+        [(access.read, 'R'), (access.write, 'W'), (access.store, 'E'), (access.auto, 'A'), (access.protected, 'P')]
+    {
+        if on {
+            s.push(letter);
+        }
+    }
+    s
+}
+
+/// A range as text: `1..2147483647`, `1..8, 65..68`.
+pub(crate) fn range_text(range: &Range) -> String {
+    match range {
+        Range::Signed(min, max) if min == max => min.to_string(),
+        Range::Signed(min, max) => format!("{min}..{max}"),
+        Range::Unsigned32 => "0..4294967295".into(),
+        Range::OneOf(set) => set
+            .iter()
+            .map(|r| if r.start() == r.end() { r.start().to_string() } else { format!("{}..{}", r.start(), r.end()) })
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
+}
+
+/// A parameter number: decimal or 0x hexadecimal, 0..255.
+fn parse_number(text: &str) -> Option<u8> {
+    match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
+        Some(hex) => u8::from_str_radix(hex, 16).ok(),
+        None => text.parse().ok(),
+    }
+}
+
+/// Which tables `tmcl params` lists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Which {
+    /// Axis parameters (GAP/SAP).
+    Ap,
+    /// Global parameters of bank 0 (GGP/SGP).
+    Gp,
+    /// The interrupt configuration, global parameters of bank 3.
+    Ip,
+    /// All three.
+    All,
+}
+
+/// Options of `tmcl params`.
+#[derive(Debug, Clone, Args)]
+pub struct ParamsArgs {
+    #[command(flatten)]
+    pub conn: Connection,
+    #[command(flatten)]
+    pub model: ModelOption,
+    /// Which parameters.
+    #[arg(value_enum, default_value_t = Which::All)]
+    pub which: Which,
+    /// The motor whose axis parameters are read.
+    #[arg(long, short, default_value_t = 0)]
+    pub motor: u8,
+    /// List the tables only, without reading values (needs no module with --module).
+    #[arg(long)]
+    pub no_values: bool,
+}
+
+/// `tmcl params`.
+pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    let offline = args.no_values || !args.conn.given();
+    let mut models = Models::new(&args.model)?;
+    let (model, mut client) = if offline {
+        let Some(model) = models.known() else {
+            return Err(CliError::Usage(
+                "give --module MODEL to list a model's parameters, or --port/--tcp to ask a module".into(),
+            ));
+        };
+        (model, None)
+    } else {
+        let mut client = args.conn.open()?;
+        (models.get(&mut client)?, Some(client))
+    };
+    let tables: Vec<(&str, &'static Table, bool, u8)> = [
+        (Which::Ap, "ap", &model.axis, true, args.motor),
+        (Which::Gp, "gp", &model.global, false, 0),
+        (Which::Ip, "gp", &model.interrupt, false, INTERRUPT_BANK),
+    ]
+    .into_iter()
+    .filter(|(w, ..)| args.which == Which::All || args.which == *w)
+    .map(|(_, kind, table, axis, index)| (kind, table, axis, index))
+    .collect();
+    if !json {
+        writeln!(out, "{} ({}), {}", model.name, model.id, model.manual)?;
+        writeln!(out, "{:<11} {:<28} {:<6} {:<24} {:<22} value", "parameter", "name", "access", "range", "unit")?;
+    }
+    for (kind, table, axis, index) in tables {
+        for desc in table.params {
+            let target = Target { axis, number: desc.number, index, desc: Some(desc), model: Some(model) };
+            let value = match client.as_mut() {
+                Some(client) if desc.access.read => {
+                    Some(client.request(target.instruction(target.read_opcode(), 0)).map(|r| r.value))
+                }
+                _ => None,
+            };
+            let value = match value {
+                None => None,
+                Some(Ok(v)) => Some(Ok(v)),
+                Some(Err(HostError::Status { status, .. })) => Some(Err(status)),
+                Some(Err(e)) => return Err(e.into()),
+            };
+            let place = match (axis, index) {
+                (true, 0) | (false, 0) => format!("{kind} {}", desc.number),
+                (true, m) => format!("{kind} {}:{m}", desc.number),
+                (false, b) => format!("{kind} {}:{b}", desc.number),
+            };
+            if json {
+                let mut row = json!({
+                    "type": desc.number,
+                    "name": desc.ident,
+                    "title": desc.name,
+                    "access": access_letters(desc.access),
+                    "range": range_text(&desc.range),
+                    "unit": desc.unit.symbol(),
+                    "default": desc.default,
+                    "section": desc.section,
+                });
+                row[if axis { "motor" } else { "bank" }] = json!(index);
+                match value {
+                    Some(Ok(v)) => row["value"] = json!(v),
+                    Some(Err(status)) => row["status"] = json!(u8::from(status)),
+                    None => row["value"] = serde_json::Value::Null,
+                }
+                writeln!(out, "{row}")?;
+            } else {
+                let value = match value {
+                    None if !desc.access.read && !offline => "(write only)".to_string(),
+                    None => String::new(),
+                    Some(Ok(v)) => v.to_string(),
+                    Some(Err(status)) => format!("status {status}"),
+                };
+                writeln!(
+                    out,
+                    "{place:<11} {:<28} {:<6} {:<24} {:<22} {value}",
+                    desc.ident,
+                    access_letters(desc.access),
+                    range_text(&desc.range),
+                    desc.unit.symbol()
+                )?;
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pd28() -> &'static ModelSpec {
+        model::by_id("pd28-1021").unwrap()
+    }
+
+    #[test]
+    fn names_in_any_spelling() {
+        for text in ["MaxPositioningSpeed", "maxpositioningspeed", "APMaxPositioningSpeed", "Maximum positioning speed"]
+        {
+            let t = lookup(pd28(), text, true, None).unwrap();
+            assert_eq!((t.number, t.index, t.axis), (4, 0, true), "{text}");
+        }
+        let t = lookup(pd28(), "SerialAddress", false, None).unwrap();
+        assert_eq!((t.number, t.index), (66, 0));
+        // A bank 3 name picks bank 3.
+        let t = lookup(pd28(), "Timer0Period", false, None).unwrap();
+        assert_eq!((t.number, t.index), (0, 3));
+        let t = lookup(pd28(), "ipTimer0Period", false, Some(3)).unwrap();
+        assert_eq!((t.number, t.index), (0, 3));
+        assert!(lookup(pd28(), "Timer0Period", false, Some(0)).unwrap_err().to_string().contains("bank 3"));
+        let t = lookup(pd28(), "MaxCurrent", true, Some(0)).unwrap();
+        assert_eq!(t.label(), "ap 6 MaxCurrent");
+        assert_eq!(t.with_unit(128), "128 /255 of max. current");
+    }
+
+    #[test]
+    fn unknown_names_suggest_the_closest() {
+        let err = lookup(pd28(), "maxspeed", true, None).unwrap_err();
+        assert_eq!(err.exit_code(), crate::error::EXIT_USAGE);
+        assert!(err.to_string().contains("did you mean MaxPositioningSpeed?"), "{err}");
+        let err = lookup(pd28(), "speed", true, None).unwrap_err().to_string();
+        assert!(err.contains("did you mean one of TargetSpeed, ActualSpeed, MinimumSpeed?"), "{err}");
+        let err = lookup(pd28(), "MaxPositionSpeed", true, None).unwrap_err().to_string();
+        assert!(err.contains("did you mean MaxPositioningSpeed?"), "{err}");
+        assert!(err.contains("tmcl params --module pd28-1021"), "{err}");
+    }
+
+    #[test]
+    fn models_by_version_string() {
+        assert_eq!(model_by_version("1021V142").map(|m| m.id), Some("pd28-1021"));
+        assert_eq!(model_by_version("1310V114").map(|m| m.id), Some("tmcm-1310"));
+        assert!(model_by_version("1140V1").is_none());
+        assert!(model_by_version("").is_none());
+    }
+
+    #[test]
+    fn refusals_are_explained() {
+        let t = lookup(pd28(), "MaxPositioningSpeed", true, None).unwrap();
+        let reply = Reply { host: 2, module: 1, status: Status::InvalidValue, opcode: 5, value: 0 };
+        let err = t.explain(HostError::Status { status: Status::InvalidValue, reply }, Some(0));
+        assert_eq!(err.exit_code(), crate::error::EXIT_STATUS);
+        assert!(err.to_string().ends_with("MaxPositioningSpeed takes 1..2147483647"), "{err}");
+        let t = Target { axis: true, number: 100, index: 0, desc: None, model: Some(pd28()) };
+        let reply = Reply { status: Status::WrongType, opcode: 6, ..reply };
+        let err = t.explain(HostError::Status { status: Status::WrongType, reply }, None);
+        assert!(
+            err.to_string()
+                .ends_with("the PD28-1021 has no axis parameter 100 (`tmcl params --module pd28-1021` lists them)"),
+            "{err}"
+        );
+        let t = lookup(pd28(), "ActualSpeed", true, None).unwrap();
+        assert_eq!(access_letters(t.desc.unwrap().access), "RW");
+    }
+
+    #[test]
+    fn ranges_as_text() {
+        assert_eq!(range_text(&Range::Signed(1, 8)), "1..8");
+        assert_eq!(range_text(&Range::OneOf(&[1..=8, 65..=68, 129..=129])), "1..8, 65..68, 129");
+        assert_eq!(range_text(&Range::Unsigned32), "0..4294967295");
+    }
+}

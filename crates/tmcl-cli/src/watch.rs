@@ -1,0 +1,338 @@
+//! `tmcl wait` and `tmcl watch`: poll a module until something is true, or print values as they change.
+//!
+//! Both only read (GAP, GGP, GIO, RFS STATUS), one request at a time, so they never ask faster than the
+//! line answers, and they work on real and virtual modules alike.
+
+use crate::error::CliError;
+use crate::host::{parse_seconds, parse_value, Connection, HostClient};
+use crate::names::{ModelOption, Models, ParamRef, Target};
+use clap::{Args, Subcommand, ValueEnum};
+use serde_json::json;
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tmcl_wire::{Instruction, Opcode, RfsAction};
+
+/// Options of `tmcl wait`.
+#[derive(Debug, Clone, Args)]
+pub struct WaitArgs {
+    #[command(flatten)]
+    pub conn: Connection,
+    #[command(flatten)]
+    pub model: ModelOption,
+    #[command(subcommand)]
+    pub what: WaitFor,
+    /// Give up after SECONDS (exit code 5); without it, wait until the condition is true or Ctrl-C.
+    #[arg(long, global = true, value_name = "SECONDS", value_parser = parse_seconds)]
+    pub within: Option<Duration>,
+    /// Ask every SECONDS.
+    #[arg(long, global = true, value_name = "SECONDS", default_value = "0.05", value_parser = parse_seconds)]
+    pub every: Duration,
+}
+
+/// What `tmcl wait` waits for.
+#[derive(Debug, Clone, Subcommand)]
+pub enum WaitFor {
+    /// Until the motor has reached its target position: the position reached flag AP 8 reads 1
+    /// (PD28-1021 manual §4 Table 15; on a closed-loop module, within the position window AP 134).
+    Reached {
+        /// Motor number.
+        #[arg(long, short, default_value_t = 0)]
+        motor: u8,
+    },
+    /// Until the reference search has ended: RFS STATUS answers 0 (manual §3.7.13).
+    Reference {
+        /// Motor number.
+        #[arg(long, short, default_value_t = 0)]
+        motor: u8,
+    },
+    /// Until a value meets a condition, e.g. `tmcl wait value ap ActualPosition ge 51200`.
+    #[command(allow_negative_numbers = true)]
+    Value {
+        /// What to read: ap (GAP), gp (GGP) or io (GIO).
+        kind: Kind,
+        /// Parameter number or name (ap, gp), or port number (io); `:N` picks the motor or bank, e.g.
+        /// `gp 0:2` (user variable 0) or `io 0:1` (analog input 0).
+        #[arg(value_name = "NUMBER|NAME[:N]")]
+        param: String,
+        /// The comparison: eq, ne, lt, le, gt, ge (or ==, !=, <, <=, >, >=).
+        #[arg(value_parser = parse_comparison)]
+        op: Comparison,
+        /// The value to compare with.
+        #[arg(value_parser = parse_value)]
+        value: i32,
+    },
+}
+
+/// What kind of value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Kind {
+    /// An axis parameter (GAP).
+    Ap,
+    /// A global parameter (GGP).
+    Gp,
+    /// An input or output port (GIO).
+    Io,
+}
+
+/// A comparison of `tmcl wait value`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Comparison {
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+}
+
+impl Comparison {
+    fn holds(self, a: i32, b: i32) -> bool {
+        match self {
+            Comparison::Eq => a == b,
+            Comparison::Ne => a != b,
+            Comparison::Lt => a < b,
+            Comparison::Le => a <= b,
+            Comparison::Gt => a > b,
+            Comparison::Ge => a >= b,
+        }
+    }
+
+    fn symbol(self) -> &'static str {
+        match self {
+            Comparison::Eq => "==",
+            Comparison::Ne => "!=",
+            Comparison::Lt => "<",
+            Comparison::Le => "<=",
+            Comparison::Gt => ">",
+            Comparison::Ge => ">=",
+        }
+    }
+}
+
+fn parse_comparison(text: &str) -> Result<Comparison, String> {
+    Ok(match text.to_ascii_lowercase().as_str() {
+        "eq" | "==" | "=" => Comparison::Eq,
+        "ne" | "!=" => Comparison::Ne,
+        "lt" | "<" => Comparison::Lt,
+        "le" | "<=" => Comparison::Le,
+        "gt" | ">" => Comparison::Gt,
+        "ge" | ">=" => Comparison::Ge,
+        _ => return Err(format!("`{text}` is no comparison: use eq, ne, lt, le, gt or ge")),
+    })
+}
+
+/// One value to read: a parameter or a port.
+#[derive(Debug, Clone)]
+enum Source {
+    Param(Target),
+    Port { port: u8, bank: u8 },
+    Reference { motor: u8 },
+}
+
+impl Source {
+    /// Resolves `kind param[:N]`.
+    fn resolve(kind: Kind, text: &str, models: &mut Models, client: &mut HostClient) -> Result<Source, CliError> {
+        let (name, index) = match text.rsplit_once(':') {
+            Some((name, n)) => {
+                let n = crate::host::parse_byte(n).map_err(CliError::Usage)?;
+                (name, Some(n))
+            }
+            None => (text, None),
+        };
+        Ok(match kind {
+            Kind::Ap => {
+                Source::Param(models.resolve(ParamRef::Axis { param: name, motor: index.unwrap_or(0) }, client)?)
+            }
+            Kind::Gp => Source::Param(models.resolve(ParamRef::Global { param: name, bank: index }, client)?),
+            Kind::Io => {
+                Source::Port { port: crate::host::parse_byte(name).map_err(CliError::Usage)?, bank: index.unwrap_or(0) }
+            }
+        })
+    }
+
+    /// `ap 1`, `gp 0 (bank 2)`, `io 0:1`: the label of a column or a condition.
+    fn label(&self) -> String {
+        match self {
+            Source::Param(target) => target.label(),
+            Source::Port { port, bank: 0 } => format!("io {port}"),
+            Source::Port { port, bank } => format!("io {port}:{bank}"),
+            Source::Reference { motor } => format!("reference search of motor {motor}"),
+        }
+    }
+
+    fn read(&self, client: &mut HostClient) -> Result<i32, CliError> {
+        let instruction = match self {
+            Source::Param(target) => target.instruction(target.read_opcode(), 0),
+            Source::Port { port, bank } => Instruction::new(Opcode::Gio, *port, *bank, 0),
+            Source::Reference { motor } => return Ok(client.reference_search(RfsAction::Status, *motor)?),
+        };
+        Ok(client.request(instruction)?.value)
+    }
+}
+
+/// A flag that turns true on SIGINT or SIGTERM, so that `wait` and `watch` end cleanly.
+fn interrupted() -> Result<Arc<AtomicBool>, CliError> {
+    let flag = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&flag))
+            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+    }
+    Ok(flag)
+}
+
+/// Sleeps until `deadline`, waking up early on an interrupt.
+fn pause_until(deadline: Instant, stop: &AtomicBool) {
+    while !stop.load(Ordering::Relaxed) {
+        let Some(left) = deadline.checked_duration_since(Instant::now()) else { return };
+        std::thread::sleep(left.min(Duration::from_millis(50)));
+    }
+}
+
+/// `tmcl wait`.
+pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    let mut client = args.conn.open()?;
+    let mut models = Models::new(&args.model)?;
+    let (source, op, wanted) = match &args.what {
+        WaitFor::Reached { motor } => {
+            let target = models.resolve(ParamRef::Axis { param: "8", motor: *motor }, &mut client)?;
+            (Source::Param(target), Comparison::Eq, 1)
+        }
+        WaitFor::Reference { motor } => (Source::Reference { motor: *motor }, Comparison::Eq, 0),
+        WaitFor::Value { kind, param, op, value } => {
+            (Source::resolve(*kind, param, &mut models, &mut client)?, *op, *value)
+        }
+    };
+    let condition = match &args.what {
+        WaitFor::Reached { motor } => format!("motor {motor} reached its target (ap 8 == 1)"),
+        WaitFor::Reference { motor } => format!("the reference search of motor {motor} ended (RFS STATUS == 0)"),
+        WaitFor::Value { .. } => format!("{} {} {wanted}", source.label(), op.symbol()),
+    };
+    let stop = interrupted()?;
+    let started = Instant::now();
+    loop {
+        let value = source.read(&mut client)?;
+        let elapsed = started.elapsed();
+        if op.holds(value, wanted) {
+            if json {
+                let row =
+                    json!({"condition": condition, "met": true, "value": value, "elapsed_s": elapsed.as_secs_f64()});
+                writeln!(out, "{row}")?;
+            } else {
+                writeln!(out, "{condition} after {:.3} s (value {value})", elapsed.as_secs_f64())?;
+            }
+            return Ok(());
+        }
+        let gave_up = args.within.is_some_and(|w| elapsed >= w);
+        if gave_up || stop.load(Ordering::Relaxed) {
+            let why = match args.within {
+                Some(w) if gave_up => format!("within {} s", w.as_secs_f64()),
+                _ => "before the interrupt".into(),
+            };
+            return Err(CliError::NotMet(format!("not {why}: {condition} (last value {value})")));
+        }
+        let pause = match args.within {
+            Some(w) => args.every.min(w.saturating_sub(elapsed)),
+            None => args.every,
+        };
+        pause_until(Instant::now() + pause, &stop);
+    }
+}
+
+/// Options of `tmcl watch`.
+#[derive(Debug, Clone, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct WatchArgs {
+    #[command(flatten)]
+    pub conn: Connection,
+    #[command(flatten)]
+    pub model: ModelOption,
+    /// What to read, as pairs: `ap 1 ap ActualSpeed gp 132 io 0:1` (ap = GAP, gp = GGP, io = GIO; `:N` picks
+    /// the motor or bank).
+    #[arg(value_name = "KIND NUMBER|NAME[:N]", required = true, num_args = 2..)]
+    pub items: Vec<String>,
+    /// Read every SECONDS (at most as fast as the module answers).
+    #[arg(long, value_name = "SECONDS", default_value = "0.1", value_parser = parse_seconds)]
+    pub every: Duration,
+    /// Stop after N rows.
+    #[arg(long, value_name = "N")]
+    pub count: Option<u64>,
+    /// Stop after SECONDS.
+    #[arg(long = "for", value_name = "SECONDS", value_parser = parse_seconds)]
+    pub duration: Option<Duration>,
+}
+
+/// `tmcl watch`.
+pub(crate) fn watch(args: WatchArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    if !args.items.len().is_multiple_of(2) {
+        return Err(CliError::Usage(format!(
+            "give the values as pairs of kind and parameter, e.g. `ap 1 gp 132`: `{}` has no parameter",
+            args.items.last().map(String::as_str).unwrap_or_default()
+        )));
+    }
+    let mut client = args.conn.open()?;
+    let mut models = Models::new(&args.model)?;
+    let mut sources = Vec::new();
+    for pair in args.items.chunks(2) {
+        let kind = Kind::from_str(&pair[0], true).map_err(|_| {
+            CliError::Usage(format!("`{}` is no kind of value: use ap, gp or io (then a number or name)", pair[0]))
+        })?;
+        sources.push(Source::resolve(kind, &pair[1], &mut models, &mut client)?);
+    }
+    let labels: Vec<String> = sources.iter().map(Source::label).collect();
+    let width = labels.iter().map(String::len).max().unwrap_or(0).max(11);
+    if !json {
+        write!(out, "{:>10}", "time_s")?;
+        for label in &labels {
+            write!(out, "  {label:>width$}")?;
+        }
+        writeln!(out)?;
+        out.flush()?;
+    }
+    let stop = interrupted()?;
+    let started = Instant::now();
+    let mut rows = 0u64;
+    while !stop.load(Ordering::Relaxed) {
+        let t = started.elapsed();
+        if args.duration.is_some_and(|d| t > d) || args.count.is_some_and(|n| rows >= n) {
+            break;
+        }
+        let mut values = Vec::with_capacity(sources.len());
+        for source in &sources {
+            values.push(source.read(&mut client)?);
+        }
+        if json {
+            let mut row = serde_json::Map::new();
+            row.insert("time_s".into(), json!(t.as_millis() as f64 / 1000.0));
+            for (label, value) in labels.iter().zip(&values) {
+                row.insert(label.clone(), json!(value));
+            }
+            writeln!(out, "{}", serde_json::Value::Object(row))?;
+        } else {
+            write!(out, "{:>10.3}", t.as_secs_f64())?;
+            for value in &values {
+                write!(out, "  {value:>width$}")?;
+            }
+            writeln!(out)?;
+        }
+        out.flush()?;
+        rows += 1;
+        // Row n is due n × every after the start; never before the module has answered the last one.
+        pause_until(started + args.every.saturating_mul(u32::try_from(rows).unwrap_or(u32::MAX)), &stop);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn comparisons() {
+        for (text, a, b, holds) in [("ge", 5, 5, true), (">", 5, 5, false), ("lt", -1, 0, true), ("!=", 1, 1, false)] {
+            assert_eq!(parse_comparison(text).unwrap().holds(a, b), holds, "{a} {text} {b}");
+        }
+        assert!(parse_comparison("~").is_err());
+    }
+}
