@@ -62,17 +62,13 @@ def test_raw_socket_frames_split(tcp_server):
 def test_partial_frame_does_not_leak_into_next_connection(tcp_server):
     request = frame(1, 6, 140, 0, 0)  # GAP 140
     first = socket.create_connection(("127.0.0.1", tcp_server.port), timeout=5)
-    # The second connection waits in the backlog with its whole request already sent.
-    second = socket.create_connection(("127.0.0.1", tcp_server.port), timeout=5)
-    try:
+    first.sendall(request[:5])  # abandoned half frame
+    first.close()
+    # The next client's frame is read from its first byte, not as the rest of the abandoned one.
+    with socket.create_connection(("127.0.0.1", tcp_server.port), timeout=5) as second:
         second.sendall(request)
-        first.sendall(request[:5])  # abandoned half frame
-        first.close()
         reply = RawReply(recv_exact(second, 9))
         assert reply.checksum_ok and (reply.status, reply.opcode, reply.value) == (100, 6, 8), reply
-    finally:
-        first.close()
-        second.close()
 
 
 def recv_exact(sock, n):

@@ -35,7 +35,7 @@ class Server:
 
     def __init__(self, tmcl: Path, workdir: Path, kind: str, eeprom: Path | None = None,
                  extra: list[str] | None = None, link_name: str = "tmcl-link",
-                 modules: list[str] | None = None):
+                 modules: list[str] | None = None, listen: str = "127.0.0.1:0"):
         self.tmcl = tmcl
         # `--module` arguments (e.g. ["pd28-1021@1", "pd28-1021@2"]); None: the single default module.
         self.modules = list(modules) if modules else None
@@ -44,6 +44,7 @@ class Server:
         self.eeprom = eeprom
         self.extra = list(extra or [])
         self.link = workdir / link_name if kind == "pty" else None
+        self.listen = listen  # --tcp HOST:PORT of a TCP server (the ready line must show 127.0.0.1)
         self.proc: subprocess.Popen | None = None
         self.ready_line = ""
         self.address = ""  # the LINK path or 127.0.0.1:PORT
@@ -73,7 +74,7 @@ class Server:
         if self.kind == "pty":
             args += ["--pty", str(self.link)]
         else:
-            args += ["--tcp", "127.0.0.1:0"]
+            args += ["--tcp", self.listen]
         if self.eeprom is not None:
             args += ["--eeprom", str(self.eeprom)]
         return args + self.extra
@@ -169,6 +170,8 @@ class Server:
         assert rc == 0, f"tmcl serve exited with {rc} after SIGTERM; stderr: {self.stderr()}"
         if self.link is not None:
             assert not os.path.lexists(self.link), f"{self.link} still exists after SIGTERM"
+            lock = f"{self.link}.lock"
+            assert not os.path.lexists(lock), f"{lock} still exists after SIGTERM"
 
     def kill(self) -> None:
         """SIGKILL (a crash): the link stays behind, the EEPROM journal is whatever was written."""
@@ -212,10 +215,10 @@ class ServerFactory:
 
     def __call__(self, kind: str = "pty", eeprom: Path | None = None, extra: list[str] | None = None,
                  link_name: str | None = None, expect_address: int | None = 1,
-                 modules: list[str] | None = None) -> Server:
+                 modules: list[str] | None = None, listen: str = "127.0.0.1:0") -> Server:
         name = link_name or f"tmcl-link-{len(self.servers)}"
         server = Server(self.tmcl, self.workdir, kind, eeprom=eeprom, extra=extra, link_name=name,
-                        modules=modules)
+                        modules=modules, listen=listen)
         server.expect_address = expect_address
         self.servers.append(server)
         return server.start()

@@ -14,7 +14,7 @@ use tmcl_host::{Client, FirmwareVersion, HostError, SerialTransport, TcpTranspor
 use tmcl_wire::command::{
     CalcOp, CalcxOp, Condition, ErrorFlag, EventMode, MoveKind, RfsAction, StatusKind, VersionFormat, WaitCondition,
 };
-use tmcl_wire::{Instruction, Opcode, Reply};
+use tmcl_wire::{Command, Instruction, Opcode, Reply};
 
 /// A client on whatever link the options name.
 pub(crate) type HostClient = Client<Box<dyn Transport>>;
@@ -112,7 +112,11 @@ pub enum HostCommand {
         value: i32,
     },
     /// List the modules answering on the line: every address from --first to --last is asked for its
-    /// version string (command 136), each with a short timeout.
+    /// version (command 136), each with a short wait. The modules go to stdout, progress and notes to
+    /// stderr; no module at all is exit code 3.
+    ///
+    /// A reply that comes after its --wait still counts for the address it names (the line is drained
+    /// after every unanswered address), and the scan says which addresses answered late.
     #[command(after_help = EXIT_CODES)]
     Scan {
         #[command(flatten)]
@@ -123,9 +127,10 @@ pub enum HostCommand {
         /// Last address to ask.
         #[arg(long, default_value_t = 255)]
         last: u8,
-        /// How long to wait for each address, in milliseconds.
-        #[arg(long, value_name = "MS", default_value_t = 40)]
-        wait: u64,
+        /// How long to wait for each address, in milliseconds [default: the time of a request and its
+        /// reply at --baud plus 20 ms: 39 at 9600 baud].
+        #[arg(long, value_name = "MS")]
+        wait: Option<u64>,
     },
     /// List a model's parameters: number, name, access, range, unit, and each value read from the module.
     #[command(after_help = EXIT_CODES)]
@@ -262,7 +267,10 @@ impl Connection {
 fn execute(cmd: HostCommand, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     match cmd {
         HostCommand::Version { conn } => version(&mut conn.open()?, json, out),
-        HostCommand::Scan { conn, first, last, wait } => scan(&mut conn.open()?, first, last, wait, json, out),
+        HostCommand::Scan { conn, first, last, wait } => {
+            let plan = ScanPlan::new(first, last, wait, &conn)?;
+            scan(&mut conn.open()?, &plan, json, out)
+        }
         HostCommand::Params(args) => names::params(args, json, out),
         HostCommand::Wait(args) => crate::watch::wait(args, json, out),
         HostCommand::Watch(args) => crate::watch::watch(args, json, out),
@@ -358,36 +366,178 @@ fn version(client: &mut HostClient, json: bool, out: &mut dyn Write) -> Result<(
     Ok(())
 }
 
-/// `tmcl scan`: the modules on the line, by address.
-fn scan(
-    client: &mut HostClient,
+/// What `tmcl scan` asks and how long it waits.
+struct ScanPlan {
     first: u8,
     last: u8,
-    wait_ms: u64,
+    /// How long each address gets.
+    wait: Duration,
+    /// The quiet interval of the drain after an unanswered address.
+    quiet: Duration,
+    /// How long the version string of a module found may take (--timeout).
+    timeout: Duration,
+    /// The default wait at --baud, suggested when replies came late.
+    default_wait: Duration,
+}
+
+impl ScanPlan {
+    fn new(first: u8, last: u8, wait_ms: Option<u64>, conn: &Connection) -> Result<ScanPlan, CliError> {
+        if first > last {
+            return Err(CliError::Usage(format!("--first {first} is after --last {last}")));
+        }
+        // One 9-byte frame of 10-bit characters (8N1) at --baud: 9.4 ms at 9600.
+        let frame = Duration::from_micros(90_000_000 / u64::from(conn.baud.max(1)));
+        let default_wait = 2 * frame + Duration::from_millis(20);
+        let wait = wait_ms.map_or(default_wait, |ms| Duration::from_millis(ms.max(1)));
+        let quiet = (2 * frame).max(Duration::from_millis(10));
+        Ok(ScanPlan { first, last, wait, quiet, timeout: conn.timeout, default_wait })
+    }
+}
+
+/// The scan's progress line on stderr, when stderr is a terminal.
+struct Progress {
+    on: bool,
+    shown: bool,
+}
+
+impl Progress {
+    fn show(&mut self, plan: &ScanPlan, address: u8) {
+        if self.on {
+            let done = usize::from(address - plan.first) + 1;
+            let total = usize::from(plan.last - plan.first) + 1;
+            eprint!("\rscanning {}..{}: {done}/{total} ", plan.first, plan.last);
+            self.shown = true;
+        }
+    }
+
+    fn clear(&mut self) {
+        if self.shown {
+            eprint!("\r\x1b[K");
+            self.shown = false;
+        }
+    }
+}
+
+/// `tmcl scan`: the modules on the line, by address.
+///
+/// Each address is asked for its binary version (136 type 1): unlike the version string, its reply names the
+/// module, so a reply that comes late (during the drain after its address, or while a later address waits)
+/// still counts for the module that sent it. The version string of each module found is asked for then.
+fn scan(
+    client: &mut Client<Box<dyn Transport>>,
+    plan: &ScanPlan,
     json: bool,
     out: &mut dyn Write,
 ) -> Result<(), CliError> {
+    use std::io::IsTerminal;
+    let mut progress = Progress { on: io::stderr().is_terminal(), shown: false };
+    let mut probed = [false; 256];
     let mut found = Vec::new();
-    let timeout = std::time::Duration::from_millis(wait_ms.max(1));
-    for address in first..=last {
+    let mut late = Vec::new();
+    let mut elsewhere = Vec::new();
+    client.quiet = plan.quiet;
+    let probe = Command::GetVersion { format: VersionFormat::Binary }.encode();
+    for address in plan.first..=plan.last {
+        progress.show(plan, address);
+        probed[usize::from(address)] = true;
         client.module_address = address;
-        client.timeout = timeout;
-        match client.version_string() {
-            Ok(text) => {
-                if json {
-                    writeln!(out, "{}", json!({ "address": address, "version": text }))?;
-                } else {
-                    writeln!(out, "{address:>3}  {text}")?;
-                }
-                found.push(address);
+        client.timeout = plan.wait;
+        let answer = match client.request(probe) {
+            Ok(reply) | Err(HostError::Status { reply, .. }) => Some(reply),
+            Err(e @ (HostError::Io(_) | HostError::Open { .. } | HostError::InUse { .. })) => {
+                progress.clear();
+                return Err(e.into());
             }
-            // No module at this address (timeout), or something that is no answer to us: go on.
-            Err(HostError::Io(e)) => return Err(HostError::Io(e).into()),
-            Err(_) => client.clear_input(),
+            // Nothing, or a reply to another address: see the skipped replies below.
+            Err(_) => None,
+        };
+        // Drain now after an unanswered address, so that its late reply is counted for it at once.
+        client.settle()?;
+        let mut answered: Vec<(Reply, bool)> = answer.into_iter().map(|r| (r, false)).collect();
+        answered.extend(client.take_skipped().into_iter().map(|r| (r, true)));
+        for (reply, is_late) in answered {
+            let module = reply.module;
+            if reply.opcode != u8::from(Opcode::GetVersion) || !probed[usize::from(module)] {
+                progress.clear();
+                eprintln!(
+                    "tmcl scan: ignored a reply that answers no request of this scan: module {module}, command {}, value {}",
+                    Opcode::from(reply.opcode),
+                    reply.value
+                );
+            } else if found.contains(&module) {
+                // A module that answers from another address than the one asked (USB answers every address,
+                // a secondary address GP 87 answers from the primary one).
+                if !elsewhere.contains(&module) {
+                    elsewhere.push(module);
+                }
+            } else {
+                found.push(module);
+                if is_late {
+                    late.push(module);
+                }
+                progress.clear();
+                report_module(client, plan, &reply, json, out)?;
+            }
         }
     }
+    client.settle()?;
+    progress.clear();
     if !json {
         writeln!(out, "{} module(s) found", found.len())?;
+    }
+    let list = |modules: &[u8]| modules.iter().map(u8::to_string).collect::<Vec<_>>().join(", ");
+    if !elsewhere.is_empty() {
+        eprintln!(
+            "tmcl scan: module(s) {} also answered at other addresses (a USB link answers every address; a \
+             secondary address, GP 87, answers from the module's own)",
+            list(&elsewhere)
+        );
+    }
+    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+    if !late.is_empty() {
+        let suggest = plan.default_wait.max(plan.wait * 4);
+        eprintln!(
+            "tmcl scan: address(es) {} answered after --wait {:.0} ms (late replies, counted); give a longer wait, \
+             e.g. --wait {:.0}",
+            list(&late),
+            ms(plan.wait),
+            ms(suggest).ceil()
+        );
+    }
+    if found.is_empty() {
+        return Err(CliError::Io(format!(
+            "no module answered at addresses {}..{} (waited {:.0} ms each, and for late replies)",
+            plan.first,
+            plan.last,
+            ms(plan.wait)
+        )));
+    }
+    Ok(())
+}
+
+/// Prints one module found: its version string (with --timeout), or the binary version of `reply` if the
+/// string does not come.
+fn report_module(
+    client: &mut Client<Box<dyn Transport>>,
+    plan: &ScanPlan,
+    reply: &Reply,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<(), CliError> {
+    client.module_address = reply.module;
+    client.timeout = plan.timeout;
+    let text = match client.version_string() {
+        Ok(text) => text,
+        Err(e @ (HostError::Io(_) | HostError::Open { .. } | HostError::InUse { .. })) => return Err(e.into()),
+        Err(e) => {
+            eprintln!("tmcl scan: address {}: no version string ({e})", reply.module);
+            FirmwareVersion::from_value(reply.value).to_string()
+        }
+    };
+    if json {
+        writeln!(out, "{}", json!({ "address": reply.module, "version": text }))?;
+    } else {
+        writeln!(out, "{:>3}  {text}", reply.module)?;
     }
     Ok(())
 }
@@ -679,8 +829,8 @@ mod tests {
         assert_eq!(requests[0].instruction, Instruction::new(Opcode::Gap, 1, 0, 0));
         assert_eq!(requests[0].address, 1);
 
-        let (code, out, requests) =
-            run_against(&["--address", "7", "set", "gp", "77", "-3", "2"], vec![reply(Status::Ok, 9, -3)]);
+        let from_7 = Some(Reply { host: 2, module: 7, status: Status::Ok, opcode: 9, value: -3 }.to_bytes());
+        let (code, out, requests) = run_against(&["--address", "7", "set", "gp", "77", "-3", "2"], vec![from_7]);
         assert_eq!((code, out.as_str()), (0, "ok\n"));
         assert_eq!((requests[0].address, requests[0].instruction), (7, Instruction::new(Opcode::Sgp, 77, 2, -3)));
 
@@ -732,6 +882,9 @@ mod tests {
         damaged[8] ^= 1;
         let (code, _, _) = run_against(&["get", "ap", "1"], vec![Some(damaged)]);
         assert_eq!(code, EXIT_BAD_REPLY);
+        // A reply from another module (a late one) is never the answer.
+        let (code, out, _) = run_against(&["--address", "2", "get", "ap", "5"], vec![reply(Status::Ok, 6, 1000)]);
+        assert_eq!((code, out.as_str()), (EXIT_BAD_REPLY, ""));
         let (code, _, _) = run_against(&["get", "ap", "1"], vec![None]);
         assert_eq!(code, EXIT_IO);
     }

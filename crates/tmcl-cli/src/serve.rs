@@ -6,11 +6,11 @@
 
 use crate::bus::{Bus, Node};
 use crate::error::CliError;
-use crate::pty::Pty;
+use crate::pty::{Pty, PtyError};
 use clap::Args;
 use nix::poll::{ppoll, PollFd, PollFlags};
 use std::io::{self, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::os::fd::AsFd;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -24,6 +24,9 @@ use tmcl_wire::{Command, Frame, Instruction, Reply, ReplyFrame, Request};
 /// Longest sleep between two looks at the shutdown flag.
 const MAX_SLEEP: std::time::Duration = std::time::Duration::from_millis(50);
 
+/// How often the pty's exclusive mode is checked for a host that died holding it.
+const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
 pub struct ServeArgs {
@@ -32,9 +35,20 @@ pub struct ServeArgs {
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
     pub module: Vec<String>,
     /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
+    ///
+    /// One server per LINK: while it runs, the server holds LINK.lock beside it (its PID, with a flock). A
+    /// LINK another live server holds is refused (exit code 3, naming that server's PID); a LINK left behind
+    /// by a server that died (kill -9) is replaced. On exit LINK and LINK.lock are removed, LINK only if it
+    /// still points at this server's pty.
     #[arg(long, value_name = "LINK", conflicts_with = "tcp", required_unless_present = "tcp")]
     pub pty: Option<PathBuf>,
-    /// Serve on a TCP port instead, HOST:PORT (e.g. 127.0.0.1:2323; port 0 picks a free one).
+    /// Serve on a TCP port instead, HOST:PORT (e.g. localhost:2323 or 127.0.0.1:2323; a bare PORT means
+    /// 127.0.0.1; port 0 picks a free one).
+    ///
+    /// HOST may be a name; of its addresses IPv4 ones are tried first. One client at a time, as one host on a
+    /// serial line: while a client is connected, a second connection is accepted and closed at once without
+    /// a byte, and `tmcl` reports the port in use by another client. A port another program listens on is
+    /// refused (exit code 3).
     #[arg(long, value_name = "HOST:PORT")]
     pub tcp: Option<String>,
     /// The address a module with a new EEPROM answers at (default 1; a module keeps the address stored in
@@ -165,13 +179,12 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
     }
     let mut bus = Bus::new(nodes, args.wire_timing);
     let mut link = match (&args.pty, &args.tcp) {
-        (Some(path), None) => Link::Pty(
-            Pty::open(path).map_err(|e| CliError::Io(format!("cannot open a pty at {}: {e}", path.display())))?,
-        ),
+        (Some(path), None) => Link::Pty(Pty::open(path).map_err(|e| match e {
+            PtyError::Busy { .. } => CliError::Io(e.to_string()),
+            PtyError::Io(e) => CliError::Io(format!("cannot open a pty at {}: {e}", path.display())),
+        })?),
         (None, Some(addr)) => {
-            let addr = parse_listen_address(addr).map_err(CliError::Usage)?;
-            let listener =
-                TcpListener::bind(addr).map_err(|e| CliError::Io(format!("cannot listen on {addr}: {e}")))?;
+            let listener = listen(addr)?;
             listener.set_nonblocking(true).map_err(|e| CliError::Io(e.to_string()))?;
             Link::Tcp { listener, peer: None }
         }
@@ -201,12 +214,19 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
     }
 
     let mut buf = [0u8; 4096];
+    let mut exclusive_checked = std::time::Instant::now();
     while !stop.load(Ordering::Relaxed) {
         let now = clock();
         let deadline = {
             let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
             bus.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
         };
+        if let Link::Pty(pty) = &link {
+            if exclusive_checked.elapsed() >= EXCLUSIVE_CHECK {
+                pty.release_abandoned_exclusive_mode();
+                exclusive_checked = std::time::Instant::now();
+            }
+        }
         let sleep = deadline
             .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
             .unwrap_or(MAX_SLEEP)
@@ -215,24 +235,15 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
         if !readable {
             continue;
         }
+        // The host's bytes first: they are answered before a new TCP client is let in.
         let received = match &mut link {
             Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
-            Link::Tcp { listener, peer } => match peer {
-                None => {
-                    if let Ok((stream, from)) = listener.accept() {
-                        let _ = stream.set_nonblocking(true);
-                        let _ = stream.set_nodelay(true);
-                        if args.verbose {
-                            eprintln!("[{}] connection from {from}", clock());
-                        }
-                        *peer = Some(stream);
-                        // A partial frame of the previous connection must not join this one's.
-                        bus.reset_link();
-                    }
-                    0
-                }
+            Link::Tcp { peer, .. } => match peer {
+                None => 0,
                 Some(stream) => match stream.read(&mut buf) {
-                    Ok(0) | Err(_) if !would_block_or_ok(stream) => {
+                    Ok(n) if n > 0 => n,
+                    Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
+                    _ => {
                         if args.verbose {
                             eprintln!("[{}] connection closed", clock());
                         }
@@ -240,8 +251,6 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
                         bus.reset_link();
                         0
                     }
-                    Ok(n) => n,
-                    Err(_) => 0,
                 },
             },
         };
@@ -252,6 +261,9 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
             }
             let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
             bus.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
+        }
+        if let Link::Tcp { listener, peer } = &mut link {
+            accept_clients(listener, peer, &mut bus, args.verbose, clock());
         }
     }
     for node in &mut bus.nodes {
@@ -267,18 +279,94 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
     Ok(())
 }
 
-/// `HOST:PORT`, or just `PORT` for loopback.
-fn parse_listen_address(s: &str) -> Result<SocketAddr, String> {
-    if let Ok(port) = s.parse::<u16>() {
-        return Ok(SocketAddr::from(([127, 0, 0, 1], port)));
+/// Listens on `HOST:PORT` or a bare `PORT` (on 127.0.0.1). HOST may be a name, resolved as the host side
+/// resolves it (`localhost:2324`); of the addresses it resolves to, IPv4 ones are tried first, so that
+/// `localhost` means 127.0.0.1 as for most clients. An address another program listens on is not skipped
+/// for the next one: it is reported (exit code 3).
+fn listen(text: &str) -> Result<TcpListener, CliError> {
+    let mut candidates: Vec<SocketAddr> = match text.parse::<u16>() {
+        Ok(port) => vec![SocketAddr::from(([127, 0, 0, 1], port))],
+        Err(_) => text
+            .to_socket_addrs()
+            .map_err(|e| {
+                CliError::Usage(format!(
+                    "`{text}` is not HOST:PORT (e.g. localhost:2323, 127.0.0.1:2323) or a port: {e}"
+                ))
+            })?
+            .collect(),
+    };
+    candidates.sort_by_key(SocketAddr::is_ipv6);
+    let mut last = None;
+    for addr in candidates {
+        match TcpListener::bind(addr) {
+            Ok(listener) => return Ok(listener),
+            Err(e) if e.kind() == io::ErrorKind::AddrInUse => {
+                return Err(CliError::Io(format!("cannot listen on {addr}: another program listens there ({e})")))
+            }
+            Err(e) => last = Some(format!("cannot listen on {addr}: {e}")),
+        }
     }
-    s.parse().map_err(|_| format!("`{s}` is not HOST:PORT (e.g. 127.0.0.1:2323) or a port number"))
+    Err(CliError::Io(last.unwrap_or_else(|| format!("`{text}` resolves to no address"))))
 }
 
-/// After a failed or empty read: whether the stream is merely idle (true) or closed (false).
-fn would_block_or_ok(stream: &mut TcpStream) -> bool {
+/// Takes the connections waiting on the listener. The first becomes the client when there is none (or the
+/// one there has gone); any other is closed at once without a byte: one client at a time, as one host on a
+/// serial line (a second client would read the first one's replies). See docs/decisions.md.
+///
+/// While the client has unread bytes, new connections wait: those bytes may end in the client's close, and
+/// the next connection is then the next client, not a second one.
+fn accept_clients(listener: &TcpListener, peer: &mut Option<TcpStream>, bus: &mut Bus, verbose: bool, now: Instant) {
+    loop {
+        if let Some(stream) = peer.as_mut() {
+            match peer_state(stream) {
+                PeerState::Idle => {}
+                PeerState::Sending => return,
+                PeerState::Closed => {
+                    if verbose {
+                        eprintln!("[{now}] connection closed");
+                    }
+                    *peer = None;
+                    bus.reset_link();
+                }
+            }
+        }
+        let Ok((stream, from)) = listener.accept() else { return };
+        if peer.is_some() {
+            if verbose {
+                eprintln!("[{now}] connection from {from} turned away: another client is connected");
+            }
+            drop(stream);
+            continue;
+        }
+        let _ = stream.set_nonblocking(true);
+        let _ = stream.set_nodelay(true);
+        if verbose {
+            eprintln!("[{now}] connection from {from}");
+        }
+        *peer = Some(stream);
+        // A partial frame of the previous connection must not join this one's.
+        bus.reset_link();
+    }
+}
+
+/// What a connected client is doing, as far as the socket tells without reading.
+enum PeerState {
+    /// Connected, nothing unread.
+    Idle,
+    /// Bytes are waiting to be read.
+    Sending,
+    /// Closed or failed.
+    Closed,
+}
+
+fn peer_state(stream: &mut TcpStream) -> PeerState {
     let mut probe = [0u8; 1];
-    matches!(stream.peek(&mut probe), Err(e) if e.kind() == io::ErrorKind::WouldBlock)
+    match stream.peek(&mut probe) {
+        Ok(0) => PeerState::Closed,
+        Ok(_) => PeerState::Sending,
+        Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => PeerState::Idle,
+        Err(_) => PeerState::Closed,
+    }
 }
 
 fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
@@ -286,15 +374,18 @@ fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
     file.read(buf).unwrap_or_default()
 }
 
-/// Waits until the link is readable or `timeout` passes (with microsecond resolution: byte times at high
-/// baud rates are far below a millisecond).
+/// Waits until the link is readable (for TCP: the client, or the listener with a new connection) or
+/// `timeout` passes (with microsecond resolution: byte times at high baud rates are far below a
+/// millisecond).
 fn wait(link: &Link, timeout: std::time::Duration) -> io::Result<bool> {
-    let fd = match link {
-        Link::Pty(pty) => pty.master.as_fd(),
-        Link::Tcp { listener, peer: None } => listener.as_fd(),
-        Link::Tcp { peer: Some(stream), .. } => stream.as_fd(),
+    let mut fds = match link {
+        Link::Pty(pty) => vec![PollFd::new(pty.master.as_fd(), PollFlags::POLLIN)],
+        Link::Tcp { listener, peer } => {
+            let mut fds = vec![PollFd::new(listener.as_fd(), PollFlags::POLLIN)];
+            fds.extend(peer.iter().map(|stream| PollFd::new(stream.as_fd(), PollFlags::POLLIN)));
+            fds
+        }
     };
-    let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
     let timeout = nix::sys::time::TimeSpec::from_duration(timeout.max(std::time::Duration::from_micros(20)));
     match ppoll(&mut fds, Some(timeout), None) {
         Ok(n) => Ok(n > 0),

@@ -2,12 +2,20 @@
 
 use std::io;
 use std::time::Duration;
-use tmcl_wire::{Reply, Status, FRAME_LEN};
+use tmcl_wire::{Opcode, Reply, Status, FRAME_LEN};
 
 /// An error from a [`Transport`](crate::Transport) or a [`Client`](crate::Client) call.
 ///
-/// [`HostError::Status`] is the module's own answer (PD28-1021 TMCL manual §3.2.1, Table 4: status codes below
-/// 100 are errors); the other variants mean that no usable answer arrived.
+/// Three kinds, told apart by [`HostError::is_status_error`], [`HostError::is_bad_reply`] and
+/// [`HostError::is_no_reply`] (`tmcl` turns them into the exit codes 1, 4 and 3):
+///
+/// - the module's own answer says no: [`HostError::Status`] (PD28-1021 TMCL manual §3.2.1, Table 4: status
+///   codes below 100 are errors);
+/// - something arrived that is not a usable answer to the request: a damaged reply
+///   ([`HostError::Checksum`], [`HostError::BadVersionString`]) or a reply to another request
+///   ([`HostError::Foreign`]: a late reply, or another host's traffic);
+/// - nothing usable arrived: [`HostError::Open`], [`HostError::InUse`], [`HostError::Io`],
+///   [`HostError::Timeout`].
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum HostError {
@@ -19,6 +27,15 @@ pub enum HostError {
         /// What the operating system said.
         #[source]
         source: io::Error,
+    },
+    /// The serial port or pty is held exclusively by another program, or the TCP server closed the
+    /// connection before answering anything because it serves another client.
+    #[error("{target} is in use: {detail}")]
+    InUse {
+        /// The port path or TCP address.
+        target: String,
+        /// Who holds it and what to do, in words.
+        detail: String,
     },
     /// Reading or writing failed, or the other side closed the connection.
     #[error("I/O error: {0}")]
@@ -49,6 +66,23 @@ pub enum HostError {
         /// The whole reply; its value is usually 0 or the echoed command value.
         reply: Reply,
     },
+    /// No reply answered the request, but a reply to another request did arrive: its module address or
+    /// command number differs from the request's (§3.2, Table 3). It is a late reply to an earlier request
+    /// (one that timed out, perhaps in another process), or another host's traffic on the line. The first
+    /// such reply is kept here; it was never taken as the answer.
+    #[error(
+        "no answer to {} to module {address}; a reply to another request came instead: module {}, command {}, \
+         status {}, value {} (reply {}): a late reply to an earlier request, or another host on the line",
+        Opcode::from(*opcode), reply.module, Opcode::from(reply.opcode), reply.status, reply.value, hex(&reply.to_bytes())
+    )]
+    Foreign {
+        /// The module address the request went to.
+        address: u8,
+        /// The request's command number.
+        opcode: u8,
+        /// The reply that arrived instead.
+        reply: Reply,
+    },
     /// The answer to command 136 type 0 is not a host address followed by eight printable ASCII characters.
     #[error("the version reply is not eight ASCII characters (reply {})", hex(frame))]
     BadVersionString {
@@ -58,11 +92,28 @@ pub enum HostError {
 }
 
 impl HostError {
-    /// Whether the module answered at all: `true` for [`HostError::Status`], [`HostError::Checksum`] and
-    /// [`HostError::BadVersionString`] (a reply arrived but says no or is damaged), `false` for open, I/O and
-    /// timeout failures (nothing usable arrived).
+    /// Whether something arrived in reply: `true` for an error status ([`HostError::is_status_error`]) and for
+    /// a damaged, late or foreign reply ([`HostError::is_bad_reply`]); `false` when nothing usable arrived
+    /// ([`HostError::is_no_reply`]).
     pub fn is_reply_error(&self) -> bool {
-        matches!(self, HostError::Status { .. } | HostError::Checksum { .. } | HostError::BadVersionString { .. })
+        self.is_status_error() || self.is_bad_reply()
+    }
+
+    /// Whether the module answered the request with an error status ([`HostError::Status`]).
+    pub fn is_status_error(&self) -> bool {
+        matches!(self, HostError::Status { .. })
+    }
+
+    /// Whether the bytes that arrived are no answer to the request: a damaged reply ([`HostError::Checksum`],
+    /// [`HostError::BadVersionString`]) or a reply to another request ([`HostError::Foreign`]).
+    pub fn is_bad_reply(&self) -> bool {
+        matches!(self, HostError::Checksum { .. } | HostError::BadVersionString { .. } | HostError::Foreign { .. })
+    }
+
+    /// Whether nothing usable arrived: the port could not be opened or is in use, the connection failed, or
+    /// no (whole) reply came in time.
+    pub fn is_no_reply(&self) -> bool {
+        !self.is_reply_error()
     }
 }
 

@@ -5,13 +5,16 @@
 //!
 //! - [`Transport`]: a byte pipe with a read timeout. [`SerialTransport`] (RS485/RS232 adapters, and ptys such
 //!   as the link `tmcl serve --pty LINK` makes), [`TcpTransport`], and [`MockTransport`] for tests.
-//! - [`Client`]: one request in flight, checksum and status checks, the raw reply of command 136 type 0, the
-//!   unsolicited second reply of command 138, and thin wrappers (`get_axis_parameter`, ...) over
+//! - [`Client`]: one request in flight, checksum and status checks, each reply matched to its request (module
+//!   address and command number; late and foreign replies are skipped and reported, never taken as the
+//!   answer), the line drained after a timeout, the raw reply of command 136 type 0, the unsolicited second
+//!   reply of command 138, and thin wrappers (`get_axis_parameter`, ...) over
 //!   [`tmcl_wire::Command::encode`]. Framing itself is `tmcl_wire`'s.
 //! - [`HostError`]: what went wrong, in plain words.
 //!
-//! The behaviour follows what existing host software does (pytrinamic 0.2.26): host address not checked,
-//! statuses 100, 101 and 128 accepted, 5 s default timeout.
+//! The behaviour follows what existing host software does (pytrinamic 0.2.26) where that is safe: host address
+//! not checked, statuses 100, 101 and 128 accepted, 5 s default timeout. Unlike pytrinamic, serial ports are
+//! opened exclusively and replies are matched to their requests.
 //!
 //! ```
 //! use tmcl_host::{Client, MockTransport};
@@ -32,7 +35,7 @@ mod tcp;
 mod transport;
 mod version;
 
-pub use client::{ApplicationStatus, Client, DEFAULT_MODULE_ADDRESS, DEFAULT_TIMEOUT};
+pub use client::{ApplicationStatus, Client, DEFAULT_MODULE_ADDRESS, DEFAULT_QUIET, DEFAULT_TIMEOUT};
 pub use error::HostError;
 pub use serial::SerialTransport;
 pub use tcp::TcpTransport;

@@ -9,12 +9,23 @@ use std::time::Duration;
 /// How long one `write` may block: a 9-byte frame at 9600 baud takes under 10 ms.
 const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
 
-/// A serial port opened 8N1, raw, without flow control, in the way pyserial opens one.
+/// How often, and how far apart, an open that finds the port locked is tried again: `tmcl serve` takes the
+/// lock of its own pty for a moment now and then, to clear the exclusive flag a killed host left behind.
+const OPEN_TRIES: u32 = 3;
+const OPEN_RETRY: Duration = Duration::from_millis(15);
+
+/// A serial port opened 8N1, raw, without flow control, in the way pyserial opens one, but exclusively.
 ///
-/// The port is not locked with `TIOCEXCL` (other programs, and the virtual module's own kept-open fd, may
-/// share it, and pyserial does not lock either) and the modem lines are left alone, so ptys, which
-/// ignore the baud rate and reject modem-line ioctls, open like real ports. Input pending at open time is
-/// discarded.
+/// **Exclusive.** Two hosts on one line would read each other's replies, so the port is locked as
+/// pyserial's `exclusive=True` and the `serialport` crate lock it: `TIOCEXCL` (the kernel refuses further
+/// opens, except to root) and an exclusive `flock` (which other `tmcl` processes, pyserial with
+/// `exclusive=True` and other flock users respect, root included). A port held by another program fails to
+/// open with [`HostError::InUse`]. A program that opens the port without either (pyserial's default) is
+/// not kept out when it runs as root, or when it opened the port first. The lock goes with the port:
+/// when this transport is dropped or the process ends.
+///
+/// The modem lines are left alone, so ptys, which ignore the baud rate and reject modem-line ioctls, open
+/// like real ports. Input pending at open time is discarded.
 pub struct SerialTransport {
     port: Box<dyn SerialPort>,
 }
@@ -30,18 +41,37 @@ impl SerialTransport {
     ///
     /// # Errors
     ///
-    /// [`HostError::Open`] naming the path.
+    /// [`HostError::InUse`] when another program holds the port, [`HostError::Open`] naming the path for
+    /// anything else.
     pub fn open(path: &str, baud: u32) -> Result<SerialTransport, HostError> {
-        let open_error = |source: io::Error| HostError::Open { target: path.to_owned(), source };
-        let port = serialport::new(path, baud)
+        let builder = serialport::new(path, baud)
             .data_bits(serialport::DataBits::Eight)
             .parity(serialport::Parity::None)
             .stop_bits(serialport::StopBits::One)
             .flow_control(serialport::FlowControl::None)
-            .exclusive(false)
-            .timeout(WRITE_TIMEOUT)
-            .open()
-            .map_err(|e| open_error(e.into()))?;
+            .exclusive(true)
+            .timeout(WRITE_TIMEOUT);
+        let mut tries = 0;
+        let port = loop {
+            tries += 1;
+            match builder.clone().open() {
+                Ok(port) => break port,
+                // EBUSY from TIOCEXCL or EWOULDBLOCK from flock: another program has the port.
+                Err(e) if e.kind() == serialport::ErrorKind::NoDevice => {
+                    if tries < OPEN_TRIES {
+                        std::thread::sleep(OPEN_RETRY);
+                        continue;
+                    }
+                    return Err(HostError::InUse {
+                        target: path.to_owned(),
+                        detail: "another program has the port open exclusively (another host, perhaps another \
+                                 `tmcl`); one host at a time, or the two would read each other's replies"
+                            .to_owned(),
+                    });
+                }
+                Err(e) => return Err(HostError::Open { target: path.to_owned(), source: e.into() }),
+            }
+        };
         let mut transport = SerialTransport { port };
         transport.clear_input();
         Ok(transport)

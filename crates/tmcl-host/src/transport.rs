@@ -17,7 +17,8 @@ pub trait Transport {
     ///
     /// # Errors
     ///
-    /// [`HostError::Timeout`] when `buf` is not full by then (the bytes that did arrive are consumed and lost),
+    /// [`HostError::Timeout`] when `buf` is not full by then (the `received` bytes that did arrive are the
+    /// first bytes of `buf`),
     /// [`HostError::Io`] when the port fails or the peer closes.
     fn recv_exact(&mut self, buf: &mut [u8], timeout: Duration) -> Result<(), HostError>;
 
@@ -55,14 +56,17 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
 
 /// An in-memory transport for tests: it records what is sent and hands out scripted input.
 ///
-/// Input is queued with [`MockTransport::push_input`]; a read that wants more bytes than are queued takes
-/// what there is and fails with [`HostError::Timeout`] at once (no real waiting).
+/// Input is queued with [`MockTransport::push_input`], or with [`MockTransport::answer_next`] to arrive only
+/// when the next request is sent (a reply that comes after the request); a read that wants more bytes than
+/// are queued takes what there is and fails with [`HostError::Timeout`] at once (no real waiting).
 #[derive(Debug, Default, Clone)]
 pub struct MockTransport {
     /// Every byte sent so far, in order.
     pub sent: Vec<u8>,
     /// Bytes waiting to be read.
     pub input: VecDeque<u8>,
+    /// Input that arrives on the next sends: the first entry with the next send, and so on.
+    pub answers: VecDeque<Vec<u8>>,
     /// How many times [`Transport::clear_input`] was called.
     pub clears: usize,
 }
@@ -78,6 +82,12 @@ impl MockTransport {
         self.input.extend(bytes);
     }
 
+    /// Queues bytes that arrive when a later request is sent: one call per send, in order (an empty slice for
+    /// a send that gets nothing).
+    pub fn answer_next(&mut self, bytes: &[u8]) {
+        self.answers.push_back(bytes.to_vec());
+    }
+
     /// Returns and forgets what has been sent.
     pub fn take_sent(&mut self) -> Vec<u8> {
         std::mem::take(&mut self.sent)
@@ -87,6 +97,9 @@ impl MockTransport {
 impl Transport for MockTransport {
     fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
         self.sent.extend_from_slice(bytes);
+        if let Some(answer) = self.answers.pop_front() {
+            self.input.extend(answer);
+        }
         Ok(())
     }
 

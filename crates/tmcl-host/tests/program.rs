@@ -46,7 +46,9 @@ impl Transport for InProcess {
         }
         if self.rx.len() < buf.len() {
             let received = self.rx.len();
-            self.rx.clear();
+            for (slot, b) in buf.iter_mut().zip(self.rx.drain(..)) {
+                *slot = b;
+            }
             return Err(HostError::Timeout { waited: timeout, received });
         }
         for b in buf.iter_mut() {

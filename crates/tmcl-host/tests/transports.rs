@@ -104,3 +104,33 @@ fn tcp_connect_refused() {
     drop(listener);
     assert!(matches!(TcpTransport::connect(&addr), Err(HostError::Open { .. })));
 }
+
+/// Two hosts on one pty would read each other's replies: the second open is refused while the first
+/// holds the port, and works again once it is closed.
+#[test]
+fn serial_port_is_opened_exclusively() {
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let slave_path = nix::unistd::ttyname(&pty.slave).unwrap();
+    let path = slave_path.to_str().unwrap();
+    let first = SerialTransport::open(path, 9600).unwrap();
+    let err = SerialTransport::open(path, 9600).unwrap_err();
+    assert!(matches!(err, HostError::InUse { .. }), "{err:?}");
+    assert!(err.to_string().contains("is in use"), "{err}");
+    assert!(err.is_no_reply());
+    drop(first);
+    SerialTransport::open(path, 9600).unwrap();
+}
+
+/// A server that closes a connection before answering anything (as `tmcl serve --tcp` does with a second
+/// client) is reported as busy, not as a bare I/O error.
+#[test]
+fn tcp_server_that_turns_the_client_away() {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let server = thread::spawn(move || drop(listener.accept().unwrap()));
+    let mut client = Client::new(TcpTransport::connect(&addr).unwrap()).with_timeout(Duration::from_secs(5));
+    server.join().unwrap();
+    let err = client.get_axis_parameter(1, 0).unwrap_err();
+    assert!(matches!(err, HostError::InUse { .. }), "{err:?}");
+    assert!(err.to_string().contains("already in use by another client"), "{err}");
+}

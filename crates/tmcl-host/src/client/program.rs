@@ -1,11 +1,11 @@
 //! Standalone programs on a module: download, read back, run, stop, status (PD28-1021 manual §3.7.38,
 //! commands 128–135).
 
-use super::{parse_reply, Client};
+use super::{checksum_error, checksum_ok, parse_reply, Client, Received};
 use crate::error::HostError;
 use crate::transport::Transport;
 use std::time::Instant;
-use tmcl_wire::{checksum, Command, Instruction, Opcode, Status, StatusKind};
+use tmcl_wire::{Command, Instruction, Opcode, Status, StatusKind};
 
 /// The application status (command 135 and GP 128–130), decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -62,18 +62,17 @@ impl<T: Transport> Client<T> {
 
     /// Command 134: the instruction at `address`. The reply is the special layout
     /// `[host, opcode, type, motor, value, checksum]`; an error reply (status < 100 for opcode 134, e.g.
-    /// when the program is protected) is told apart by its module address and opcode bytes.
+    /// when the program is protected) is told apart by its module address and opcode bytes. The special
+    /// layout has no module address, so a late reply cannot be told from it: the line is drained first
+    /// if a timeout left it unclean.
     pub fn read_program_memory(&mut self, address: u16) -> Result<Instruction, HostError> {
         self.send(Command::ReadMemory { address: i32::from(address) }.encode())?;
         let deadline = Instant::now() + self.timeout;
-        let frame = self.recv_frame(deadline, self.timeout)?;
-        if checksum(&frame[..8]) != frame[8] {
-            return Err(self.parse_reply(&frame).err().unwrap_or(HostError::Checksum {
-                expected: checksum(&frame[..8]),
-                found: frame[8],
-                frame,
-            }));
-        }
+        let frame = match self.next_frame(deadline, checksum_ok)? {
+            Some(Received::Frame(frame)) => frame,
+            Some(Received::Damaged(frame)) => return Err(checksum_error(&frame)),
+            None => return Err(self.timed_out(None)),
+        };
         let looks_like_error =
             frame[1] == self.module_address && frame[3] == u8::from(Opcode::ReadMemory) && (1..100).contains(&frame[2]);
         if looks_like_error {
