@@ -23,12 +23,12 @@ step "no_std, heap-free firmware crates"
 cargo build --quiet -p tmcl-wire -p tmcl-model -p tmcl-core --no-default-features
 
 step "Rust tests"
-cargo test --workspace --quiet 2>&1 | tee target/rust-tests.log | grep -E "^(test result|error|failures:|---- )" || true
-if grep -qE "^test result: FAILED|^error" target/rust-tests.log; then
+cargo test --workspace --quiet 2>&1 | tee "${CARGO_TARGET_DIR:-target}/rust-tests.log" | grep -E "^(test result|error|failures:|---- )" || true
+if grep -qE "^test result: FAILED|^error" "${CARGO_TARGET_DIR:-target}/rust-tests.log"; then
     echo "Rust tests failed (full log: target/rust-tests.log)" >&2
     exit 1
 fi
-passed=$(grep -oE "^test result: ok\. [0-9]+ passed" target/rust-tests.log | awk '{s+=$4} END {print s+0}')
+passed=$(grep -oE "^test result: ok\. [0-9]+ passed" "${CARGO_TARGET_DIR:-target}/rust-tests.log" | awk '{s+=$4} END {print s+0}')
 echo "rust: ${passed} passed, 0 failed"
 
 step "Python host-compatibility suite (pytrinamic, pyserial, tmcl CLI against tmcl serve)"

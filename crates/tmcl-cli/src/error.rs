@@ -101,6 +101,9 @@ impl CliError {
         {
             value["reply"] = reply_json(reply);
         }
+        if let Some(hint) = self.hint() {
+            value["hint"] = json!(hint);
+        }
         if let CliError::Assembly { diagnostics, .. } = self {
             value["diagnostics"] = diagnostics
                 .iter()
@@ -108,6 +111,22 @@ impl CliError {
                 .collect();
         }
         value
+    }
+
+    /// What the user can do about it, where the failure itself does not say.
+    pub(crate) fn hint(&self) -> Option<String> {
+        match self {
+            // The right command answered, from another address: most likely the only module on the line
+            // (on USB a module answers whatever address it is sent) keeps another address in GP 66.
+            CliError::Host(HostError::Foreign { address, opcode, reply }) if reply.opcode == *opcode => Some(format!(
+                "if module {} is the only module on the line, give --address {} (it does not answer as {address})",
+                reply.module, reply.module
+            )),
+            CliError::Host(HostError::Timeout { .. }) => {
+                Some("check --port/--tcp, --address (`tmcl scan` lists the modules) and --baud".into())
+            }
+            _ => None,
+        }
     }
 
     /// Prints the failure on stderr (`tmcl COMMAND: message`, after each assembly error with its place).
@@ -118,6 +137,9 @@ impl CliError {
             }
         }
         eprintln!("tmcl {command}: {self}");
+        if let Some(hint) = self.hint() {
+            eprintln!("tmcl {command}: hint: {hint}");
+        }
     }
 }
 
