@@ -7,12 +7,15 @@ How a line with mixed modes behaves (a real RS485 line would do the same; bus.rs
 - The binary modules read ASCII text as 9-byte frames; those frames carry a foreign address ('A' = 65 …)
   and are ignored without a reply. The bytes of an incomplete frame are dropped after a 5 ms pause, so a
   host must pause > 5 ms after an ASCII line before its next binary frame (else that frame is lost).
-- The ASCII module reads binary frames as text. Their bytes start a line with a foreign "address
-  character" (0x01, 0x03 …), which it ignores up to the next CR (0x0D) byte. So after binary traffic a
-  host sends CR first to start a fresh line, or the ASCII line is taken as part of the binary junk and
-  ignored. A binary frame with a CR byte followed by the ASCII module's address character ('B' = 0x42)
-  does start a line for it: it echoes those bytes (echo mode 00) and answers that line with a status when
-  the next CR comes — stray text a binary host reads as part of its next reply.
+- The ASCII module reads binary frames as text. A control byte (other than CR, LF, BS, TAB) or a byte
+  from 0x80 up discards the line being typed, so a frame's 0x01/0x03 address byte, its zero bytes and
+  most checksums leave no partial line: an ASCII line typed after binary traffic is answered. Only the
+  printable bytes after a frame's last such byte stay (its checksum, say 'A' = 0x41): they start a line
+  for that "address character" and swallow the next ASCII line up to its CR. A host that wants its
+  first line answered sends CR (or ESC) first. A binary frame with a CR byte followed by the ASCII
+  module's address character ('B' = 0x42) does start a line for it: it echoes those bytes (echo mode
+  00), and a later CR would get a status reply — stray text a binary host reads as part of its next
+  reply — unless a byte such as the frame's checksum discards that line first.
 """
 
 from __future__ import annotations
@@ -314,8 +317,6 @@ MALFORMED = [
     ("AFOO 1", 2),
     ("AGAPX 4, 0", 2),
     ("A139", 2),
-    ("A\x01\x02\x03", 2),
-    ("A\xff\xfe", 2),  # not UTF-8
     ("AGAP " + "1" * 80, 2),  # longer than the line buffer
     ("AMVP SIDEWAYS, 0, 1", 3),
     ("AGAP", 4),
@@ -348,7 +349,8 @@ def test_random_lines_are_all_answered(term):
     term.ok(1, SGP, 67, 0, ECHO_NONE)
     term.enter_ascii()
     rng = random.Random(4)
-    junk = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcxyz0123456789 ,-+$%#_.:;()[]\t\x01\x1b\x80\xfe"
+    # Printable text and TAB only: a control byte or one above 0x7F discards the line (see the next test).
+    junk = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcxyz0123456789 ,-+$%#_.:;()[]\t"
     readers = ["GAP", "GGP", "GIO", "GCO", "CALC", "JA", "WAIT", "RSAP", "XYZ", ""]
     lines = 0
     for _ in range(300):
@@ -361,6 +363,53 @@ def test_random_lines_are_all_answered(term):
     assert lines > 250
     assert term.reply_line("AGAP 4, 0") == (100, 51200)
     assert term.reply_line("AGGP 67, 0") == (100, ECHO_NONE)
+
+
+def test_binary_bytes_and_esc_discard_the_line(term):
+    term.ok(1, SGP, 67, 0, ECHO_NONE)
+    term.enter_ascii()
+    for line in (b"A\x01\x02\x03\r", b"A\xff\xfe\r"):  # discarded at the first byte: the CR ends nothing
+        term.write(line)
+        term.silence(0.1)
+    for breaker in (b"\x00", b"\x01", b"\x1b", b"\x80", b"\xfe"):
+        term.write(b"AGAP 4" + breaker + b", 0\r")  # the rest, ", 0", is a line for the address ','
+        term.silence(0.1)
+        assert term.reply_line("AGAP 4, 0") == (100, 51200), breaker
+
+
+# -- back to binary after binary bytes (the issue a user met in a terminal) -----------------------
+
+def test_abin_after_binary_frames(term, pty_server):
+    """A host sends binary frames to a module it does not know is in ASCII mode; they get no answer.
+    `ABIN` typed after them brings the module back: the frames left no partial line in front of it."""
+    term.enter_ascii()
+    for opcode, kind, value in ((136, 0, 0), (GAP, 4, 0), (GAP, 1, 0), (SAP, 4, 0x0D424741)):
+        term.write(frame(1, opcode, kind, 0, value))
+    term.silence(0.3)
+    assert term.type(b"ABIN\r", 2) == b"ABIN\rBA 100 0\r"
+    term.silence(0.1)
+    with pytrinamic_connection(pty_server) as conn:
+        assert conn.get_version_string() == "1021V142"
+
+
+def test_abin_after_a_frame_ending_in_printable_bytes(term):
+    """GAP 4 with value 0x36 ends in '6' and the checksum 'A': a line for the address '6' that swallows
+    the first `ABIN`. Its CR ends that line; `ABIN` again, or CR or ESC before it, works."""
+    request = frame(1, GAP, 4, 0, 0x36)
+    assert request[7:] == b"6A"
+    term.enter_ascii()
+    term.write(request)
+    term.write(b"ABIN\r")
+    term.silence(0.3)
+    assert term.type(b"ABIN\r", 2) == b"ABIN\rBA 100 0\r"
+    term.silence(0.1)
+    for clear in (b"\r", b"\x1b"):
+        term.enter_ascii()
+        term.write(request + clear)
+        term.silence(0.1)
+        assert term.type(b"ABIN\r", 2) == b"ABIN\rBA 100 0\r", clear
+        term.silence(0.1)
+        assert term.ok(1, GAP, 4, 0, 0).value == 51200
 
 
 def test_lines_for_other_addresses_are_ignored(term):
@@ -389,12 +438,10 @@ def test_ascii_module_on_a_shared_line(bus_server):
                 assert conn.get_version_string(module_id=a) == "1021V142"
         term.ser.timeout = 0
         term.silence(0.1)
-        # Those frames left bytes in module 2's line buffer (a line that began with 0x01 or 0x03):
-        # an ASCII line typed now is part of that foreign line and ignored ...
-        term.write(b"BGAP 4, 0\r")
-        term.silence(0.2)
-        # ... so a host sends CR first. Echo mode 00: the line, then the reply with module character B.
-        assert term.type(b"\rBGAP 4, 0\r", 2) == b"BGAP 4, 0\rBB 100 51200\r"
+        # The last frame's checksum (0x8B) discarded the line those frames left in module 2's buffer:
+        # an ASCII line typed now is answered. Echo mode 00: the line, then the reply with module
+        # character B. (A frame that ends in printable bytes would leave them in the way: CR first.)
+        assert term.type(b"BGAP 4, 0\r", 2) == b"BGAP 4, 0\rBB 100 51200\r"
         time.sleep(0.02)  # > 5 ms: modules 1 and 3 drop the text's incomplete frame
         assert term.ok(1, GAP, 4, 0, 0).value == 1191
         assert term.ok(3, GAP, 4, 0, 0).value == 1193
@@ -405,15 +452,17 @@ def test_ascii_module_on_a_shared_line(bus_server):
         time.sleep(0.02)
         assert term.ok(1, GAP, 4, 0, 0).value == 1191
         # A binary frame whose value holds CR 'B' 'G' 'A' starts a line for module 2: it echoes 'B',
-        # 'G', 'A' and the frame's checksum byte (stray bytes for a binary host) ...
+        # 'G', 'A' (stray bytes for a binary host) ...
         request = frame(1, SAP, 4, 0, 0x0D424741)
+        assert request[8] >= 0x80
         term.write(request)
         got = term.read_quiet(0.2)
         reply = bytes([2, 1, 100, SAP, 0x0D, 0x42, 0x47, 0x41])
         reply += bytes([sum(reply) & 0xFF])
-        assert reply in got and got.replace(reply, b"", 1) == b"BGA" + request[8:], got.hex(" ")
-        # ... and answers that line at the next CR: never silence for a line addressed to it.
-        assert term.type(b"\r", 2) == b"\rBB 2 0\r"
+        assert reply in got and got.replace(reply, b"", 1) == b"BGA", got.hex(" ")
+        # ... until the checksum byte (above 0x7F) discards that line: the next CR is a line for nobody.
+        term.write(b"\r")
+        term.silence(0.2)
         # Back to binary: all three answer pytrinamic again.
         assert term.type(b"BBIN\r", 2) == b"BBIN\rBB 100 0\r"
         time.sleep(0.02)

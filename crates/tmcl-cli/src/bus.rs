@@ -11,9 +11,10 @@
 //!
 //! **Decisions.** Two modules answering at once (a shared secondary address) would garble each other on
 //! a real bus; here the line sends the replies one after the other, whole, in the order they became due.
-//! A module in ASCII mode on the line reads binary frames for others as text lines, which it ignores
-//! unless a line starts with its address character; its text replies travel on the same line (a host
-//! mixing modes must expect them), see docs/decisions.md.
+//! A module in ASCII mode on the line reads binary frames for others as text: their control bytes and
+//! bytes above 0x7F discard its line, and a line it is left with is ignored unless it starts with its
+//! address character; its text replies travel on the same line (a host mixing modes must expect them),
+//! see docs/decisions.md.
 
 use std::collections::VecDeque;
 use tmcl_core::{Duration, Instant, Module};

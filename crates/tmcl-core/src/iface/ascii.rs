@@ -12,9 +12,16 @@
 //! - Echo mode `00` echoes each character once the line's address character matched, a backspace as
 //!   `BS SP BS` (erasing it on a terminal), and the closing `<CR>`; `01` echoes the whole line and `<CR>`
 //!   after `<CR>`; `10` and the undefined `11` do not echo. `<LF>` is ignored (terminals that send CR LF).
-//! - Every line addressed to the module gets a reply: a command the model lacks gets status 2, one that is
-//!   not allowed in ASCII mode status 6 (command not available), a line that does not parse gets the parser's status (2 unknown
-//!   command, 3 bad type word, 4 bad value or operand), a line longer than [`LINE_MAX`] gets status 2.
+//! - Every line addressed to the module that reaches its `<CR>` gets a reply: a command the model lacks
+//!   gets status 2, one that is not allowed in ASCII mode status 6 (command not available), a line that
+//!   does not parse gets the parser's status (2 unknown command, 3 bad type word, 4 bad value or
+//!   operand), a line longer than [`LINE_MAX`] gets status 2.
+//! - A byte that no command line holds — a control character other than CR, LF, backspace (BS or DEL)
+//!   and TAB, ESC among them, or a byte from 0x80 up — discards the line typed so far, silently, and the
+//!   next byte starts a new line. So the binary frames a host sends to a module in ASCII mode (they begin
+//!   with the address byte 0x01…) leave no partial line in front of the `ABIN` typed after them, and ESC
+//!   clears a line. Only a frame that ends in printable bytes leaves them in the way: a `<CR>` or ESC
+//!   before `ABIN` clears them (docs/troubleshooting.md).
 //! - `BIN` is answered (`BA 100 0`) before the module returns to binary mode; the 139 that enters ASCII
 //!   mode is answered in binary before the switch. `RUN` is command 129 type 0 (from the current PC,
 //!   address 0 after a start or reset), `STOP` is command 128.
@@ -33,6 +40,7 @@ const CR: u8 = b'\r';
 const LF: u8 = b'\n';
 const BACKSPACE: u8 = 0x08;
 const DELETE: u8 = 0x7F;
+const TAB: u8 = b'\t';
 
 /// The line being typed.
 #[derive(Debug, Clone)]
@@ -58,6 +66,13 @@ impl AsciiLine {
         self.first = 0;
         self.overflow = false;
     }
+}
+
+/// Whether `b` discards the line being typed: a control character other than the line end, the editing
+/// keys and TAB (ESC among them), or a byte above 0x7F — bytes that no §3.4.2 command line holds and that
+/// binary frames sent to a module in ASCII mode are full of.
+fn is_line_breaker(b: u8) -> bool {
+    (b < 0x20 && !matches!(b, CR | LF | BACKSPACE | TAB)) || b >= 0x80
 }
 
 /// A small fixed-capacity text buffer for building replies without a heap.
@@ -146,6 +161,8 @@ impl<B: Board> Module<B> {
                     self.st.ports[port].outbox.push(&[BACKSPACE, b' ', BACKSPACE], now);
                 }
             }
+            // A byte no command line contains (binary data, ESC): the line so far is discarded.
+            _ if is_line_breaker(b) => self.st.ports[port].ascii.clear(),
             _ => {
                 if self.st.ports[port].ascii.first == 0 {
                     self.st.ports[port].ascii.first = b;

@@ -121,6 +121,77 @@ fn suppressed_replies_in_ascii() {
     assert_eq!(text(&b.bytes(b"AGAP 4, 0\r")), "BA 100 1000\r");
 }
 
+/// The request frame `address, op, t, m, v` as bytes: what a binary host sends.
+fn frame(address: u8, op: Opcode, t: u8, m: u8, v: i32) -> [u8; 9] {
+    Request { address, instruction: Instruction::new(op, t, m, v) }.to_bytes()
+}
+
+#[test]
+fn binary_frames_then_abin_return_to_binary() {
+    // A host that does not know the module is in ASCII mode sends frames (pytrinamic's version request and
+    // a GAP): their bytes from 0x01 up are no command line; each control byte or byte above 0x7F discards
+    // the line, so nothing is left in front of the `ABIN` typed next.
+    let mut b = ascii_bench();
+    let mut junk = Vec::new();
+    junk.extend_from_slice(&frame(1, Opcode::GetVersion, 0, 0, 0));
+    junk.extend_from_slice(&frame(1, Opcode::Gap, 4, 0, 0));
+    junk.extend_from_slice(&frame(1, Opcode::Sap, 4, 0, 0x0D42_4741)); // CR 'B' 'G' 'A' in the value
+    assert!(b.bytes(&junk).is_empty(), "no echo, no reply");
+    assert!(b.module.ascii_mode());
+    assert_eq!(text(&b.bytes(b"ABIN\r")), "ABIN\rBA 100 0\r");
+    assert!(!b.module.ascii_mode());
+    assert_eq!(b.send(Opcode::Gap, 4, 0, 0).value, 51200, "binary again");
+}
+
+#[test]
+fn a_frame_ending_in_printable_bytes_needs_a_cr_first() {
+    // GAP 4 with value 0x36: its last two bytes are '6' and the checksum 'A'. They start a line for the
+    // address '6', which swallows the `ABIN` typed after them; its CR ends that line, the next one works.
+    let mut b = ascii_bench();
+    let request = frame(1, Opcode::Gap, 4, 0, 0x36);
+    assert_eq!(&request[7..], b"6A");
+    assert!(b.bytes(&request).is_empty());
+    assert!(b.bytes(b"ABIN\r").is_empty(), "part of the line `6AABIN`, for another address");
+    assert!(b.module.ascii_mode());
+    assert_eq!(text(&b.bytes(b"ABIN\r")), "ABIN\rBA 100 0\r");
+    assert!(!b.module.ascii_mode());
+    // The same frame, then CR (or ESC) before `ABIN`: back at the first try.
+    for clear in [b"\r", b"\x1b"] {
+        b.send(Opcode::EnterAscii, 0, 0, 0);
+        b.bytes(&request);
+        assert!(b.bytes(clear).is_empty());
+        assert_eq!(text(&b.bytes(b"ABIN\r")), "ABIN\rBA 100 0\r");
+        assert!(!b.module.ascii_mode());
+    }
+}
+
+#[test]
+fn partial_line_then_cr_then_abin() {
+    let mut b = ascii_bench();
+    // A partial line of this module's: its CR gets the reply to what it holds, then ABIN works.
+    assert_eq!(text(&b.bytes(b"AGA")), "AGA");
+    assert_eq!(text(&b.bytes(b"\r")), "\rBA 2 0\r");
+    // A partial line of another address: its CR ends it silently.
+    assert!(b.bytes(b"xGAP 4").is_empty());
+    assert!(b.bytes(b"\r").is_empty());
+    assert_eq!(text(&b.bytes(b"ABIN\r")), "ABIN\rBA 100 0\r");
+    assert!(!b.module.ascii_mode());
+}
+
+#[test]
+fn esc_and_binary_bytes_discard_the_line() {
+    let mut b = ascii_bench();
+    // Echo mode 00: the characters were echoed as typed; ESC discards the line without a reply.
+    assert_eq!(text(&b.bytes(b"AGAP 4, 0\x1b")), "AGAP 4, 0");
+    assert_eq!(text(&b.bytes(b"AGAP 5, 0\r")), "AGAP 5, 0\rBA 100 51200\r");
+    // A binary byte in the middle of a line: the rest (` 4, 0`, address ' ') is a line for nobody.
+    assert_eq!(text(&b.bytes(b"AGAP\x00 4, 0\r")), "AGAP");
+    assert!(b.bytes(b"AGGP 66\xfe, 0\r").len() == "AGGP 66".len());
+    // TAB is text (the parser takes it as a space); LF is ignored.
+    assert_eq!(text(&b.bytes(b"AGAP\t4, 0\r\n")), "AGAP\t4, 0\rBA 100 51200\r");
+    assert!(b.module.ascii_mode());
+}
+
 impl Bench {
     fn sap_ascii(&mut self, line: &str) {
         let out = self.bytes(format!("{line}\r").as_bytes());
