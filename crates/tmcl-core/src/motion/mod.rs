@@ -4,5 +4,5 @@
 pub mod ramp;
 pub mod reference;
 
-pub use ramp::{Limits, Mode, Ramp, RampParams, TickResult, TICK};
+pub use ramp::{Bounds, Limits, Mode, Ramp, RampParams, Span, TickResult, TICK};
 pub use reference::{Reference, SearchMode};

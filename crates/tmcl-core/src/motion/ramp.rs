@@ -21,6 +21,9 @@
 
 use crate::time::Duration;
 
+mod span;
+pub use span::{Bounds, Span};
+
 /// The motion controller's update period.
 pub const TICK: Duration = Duration::from_millis(1);
 
@@ -232,8 +235,8 @@ impl Ramp {
             if toward < v_min {
                 up = up.max(v_min); // ramps begin at the start speed AP 130
             }
-            let brake = braking_speed(distance.abs(), p.max_accel, v_min, up);
-            up.min(brake).max(toward - accel).max(0)
+            // `braking_speed(…, up).max(toward − accel)`, without the square root when the floor wins.
+            braking_speed_above(distance.abs(), p.max_accel, v_min, up, toward).max(toward - accel).max(0)
         };
         speed * dir
     }
@@ -264,6 +267,49 @@ fn braking_speed(distance: i64, accel: i32, v_min: i64, cap: i64) -> i64 {
         return cap;
     }
     braking_speed_exact(distance, accel, v_min, cap)
+}
+
+/// `braking_speed(distance, accel, v_min, cap).max(toward − a·dt)` for a speed `toward` ≥ 0 towards the
+/// target (`cap` ≥ `toward`): the speed of the coming tick before the final `.max(0)`. Where the bound lies
+/// at or below `toward − a·dt` (the usual case while braking, when the deceleration AP 5 itself is the
+/// limit) it returns that floor without taking the square root: `sqrt(sq) − a·dt ≤ toward − a·dt` exactly
+/// when `sq < (toward + 1)²`.
+#[inline]
+pub(super) fn braking_speed_above(distance: i64, accel: i32, v_min: i64, cap: i64, toward: i64) -> i64 {
+    let a = u64::from(accel.max(1) as u32);
+    let c = (cap.max(0) as u64).div_ceil(1_000_000);
+    let e = (a * TICK.micros()).div_ceil(1_000_000);
+    if c.checked_mul(c + 2 * e).is_some_and(|lhs| lhs <= (2 * a).saturating_mul(distance.unsigned_abs())) {
+        return cap;
+    }
+    let a_dt = i64::from(accel.max(1)) * TICK.micros() as i64;
+    let sq = braking_square(distance, accel, v_min);
+    let reach = (cap.max(0) as u128).saturating_add(a_dt as u128);
+    if reach.saturating_mul(reach) <= sq {
+        return cap;
+    }
+    let next = (toward.max(0) as u128) + 1;
+    if sq < next * next {
+        return toward - a_dt; // the bound is at or below the floor
+    }
+    braking_root(sq, a_dt)
+}
+
+/// `(a·dt)² + 2·a·d·10¹² + vmin²` (µpps²): the square of the speed from which a deceleration `a` ends at
+/// `vmin` after `d` microsteps, plus the discrete form's term (see [`braking_speed`]).
+#[inline]
+pub(super) fn braking_square(distance: i64, accel: i32, v_min: i64) -> u128 {
+    let a_dt = u128::from(accel.max(1) as u32) * TICK.micros() as u128; // µpps per tick
+    let v_min = v_min.max(0) as u128;
+    a_dt * a_dt
+        + 2 * u128::from(accel.max(1) as u32) * distance.unsigned_abs() as u128 * 1_000_000_000_000
+        + v_min * v_min
+}
+
+/// `sqrt(sq) − a·dt` (µpps), out of line: the one square root of a braking tick.
+#[inline(never)]
+fn braking_root(sq: u128, a_dt: i64) -> i64 {
+    (sq.isqrt() - a_dt as u128) as i64
 }
 
 /// [`braking_speed`] without the fast path, in u128 (kept out of line so the fast path stays small).

@@ -252,3 +252,23 @@ fn braking_speed_fast_path_at_the_boundary() {
         }
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(4096))]
+    /// `braking_speed_above` is `braking_speed(…).max(toward − a·dt)`, the tick's formula before the
+    /// square root was skipped where the floor wins.
+    #[test]
+    fn braking_speed_above_is_the_max_with_the_floor(
+        distance in proptest::prop_oneof![0i64..100_000, 0i64..(1i64 << 33)],
+        accel in proptest::prop_oneof![1i32..100_000, proptest::num::i32::ANY],
+        v_min in proptest::prop_oneof![0i64..2_000_000_000, 0i64..(i64::from(i32::MAX) * MICRO)],
+        toward in proptest::prop_oneof![0i64..300_000_000_000, 0i64..(i64::from(i32::MAX) * MICRO)],
+        up in proptest::prop_oneof![0i64..300_000_000_000, 0i64..(i64::from(i32::MAX) * MICRO)],
+    ) {
+        let a_dt = i64::from(accel.max(1)) * 1000;
+        proptest::prop_assert_eq!(
+            braking_speed_above(distance, accel, v_min, up, toward).max(toward - a_dt),
+            braking_speed(distance, accel, v_min, up).max(toward - a_dt)
+        );
+    }
+}

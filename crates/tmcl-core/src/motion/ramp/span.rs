@@ -1,0 +1,376 @@
+//! Spans: many motion ticks in one step, with exactly the state ticking them one by one gives.
+//!
+//! Between two events the ramp's velocity changes by the same amount every tick — `+a·dt` while it
+//! accelerates, `−a·dt` while it slows down towards AP 2 or a stop, 0 while it cruises — so the velocity
+//! after `k` ticks is `v + k·Δ` and the distance travelled is the arithmetic sum
+//! `fraction + dt·(k·v + Δ·k(k+1)/2)` in 10⁻¹² microsteps. Because every tick's remainder is carried and
+//! the velocity keeps its sign (it changes sign only through 0, where the fraction is reset), the steps
+//! of `k` ticks are that sum divided by 10¹² (truncated towards zero, as each tick does), and the
+//! fraction left is its remainder: one tick's arithmetic, done once ([`Ramp::span`]).
+//!
+//! Where a run's length is not a simple quotient — how long a position-mode ramp accelerates or cruises
+//! before the braking bound of [`super::braking_speed`] takes over, how far the axis may travel before
+//! the board's window closes — the condition is monotone over the run (the distance left only shrinks,
+//! the speed only grows), so a galloping binary search over the closed form finds the last tick that
+//! still meets it.
+//!
+//! The deceleration of a position-mode ramp towards its target has no closed form: its speed is the
+//! integer square root of a term in the distance left, tick by tick. Those ticks are computed with
+//! [`Ramp::tick`] itself, in a tight loop without the rest of the module (no board, no program).
+//!
+//! A span stops before any tick that is an event: one that arrives, stops at a switch, stops, changes
+//! whether the speed changes (the boost current, AP 200), or leaves the caller's [`Bounds`] (speeds,
+//! travel, tick count). Such a tick is left to the caller, who runs it as a normal tick. And a span ends
+//! on its last step: ticks after it that move none (slower than a step per tick) are left for the next
+//! span, so that the board hears of the last step at the time it was made (see [`crate::hal::Quiet`]).
+
+use super::{Limits, Mode, Ramp, RampParams, MICRO, TICK};
+
+/// The tick in µs, as the arithmetic of a span uses it.
+const DT: i128 = TICK.micros() as i128;
+/// 10¹² (10⁻¹² microsteps per microstep), as the arithmetic of a span uses it.
+const PICO: i128 = super::PICO as i128;
+
+/// While braking, how many ticks pass between two looks for a closed-form run.
+const BRAKING_RETRY: u32 = 16;
+
+/// What every tick of a span must keep, besides the ramp's own rules (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Bounds {
+    /// At most this many ticks.
+    pub ticks: u64,
+    /// How far the step counter may move up from where the span starts (microsteps, inclusive).
+    pub forward: u64,
+    /// How far it may move down.
+    pub backward: u64,
+    /// The lowest |AP 3| (pps, truncated as [`Ramp::velocity`]) of any tick; at least 1.
+    pub min_speed: u32,
+    /// The highest |AP 3| of any tick.
+    pub max_speed: u32,
+    /// Every tick changes the speed (`true`) or none does (`false`), as the tick before the span did.
+    pub ramping: bool,
+}
+
+/// What a span did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Span {
+    /// Ticks taken (0: the next tick is an event, or the bounds allow none).
+    pub ticks: u64,
+    /// Microsteps moved, signed (the position counter wraps at its width; this does not).
+    pub steps: i64,
+}
+
+/// A run of ticks over which the velocity changes by `dv` every tick.
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    /// Change of the velocity per tick (µpps, signed; 0 = cruising).
+    dv: i64,
+    /// At most this many ticks follow the rule.
+    max: u64,
+    /// Position mode towards the target: each tick also needs the braking bound at or above its speed,
+    /// and the target still ahead after it.
+    toward: Option<Toward>,
+    /// Position mode moving away from the target: the distance must stay within half the counter.
+    away: bool,
+}
+
+/// The braking bound's terms for a run towards the target (see [`super::braking_square`]).
+#[derive(Debug, Clone, Copy)]
+struct Toward {
+    /// AP 5 × dt (µpps per tick).
+    a_dt: u128,
+    /// |distance| at the start of the run.
+    distance: i64,
+    /// AP 5 (pps²).
+    accel: i32,
+    /// The start/stop speed in µpps, at most AP 4.
+    v_min: i64,
+}
+
+impl Ramp {
+    /// Advances over as many ticks as are no events and the bounds allow, exactly as [`Ramp::tick`]
+    /// would one by one with the same parameters and limits (see the module docs). The caller runs the
+    /// tick after the span as a normal tick.
+    pub fn span(&mut self, p: &RampParams, limits: Limits, bounds: &Bounds) -> Span {
+        let mut done = Span::default();
+        if self.velocity == 0 {
+            return done;
+        }
+        // The state right after the last tick of the span that moved a step (see the module docs: a
+        // span ends on its last step).
+        let mut mark: Option<(Ramp, Span)> = None;
+        let mut retry = 0u32;
+        while done.ticks < bounds.ticks {
+            let left = bounds.ticks - done.ticks;
+            if retry == 0 {
+                if let Some(run) = self.run(p, limits) {
+                    let n = self.allowed(&run, bounds, left, done.steps);
+                    if n > 0 {
+                        let start = *self;
+                        let steps = self.apply(run.dv, n);
+                        if steps != 0 {
+                            // The run's last step: at its last tick, or (slower than a step per tick) at
+                            // the first tick that reached its count.
+                            let j = start.last_step(run.dv, n, steps);
+                            let (at, moved) = if j == n {
+                                (*self, steps)
+                            } else {
+                                let mut at = start;
+                                let moved = at.apply(run.dv, j);
+                                (at, moved)
+                            };
+                            mark = Some((at, Span { ticks: done.ticks + j, steps: done.steps + moved }));
+                        }
+                        done.ticks += n;
+                        done.steps += steps;
+                        continue;
+                    }
+                    if run.toward.is_some() {
+                        // Braking towards the target: square roots from here to the arrival, tick by
+                        // tick; a run (a new target further away) is looked for again only now and then.
+                        retry = BRAKING_RETRY;
+                    }
+                }
+            } else {
+                retry -= 1;
+            }
+            let before = *self;
+            let r = self.tick(TICK, p, limits);
+            let total = done.steps + r.steps;
+            let silent = !r.arrived
+                && !r.stopped_by_switch
+                && r.ramping == bounds.ramping
+                && self.mode == before.mode
+                && self.velocity.signum() == before.velocity.signum()
+                && self.speed_within(bounds)
+                && within(total, self.velocity.signum(), bounds);
+            if !silent {
+                *self = before;
+                break;
+            }
+            done.ticks += 1;
+            done.steps = total;
+            if r.steps != 0 {
+                mark = Some((*self, done));
+            }
+        }
+        if let Some((at, upto)) = mark {
+            // Ticks after the last step (slower than a step per tick) are given back: the span ends on the
+            // step the board hears of last; the next span starts with them.
+            *self = at;
+            done = upto;
+        }
+        done
+    }
+
+    /// |AP 3| of the present velocity within the bounds' speeds.
+    fn speed_within(&self, b: &Bounds) -> bool {
+        let speed = self.velocity().unsigned_abs();
+        speed >= b.min_speed.max(1) && speed <= b.max_speed
+    }
+
+    /// The run of ticks the ramp is in, if the next tick follows one (see [`Ramp::tick`] and
+    /// `position_velocity`, `approach` in the parent module, whose cases these mirror).
+    fn run(&self, p: &RampParams, limits: Limits) -> Option<Run> {
+        let v = self.velocity;
+        if v == 0 || (v < 0 && limits.block_negative) || (v > 0 && limits.block_positive) {
+            return None;
+        }
+        let accel = i64::from(p.max_accel.max(1)) * TICK.micros() as i64;
+        let v_min = i64::from(p.min_speed.max(0)) * MICRO;
+        let sign = v.signum();
+        let u0 = v.abs();
+        let plain = |dv: i64, max: u64| Some(Run { dv, max, toward: None, away: false });
+        match self.mode {
+            Mode::Velocity => {
+                let target = i64::from(self.target_velocity) * MICRO;
+                if v == target {
+                    return plain(0, u64::MAX);
+                }
+                if target == 0 || (v > 0) != (target > 0) {
+                    // Slowing down towards a stop or a reversal: linear while above the stop speed.
+                    return (u0 - accel > v_min)
+                        .then(|| ((u0 - v_min - 1) / accel) as u64)
+                        .and_then(|n| plain(-accel * sign, n));
+                }
+                let goal = target.abs();
+                if u0 < goal {
+                    // Accelerating (from at least the start speed) up to the goal.
+                    let n = if u0 < v_min { 0 } else { ((goal - u0) / accel) as u64 };
+                    (n > 0).then_some(n).and_then(|n| plain(accel * sign, n))
+                } else {
+                    // Slowing down to a lower goal; below the start speed the ramp jumps to it.
+                    let floor = if goal < v_min { v_min } else { goal };
+                    let n = if u0 < floor { 0 } else { ((u0 - floor) / accel) as u64 };
+                    (n > 0).then_some(n).and_then(|n| plain(-accel * sign, n))
+                }
+            }
+            Mode::Position => {
+                let distance = self.distance();
+                if distance == 0 {
+                    return None; // the tick's own stop rule decides
+                }
+                let toward = v * distance.signum();
+                let v_max = i64::from(p.max_speed.max(1)) * MICRO;
+                let v_min = v_min.min(v_max);
+                if toward < 0 {
+                    // Moving away (the target changed behind): braking with AP 5 until it turns.
+                    if u0 - accel <= v_min {
+                        return None;
+                    }
+                    return Some(Run {
+                        dv: -accel * sign,
+                        max: ((u0 - v_min - 1) / accel) as u64,
+                        toward: None,
+                        away: true,
+                    });
+                }
+                let (dv, max) = if u0 < v_min {
+                    return None; // the jump to the start speed
+                } else if u0 < v_max && u0 + accel <= v_max {
+                    (accel * sign, ((v_max - u0) / accel) as u64)
+                } else if u0 == v_max {
+                    (0, u64::MAX)
+                } else {
+                    return None; // the last tick up to AP 4, or above a lowered AP 4
+                };
+                let t = Toward { a_dt: accel as u128, distance: distance.abs(), accel: p.max_accel, v_min };
+                Some(Run { dv, max, toward: Some(t), away: false })
+            }
+        }
+    }
+
+    /// How many ticks of `run` the bounds allow, after `done` steps of the span so far and with at most
+    /// `left` ticks.
+    fn allowed(&self, run: &Run, b: &Bounds, left: u64, done: i64) -> u64 {
+        if (run.dv != 0) != b.ramping {
+            return 0;
+        }
+        let sign = self.velocity.signum();
+        let (u0, du) = (i128::from(self.velocity.abs()), i128::from(run.dv * sign));
+        // Speeds of ticks 1..n within the bounds (AP 3 truncates; at least 1 pps: the axis moves).
+        let lo = i128::from(b.min_speed.max(1)) * i128::from(MICRO);
+        let hi = (i128::from(b.max_speed) + 1) * i128::from(MICRO) - 1;
+        let mut n = run.max.min(left);
+        let limit = if du > 0 {
+            if u0 + du < lo || u0 + du > hi {
+                return 0;
+            }
+            (hi - u0) / du
+        } else if du < 0 {
+            if u0 + du > hi || u0 + du < lo {
+                return 0;
+            }
+            (u0 - lo) / -du
+        } else {
+            if u0 < lo || u0 > hi {
+                return 0;
+            }
+            i128::from(u64::MAX)
+        };
+        n = n.min(u64::try_from(limit).unwrap_or(u64::MAX));
+        if n == 0 {
+            return 0;
+        }
+        let window = i128::from(if sign > 0 { b.forward } else { b.backward }) - i128::from(done.abs());
+        let half = 1i128 << (31 - self.shift);
+        let ok = |k: u64| -> bool {
+            let Some(total) = self.travel(run.dv, k) else { return false };
+            let steps = total / PICO;
+            if steps.abs() > window {
+                return false;
+            }
+            if let Some(t) = run.toward {
+                // Tick k is free of the braking bound: (u_k + a·dt)² ≤ sq(|d| before tick k), and the target
+                // is still ahead after it (no arrival).
+                if steps.abs() >= i128::from(t.distance) {
+                    return false;
+                }
+                let Some(before) = self.travel(run.dv, k - 1) else { return false };
+                let left = t.distance - (before / PICO).unsigned_abs() as i64;
+                let reach = (u0 + du * i128::from(k)) as u128 + t.a_dt;
+                if reach.saturating_mul(reach) > super::braking_square(left, t.accel, t.v_min) {
+                    return false;
+                }
+            }
+            if run.away {
+                let d = i128::from(self.distance().unsigned_abs()) + steps.abs();
+                if d >= half {
+                    return false;
+                }
+            }
+            true
+        };
+        largest(n, ok)
+    }
+
+    /// The fraction after `k` more ticks of a run with `dv` per tick, before it is split into steps:
+    /// `fraction + dt·Σ_{i=1..k} (v + i·dv)` in 10⁻¹² microsteps (`None` beyond i128).
+    fn travel(&self, dv: i64, k: u64) -> Option<i128> {
+        let (k, v, dv) = (i128::from(k), i128::from(self.velocity), i128::from(dv));
+        let sum = k.checked_mul(v)?.checked_add(dv.checked_mul(k.checked_mul(k + 1)? / 2)?)?;
+        i128::from(self.fraction).checked_add(sum.checked_mul(DT)?)
+    }
+
+    /// Applies `n` ticks of a run (allowed by [`Ramp::allowed`], so the sums fit); returns the steps.
+    fn apply(&mut self, dv: i64, n: u64) -> i64 {
+        let total = self.travel(dv, n).unwrap_or(0);
+        let steps = total / PICO;
+        self.fraction = (total - steps * PICO) as i64;
+        self.velocity += dv * n as i64;
+        // The counter wraps: adding the steps modulo 2³² (then to the counter's width) is what adding
+        // each tick's steps does.
+        self.position = self.wrap(self.position.wrapping_add(steps as i32));
+        steps as i64
+    }
+
+    /// For a run of `n` ticks with `dv` per tick from this state that moves `steps` (≠ 0) in all: its
+    /// last tick that moved, i.e. the first at which the count reached `steps` (the count only grows).
+    fn last_step(&self, dv: i64, n: u64, steps: i64) -> u64 {
+        let reached = |k: u64| self.travel(dv, k).is_some_and(|t| (t / PICO).abs() >= i128::from(steps.abs()));
+        if !reached(n - 1) {
+            return n; // the usual case: the last tick moved
+        }
+        // The largest k that has not reached it yet, plus one.
+        largest(n, |k| !reached(k)) + 1
+    }
+}
+
+/// Whether `total` steps in direction `sign` stay within the bounds' travel.
+fn within(total: i64, sign: i64, b: &Bounds) -> bool {
+    if total != 0 && total.signum() != sign {
+        return false;
+    }
+    total.unsigned_abs() <= if sign > 0 { b.forward } else { b.backward }
+}
+
+/// The largest `k` in `0..=n` with `ok(k)`, for an `ok` that holds up to some point and not after it
+/// (`ok(0)` is taken to hold): galloping from 1, then bisecting.
+fn largest(n: u64, ok: impl Fn(u64) -> bool) -> u64 {
+    if n == 0 || !ok(1) {
+        return 0;
+    }
+    let (mut good, mut bad) = (1u64, None);
+    while good < n {
+        let probe = good.saturating_mul(2).min(n);
+        if ok(probe) {
+            good = probe;
+        } else {
+            bad = Some(probe);
+            break;
+        }
+    }
+    let Some(mut bad) = bad else { return good };
+    while bad - good > 1 {
+        let mid = good + (bad - good) / 2;
+        if ok(mid) {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    good
+}
+
+#[cfg(test)]
+mod tests;
