@@ -136,14 +136,62 @@ pub struct DriverSettings {
     pub ssi_encoder: bool,
 }
 
+/// A stretch of time and travel in which nothing the board models changes except through the motor's
+/// own moves, as [`StepDriver::quiet`] reports it. Within it the core may report a run of motion ticks in
+/// one [`StepDriver::update`] (see there for what the board promises).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Quiet {
+    /// Nothing changes by itself before this instant (exclusive): a timeline entry, a fault window, a
+    /// bouncing switch settling. `None`: nothing is due.
+    pub until: Option<Instant>,
+    /// How far the step counter (microsteps of the current resolution) may move up from where it is
+    /// before a reading changes with the position (a switch edge, a jam, an end stop): every position up
+    /// to this many microsteps further is quiet. 0: none.
+    pub forward: u64,
+    /// How far it may move down.
+    pub backward: u64,
+    /// The lowest |velocity| (pps) at which the readings behave as now (a load measurement starts or
+    /// stops below a speed, for one).
+    pub min_speed: u32,
+    /// The highest.
+    pub max_speed: u32,
+    /// The load value (AP 206) every load measurement in the window reads.
+    pub load: u16,
+}
+
 /// The motor driver, fed by the step generator.
 pub trait StepDriver {
-    /// Called after every motion tick with the state the motor should now be in.
+    /// Called after every motion tick with the state the motor should now be in — or, within a window
+    /// the board reported with [`StepDriver::quiet`], once for a run of ticks.
+    ///
+    /// # Runs of ticks
+    ///
+    /// Within a [`Quiet`] window the core may leave out the updates of a run of motion ticks and make
+    /// only the last one, with `moved` the sum of the run's moves, `now` the time of its last tick and
+    /// `state` as after it. It does so only when, over the whole run:
+    /// - the step counter moves in one direction and stays within `forward`/`backward` of where it was
+    ///   when the window was asked for, and every tick's |velocity| lies within `min_speed..=max_speed`;
+    /// - nothing else of the drive state changes (current, enabled, resolution, reverse);
+    /// - the last tick moved a step, unless none of the run's ticks did;
+    /// - the last tick comes before `until`.
+    ///
+    /// The board promises that such an update leaves it as the updates of every tick would have, and
+    /// that what the core reads between those ticks would have read as before the run: the switches,
+    /// inputs, flags and the load value (every new load measurement reads `load`), and the encoder
+    /// counts moving monotonically with the step counter.
     fn update(&mut self, now: Instant, state: &DriveState);
 
     /// Applies driver settings that change rarely. A board without them ignores the call (the default).
     fn configure(&mut self, settings: &DriverSettings) {
         let _ = settings;
+    }
+
+    /// Whether, at `now` and with the driver last updated to `state`, the board is in a [`Quiet`]
+    /// window, and how far it reaches. `None` (the default, for a board that cannot tell): the core
+    /// reports every motion tick.
+    fn quiet(&mut self, now: Instant, state: &DriveState) -> Option<Quiet> {
+        let _ = (now, state);
+        None
     }
 }
 
@@ -195,7 +243,11 @@ forward! {
     Outputs { fn set_outputs(&mut self, bits: u8); }
     Analog { fn analog_input(&mut self, channel: u8) -> u16; fn temperature(&mut self) -> i32; fn supply_voltage(&mut self) -> u16; }
     SwitchInputs { fn switches(&mut self) -> Switches; }
-    StepDriver { fn update(&mut self, now: Instant, state: &DriveState); fn configure(&mut self, settings: &DriverSettings); }
+    StepDriver {
+        fn update(&mut self, now: Instant, state: &DriveState);
+        fn configure(&mut self, settings: &DriverSettings);
+        fn quiet(&mut self, now: Instant, state: &DriveState) -> Option<Quiet>;
+    }
     LoadSensor { fn load(&mut self) -> u16; fn load_measurements(&mut self) -> u32; fn driver_flags(&mut self) -> u8; }
     EncoderCounter { fn encoder_counts(&mut self) -> i64; }
 }
