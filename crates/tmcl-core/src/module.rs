@@ -29,19 +29,20 @@ use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
-use crate::model::{Framing, Kinematics, ModelSpec, Setting};
-use crate::motion::reference::{Action, SwitchLevels};
-use crate::motion::{Limits, Mode, Ramp, RampParams, Reference, TICK};
+use crate::model::{Kinematics, ModelSpec, Setting};
+use crate::motion::{Limits, Ramp, RampParams, Reference};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
-use crate::vm::run::BUDGET;
-use crate::vm::{Program, RunState, Vm};
+use crate::vm::{Program, Vm};
 use tmcl_model::capacity::{
     MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES,
 };
-use tmcl_wire::{EventMode, Opcode, Status, FRAME_LEN};
+use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
 pub use crate::iface::host::MAILBOX_LEN;
+
+mod advance;
+mod spans;
 
 /// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
 pub mod flags {
@@ -151,6 +152,8 @@ pub struct State {
     pub(crate) unreported_steps: i64,
     /// What the board was last told (with `moved` = 0), to skip updates that change nothing.
     pub(crate) last_drive: Option<DriveState>,
+    /// When the board was last told.
+    pub(crate) board_time: Instant,
     /// When the driver current next changes on its own (standby, freewheeling), if it will.
     pub(crate) drive_due: Option<Instant>,
     /// The coolStep regulator (AP 168–183).
@@ -195,6 +198,7 @@ impl State {
             unlocked: false,
             unreported_steps: 0,
             last_drive: None,
+            board_time: now,
             drive_due: None,
             coolstep: CoolStep::new(),
             load_measurements: 0,
@@ -252,6 +256,10 @@ pub struct Module<B: Board> {
     pub(crate) st: State,
     pub(crate) vm: Vm,
     pub(crate) program: Program,
+    /// Tick the motion controller one by one (the reference), no spans (see `module/advance.rs`).
+    pub(crate) exact: bool,
+    /// The spans computed last (see `module/spans.rs`).
+    pub(crate) memos: spans::Memos,
 }
 
 impl<B: Board> Module<B> {
@@ -259,7 +267,15 @@ impl<B: Board> Module<B> {
     /// factory defaults if it holds no valid image for this model. The model was checked against the
     /// core's capacities when it was compiled ([`ModelSpec::new`]).
     pub fn new(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
-        let mut module = Module { board, spec, st: State::new(now), vm: Vm::default(), program: Program::default() };
+        let mut module = Module {
+            board,
+            spec,
+            st: State::new(now),
+            vm: Vm::default(),
+            program: Program::default(),
+            exact: false,
+            memos: Default::default(),
+        };
         module.start(now);
         module
     }
@@ -448,7 +464,7 @@ impl<B: Board> Module<B> {
         (s.left ^ invert, s.right ^ invert, s.home)
     }
 
-    fn limits(&mut self) -> Limits {
+    pub(crate) fn limits(&mut self) -> Limits {
         if self.st.reference.is_active() {
             // The reference search handles the switches itself (§7.1: AP 12/13 do not affect it).
             return Limits::default();
@@ -539,6 +555,7 @@ impl<B: Board> Module<B> {
         }
         self.st.unreported_steps = 0;
         self.st.last_drive = Some(unchanged);
+        self.st.board_time = now;
         self.board.update(now, &state);
     }
 
@@ -546,212 +563,5 @@ impl<B: Board> Module<B> {
     #[inline]
     pub(crate) fn microstep_resolution(&self) -> u8 {
         self.spec.axis.role(crate::model::Role::MicrostepResolution).map_or(8, |i| self.st.axis[i] as u8)
-    }
-
-    /// Runs the motion controller and timers up to `now`.
-    #[inline]
-    pub(crate) fn advance(&mut self, now: Instant) {
-        if now < self.st.now {
-            // Time never runs backwards for the module; a caller's late timestamp is taken as "now".
-            return;
-        }
-        if self.st.motion_time + TICK > now && self.vm.state != RunState::Running {
-            // The common case between two ticks (frames from a host): no tick is due and no program runs,
-            // so only what may fall due at `now` — exactly what the loop below does in this case.
-            self.st.now = now;
-            self.after_advance(now, false);
-            return;
-        }
-        self.advance_ticks(now);
-    }
-
-    /// [`Module::advance`] when a tick is due or a program runs.
-    fn advance_ticks(&mut self, now: Instant) {
-        self.st.now = now;
-        // The ramp parameters in force for this call's ticks, read at its start. When no tick is due
-        // (a frame between two ticks), none runs in this call: the loop's first pass takes `tick_at`
-        // before the program runs and breaks on it. So the lookups are skipped and the placeholder is
-        // never used.
-        let params = if self.st.motion_time + TICK <= now {
-            self.ramp_params()
-        } else {
-            RampParams { max_speed: 0, max_accel: 0, min_speed: 0 }
-        };
-        let mut ticked = false;
-        let mut budget = BUDGET;
-        let closed_loop = self.has_closed_loop();
-        // Instructions up to and including `now`.
-        let horizon = now + Duration::from_micros(1);
-        loop {
-            let tick_at = self.st.motion_time + TICK;
-            if self.vm.state == RunState::Running {
-                self.run_program(tick_at.min(horizon), &mut budget);
-                if budget == 0 {
-                    break; // the rest at the next poll (its deadline is now)
-                }
-            }
-            if tick_at > now {
-                break;
-            }
-            if self.st.ramp.is_idle() && !self.st.reference.is_active() && !self.needs_every_tick() {
-                // A stop outside the ramp (a stall, a deviation, the end of a reference search) leaves
-                // the motor standing: the standby and freewheeling delays run from the last tick.
-                if self.st.standstill_since.is_none() {
-                    self.st.standstill_since = Some(self.st.motion_time);
-                    ticked = true; // the board hears of it (and of the standby timer) below
-                }
-                // Nothing moves: jump to the last tick boundary before the next timed event (or `now`).
-                let until =
-                    [self.program_deadline(), self.timer_deadline()].into_iter().flatten().fold(now, Instant::min);
-                if until >= tick_at {
-                    let ticks = (until - self.st.motion_time).micros() / TICK.micros();
-                    self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
-                    self.st.ramping = false;
-                    if self.vm.enabled != 0 {
-                        self.sample_interrupts(self.st.motion_time);
-                    }
-                    continue;
-                }
-            }
-            ticked = true;
-            // A reference search looks at its switch after every microstep (sub-ticks), so that the
-            // switching points, and with them the zero point, are exact to the microstep (§7.1).
-            let parts = if self.st.reference.is_active() {
-                (u64::from(self.st.ramp.velocity().unsigned_abs()) / 1000 + 1).min(TICK.micros())
-            } else {
-                1
-            };
-            // (Most ticks are one part: no 64-bit division for them.)
-            let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
-            for k in 1..=parts {
-                let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
-                let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
-                let limits = self.limits();
-                let r = self.st.ramp.tick(Duration::from_micros(dt), &params, limits);
-                self.st.ramping = r.ramping;
-                let steps = if closed_loop { self.closed_loop_tick(r.steps, dt as i64) } else { r.steps };
-                self.st.unreported_steps += steps;
-                let moving = self.st.ramp.velocity() != 0;
-                match (moving, self.st.standstill_since) {
-                    (true, Some(_)) => self.st.standstill_since = None,
-                    (false, None) => self.st.standstill_since = Some(t),
-                    _ => {}
-                }
-                self.update_board(t);
-                if self.st.reference.is_active() {
-                    self.step_reference();
-                }
-            }
-            self.st.motion_time = tick_at;
-            let t = tick_at;
-            self.drive_tick();
-            self.check_event(t);
-            if self.vm.enabled != 0 {
-                self.sample_interrupts(t);
-            }
-        }
-        self.after_advance(now, ticked);
-    }
-
-    /// The end of an advance to `now`: the 138 event, the heartbeat, and the board if anything changed
-    /// for it (`ticked`) or a standby or freewheeling delay ran out.
-    #[inline(always)]
-    fn after_advance(&mut self, now: Instant, ticked: bool) {
-        self.check_event(now);
-        self.check_heartbeat(now);
-        if ticked || self.st.drive_due.is_some_and(|t| t <= now) {
-            self.update_board(now);
-        }
-    }
-
-    /// Whether interrupts that watch switches or inputs are enabled: then every tick is sampled.
-    #[inline]
-    fn needs_every_tick(&self) -> bool {
-        self.vm.enabled & self.spec.interrupts.levels_mask != 0 || self.st.cl.engaged()
-    }
-
-    /// One step of the reference search after a motion tick (§7.1).
-    fn step_reference(&mut self) {
-        let (left, right, home) = self.switches();
-        let levels = SwitchLevels { left, right, home };
-        let (fast, slow) = self.reference_speeds();
-        let position = self.st.ramp.position;
-        match self.st.reference.step(levels, position, fast, slow) {
-            Action::Continue => {}
-            Action::Rotate(v) => {
-                self.st.ramp.hard_stop();
-                self.st.ramp.rotate(v);
-            }
-            Action::Done { zero, far_distance } => {
-                self.st.ramp.hard_stop();
-                // AP 197: "position value just before the counter is zeroed"; AP 196: end switch distance.
-                self.set_ap(Setting::LastReferencePosition, position);
-                if let Some(d) = far_distance {
-                    self.set_ap(Setting::EndSwitchDistance, d);
-                }
-                self.st.ramp.mode = Mode::Position;
-                self.st.ramp.set_position(position.wrapping_sub(zero));
-                self.st.ramp.target_position = self.st.ramp.position;
-                self.relabel(zero.wrapping_neg());
-            }
-            Action::Failed => self.st.ramp.hard_stop(),
-        }
-    }
-
-    /// The search and switch speeds of the reference search in microsteps per second (AP 194, 195).
-    pub(crate) fn reference_speeds(&self) -> (i32, i32) {
-        let speed = |s| self.units_to_pps(self.ap(s).unwrap_or(0));
-        (speed(Setting::ReferenceSearchSpeed), speed(Setting::ReferenceSwitchSpeed))
-    }
-
-    /// §3.7.37: the second reply of command 138 when an MVP's target is reached, on the interface that
-    /// asked for it.
-    fn check_event(&mut self, now: Instant) {
-        let ramp = &self.st.ramp;
-        if self.st.event.pending && ramp.mode == Mode::Position && ramp.is_idle() && self.target_reached() {
-            self.st.event.pending = false;
-            let op = Opcode::RequestTargetReachedEvent.code();
-            let port = usize::from(self.st.event.port);
-            let framing = self.interface(port).map_or(Framing::Binary, |i| i.framing);
-            self.push_reply(port, framing, op, Ok((Status::TargetReached, self.st.event.mask, op)), now);
-        }
-    }
-
-    /// §5.1 GP 68: stop the motor when no command arrived within the heartbeat time (milliseconds; the
-    /// manual gives no unit).
-    fn check_heartbeat(&mut self, now: Instant) {
-        let limit = self.gp(Setting::SerialHeartbeat).unwrap_or(0);
-        if limit > 0 && !self.st.heartbeat_tripped && now - self.st.last_command > Duration::from_millis(limit as u64) {
-            self.st.heartbeat_tripped = true;
-            self.st.ramp.rotate(0);
-            self.st.event.pending = false;
-        }
-    }
-
-    pub(crate) fn next_deadline(&self) -> Option<Instant> {
-        let mut next: Option<Instant> = self.st.ports.iter().filter_map(|p| p.outbox.next_due()).min();
-        let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
-        if !self.st.ramp.is_idle() || self.st.event.pending || self.st.reference.is_active() || self.needs_every_tick()
-        {
-            consider(self.st.motion_time + TICK);
-        }
-        for t in [self.program_deadline(), self.timer_deadline()].into_iter().flatten() {
-            consider(t.max(self.st.now));
-        }
-        if let Some(since) = self.st.standstill_since {
-            for delay in
-                [self.delay(Setting::PowerDownDelay), self.delay(Setting::FreewheelingDelay)].into_iter().flatten()
-            {
-                let t = since + delay;
-                if t > self.st.now {
-                    consider(t);
-                }
-            }
-        }
-        let heartbeat = self.gp(Setting::SerialHeartbeat).unwrap_or(0);
-        if heartbeat > 0 && !self.st.heartbeat_tripped {
-            consider(self.st.last_command + Duration::from_millis(heartbeat as u64 + 1));
-        }
-        next
     }
 }

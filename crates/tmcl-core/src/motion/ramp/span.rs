@@ -58,6 +58,9 @@ pub struct Span {
     pub ticks: u64,
     /// Microsteps moved, signed (the position counter wraps at its width; this does not).
     pub steps: i64,
+    /// It stopped at the bounds' tick count, not before an event or the bounds' travel or speeds: a
+    /// longer count may give a longer span.
+    pub capped: bool,
 }
 
 /// A run of ticks over which the velocity changes by `dv` every tick.
@@ -119,7 +122,7 @@ impl Ramp {
                                 let moved = at.apply(run.dv, j);
                                 (at, moved)
                             };
-                            mark = Some((at, Span { ticks: done.ticks + j, steps: done.steps + moved }));
+                            mark = Some((at, Span { ticks: done.ticks + j, steps: done.steps + moved, capped: false }));
                         }
                         done.ticks += n;
                         done.steps += steps;
@@ -128,6 +131,9 @@ impl Ramp {
                     if run.toward.is_some() {
                         // Braking towards the target: square roots from here to the arrival, tick by
                         // tick; a run (a new target further away) is looked for again only now and then.
+                        if self.brake(p, bounds, &mut done, &mut mark) {
+                            continue;
+                        }
                         retry = BRAKING_RETRY;
                     }
                 }
@@ -154,13 +160,93 @@ impl Ramp {
                 mark = Some((*self, done));
             }
         }
+        let capped = done.ticks == bounds.ticks;
         if let Some((at, upto)) = mark {
             // Ticks after the last step (slower than a step per tick) are given back: the span ends on the
             // step the board hears of last; the next span starts with them.
             *self = at;
             done = upto;
         }
-        done
+        Span { capped, ..done }
+    }
+
+    /// The braking ticks of a position-mode ramp towards its target, one by one as [`Ramp::tick`] makes
+    /// them, with its arithmetic reduced to what braking needs: the speed of each tick is
+    /// `max(sqrt(sq(d)), u) − a·dt` for the speed `u` of the tick before and the braking term `sq` of the
+    /// distance `d` left (see `braking_speed_above`), and the square root is taken only where the curve
+    /// lies above `u`, from `u` by Newton's method. Stops before a tick that is an event, that would
+    /// arrive, or that leaves the bounds (the caller's generic tick decides those). Adds the ticks to
+    /// `done` and `mark` as [`Ramp::span`] does; returns whether it took any.
+    fn brake(&mut self, p: &RampParams, b: &Bounds, done: &mut Span, mark: &mut Option<(Ramp, Span)>) -> bool {
+        let dir = self.velocity.signum();
+        let distance = self.distance();
+        if distance == 0 || distance.signum() != dir || !b.ramping {
+            return false;
+        }
+        let a_dt = i64::from(p.max_accel.max(1)) * TICK.micros() as i64;
+        let v_max = i64::from(p.max_speed.max(1)) * MICRO;
+        let v_min = (i64::from(p.min_speed.max(0)) * MICRO).min(v_max);
+        let (mut u, mut d, mut f) = (self.velocity.abs(), distance.abs(), self.fraction.abs());
+        if u < v_min || u > v_max {
+            return false; // the start speed's jump; above a lowered AP 4
+        }
+        // sq(d) = base + per_step · d (µpps²), as `braking_square`.
+        let base = super::braking_square(0, p.max_accel, v_min);
+        let per_step = 2 * u128::from(p.max_accel.max(1) as u32) * super::PICO as u128;
+        let lo = i64::from(b.min_speed.max(1)) * MICRO;
+        let hi = (i64::from(b.max_speed) + 1).saturating_mul(MICRO);
+        let window = (if dir > 0 { b.forward } else { b.backward }).saturating_sub(done.steps.unsigned_abs());
+        let (mut ticks, mut moved, mut last) = (0u64, 0u64, 0u64);
+        let left = b.ticks - done.ticks;
+        let (mut last_u, mut last_f, mut last_moved) = (u, f, 0u64);
+        while ticks < left {
+            let sq = base + per_step * d as u128;
+            let next = (u as u128) + 1;
+            let speed = if sq < next * next {
+                u - a_dt // the deceleration AP 5 is the limit
+            } else {
+                let up = (u + a_dt).min(v_max);
+                let reach = (up + a_dt) as u128;
+                let root = if reach.saturating_mul(reach) <= sq { up + a_dt } else { root_above(sq, u as u64) as i64 };
+                root - a_dt
+            };
+            if speed == u || speed < lo || speed >= hi {
+                break; // not ramping any more, or leaving the speeds (incl. stopping)
+            }
+            let travel = f + speed * TICK.micros() as i64;
+            let steps = travel / super::PICO;
+            if steps >= d || moved + steps as u64 > window {
+                break; // arriving (or passing the target), or leaving the travel
+            }
+            u = speed;
+            f = travel - steps * super::PICO;
+            d -= steps;
+            moved += steps as u64;
+            ticks += 1;
+            if steps != 0 {
+                (last, last_u, last_f, last_moved) = (ticks, u, f, moved);
+            }
+        }
+        if ticks == 0 {
+            return false;
+        }
+        let apply = |ramp: &mut Ramp, u: i64, f: i64, moved: u64| {
+            ramp.velocity = u * dir;
+            ramp.fraction = f * dir;
+            ramp.position = ramp.wrap(ramp.position.wrapping_add((moved as i64 * dir) as i32));
+        };
+        if last > 0 {
+            let mut at = *self;
+            apply(&mut at, last_u, last_f, last_moved);
+            *mark = Some((
+                at,
+                Span { ticks: done.ticks + last, steps: done.steps + last_moved as i64 * dir, capped: false },
+            ));
+        }
+        apply(self, u, f, moved);
+        done.ticks += ticks;
+        done.steps += moved as i64 * dir;
+        true
     }
 
     /// |AP 3| of the present velocity within the bounds' speeds.
@@ -334,6 +420,31 @@ impl Ramp {
         // The largest k that has not reached it yet, plus one.
         largest(n, |k| !reached(k)) + 1
     }
+}
+
+/// `isqrt(sq)` for an `sq` at least `(g + 1)²`: Newton's method from `g`, which lies close below the root
+/// while braking (the square root of the braking curve moves little from tick to tick), in 64-bit
+/// divisions; the u128 root where the numbers do not fit.
+fn root_above(sq: u128, g: u64) -> u64 {
+    let g = u128::from(g) + 1;
+    // One step from below (lands at or a little above the root), one from above, then to the exact root.
+    let Some(e) = u64::try_from(sq - g * g).ok().zip(u64::try_from(2 * g).ok()) else { return sq.isqrt() as u64 };
+    let mut r = g + u128::from(e.0 / e.1);
+    let over = r * r;
+    if over > sq {
+        let Ok(e) = u64::try_from(over - sq) else { return sq.isqrt() as u64 };
+        r -= u128::from(e / (2 * r as u64));
+    }
+    for _ in 0..4 {
+        if r * r > sq {
+            r -= 1;
+        } else if (r + 1) * (r + 1) <= sq {
+            r += 1;
+        } else {
+            return r as u64;
+        }
+    }
+    sq.isqrt() as u64
 }
 
 /// Whether `total` steps in direction `sign` stay within the bounds' travel.

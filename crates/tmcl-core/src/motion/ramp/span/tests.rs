@@ -132,3 +132,13 @@ proptest::proptest! {
         }
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(4096))]
+    /// The braking root is the integer square root, from any start below it.
+    #[test]
+    fn the_braking_root_is_the_square_root(g in proptest::prop_oneof![0u64..1 << 40, 0u64..1 << 52], extra in proptest::prop_oneof![0u128..1 << 40, 0u128..1 << 100]) {
+        let sq = (u128::from(g) + 1) * (u128::from(g) + 1) + extra;
+        proptest::prop_assert_eq!(u128::from(root_above(sq, g)), sq.isqrt());
+    }
+}

@@ -1,0 +1,344 @@
+//! Time: the motion controller, the program and the timers run up to the time the caller gives, and the
+//! module says when it next needs to run.
+//!
+//! # Ticks, spans and events
+//!
+//! The motion controller works in ticks of [`TICK`]. Ticking them one by one is the reference
+//! (`Module::set_exact_ticks`); by default the module takes the ticks between two events as one
+//! *span* in closed form ([`crate::motion::Ramp::span`], `spans.rs`) with exactly the same result, so its
+//! cost grows with the number of events, not with time. An event is anything a tick does beyond moving
+//! the ramp along its current run: the ramp arriving, stopping at a switch or changing its phase
+//! (accelerate, cruise, brake), a program instruction, the end of a WAIT, a timer, the heartbeat, the
+//! board's window closing (a switch edge, a timeline entry, a fault), a standby delay. The deadline
+//! [`Module::poll`] returns is the next of these, not the next tick.
+//!
+//! Where no closed form exists the module ticks, for as long as that holds: a reference search (it
+//! samples its switch at every microstep), a closed-loop model (the loop measures and corrects every
+//! tick), coolStep regulating, a deviation check that is armed, and a board that cannot say when its
+//! readings next change ([`crate::hal::StepDriver::quiet`] returns `None`).
+//!
+//! # The same result however often the caller polls
+//!
+//! Spans make polls rare, so nothing may depend on when the caller polls: the ramp parameters are read
+//! again after the program has run (an instruction may have changed AP 4, 5 or 130), the heartbeat is
+//! checked at every tick, and a standby or freewheeling delay takes effect at its time.
+
+use super::Module;
+use crate::hal::Board;
+use crate::model::Setting;
+use crate::motion::reference::{Action, SwitchLevels};
+use crate::motion::{Mode, RampParams, TICK};
+use crate::time::{Duration, Instant};
+use crate::vm::run::BUDGET;
+use crate::vm::RunState;
+use tmcl_wire::{Opcode, Status};
+
+/// One microsecond.
+const MICROSECOND: Duration = Duration::from_micros(1);
+
+impl<B: Board> Module<B> {
+    /// Whether the motion controller ticks one by one (the reference), not in spans.
+    pub fn exact_ticks(&self) -> bool {
+        self.exact
+    }
+
+    /// Ticks the motion controller one by one (`true`), as the reference for the spans it takes by
+    /// default (`false`); both give the same results (see `module/advance.rs`).
+    pub fn set_exact_ticks(&mut self, exact: bool) {
+        self.exact = exact;
+    }
+
+    /// Runs the motion controller and timers up to `now`.
+    #[inline]
+    pub(crate) fn advance(&mut self, now: Instant) {
+        if now < self.st.now {
+            // Time never runs backwards for the module; a caller's late timestamp is taken as "now".
+            return;
+        }
+        if self.st.motion_time + TICK > now && self.vm.state != RunState::Running {
+            // The common case between two ticks (frames from a host): no tick is due and no program runs,
+            // so only what may fall due at `now` — exactly what the loop below does in this case.
+            self.st.now = now;
+            self.apply_drive_due(now);
+            self.after_advance(now, false);
+            return;
+        }
+        self.advance_ticks(now);
+    }
+
+    /// [`Module::advance`] when a tick is due or a program runs.
+    fn advance_ticks(&mut self, now: Instant) {
+        self.st.now = now;
+        // The ramp parameters in force for the ticks, read again whenever the program has run. When no
+        // tick is due (a frame between two ticks), none runs in this call: the loop's first pass takes
+        // `tick_at` before the program runs and breaks on it. So the lookups are skipped and the
+        // placeholder is never used.
+        let mut params = if self.st.motion_time + TICK <= now {
+            self.ramp_params()
+        } else {
+            RampParams { max_speed: 0, max_accel: 0, min_speed: 0 }
+        };
+        let mut ticked = false;
+        let mut budget = BUDGET;
+        let closed_loop = self.has_closed_loop();
+        // Instructions up to and including `now`.
+        let horizon = now + MICROSECOND;
+        loop {
+            let tick_at = self.st.motion_time + TICK;
+            // A standby or freewheeling delay that runs out before the next tick takes effect at its time,
+            // after the instructions up to then.
+            let due = self.st.drive_due.filter(|d| *d < tick_at && *d <= now);
+            if self.vm.state == RunState::Running {
+                let executed = self.vm.executed;
+                let limit = due.map_or(tick_at, |d| tick_at.min(d + MICROSECOND));
+                self.run_program(limit.min(horizon), &mut budget);
+                if budget == 0 {
+                    break; // the rest at the next poll (its deadline is now)
+                }
+                if self.vm.executed != executed && tick_at <= now {
+                    // An instruction may have changed AP 4, 5 or 130: the next ticks use what is in force.
+                    params = self.ramp_params();
+                }
+            }
+            if let Some(d) = due {
+                self.update_board(d); // the next delay, if any, lies after `d`
+                continue;
+            }
+            if tick_at > now {
+                break;
+            }
+            self.check_heartbeat(self.st.motion_time);
+            if self.st.ramp.is_idle() && !self.st.reference.is_active() {
+                if self.idle_jump(now) {
+                    continue;
+                }
+            } else if self.take_span(now, &params) {
+                ticked = true;
+                continue;
+            }
+            ticked = true;
+            // A reference search looks at its switch after every microstep (sub-ticks), so that the
+            // switching points, and with them the zero point, are exact to the microstep (§7.1).
+            let parts = if self.st.reference.is_active() {
+                (u64::from(self.st.ramp.velocity().unsigned_abs()) / 1000 + 1).min(TICK.micros())
+            } else {
+                1
+            };
+            // (Most ticks are one part: no 64-bit division for them.)
+            let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
+            for k in 1..=parts {
+                let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
+                let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
+                let limits = self.limits();
+                let r = self.st.ramp.tick(Duration::from_micros(dt), &params, limits);
+                self.st.ramping = r.ramping;
+                let steps = if closed_loop { self.closed_loop_tick(r.steps, dt as i64) } else { r.steps };
+                self.st.unreported_steps += steps;
+                let moving = self.st.ramp.velocity() != 0;
+                match (moving, self.st.standstill_since) {
+                    (true, Some(_)) => self.st.standstill_since = None,
+                    (false, None) => self.st.standstill_since = Some(t),
+                    _ => {}
+                }
+                self.update_board(t);
+                if self.st.reference.is_active() {
+                    self.step_reference();
+                }
+            }
+            self.st.motion_time = tick_at;
+            self.tick_done(tick_at);
+        }
+        self.after_advance(now, ticked);
+    }
+
+    /// What follows every motion tick (and a span, at its last tick `t`), after the board has been
+    /// updated: the drive's readings, the 138 event, the interrupt sources.
+    #[inline]
+    pub(super) fn tick_done(&mut self, t: Instant) {
+        self.drive_tick();
+        self.check_event(t);
+        if self.vm.enabled != 0 {
+            self.sample_interrupts(t);
+        }
+    }
+
+    /// The axis stands: jumps over the ticks up to the last tick boundary before the next timed event
+    /// (or `now`), if no tick until then can do anything. Returns whether it jumped.
+    fn idle_jump(&mut self, now: Instant) -> bool {
+        let watching = self.needs_every_tick();
+        // Interrupts on switch or input levels sample every tick: in a quiet window of the board the
+        // levels stay as they are, so the ticks up to its end may be jumped over too.
+        let quiet_until = if !watching {
+            None
+        } else if self.st.cl.engaged() || self.exact {
+            return false;
+        } else {
+            let state = self.st.last_drive.unwrap_or_default();
+            match self.board.quiet(self.st.motion_time, &state) {
+                Some(q) => q.until.map(|u| u - MICROSECOND),
+                None => return false,
+            }
+        };
+        // A stop outside the ramp (a stall, a deviation, the end of a reference search) leaves the motor
+        // standing: the standby and freewheeling delays run from the last tick.
+        if self.st.standstill_since.is_none() {
+            self.st.standstill_since = Some(self.st.motion_time);
+            // The board hears of it (not before it last heard from the module), and of the standby timer.
+            self.update_board(self.st.motion_time.max(self.st.board_time));
+        }
+        let until = [self.program_deadline(), self.timer_deadline(), self.st.drive_due, quiet_until]
+            .into_iter()
+            .flatten()
+            .fold(now, Instant::min);
+        let tick_at = self.st.motion_time + TICK;
+        if until < tick_at {
+            return false;
+        }
+        let ticks = (until - self.st.motion_time).micros() / TICK.micros();
+        self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
+        self.st.ramping = false;
+        if self.vm.enabled != 0 {
+            self.sample_interrupts(self.st.motion_time);
+        }
+        true
+    }
+
+    /// The end of an advance to `now`: the 138 event, the heartbeat, and the board if anything changed
+    /// for it (`ticked`).
+    #[inline(always)]
+    fn after_advance(&mut self, now: Instant, ticked: bool) {
+        self.check_event(now);
+        self.check_heartbeat(now);
+        if ticked {
+            self.update_board(now);
+        }
+    }
+
+    /// Standby and freewheeling delays that have run out by `now`, each at its own time.
+    #[inline]
+    fn apply_drive_due(&mut self, now: Instant) {
+        while let Some(d) = self.st.drive_due.filter(|d| *d <= now) {
+            self.update_board(d);
+        }
+    }
+
+    /// Whether interrupts that watch switches or inputs are enabled, or a closed loop runs: then every
+    /// tick is sampled (unless the board is quiet, see [`Module::idle_jump`]).
+    #[inline]
+    fn needs_every_tick(&self) -> bool {
+        self.vm.enabled & self.spec.interrupts.levels_mask != 0 || self.st.cl.engaged()
+    }
+
+    /// One step of the reference search after a motion tick (§7.1).
+    fn step_reference(&mut self) {
+        let (left, right, home) = self.switches();
+        let levels = SwitchLevels { left, right, home };
+        let (fast, slow) = self.reference_speeds();
+        let position = self.st.ramp.position;
+        match self.st.reference.step(levels, position, fast, slow) {
+            Action::Continue => {}
+            Action::Rotate(v) => {
+                self.st.ramp.hard_stop();
+                self.st.ramp.rotate(v);
+            }
+            Action::Done { zero, far_distance } => {
+                self.st.ramp.hard_stop();
+                // AP 197: "position value just before the counter is zeroed"; AP 196: end switch distance.
+                self.set_ap(Setting::LastReferencePosition, position);
+                if let Some(d) = far_distance {
+                    self.set_ap(Setting::EndSwitchDistance, d);
+                }
+                self.st.ramp.mode = Mode::Position;
+                self.st.ramp.set_position(position.wrapping_sub(zero));
+                self.st.ramp.target_position = self.st.ramp.position;
+                self.relabel(zero.wrapping_neg());
+            }
+            Action::Failed => self.st.ramp.hard_stop(),
+        }
+    }
+
+    /// The search and switch speeds of the reference search in microsteps per second (AP 194, 195).
+    pub(crate) fn reference_speeds(&self) -> (i32, i32) {
+        let speed = |s| self.units_to_pps(self.ap(s).unwrap_or(0));
+        (speed(Setting::ReferenceSearchSpeed), speed(Setting::ReferenceSwitchSpeed))
+    }
+
+    /// §3.7.37: the second reply of command 138 when an MVP's target is reached, on the interface that
+    /// asked for it.
+    fn check_event(&mut self, now: Instant) {
+        let ramp = &self.st.ramp;
+        if self.st.event.pending && ramp.mode == Mode::Position && ramp.is_idle() && self.target_reached() {
+            self.st.event.pending = false;
+            let op = Opcode::RequestTargetReachedEvent.code();
+            let port = usize::from(self.st.event.port);
+            let framing = self.interface(port).map_or(crate::model::Framing::Binary, |i| i.framing);
+            self.push_reply(port, framing, op, Ok((Status::TargetReached, self.st.event.mask, op)), now);
+        }
+    }
+
+    /// When the heartbeat runs out (GP 68), if it is armed: the first time more than its milliseconds
+    /// after the last command.
+    pub(super) fn heartbeat_expiry(&self) -> Option<Instant> {
+        let limit = self.gp(Setting::SerialHeartbeat).unwrap_or(0);
+        (limit > 0 && !self.st.heartbeat_tripped).then(|| self.st.last_command + Duration::from_millis(limit as u64))
+    }
+
+    /// §5.1 GP 68: stop the motor when no command arrived within the heartbeat time (milliseconds; the
+    /// manual gives no unit). Checked at every motion tick and every poll.
+    fn check_heartbeat(&mut self, now: Instant) {
+        if self.heartbeat_expiry().is_some_and(|expiry| now > expiry) {
+            self.st.heartbeat_tripped = true;
+            self.st.ramp.rotate(0);
+            self.st.event.pending = false;
+        }
+    }
+
+    /// When the module next needs to run (see the module docs).
+    pub(crate) fn next_deadline(&mut self) -> Option<Instant> {
+        let mut next: Option<Instant> = self.st.ports.iter().filter_map(|p| p.outbox.next_due()).min();
+        let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
+        if !self.st.ramp.is_idle() || self.st.reference.is_active() {
+            // Moving: the tick after the span the ramp can take from here (none: the next tick).
+            let ticks = self.span_ahead() + 1;
+            consider(self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
+        } else if self.st.event.pending || self.needs_every_tick() {
+            match self.idle_quiet_until() {
+                // Levels watched in a quiet window: the first tick at or after its end.
+                Some(until) => {
+                    if let Some(u) = until {
+                        let ticks = (u - self.st.motion_time).micros().div_ceil(TICK.micros()).max(1);
+                        consider(self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
+                    }
+                }
+                None => consider(self.st.motion_time + TICK),
+            }
+        }
+        for t in [self.program_deadline(), self.timer_deadline()].into_iter().flatten() {
+            consider(t.max(self.st.now));
+        }
+        if let Some(since) = self.st.standstill_since {
+            for delay in
+                [self.delay(Setting::PowerDownDelay), self.delay(Setting::FreewheelingDelay)].into_iter().flatten()
+            {
+                let t = since + delay;
+                if t > self.st.now {
+                    consider(t);
+                }
+            }
+        }
+        if let Some(expiry) = self.heartbeat_expiry() {
+            consider(expiry + Duration::from_millis(1));
+        }
+        next
+    }
+
+    /// Standing, with level interrupts watched and no 138 event pending: the end of the board's quiet
+    /// window, if it has one (`Some(None)`: quiet for good); `None`: every tick must be sampled.
+    fn idle_quiet_until(&mut self) -> Option<Option<Instant>> {
+        if self.st.event.pending || self.st.cl.engaged() || self.exact {
+            return None;
+        }
+        let state = self.st.last_drive.unwrap_or_default();
+        self.board.quiet(self.st.motion_time, &state).map(|q| q.until)
+    }
+}

@@ -1,0 +1,186 @@
+//! Spans of motion ticks in the module: when the ticks from now on may be taken in closed form, how far
+//! ([`Bounds`]), and what the module does after a span — exactly what it does after a tick, once, at the
+//! span's last tick (see `advance.rs`).
+//!
+//! A span needs every tick in it to be *silent*: nothing but the ramp may happen at those ticks. So the
+//! module takes none:
+//! - ticking one by one was asked for ([`Module::set_exact_ticks`]);
+//! - in a reference search (it samples its switch after every microstep), on a model with a closed loop
+//!   (it measures the encoder and corrects at every tick, and in open loop measures the velocity AP 131
+//!   over the last ticks);
+//! - while coolStep regulates (every load measurement changes the current), while the encoder deviation
+//!   check (AP 212) is armed, or while an SSI encoder's clear-on-null counts turns from tick to tick;
+//! - while stop on stall (AP 181) is armed and the board's load measurements read 0;
+//! - when the board cannot say how long its readings stay as they are
+//!   ([`crate::hal::StepDriver::quiet`] gives `None`).
+//!
+//! Otherwise a span ends before the next program instruction or end of a WAIT, the next timer, the
+//! heartbeat, the end of the board's window (in time, travel or speed), a change of the slow-run current
+//! (AP 182), and any tick the ramp makes an event of ([`crate::motion::Ramp::span`]).
+
+use super::Module;
+use crate::drive::encoder;
+use crate::hal::Board;
+use crate::model::Setting;
+use crate::motion::{Bounds, Limits, Ramp, RampParams, Span, TICK};
+use crate::time::{Duration, Instant};
+use crate::vm::RunState;
+
+/// The longest span, in ticks (about 50 days): keeps every sum of a span far inside 64 bits.
+const MAX_SPAN: u64 = 1 << 32;
+
+/// How many spans the module remembers.
+const MEMO: usize = 4;
+
+/// A span the module computed: [`crate::motion::Ramp::span`] is a function of the ramp's state, its
+/// parameters, the limits and the bounds alone, so the same inputs give the same span. The deadline's
+/// look-ahead computes the span the next poll takes, and a program that repeats its moves repeats its
+/// spans (the braking ticks of a move are its costly part): both are taken from here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Memo {
+    from: Ramp,
+    params: RampParams,
+    limits: Limits,
+    /// The bounds it was computed with.
+    bounds: Bounds,
+    to: Ramp,
+    span: Span,
+}
+
+/// The spans the module remembers, the newest in `next - 1`.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Memos {
+    memos: [Option<Memo>; MEMO],
+    next: usize,
+}
+
+impl Memos {
+    /// The span from `from` within `bounds`, if remembered: one computed with the same inputs but a tick
+    /// count, which gives the same span for any count from its length up to its own count, and for any
+    /// longer count too if it ended before its count (at an event).
+    fn find(&self, from: &Ramp, params: &RampParams, limits: Limits, bounds: &Bounds) -> Option<(Ramp, Span)> {
+        self.memos.iter().flatten().find_map(|m| {
+            let same = m.from == *from
+                && m.params == *params
+                && m.limits == limits
+                && Bounds { ticks: bounds.ticks, ..m.bounds } == *bounds;
+            let fits = m.span.ticks <= bounds.ticks && (!m.span.capped || bounds.ticks <= m.bounds.ticks);
+            (same && fits).then_some((m.to, m.span))
+        })
+    }
+
+    fn keep(&mut self, memo: Memo) {
+        self.memos[self.next] = Some(memo);
+        self.next = (self.next + 1) % MEMO;
+    }
+}
+
+impl<B: Board> Module<B> {
+    /// Takes the motion ticks after `motion_time`, up to `now` at most, as one span if they are silent
+    /// (see the module docs); then does what follows a tick, at the span's last tick. Returns whether it
+    /// took any tick.
+    pub(super) fn take_span(&mut self, now: Instant, params: &RampParams) -> bool {
+        let Some((limits, bounds)) = self.span_bounds(Some(now)) else { return false };
+        let (to, span) = self.span(params, limits, &bounds);
+        if span.ticks == 0 {
+            return false;
+        }
+        self.st.ramp = to;
+        let t = self.st.motion_time + Duration::from_micros(span.ticks * TICK.micros());
+        // Every tick of the span moved (|AP 3| ≥ 1) with the speed changing as before the span, so the
+        // standstill time and `ramping` are as they were; the board hears of the span's steps at its
+        // last tick, which is the span's last step (or the span made none).
+        self.st.unreported_steps += span.steps;
+        self.update_board(t);
+        self.st.motion_time = t;
+        self.tick_done(t);
+        if self.vm.state == RunState::Running && self.vm.wait.is_some() {
+            // A waiting program is looked at before every tick: it slept up to the last one.
+            self.vm.time = self.vm.time.max(t);
+        }
+        true
+    }
+
+    /// How many ticks from `motion_time` on a span would take now, without taking them (0: the next
+    /// tick is an event, or no span may be taken): for the deadline.
+    pub(super) fn span_ahead(&mut self) -> u64 {
+        let Some((limits, bounds)) = self.span_bounds(None) else { return 0 };
+        self.span(&self.ramp_params(), limits, &bounds).1.ticks
+    }
+
+    /// The span from the ramp's state within `bounds`: remembered, or computed (and remembered).
+    fn span(&mut self, params: &RampParams, limits: Limits, bounds: &Bounds) -> (Ramp, Span) {
+        let from = self.st.ramp;
+        if let Some(found) = self.memos.find(&from, params, limits, bounds) {
+            return found;
+        }
+        let mut to = from;
+        let span = to.span(params, limits, bounds);
+        if span.ticks > 0 {
+            self.memos.keep(Memo { from, params: *params, limits, bounds: *bounds, to, span });
+        }
+        (to, span)
+    }
+
+    /// Whether the ticks after `motion_time` may be taken as a span, and within which bounds; `horizon`:
+    /// no tick after it (see the module docs).
+    fn span_bounds(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds)> {
+        if self.exact
+            || self.has_closed_loop()
+            || self.st.reference.is_active()
+            || self.st.standstill_since.is_some()
+            || self.st.ramp.velocity() == 0
+        {
+            return None;
+        }
+        if self.ap(Setting::CoolStepHysteresisStart).unwrap_or(0) != 0
+            || self.ap(Setting::MaxEncoderDeviation).unwrap_or(0) > 0
+        {
+            return None; // coolStep regulates; the deviation check is armed (open loop: no closed loop here)
+        }
+        let prescaler = self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axis[i]);
+        if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected() {
+            return None;
+        }
+        let state = self.st.last_drive?;
+        let quiet = self.board.quiet(self.st.motion_time, &state)?;
+        if quiet.load == 0 && self.units_to_pps(self.ap(Setting::StopOnStall).unwrap_or(0)) > 0 {
+            return None; // a measurement would stop the motor
+        }
+        // The last tick of the span: not after the horizon, the next instruction or end of a WAIT, the
+        // next timer (its tick may be the last one: the tick's sampling fires it), the heartbeat, and
+        // before the end of the board's window.
+        let last = [horizon, self.program_deadline(), self.timer_deadline(), self.heartbeat_expiry()]
+            .into_iter()
+            .flatten()
+            .chain(quiet.until.map(|u| u - Duration::from_micros(1)))
+            .min();
+        let ticks = match last {
+            Some(t) => (t.saturating_duration_since(self.st.motion_time).micros() / TICK.micros()).min(MAX_SPAN),
+            None => MAX_SPAN,
+        };
+        if ticks == 0 {
+            return None;
+        }
+        let (mut min_speed, mut max_speed) = (quiet.min_speed.max(1), quiet.max_speed);
+        // The slow-run current (AP 183) applies at or below AP 182: the side the speed is on stays.
+        let threshold = self.units_to_pps(self.ap(Setting::CoolStepThresholdSpeed).unwrap_or(0));
+        if threshold > 0 {
+            let threshold = threshold.unsigned_abs();
+            if self.st.ramp.velocity().unsigned_abs() <= threshold {
+                max_speed = max_speed.min(threshold);
+            } else {
+                min_speed = min_speed.max(threshold.saturating_add(1));
+            }
+        }
+        let bounds = Bounds {
+            ticks,
+            forward: quiet.forward,
+            backward: quiet.backward,
+            min_speed,
+            max_speed,
+            ramping: self.st.ramping,
+        };
+        Some((self.limits(), bounds))
+    }
+}
