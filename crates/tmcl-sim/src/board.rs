@@ -17,13 +17,13 @@
 //! stands still and the core does not call the board.
 
 use crate::driver::{self, Driver};
-use crate::motor::{self, Mechanics, USTEPS_PER_FULL_STEP};
+use crate::motor::{self, Follow, Mechanics, USTEPS_PER_FULL_STEP};
 use crate::nvm::{FileNvm, MemNvm, NvmError};
 use crate::profile::Profile;
 use crate::world::{Active, DriverFlag, EncoderType, Invalid, World, WorldError};
 use tmcl_core::hal::{
-    Analog, DriveState, DriverSettings, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, StepDriver, SwitchInputs,
-    Switches,
+    Analog, DriveState, DriverSettings, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, Quiet, StepDriver,
+    SwitchInputs, Switches,
 };
 use tmcl_core::model::{EncoderKind, ModelSpec};
 use tmcl_core::param::persist;
@@ -306,6 +306,8 @@ pub struct SimBoard {
     encoder_slip: i64,
     /// Coil peak current now (A).
     coil: f64,
+    /// Its square in (mA/32)², for the energy figure ([`driver::coil_square`]).
+    coil_square: u64,
     outputs: u8,
     drive: DriveState,
     updated: Instant,
@@ -347,6 +349,7 @@ impl SimBoard {
             fault_flags: 0,
             encoder_slip: 0,
             coil: 0.0,
+            coil_square: 0,
             outputs: 0,
             drive: DriveState::default(),
             updated: Instant::ZERO,
@@ -530,7 +533,7 @@ impl SimBoard {
             return;
         }
         let dt = t - self.now;
-        self.driver.integrate(self.coil, dt);
+        self.driver.integrate(self.coil_square, dt);
         self.plan.mech.coast(dt.micros() as f64 * 1e-6);
         self.now = t;
         self.track_switches();
@@ -627,6 +630,8 @@ impl SimBoard {
         let off = flags & SHUTDOWN != 0 || self.supply < self.plan.undervoltage;
         let peak = self.profile.peak_current_ma.map(|ma| f64::from(ma) / 1000.0);
         self.coil = if off { 0.0 } else { driver::coil_current(&self.drive, &self.driver.settings, peak) };
+        self.coil_square =
+            if off { 0 } else { driver::coil_square(&self.drive, &self.driver.settings, self.profile.peak_current_ma) };
         // A crude supply model: below the nominal 24 V the chopper reaches proportionally less current
         // at speed; only the torque is scaled.
         let supply = self.supply_factor;
@@ -660,6 +665,96 @@ impl SimBoard {
         self.plan.switches[n].as_ref().is_some_and(|s| s.level(self.now))
     }
 
+    /// The quiet window of [`StepDriver::quiet`]: how far and how long updates for many motion ticks at
+    /// once give what updates for each would (see [`StepDriver::update`]). The board is quiet when
+    /// - the rotor follows the field steadily ([`Mechanics::steady`]): it stays (no current, held by
+    ///   friction), it moves exactly with the field (a world without loads, locked on the field), or it
+    ///   slides at a constant lag against friction and constant torques — then only onwards, in the
+    ///   direction it has been moving;
+    /// - no switch, jam or end stop lies in the way (the window ends one µstep before one), and no
+    ///   bouncing switch is still settling;
+    /// - the stallGuard2 measurement reads the same value at every full step of the window: the motor is
+    ///   locked on the field (load 0), or its sliding lag keeps the reading off a rounding edge; and the
+    ///   speed stays on the same side of the measurement's minimum speed, and below 64 full steps per
+    ///   update (the most one update counts).
+    ///
+    /// It ends at the next timeline entry (inputs, loads, faults, encoder slip).
+    fn quiet_window(&mut self, state: &DriveState) -> Option<Quiet> {
+        let measuring = state.enabled && self.profile.measures_load();
+        if measuring && self.driver.stall_seen() {
+            return None;
+        }
+        let (per_step, sign) = (self.per_step(), self.sign());
+        // The physical direction of the motion (0: standing).
+        let dir = i64::from(state.velocity.signum()) * sign;
+        let steady = self.plan.mech.steady(dir)?;
+        if measuring && steady.follow == Follow::Still && self.plan.mech.available() <= 0.0 {
+            return None; // measuring a field that moves away from a rotor without current: no steady reading
+        }
+        let x = self.plan.mech.rotor();
+        let (mut lo, mut hi) = (steady.lo, steady.hi);
+        for sw in self.plan.switches.iter().flatten() {
+            motor::zone(x, sw.lo, sw.hi, &mut lo, &mut hi);
+        }
+        // The field's moves (physical µsteps) that keep the rotor within `lo..hi`, one µstep clear of the
+        // edges (the sliding rotor's position is rounded).
+        let (mut ahead, mut behind) = match steady.follow {
+            Follow::Still => (u64::MAX, u64::MAX),
+            Follow::Exact | Follow::Sliding => (clear(hi - x), clear(x - lo)),
+        };
+        if steady.follow == Follow::Sliding || dir == 0 {
+            // Sliding only onwards; standing: not at all.
+            if dir <= 0 {
+                ahead = 0;
+            }
+            if dir >= 0 {
+                behind = 0;
+            }
+        }
+        let (forward, backward) = if sign > 0 { (ahead, behind) } else { (behind, ahead) };
+        let (forward, backward) = (forward / per_step as u64, backward / per_step as u64);
+        let (mut min_speed, mut max_speed, mut load) = (0u32, u32::MAX, self.driver.load());
+        if measuring {
+            // A measurement at each full step at or above the minimum speed (|v| · 2^−r full steps per
+            // second ≥ the minimum ⇔ |v| ≥ ⌈minimum · 2^r⌉, exactly), at most 64 per update: at most 63
+            // full steps of field move per tick of 1 ms (a tick moves at most |v|/1000 + 1 steps).
+            let r = self.drive.resolution.min(8);
+            let threshold = (self.plan.min_speed * f64::from(1u32 << r)).ceil();
+            let threshold = if threshold >= f64::from(u32::MAX) { u32::MAX } else { threshold as u32 };
+            if state.velocity.unsigned_abs() >= threshold {
+                min_speed = threshold;
+                max_speed = ((63 * USTEPS_PER_FULL_STEP / per_step - 1) * 1000) as u32;
+            } else {
+                max_speed = threshold - 1;
+            }
+            let ratio = match steady.follow {
+                Follow::Exact => 0.0,
+                _ => {
+                    // The reading rounds 1023 · (1 − sin θ): the lag's angle θ is the same at every position
+                    // but for the rounding of the rotor's position, below a µstep's 10⁻⁶ within 2⁴⁰ µsteps.
+                    let angle = self.plan.mech.load_angle().abs();
+                    let ratio = if angle >= std::f64::consts::FRAC_PI_2 { 1.0 } else { angle.sin() };
+                    let reading = 1023.0 * (1.0 - ratio);
+                    let edge = (reading - reading.floor() - 0.5).abs();
+                    if x.abs().max(self.plan.mech.field().unsigned_abs() as f64) > (1u64 << 40) as f64 || edge < 1e-3 {
+                        return None;
+                    }
+                    ratio
+                }
+            };
+            load = driver::load_value(ratio, self.driver.settings.stall_threshold);
+        }
+        let mut until = self.next_event();
+        for sw in self.plan.switches.iter().flatten() {
+            if let (Some((time, _)), Some((at, _))) = (sw.bounce, sw.edge) {
+                if at + time > self.now {
+                    until = Some(until.map_or(at + time, |u| u.min(at + time)));
+                }
+            }
+        }
+        Some(Quiet { until, forward, backward, min_speed, max_speed, load })
+    }
+
     /// Encoder counts now (see [`Feedback::encoder_counts`]).
     fn counts(&self) -> i64 {
         let Some(model) = self.profile.encoder else { return 0 };
@@ -682,6 +777,18 @@ impl SimBoard {
     /// AP 208 now.
     fn flags(&self) -> u8 {
         self.driver.flags(self.now, self.error_flags())
+    }
+}
+
+/// How many whole µsteps fit into `room` (a distance to an edge, ≥ 0 or infinite) with one µstep to
+/// spare.
+fn clear(room: f64) -> u64 {
+    if room.is_nan() || room < 2.0 {
+        0
+    } else if room >= 1e18 {
+        u64::MAX
+    } else {
+        room as u64 - 1
     }
 }
 
@@ -795,6 +902,11 @@ impl StepDriver for SimBoard {
     fn configure(&mut self, settings: &DriverSettings) {
         self.driver.settings = *settings;
         self.power();
+    }
+
+    fn quiet(&mut self, _now: Instant, state: &DriveState) -> Option<Quiet> {
+        self.sync();
+        self.quiet_window(state)
     }
 }
 

@@ -21,7 +21,11 @@
 //!   TMC262's nominal thresholds); bit 7 standstill = no step for 2^20 clocks of the 16 MHz driver clock
 //!   (65.536 ms).
 //! - **Energy**: ∫ (i_A² + i_B²) dt = ∫ I_peak² dt in A²·s (the two coils carry I_peak·sin and
-//!   I_peak·cos). Multiply by the coil resistance for joules of copper loss.
+//!   I_peak·cos). Multiply by the coil resistance for joules of copper loss. It is summed in integers —
+//!   the peak current is (CS + 1)/32 of a whole number of mA, so I_peak² · dt is a whole number of
+//!   (mA/32)²·µs — so that one sum over a long stretch is exactly the sum of its parts, however the
+//!   stretch is cut (the board may be updated once for many motion ticks, see
+//!   `tmcl_core::hal::StepDriver::update`).
 //!
 //! [`DriveState::enabled`]: tmcl_core::hal::DriveState::enabled
 
@@ -44,6 +48,21 @@ pub fn coil_current(state: &DriveState, settings: &DriverSettings, peak: [f64; 2
     let range = if settings.high_range { peak[1] } else { peak[0] };
     f64::from((state.current >> 3) + 1) / 32.0 * range
 }
+
+/// The square of the coil peak current for a drive state, in (mA/32)² (0 when off): `(CS + 1)² · range²`,
+/// with the range's peak current in mA at setting 255 (the model's `peak_current_ma`, low and high range).
+/// [`coil_current`] is the same current in A.
+pub fn coil_square(state: &DriveState, settings: &DriverSettings, peak_ma: [u16; 2]) -> u64 {
+    if !state.enabled {
+        return 0;
+    }
+    let range = u64::from(if settings.high_range { peak_ma[1] } else { peak_ma[0] });
+    let cs = u64::from(state.current >> 3) + 1;
+    cs * cs * range * range
+}
+
+/// (mA/32)²·µs in A²·s: 32² · 10⁶ (mA² in A²) · 10⁶ (µs in s).
+const ENERGY_UNITS_PER_A2S: f64 = 1024.0 * 1e12;
 
 /// The stallGuard2 value for a load ratio (0 = unloaded, 1 = at the torque limit) and threshold.
 pub fn load_value(ratio: f64, threshold: i8) -> u16 {
@@ -72,7 +91,8 @@ pub struct Driver {
     filter_n: u32,
     stall_seen: bool,
     last_step: Instant,
-    energy: f64,
+    /// ∫ I_peak² dt in (mA/32)²·µs.
+    energy: u128,
 }
 
 impl Driver {
@@ -87,7 +107,7 @@ impl Driver {
             filter_n: 0,
             stall_seen: false,
             last_step: Instant::ZERO,
-            energy: 0.0,
+            energy: 0,
         }
     }
 
@@ -103,12 +123,17 @@ impl Driver {
 
     /// Energy so far in A²·s.
     pub fn energy(&self) -> f64 {
-        self.energy
+        self.energy as f64 / ENERGY_UNITS_PER_A2S
     }
 
-    /// Adds `dt` at coil peak current `amps`.
-    pub fn integrate(&mut self, amps: f64, dt: Duration) {
-        self.energy += amps * amps * dt.micros() as f64 * 1e-6;
+    /// Adds `dt` at a coil peak current whose square is `square` (mA/32)² ([`coil_square`]).
+    pub fn integrate(&mut self, square: u64, dt: Duration) {
+        self.energy = self.energy.saturating_add(u128::from(square) * u128::from(dt.micros()));
+    }
+
+    /// Whether the rotor failed to follow since the last measurement (the next one reads 0).
+    pub fn stall_seen(&self) -> bool {
+        self.stall_seen
     }
 
     /// A step was made at `now`.

@@ -100,6 +100,44 @@ pub struct Mechanics {
     locked: bool,
 }
 
+/// How the rotor follows moves of the field (see [`Mechanics::steady`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Follow {
+    /// It stays where it is.
+    Still,
+    /// It moves exactly as far as the field (a trivial world, locked on the field).
+    Exact,
+    /// It slides behind the field against friction and constant torques, always at the same lag.
+    Sliding,
+}
+
+/// A steady way of following ([`Mechanics::steady`]): how, and the rotor positions (µsteps) within
+/// which it holds (the rotor's present position lies within them).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Steady {
+    /// How the rotor follows.
+    pub follow: Follow,
+    /// The lowest rotor position of the window.
+    pub lo: f64,
+    /// The highest.
+    pub hi: f64,
+    /// Sliding: how far the rotor lags the field (µsteps, signed).
+    pub lag: f64,
+}
+
+/// Narrows the window `lo..=hi` around `x` so that it does not cross the edges of the zone
+/// `zlo..=zhi` (a rotor inside stays inside, one outside stays outside).
+pub(crate) fn zone(x: f64, zlo: f64, zhi: f64, lo: &mut f64, hi: &mut f64) {
+    if x < zlo {
+        *hi = hi.min(zlo);
+    } else if x > zhi {
+        *lo = lo.max(zhi);
+    } else {
+        *lo = lo.max(zlo);
+        *hi = hi.min(zhi);
+    }
+}
+
 /// Below this magnitude (2⁵² µsteps) integer positions and their sums are exact in `f64`; beyond it the
 /// [`Mechanics::locked`] shortcut steps aside and the full computation runs.
 const EXACT: f64 = (1u64 << 52) as f64;
@@ -428,6 +466,16 @@ impl Mechanics {
     #[inline(never)]
     fn drive_loaded(&mut self, field: i64) -> bool {
         let delta = field - self.field;
+        if let Some(Steady { follow: Follow::Sliding, lo, hi, lag }) = self.steady(delta.signum()) {
+            // Sliding on: every sub-step below settles where `solve` puts it, at `field − lag` with the same
+            // lag, so the last one is all there is to compute (the window keeps jams and stops away).
+            let y = field as f64 - lag;
+            if y - 1.0 >= lo && y + 1.0 <= hi {
+                self.field = field;
+                self.rotor = y;
+                return false;
+            }
+        }
         let mut stalled = false;
         let n = (delta.unsigned_abs() as i64 + SUBSTEP - 1) / SUBSTEP;
         let from = self.field;
@@ -557,6 +605,56 @@ impl Mechanics {
     fn jams_clear(&self, a: f64, b: f64) -> bool {
         let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
         self.jams.iter().all(|j| !(lo..=hi).contains(&j.lo) && !(lo..=hi).contains(&j.hi))
+    }
+
+    /// How the rotor follows the field while the field moves in direction `s` (±1; 0: it stays), if it
+    /// does so in a way that many moves give the same rotor as one move of their sum, and the rotor
+    /// positions within which that holds (see [`Steady`]). `None`: it does not (a spring or detent
+    /// torque, the rotor not yet at its lag, a load the motor cannot move, a coasting rotor).
+    pub(crate) fn steady(&self, s: i64) -> Option<Steady> {
+        let everywhere = |follow| Some(Steady { follow, lo: f64::NEG_INFINITY, hi: f64::INFINITY, lag: 0.0 });
+        if self.available <= 0.0 {
+            // The field moves alone. A trivial world's rotor stays; a loaded one stays while friction holds
+            // it (then `coast` changes nothing until the loads do, at a timeline entry).
+            let x = self.rotor;
+            let held = self.trivial || (self.omega == 0.0 && self.external(x).abs() <= self.resist(x));
+            return if held { everywhere(Follow::Still) } else { None };
+        }
+        if s == 0 {
+            return everywhere(Follow::Still); // powered and quasi-static: only a move moves the rotor
+        }
+        if self.trivial {
+            // Exactly on a stable point, it moves by exactly the field's moves while positions are exact.
+            return self.locked().then_some(Steady { follow: Follow::Exact, lo: -EXACT, hi: EXACT, lag: 0.0 });
+        }
+        if self.spring.is_some_and(|(k, _)| k != 0.0) || self.detent != 0.0 {
+            return None; // the lag depends on the position: `solve` iterates from where the rotor was
+        }
+        // Sliding: after each move of the field, `settle` puts the rotor where `solve` finds the lag for
+        // the friction and the constant torques, `field − asin(need)·P/2π`, the same number after every
+        // move. It is there now if it has moved this way before.
+        let sf = s as f64;
+        let x = self.rotor;
+        let need = (sf * self.resist(x) - self.external(x)) / self.available;
+        if !(need.abs() <= 0.999) {
+            return None; // beyond `solve`'s reach: the march decides
+        }
+        let lag = need.asin() * PERIOD / TAU;
+        if self.field as f64 - lag != x {
+            return None;
+        }
+        // Within one friction zone (jams), and before the stop ahead (`solve` needs it clear).
+        let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        for j in &self.jams {
+            zone(x, j.lo, j.hi, &mut lo, &mut hi);
+        }
+        let limit = self.barrier(x, sf);
+        if sf > 0.0 {
+            hi = hi.min(limit);
+        } else {
+            lo = lo.max(limit);
+        }
+        Some(Steady { follow: Follow::Sliding, lo, hi, lag })
     }
 
     /// Freewheeling for `dt` seconds: the load back-drives the rotor against inertia, friction, damping.
