@@ -16,8 +16,13 @@
 //! - **target=N**: a new target position (MVP, SAP 0): the row still shows where the motor stands,
 //!   so a program that waits for each position shows each arrival.
 //!
-//! Without a trace or a plot, it polls every 100 ms of simulated time (the core catches up on
-//! everything in between).
+//! Without a trace or a plot, it polls only where the simulated world changes by itself and at the end
+//! (every second with a progress bar): the core catches up on everything in between, with the same
+//! result however often it is polled.
+//!
+//! Between events the module takes the motion ticks in closed form (`tmcl_core::module`'s spans): an
+//! hour of the manual's programs runs in milliseconds. `--exact-ticks` ticks them one by one instead,
+//! the reference the spans are checked against; both give byte-identical traces.
 
 use crate::error::{CliError, EXIT_CODES};
 use crate::sim::plot;
@@ -73,8 +78,8 @@ for each input and output that changes (IN0.., OUT0..) and one for each kind of 
 the encoder minus the step position, and the coil energy, each on its own axis with its unit.
 The run is deterministic: the same program and options give byte-identical traces.";
 
-/// Without a trace, how far one poll may jump at most (for the progress bar).
-const COARSE_STEP: Duration = Duration::from_millis(100);
+/// Without a trace, how far one poll may jump at most while a progress bar is shown.
+const COARSE_STEP: Duration = Duration::from_millis(1000);
 
 /// Options of `tmcl run`.
 #[derive(Debug, Args)]
@@ -100,6 +105,10 @@ pub struct RunArgs {
     /// closed-loop model also the virtual position, position error, current scaler and status word.
     #[arg(long)]
     pub drive: bool,
+    /// Tick the motion controller one by one, every 1 ms, instead of jumping from event to event: the
+    /// reference the event-driven run is checked against. The results are the same, only slower.
+    #[arg(long)]
+    pub exact_ticks: bool,
 }
 
 /// Seconds as text to a [`Duration`], exactly (no floating point): `3600`, `0.5`, `1.000001`.
@@ -143,6 +152,7 @@ struct Summary {
 fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     let source = Source::load(&args.file)?;
     let mut module = args.sim.build(&source)?;
+    module.set_exact_ticks(args.exact_ticks);
     let bar = progress_bar(args.duration);
     let started = WallInstant::now();
     module
@@ -244,22 +254,24 @@ fn show_progress(bar: &ProgressBar, now: Instant) {
     bar.set_message(format!("{} s", now.millis() / 1000));
 }
 
-/// Runs without recording: as few polls as the module needs, at most [`COARSE_STEP`] apart.
+/// Runs without recording: polls only where the world changes by itself (an input timeline, a fault
+/// window) and at the end, and every [`COARSE_STEP`] when a progress bar is shown. The module catches up
+/// on every tick and instruction up to the time it is polled at, with the same result however often
+/// that is; the board's world moves on by itself only when polled, so its changes are stepped on exactly.
 fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, bar: &ProgressBar) {
     let end = Instant::ZERO + duration;
     let mut t = Instant::ZERO;
+    let progress = !bar.is_hidden();
     loop {
         crate::sim::poll(module, t);
-        if t.millis() % 1000 < COARSE_STEP.millis() {
+        if progress {
             show_progress(bar, t);
         }
         if t >= end {
             break;
         }
-        // The module catches up on every tick and instruction up to `t` by itself; the world's changes
-        // (an input timeline) are stepped on exactly.
         let world = module.board().next_event().filter(|e| *e > t).unwrap_or(end);
-        t = (t + COARSE_STEP).min(end).min(world);
+        t = if progress { (t + COARSE_STEP).min(end).min(world) } else { end.min(world) };
     }
 }
 

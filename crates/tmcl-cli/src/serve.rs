@@ -2,7 +2,8 @@
 //!
 //! The firmware core runs on a [`SimBoard`]; this file only moves bytes and wall-clock time between the
 //! OS and [`Module::receive`]/[`Module::poll`], and sleeps until the module's next deadline or the next
-//! byte, whichever comes first.
+//! byte, whichever comes first. The deadline of a moving module is its next event, not its next motion
+//! tick; a request during a move computes the state at the instant it arrives.
 
 use crate::bus::{Bus, Node};
 use crate::error::CliError;
@@ -21,8 +22,11 @@ use tmcl_core::{Instant, Module};
 use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
 use tmcl_wire::{Command, Frame, Instruction, Reply, ReplyFrame, Request};
 
-/// Longest sleep between two looks at the shutdown flag.
-const MAX_SLEEP: std::time::Duration = std::time::Duration::from_millis(50);
+/// Longest sleep without a deadline or a byte. A signal ends a sleep at once (`ppoll` returns EINTR and
+/// the shutdown flag is looked at), so this only paces the pty's exclusive-mode check; a moving module
+/// has its next event as deadline (the end of a ramp, an arrival), not its next motion tick, and costs
+/// next to nothing between events.
+const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// How often the pty's exclusive mode is checked for a host that died holding it.
 const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
