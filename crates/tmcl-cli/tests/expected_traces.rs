@@ -78,3 +78,67 @@ fn manual_programs_match_their_expected_traces() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Every manual program in every example world, traced with `--drive` (and plotted), event-driven and
+/// with `--exact-ticks`: the traces are the same byte for byte, and so are the summaries (instructions
+/// executed, PC, program state) of the runs without a trace.
+#[test]
+fn event_driven_traces_are_the_tick_by_tick_traces() {
+    let root = root();
+    let out_dir = tempfile::tempdir().unwrap();
+    let mut programs: Vec<PathBuf> = std::fs::read_dir(root.join("tests/programs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "tmc"))
+        .collect();
+    programs.sort();
+    let worlds = ["", "linear-stage", "jammed-axis", "timeline", "rotary-home", "encoder-slip"];
+    let mut failures = Vec::new();
+    for program in &programs {
+        let name = program.file_stem().unwrap().to_string_lossy().to_string();
+        let model: &[&str] = if name.starts_with("tmcm1310") { &["--module", "tmcm-1310"] } else { &[] };
+        for world in worlds {
+            let world_args: Vec<String> =
+                if world.is_empty() { vec![] } else { vec!["--world".into(), format!("examples/worlds/{world}.toml")] };
+            let run = |exact: bool, traced: bool| {
+                let trace = out_dir.path().join(format!("{name}-{world}-{exact}.csv"));
+                let mut cmd = Command::new(TMCL);
+                cmd.current_dir(&root).arg("run").arg(program).args(["--for", "20", "--every", "7"]);
+                cmd.args(model).args(&world_args);
+                if traced {
+                    cmd.arg("--trace").arg(&trace).arg("--drive");
+                }
+                if exact {
+                    cmd.arg("--exact-ticks");
+                }
+                let out = cmd.output().expect("tmcl run");
+                assert!(out.status.success(), "{name} {world}: {}", String::from_utf8_lossy(&out.stderr));
+                // The summary without the wall time: "simulated 20 s in … wall (…), N instructions …".
+                let summary = String::from_utf8_lossy(&out.stdout).to_string();
+                let summary = summary.split_once("instructions").map_or(summary.clone(), |(_, rest)| rest.to_string());
+                let executed = String::from_utf8_lossy(&out.stdout)
+                    .split(", ")
+                    .find(|p| p.ends_with("instructions executed"))
+                    .unwrap_or_default()
+                    .to_string();
+                let csv = if traced { std::fs::read_to_string(&trace).unwrap() } else { String::new() };
+                (format!("{executed} {summary}"), csv)
+            };
+            for traced in [true, false] {
+                let (fast, slow) = (run(false, traced), run(true, traced));
+                if fast != slow {
+                    let line = fast.1.lines().zip(slow.1.lines()).position(|(a, b)| a != b).unwrap_or(0);
+                    failures.push(format!(
+                        "{name} in {world:?} (traced: {traced}): summaries {:?} / {:?}; first difference at line {}:\n  event-driven {}\n  tick by tick {}",
+                        fast.0,
+                        slow.0,
+                        line + 1,
+                        fast.1.lines().nth(line).unwrap_or("<end>"),
+                        slow.1.lines().nth(line).unwrap_or("<end>")
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

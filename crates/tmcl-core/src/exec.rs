@@ -53,11 +53,19 @@ impl<B: Board> Module<B> {
     /// Executes one validated command from the host or the program at `now`.
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
-        // A parameter write may change what the driver sees (a current, the chopper, the resolution) while
-        // the motor stands and nothing ticks: the board is brought up to date at the end of this poll.
+        // A parameter write may change what the driver sees (a current, the chopper, the resolution), and a
+        // stop (MST, RFS) stops the motor at once: the board is brought up to date at this instant, not at
+        // the next motion tick (a standing motor has none), however often the module is polled.
         if matches!(
             command,
-            C::Sap { .. } | C::Aap { .. } | C::Rsap { .. } | C::Sgp { .. } | C::Agp { .. } | C::Rsgp { .. }
+            C::Sap { .. }
+                | C::Aap { .. }
+                | C::Rsap { .. }
+                | C::Sgp { .. }
+                | C::Agp { .. }
+                | C::Rsgp { .. }
+                | C::Mst { .. }
+                | C::Rfs { .. }
         ) {
             self.st.drive_due = Some(self.st.drive_due.map_or(now, |t| t.min(now)));
         }
@@ -110,6 +118,9 @@ impl<B: Board> Module<B> {
             // §3.7.6 GAP.
             C::Gap { param, motor } => {
                 self.motor(motor)?;
+                if self.reads_board_clock(param) {
+                    self.sync_board(now);
+                }
                 value(self.get_axis(param)?)
             }
             // §3.7.7 STAP: E parameters only.
@@ -498,6 +509,19 @@ impl<B: Board> Module<B> {
         permitted(&self.spec.global, number, allowed)
     }
 
+    /// Whether axis parameter `number` reads something of the board that changes with the board's own
+    /// clock: a switch (it may bounce), the driver's flags (standstill after 2²⁰ clocks without a step) or
+    /// the status word made of them. [`Module::sync_board`] first, so that the value is the one at the
+    /// instant of the read, however often the module was polled before.
+    fn reads_board_clock(&self, number: u8) -> bool {
+        self.spec.axis.params.iter().find(|d| d.number == number).is_some_and(|d| {
+            matches!(
+                d.role,
+                Role::HomeSwitch | Role::RightSwitch | Role::LeftSwitch | Role::DriverFlags | Role::StatusWord
+            )
+        })
+    }
+
     /// GAP: an axis parameter's value (chapter 4, Table 15).
     pub fn get_axis(&mut self, number: u8) -> Result<i32, Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.read)?;
@@ -542,7 +566,7 @@ impl<B: Board> Module<B> {
     }
 
     /// SAP/AAP: writes an axis parameter (RAM only).
-    pub fn set_axis(&mut self, number: u8, v: i32, _now: Instant) -> Result<(), Status> {
+    pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.write)?;
         if !d.range.contains(v) {
             return Err(ParamError::OutOfRange.into());
@@ -595,7 +619,14 @@ impl<B: Board> Module<B> {
             _ => self.st.axis[i] = v,
         }
         // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
-        // range), the closed loop switched on or off, the encoder's input or scale.
+        // range), the closed loop switched on or off, the encoder's input or scale. The driver's take
+        // effect at this instant: the board is brought to it first (its clock may lag the module's).
+        if matches!(
+            d.setting,
+            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange | Setting::EncoderMode)
+        ) {
+            self.sync_board(now);
+        }
         match d.setting {
             Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange) => self.configure_driver(),
             Some(Setting::ClosedLoop) => self.closed_loop_switched(),

@@ -559,6 +559,23 @@ impl<B: Board> Module<B> {
         self.board.update(now, &state);
     }
 
+    /// Brings the board to `now` before a read of something that changes with its own clock (a bouncing
+    /// switch, the driver's standstill flag): an update with what it was last told, if it has not heard
+    /// from the module since. Outside the motion ticks the board's clock would otherwise be wherever the
+    /// caller's polls left it.
+    pub(crate) fn sync_board(&mut self, now: Instant) {
+        if now <= self.st.board_time {
+            return;
+        }
+        self.update_board(now);
+        if self.st.board_time < now {
+            if let Some(state) = self.st.last_drive {
+                self.st.board_time = now;
+                self.board.update(now, &state);
+            }
+        }
+    }
+
     /// The microstep resolution as a power of two (AP 140); 8 (256 microsteps) for a model without it.
     #[inline]
     pub(crate) fn microstep_resolution(&self) -> u8 {

@@ -100,6 +100,19 @@ impl Switch {
         }
     }
 
+    /// When the input level next changes by itself after `now` (the next slot of a bounce), if it will.
+    fn next_change(&self, now: Instant) -> Option<Instant> {
+        let ((time, count), (at, _)) = (self.bounce?, self.edge?);
+        let (since, time) = (now.saturating_duration_since(at).micros(), time.micros());
+        if since >= time {
+            return None;
+        }
+        // `level`'s slot is ⌊since · slots / time⌋: the next one starts at ⌈(slot + 1) · time / slots⌉.
+        let slots = 2 * u64::from(count) + 1;
+        let slot = since * slots / time.max(1);
+        Some(at + Duration::from_micros(((slot + 1) * time).div_ceil(slots)))
+    }
+
     /// The input level at `now`: `true` = active with normal polarity.
     fn level(&self, now: Instant) -> bool {
         let mut contact = self.pressed;
@@ -497,11 +510,24 @@ impl SimBoard {
         self.now
     }
 
-    /// When the world changes next by itself (a timeline entry: inputs, a scripted load, a fault window,
-    /// encoder slip), if it will. A simulation that steps from deadline to deadline stops there too, and
-    /// [`SimBoard::advance`]s the board, so that no change is stepped over while the motor stands.
+    /// When the world changes next by itself, if it will: a timeline entry (inputs, a scripted load, a
+    /// fault window, encoder slip) or the next level of a bouncing switch. A simulation that steps from
+    /// deadline to deadline stops there too, and [`SimBoard::advance`]s the board, so that no change is
+    /// stepped over while the motor stands, however seldom the module itself needs to run. (The driver's
+    /// standstill flag, AP 208 bit 7, also comes up by itself, but the firmware reads it only with the
+    /// board brought to the instant of the read.)
     pub fn next_event(&self) -> Option<Instant> {
+        [self.timeline_event(), self.next_bounce()].into_iter().flatten().min()
+    }
+
+    /// The next timeline entry.
+    fn timeline_event(&self) -> Option<Instant> {
         self.plan.events.get(self.next_event).map(|(at, _)| *at)
+    }
+
+    /// The next level of a bouncing switch.
+    fn next_bounce(&self) -> Option<Instant> {
+        self.plan.switches.iter().flatten().filter_map(|s| s.next_change(self.now)).min()
     }
 
     /// Runs the world forward to `now` (timeline, faults, a freewheeling rotor, the energy figure) with
@@ -510,7 +536,7 @@ impl SimBoard {
         if now <= self.now {
             return;
         }
-        while let Some(&(at, _)) = self.plan.events.get(self.next_event) {
+        while let Some(at) = self.timeline_event() {
             if at > now {
                 break;
             }
@@ -641,6 +667,13 @@ impl SimBoard {
         self.plan.mech.settle();
     }
 
+    /// The highest speed (pps) at which one 1 ms tick moves the field over at most 64 full-step
+    /// positions: at most |v|/1000 + 1 steps of `per_step` µsteps, at most 63 full steps and one more
+    /// position.
+    fn uncapped_speed(&self) -> u32 {
+        ((63 * USTEPS_PER_FULL_STEP / self.per_step() - 1) * 1000) as u32
+    }
+
     fn per_step(&self) -> i64 {
         1i64 << (8 - self.drive.resolution.min(8))
     }
@@ -723,7 +756,7 @@ impl SimBoard {
             let threshold = if threshold >= f64::from(u32::MAX) { u32::MAX } else { threshold as u32 };
             if state.velocity.unsigned_abs() >= threshold {
                 min_speed = threshold;
-                max_speed = ((63 * USTEPS_PER_FULL_STEP / per_step - 1) * 1000) as u32;
+                max_speed = self.uncapped_speed();
             } else {
                 max_speed = threshold - 1;
             }
@@ -744,14 +777,7 @@ impl SimBoard {
             };
             load = driver::load_value(ratio, self.driver.settings.stall_threshold);
         }
-        let mut until = self.next_event();
-        for sw in self.plan.switches.iter().flatten() {
-            if let (Some((time, _)), Some((at, _))) = (sw.bounce, sw.edge) {
-                if at + time > self.now {
-                    until = Some(until.map_or(at + time, |u| u.min(at + time)));
-                }
-            }
-        }
+        let until = [self.timeline_event(), self.next_bounce()].into_iter().flatten().min();
         Some(Quiet { until, forward, backward, min_speed, max_speed, load })
     }
 
@@ -892,7 +918,12 @@ impl StepDriver for SimBoard {
                 }
             };
             if state.enabled && self.profile.measures_load() {
-                self.driver.measure(crossings, speed, ratio, stalled);
+                // At most 64 measurements per update, as many as one 1 ms tick can make at speeds up to
+                // `uncapped_speed` — below it the limit is left out, so that an update for many ticks (see
+                // `quiet_window`) counts what the updates of each would have.
+                let counted =
+                    if state.velocity.unsigned_abs() <= self.uncapped_speed() { crossings } else { crossings.min(64) };
+                self.driver.measure(counted, speed, ratio, stalled);
             }
             self.track_switches();
         }

@@ -143,7 +143,9 @@ impl Driver {
 
     /// The field passed `crossings` full-step positions at `speed` full steps per second, with the rotor
     /// at load ratio `ratio`; `stalled` = the rotor did not follow during the move (it fell more than 90°
-    /// behind, or moved less than half as far as the field: no back-EMF, so the reading is 0).
+    /// behind, or moved less than half as far as the field: no back-EMF, so the reading is 0). One
+    /// measurement per full step (the caller limits how many one update counts), in closed form: the same
+    /// as measuring them one by one.
     pub fn measure(&mut self, crossings: u64, speed: f64, ratio: f64, stalled: bool) {
         if speed < self.min_speed {
             // No valid measurement down here, and nothing seen here counts for the next one.
@@ -157,19 +159,29 @@ impl Driver {
         let ratio = if self.stall_seen { 1.0 } else { ratio };
         let value = u32::from(load_value(ratio, self.settings.stall_threshold));
         self.stall_seen = false;
-        for _ in 0..crossings.min(64) {
-            if self.settings.stall_filter {
-                self.filter_sum += value;
-                self.filter_n += 1;
-                if self.filter_n < 4 {
-                    continue;
-                }
-                self.load = ((self.filter_sum + 2) / 4) as u16;
-                (self.filter_sum, self.filter_n) = (0, 0);
-            } else {
-                self.load = value as u16;
-            }
+        if !self.settings.stall_filter {
+            self.load = value as u16;
+            self.measurements = self.measurements.wrapping_add(crossings as u32);
+            return;
+        }
+        // Filtered: one measurement per 4 full steps, the rounded mean of their values. The group under
+        // way first, then whole groups (all of `value`), then the start of the next.
+        let first = u64::from(4 - self.filter_n).min(crossings);
+        self.filter_sum += first as u32 * value;
+        self.filter_n += first as u32;
+        let mut rest = crossings - first;
+        if self.filter_n == 4 {
+            self.load = ((self.filter_sum + 2) / 4) as u16;
             self.measurements = self.measurements.wrapping_add(1);
+            (self.filter_sum, self.filter_n) = (0, 0);
+            let groups = rest / 4;
+            if groups > 0 {
+                self.load = ((4 * value + 2) / 4) as u16;
+                self.measurements = self.measurements.wrapping_add(groups as u32);
+            }
+            rest %= 4;
+            self.filter_sum = rest as u32 * value;
+            self.filter_n = rest as u32;
         }
     }
 

@@ -7,9 +7,11 @@
 //! - [`world`]: the [`World`] around the motor, from a TOML world file (`docs/world.md`).
 //! - [`motor`]: the stepper and its load (load angle, lost steps, freewheeling).
 //! - [`driver`]: the TMC262 as the firmware sees it (current, stallGuard2, flags, energy).
+//! - [`equivalence`]: event-driven runs against tick-by-tick ones, for the property tests and fuzzing.
 
 pub mod board;
 pub mod driver;
+pub mod equivalence;
 pub mod fuzzing;
 pub mod motor;
 pub mod nvm;

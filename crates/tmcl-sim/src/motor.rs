@@ -500,6 +500,22 @@ impl Mechanics {
         self.locked = self.exact();
     }
 
+    /// Powered: whether [`Mechanics::settle`] would leave the rotor where it is (it is on a stable point,
+    /// held by friction, or against a stop). A long slide takes several settles (one marches at most
+    /// [`MARCH_LIMIT`] steps), so a rotor still sliding is not settled.
+    fn settled(&self) -> bool {
+        if self.trivial {
+            return self.locked();
+        }
+        let x = self.rotor;
+        let d = self.net(x);
+        if d.abs() <= self.resist(x) + 1e-12 * self.available {
+            return true;
+        }
+        let s = d.signum();
+        s * (self.barrier(x, s) - x) <= 0.0
+    }
+
     /// Powered: moves the rotor along the net torque until friction holds it (quasi-static).
     #[inline]
     pub fn settle(&mut self) {
@@ -621,7 +637,9 @@ impl Mechanics {
             return if held { everywhere(Follow::Still) } else { None };
         }
         if s == 0 {
-            return everywhere(Follow::Still); // powered and quasi-static: only a move moves the rotor
+            // Powered and quasi-static, the rotor moves only when it settles after an update: still if
+            // settling would leave it where it is.
+            return if self.settled() { everywhere(Follow::Still) } else { None };
         }
         if self.trivial {
             // Exactly on a stable point, it moves by exactly the field's moves while positions are exact.

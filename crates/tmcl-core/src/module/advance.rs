@@ -60,7 +60,7 @@ impl<B: Board> Module<B> {
             // so only what may fall due at `now` — exactly what the loop below does in this case.
             self.st.now = now;
             self.apply_drive_due(now);
-            self.after_advance(now, false);
+            self.after_advance(now);
             return;
         }
         self.advance_ticks(now);
@@ -78,19 +78,20 @@ impl<B: Board> Module<B> {
         } else {
             RampParams { max_speed: 0, max_accel: 0, min_speed: 0 }
         };
-        let mut ticked = false;
         let mut budget = BUDGET;
         let closed_loop = self.has_closed_loop();
         // Instructions up to and including `now`.
         let horizon = now + MICROSECOND;
         loop {
             let tick_at = self.st.motion_time + TICK;
-            // A standby or freewheeling delay that runs out before the next tick takes effect at its time,
-            // after the instructions up to then.
-            let due = self.st.drive_due.filter(|d| *d < tick_at && *d <= now);
+            // The driver's state changes by itself before the next tick (a standby or freewheeling delay
+            // runs out), or an instruction changed it (a parameter, a stop): the board hears of it at that
+            // time, after the instructions up to then — however often the caller polls.
             if self.vm.state == RunState::Running {
+                let due = self.st.drive_due.filter(|d| *d < tick_at && *d <= now);
                 let executed = self.vm.executed;
                 let limit = due.map_or(tick_at, |d| tick_at.min(d + MICROSECOND));
+                // (It returns early after an instruction that changed what the driver sees.)
                 self.run_program(limit.min(horizon), &mut budget);
                 if budget == 0 {
                     break; // the rest at the next poll (its deadline is now)
@@ -100,7 +101,7 @@ impl<B: Board> Module<B> {
                     params = self.ramp_params();
                 }
             }
-            if let Some(d) = due {
+            if let Some(d) = self.st.drive_due.filter(|d| *d < tick_at && *d <= now) {
                 self.update_board(d); // the next delay, if any, lies after `d`
                 continue;
             }
@@ -113,10 +114,8 @@ impl<B: Board> Module<B> {
                     continue;
                 }
             } else if self.take_span(now, &params) {
-                ticked = true;
                 continue;
             }
-            ticked = true;
             // A reference search looks at its switch after every microstep (sub-ticks), so that the
             // switching points, and with them the zero point, are exact to the microstep (§7.1).
             let parts = if self.st.reference.is_active() {
@@ -129,6 +128,9 @@ impl<B: Board> Module<B> {
             for k in 1..=parts {
                 let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
                 let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
+                // The switches as they are at the start of this (part of a) tick, a bouncing one too: the
+                // board's clock there, not where the last update or the caller's poll left it.
+                self.sync_board(t - Duration::from_micros(dt));
                 let limits = self.limits();
                 let r = self.st.ramp.tick(Duration::from_micros(dt), &params, limits);
                 self.st.ramping = r.ramping;
@@ -148,7 +150,7 @@ impl<B: Board> Module<B> {
             self.st.motion_time = tick_at;
             self.tick_done(tick_at);
         }
-        self.after_advance(now, ticked);
+        self.after_advance(now);
     }
 
     /// What follows every motion tick (and a span, at its last tick `t`), after the board has been
@@ -170,7 +172,9 @@ impl<B: Board> Module<B> {
         // levels stay as they are, so the ticks up to its end may be jumped over too.
         let quiet_until = if !watching {
             None
-        } else if self.st.cl.engaged() || self.exact {
+        } else if self.has_closed_loop() || self.exact || self.st.standstill_since.is_none() {
+            // A closed-loop model measures its velocity over the last ticks (AP 131); a motor that has
+            // just stopped starts its standstill at the next tick, as a sampled tick has it.
             return false;
         } else {
             let state = self.st.last_drive.unwrap_or_default();
@@ -197,21 +201,22 @@ impl<B: Board> Module<B> {
         let ticks = (until - self.st.motion_time).micros() / TICK.micros();
         self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
         self.st.ramping = false;
-        if self.vm.enabled != 0 {
+        if watching {
+            // In place of sampled ticks, what the last of them does: the encoder followed (its counts and the
+            // last zero passed are all that count), the 138 event, the interrupt sources.
+            self.tick_done(self.st.motion_time);
+        } else if self.vm.enabled != 0 {
             self.sample_interrupts(self.st.motion_time);
         }
         true
     }
 
-    /// The end of an advance to `now`: the 138 event, the heartbeat, and the board if anything changed
-    /// for it (`ticked`).
+    /// The end of an advance to `now`: the 138 event and the heartbeat. (The board has heard of every
+    /// change at its time: at the ticks, and through `drive_due` for the rest.)
     #[inline(always)]
-    fn after_advance(&mut self, now: Instant, ticked: bool) {
+    fn after_advance(&mut self, now: Instant) {
         self.check_event(now);
         self.check_heartbeat(now);
-        if ticked {
-            self.update_board(now);
-        }
     }
 
     /// Standby and freewheeling delays that have run out by `now`, each at its own time.
@@ -335,7 +340,7 @@ impl<B: Board> Module<B> {
     /// Standing, with level interrupts watched and no 138 event pending: the end of the board's quiet
     /// window, if it has one (`Some(None)`: quiet for good); `None`: every tick must be sampled.
     fn idle_quiet_until(&mut self) -> Option<Option<Instant>> {
-        if self.st.event.pending || self.st.cl.engaged() || self.exact {
+        if self.st.event.pending || self.has_closed_loop() || self.exact {
             return None;
         }
         let state = self.st.last_drive.unwrap_or_default();

@@ -142,6 +142,8 @@ impl<B: Board> Module<B> {
         if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected() {
             return None;
         }
+        // The board at the span's start, as a first tick would read it.
+        self.sync_board(self.st.motion_time);
         let state = self.st.last_drive?;
         let quiet = self.board.quiet(self.st.motion_time, &state)?;
         if quiet.load == 0 && self.units_to_pps(self.ap(Setting::StopOnStall).unwrap_or(0)) > 0 {

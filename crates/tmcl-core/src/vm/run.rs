@@ -72,6 +72,9 @@ impl<B: Board> Module<B> {
             self.vm.executed += 1;
             self.step_instruction(t);
             self.vm.time = self.vm.time.max(t) + INSTRUCTION_TIME;
+            if self.st.drive_due.is_some_and(|d| d <= t) {
+                return; // the board hears of it before the next instruction (see `module/advance.rs`)
+            }
         }
     }
 
@@ -250,9 +253,14 @@ impl<B: Board> Module<B> {
                     if let Some(n) = n {
                         self.raise_interrupt(n);
                     }
+                    // The next firing on the timer's grid after `t`: one period on when sampled at every
+                    // tick; periods sampled at no tick (the timer not enabled while the ticks are jumped
+                    // over) are skipped, so the grid does not depend on when it was sampled.
                     let period = n.map_or(0, |n| self.interrupt_config(n) as u32);
-                    self.vm.timers[i] =
-                        (period > 0).then(|| due + Duration::from_millis(u64::from(period))).map(|d| d.max(t));
+                    self.vm.timers[i] = (period > 0).then(|| {
+                        let period = u64::from(period) * 1000;
+                        due + Duration::from_micros(((t - due).micros() / period + 1).saturating_mul(period))
+                    });
                 }
             }
         }

@@ -1,0 +1,497 @@
+//! Event-driven against tick-by-tick: the same module, world, program and host commands run twice — once
+//! jumping from event to event (the default), once ticking the motion controller every 1 ms
+//! ([`Module::set_exact_ticks`]) — and everything either run shows is compared: the firmware state
+//! (ramp, registers, flags, timers, interrupts, every parameter), the program machine (PC, stack, WAIT,
+//! handler), the board (shaft, field, energy, load measurements, encoder, outputs) and the replies with
+//! the time each went out.
+//!
+//! Each run is polled the way a runner polls it: at its own deadlines (the event-driven one far less
+//! often), at the world's own changes, at the host's commands, and — the event-driven one — at extra
+//! times of the input's choosing, since a module must not depend on how often it is polled.
+//!
+//! [`Scenario::decode`] turns arbitrary bytes into a scenario (a model, a world, settings, a program and
+//! timed host commands) so that the property tests (`tests/event_driven.rs`) and the fuzz target
+//! `event_driven` share it; every byte string decodes to something valid.
+
+use crate::board::SimBoard;
+use crate::world::World;
+use tmcl_core::model::{pd28_1021, tmcm_1310, ModelSpec};
+use tmcl_core::{Duration, Instant, Module};
+use tmcl_wire::{CalcOp, Command, Condition, EventMode, Instruction, MoveTarget, Request, RfsAction, WaitCondition};
+
+/// Reads a scenario out of bytes: every read succeeds (0 past the end).
+struct Bytes<'a>(&'a [u8]);
+
+impl Bytes<'_> {
+    fn u8(&mut self) -> u8 {
+        match self.0.split_first() {
+            Some((&b, rest)) => {
+                self.0 = rest;
+                b
+            }
+            None => 0,
+        }
+    }
+
+    fn u16(&mut self) -> u16 {
+        u16::from(self.u8()) << 8 | u16::from(self.u8())
+    }
+
+    fn u32(&mut self) -> u32 {
+        u32::from(self.u16()) << 16 | u32::from(self.u16())
+    }
+
+    /// A value in `lo..=hi`.
+    fn range(&mut self, lo: i64, hi: i64) -> i64 {
+        lo + i64::from(self.u32()) % (hi - lo + 1)
+    }
+
+    /// One of `choices`.
+    fn pick<T: Copy>(&mut self, choices: &[T]) -> T {
+        choices[usize::from(self.u8()) % choices.len()]
+    }
+}
+
+/// A run to compare: what both modules get.
+#[derive(Clone)]
+pub struct Scenario {
+    /// The model.
+    pub spec: &'static ModelSpec,
+    /// The world file's text (empty: the default world).
+    pub world: String,
+    /// Settings before the program starts (host commands at time 0).
+    pub settings: Vec<Command>,
+    /// The program, started at time 0 (empty: none).
+    pub program: Vec<Command>,
+    /// Host commands with the time they arrive, in order.
+    pub host: Vec<(Instant, Command)>,
+    /// Extra polls of the event-driven module.
+    pub polls: Vec<Instant>,
+    /// How long both run.
+    pub end: Instant,
+}
+
+/// Axis parameters a scenario sets, with a value range for each (motion, currents, switches, drive).
+const AXIS: &[(u8, i64, i64)] = &[
+    (4, 1, 400_000),
+    (4, 100, 60_000),
+    (5, 1, 2_000_000),
+    (5, 1000, 200_000),
+    (130, 0, 5_000),
+    (140, 0, 8),
+    (6, 0, 255),
+    (7, 0, 255),
+    (200, 0, 255),
+    (204, 0, 30),
+    (214, 0, 30),
+    (12, 0, 1),
+    (13, 0, 1),
+    (181, 0, 60_000),
+    (182, 0, 60_000),
+    (183, 0, 255),
+    (172, 0, 3),
+    (173, 0, 1),
+    (174, -64, 63),
+    (179, 0, 1),
+    (193, 1, 8),
+    (194, 1, 60_000),
+    (195, 1, 20_000),
+    (210, 25_600, 25_604),
+    (212, 0, 3000),
+];
+
+impl std::fmt::Debug for Scenario {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "model {}, until {}", self.spec.id, self.end)?;
+        writeln!(f, "world:\n{}", self.world)?;
+        writeln!(f, "settings: {:?}", self.settings)?;
+        for (n, c) in self.program.iter().enumerate() {
+            writeln!(f, "  {n:2}: {c:?}")?;
+        }
+        for (t, c) in &self.host {
+            writeln!(f, "at {t}: {c:?}")?;
+        }
+        write!(f, "extra polls: {:?}", self.polls.iter().map(|p| p.to_string()).collect::<Vec<_>>())
+    }
+}
+
+impl Scenario {
+    /// Decodes arbitrary bytes into a scenario (see the module docs).
+    pub fn decode(data: &[u8]) -> Scenario {
+        let mut b = Bytes(data);
+        let spec = if b.u8() % 8 == 0 { &tmcm_1310::SPEC } else { &pd28_1021::SPEC };
+        let world = world(&mut b);
+        let mut settings = Vec::new();
+        for _ in 0..b.u8() % 6 {
+            settings.push(setting(&mut b));
+        }
+        let mut program = Vec::new();
+        let len = b.u8() % 20;
+        for _ in 0..len {
+            program.push(instruction(&mut b, len));
+        }
+        let end = Instant::from_millis(b.range(1, 12_000) as u64);
+        let mut host = Vec::new();
+        let mut t = Instant::ZERO;
+        for _ in 0..b.u8() % 8 {
+            t += Duration::from_micros(b.range(0, 3_000_000) as u64);
+            if t < end {
+                host.push((t, host_command(&mut b)));
+            }
+        }
+        let mut polls: Vec<Instant> =
+            (0..b.u8() % 6).map(|_| Instant::from_micros(b.range(0, end.micros() as i64) as u64)).collect();
+        polls.sort();
+        Scenario { spec, world, settings, program, host, polls, end }
+    }
+
+    /// Runs the scenario event-driven and tick by tick, and compares; `Err` describes the first
+    /// difference.
+    pub fn check(&self) -> Result<(), String> {
+        let Some(mut fast) = self.module(false) else { return Ok(()) };
+        let Some(mut slow) = self.module(true) else { return Ok(()) };
+        let (mut fast_out, mut slow_out) = (Vec::new(), Vec::new());
+        // The times at which both are compared: the host's commands and the end.
+        let mut stops: Vec<Instant> = self.host.iter().map(|(t, _)| *t).collect();
+        stops.push(self.end);
+        let mut host = self.host.iter().peekable();
+        let mut extra = self.polls.iter().peekable();
+        let (mut t_fast, mut t_slow) = (Instant::ZERO, Instant::ZERO);
+        for stop in stops {
+            run_to(&mut fast, &mut t_fast, stop, &mut extra, &mut fast_out);
+            run_to(&mut slow, &mut t_slow, stop, &mut std::iter::empty().peekable(), &mut slow_out);
+            compare(&mut fast, &mut slow, stop)?;
+            while let Some((_, command)) = host.next_if(|(t, _)| *t == stop) {
+                let frame = Request { address: 1, instruction: command.encode() }.to_bytes();
+                fast.receive(stop, &frame, &mut |bytes: &[u8]| fast_out.push((stop, bytes.to_vec())));
+                slow.receive(stop, &frame, &mut |bytes: &[u8]| slow_out.push((stop, bytes.to_vec())));
+            }
+            if fast_out != slow_out {
+                return Err(format!(
+                    "replies differ by {stop}:\n  event-driven {fast_out:?}\n  tick by tick {slow_out:?}"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// For a scenario that fails [`Scenario::check`]: both modules polled on the same schedule (every
+    /// tick, each one's deadlines, the host's commands), compared after each poll, and the first
+    /// difference described with the time of the poll before it.
+    pub fn first_difference(&self) -> Option<String> {
+        let (mut fast, mut slow) = (self.module(false)?, self.module(true)?);
+        let mut host = self.host.iter().peekable();
+        let mut t = Instant::ZERO;
+        let mut before = Instant::ZERO;
+        while t <= self.end {
+            let a = fast.poll(t, &mut |_: &[u8]| {});
+            let b = slow.poll(t, &mut |_: &[u8]| {});
+            if let Err(e) = compare(&mut fast, &mut slow, t) {
+                return Some(format!("after the poll at {t} (the one before at {before}): {e}"));
+            }
+            while let Some((_, command)) = host.next_if(|(at, _)| *at == t) {
+                let frame = Request { address: 1, instruction: command.encode() }.to_bytes();
+                fast.receive(t, &frame, &mut |_: &[u8]| {});
+                slow.receive(t, &frame, &mut |_: &[u8]| {});
+            }
+            fast.board_mut().advance(t);
+            slow.board_mut().advance(t);
+            let tick = Instant::from_micros((t.micros() / 1000 + 1) * 1000);
+            let next = [a, b, host.peek().map(|(at, _)| *at), Some(tick)]
+                .into_iter()
+                .flatten()
+                .filter(|n| *n > t)
+                .min()
+                .unwrap_or(tick);
+            before = t;
+            t = next;
+        }
+        None
+    }
+
+    /// A module with the world, settings and program, started at 0; `None` if the world does not load.
+    fn module(&self, exact: bool) -> Option<Module<SimBoard>> {
+        let mut board = SimBoard::in_memory_for(self.spec);
+        if !self.world.is_empty() {
+            board = board.with_world(World::from_toml_str(&self.world).ok()?).ok()?;
+        }
+        let mut module = Module::new(board, self.spec, Instant::ZERO);
+        module.set_exact_ticks(exact);
+        for c in &self.settings {
+            let _ = module.execute(*c, Instant::ZERO);
+        }
+        if !self.program.is_empty() {
+            let cells: Vec<Instruction> = self.program.iter().map(|c| c.encode()).collect();
+            module.load_program(&cells).ok()?;
+            let _ = module.execute(Command::RunApplication { from: Some(0) }, Instant::ZERO);
+        }
+        Some(module)
+    }
+}
+
+/// Polls `module` from `*t` up to `stop` at its deadlines and the world's changes (and the extra polls
+/// before `stop`), as a runner does, collecting what it sends with the time.
+fn run_to<'a>(
+    module: &mut Module<SimBoard>,
+    t: &mut Instant,
+    stop: Instant,
+    extra: &mut std::iter::Peekable<impl Iterator<Item = &'a Instant>>,
+    out: &mut Vec<(Instant, Vec<u8>)>,
+) {
+    // The next poll of a runner (at a deadline or a change of the world), apart from the extra ones.
+    let mut due = *t;
+    loop {
+        let now = *t;
+        let deadline = module.poll(now, &mut |bytes: &[u8]| out.push((now, bytes.to_vec())));
+        if now == due {
+            // A runner moves the world on at its polls (`tmcl run`'s `sim::poll`); an extra poll only asks
+            // the module.
+            module.board_mut().advance(now);
+            if now >= stop {
+                return;
+            }
+            let mut next = deadline.unwrap_or(stop).max(now).min(stop);
+            if let Some(e) = module.board().next_event().filter(|e| *e > now) {
+                next = next.min(e);
+            }
+            // A deadline that is due and brings nothing new (a timer between ticks is sampled at the next
+            // tick): on at the next tick, as `tmcl run` does.
+            due = if next == now { Instant::from_micros((now.micros() / 1000 + 1) * 1000).min(stop) } else { next };
+        }
+        *t = due;
+        while let Some(&&p) = extra.peek() {
+            if p <= now {
+                extra.next();
+                continue;
+            }
+            *t = due.min(p);
+            break;
+        }
+    }
+}
+
+/// Everything both modules show at `t`.
+fn compare(fast: &mut Module<SimBoard>, slow: &mut Module<SimBoard>, t: Instant) -> Result<(), String> {
+    let (a, b) = (view(fast, t), view(slow, t));
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        if x != y {
+            // Where the two texts part, with some context before it.
+            let at = x.bytes().zip(y.bytes()).position(|(p, q)| p != q).unwrap_or(x.len().min(y.len()));
+            let from = x.char_indices().map(|(i, _)| i).filter(|i| *i + 160 <= at).last().unwrap_or(0);
+            let cut = |s: &str| s.get(from..).unwrap_or(s).chars().take(320).collect::<String>();
+            return Err(format!("at {t}, {name}:\n  event-driven …{}\n  tick by tick …{}", cut(x), cut(y)));
+        }
+    }
+    Ok(())
+}
+
+/// What a module shows at `t`: named values, as text.
+fn view(m: &mut Module<SimBoard>, t: Instant) -> Vec<(String, String)> {
+    // When the module last called the board is not compared: a tick-by-tick run brings the board's clock
+    // to every tick it reads the board at, a span reads nothing in between (the board's state at any
+    // instant is the same: its world runs on composably, see `SimBoard::quiet`).
+    let state = format!("{:?}", m.state());
+    let state = match state.split_once("board_time: ") {
+        Some((head, tail)) => format!("{head}{}", tail.split_once("}, ").map_or("", |(_, rest)| rest)),
+        None => state,
+    };
+    let mut v = vec![
+        ("state".to_string(), state),
+        ("program machine".to_string(), format!("{:?}", m.vm())),
+        ("registers".to_string(), format!("{:?} {:?}", m.registers(), m.host_registers())),
+    ];
+    let board = m.board_mut();
+    let feedback = board.feedback();
+    v.push((
+        "board".to_string(),
+        format!(
+            "shaft {} field {} lost {} energy {:x} outputs {} drive {:?} feedback {:?} coil {:x}",
+            board.shaft(),
+            board.commanded(),
+            board.lost_full_steps(),
+            board.energy().to_bits(),
+            board.outputs(),
+            // The last update's own move is a span's sum (`StepDriver::update`); where it went is compared.
+            tmcl_core::hal::DriveState { moved: 0, ..*board.drive() },
+            feedback,
+            board.coil_current().to_bits(),
+        ),
+    ));
+    let spec = m.spec();
+    for d in spec.axis.params {
+        v.push((format!("AP {}", d.number), format!("{:?}", m.get_axis(d.number))));
+    }
+    for d in spec.global.params {
+        v.push((format!("GP {}", d.number), format!("{:?}", m.get_global(d.number, 0, t))));
+    }
+    for n in 0..8 {
+        v.push((format!("GP {n}, 2"), format!("{:?}", m.get_global(n, 2, t))));
+    }
+    v
+}
+
+/// A world: free, switches, friction and stops, a timeline, loads, or a stage as in the examples.
+fn world(b: &mut Bytes) -> String {
+    let pos = |b: &mut Bytes| b.range(-300_000, 300_000);
+    let span = |b: &mut Bytes| b.range(1, 80_000);
+    let time = |b: &mut Bytes| b.range(0, 10_000);
+    let mut text = String::new();
+    match b.u8() % 8 {
+        0 => {}
+        1 | 2 => {
+            for name in ["left", "right", "home"] {
+                if b.u8() % 3 != 0 {
+                    let at = pos(b);
+                    let to = at + span(b);
+                    text += &format!("[switches.{name}]\nat = [\"{at} usteps\", \"{to} usteps\"]\n");
+                    if b.u8() % 3 == 0 {
+                        text += "active = \"low\"\n";
+                    }
+                    if b.u8() % 2 == 0 {
+                        text +=
+                            &format!("bounce = {{ time = \"{} us\", count = {} }}\n", b.range(1, 5000), b.range(1, 4));
+                    }
+                }
+            }
+        }
+        3 => {
+            text += &format!("[load]\nfriction = {}\n", b.range(0, 12) as f64 * 0.001);
+            if b.u8() % 2 == 0 {
+                text += &format!("constant = {}\n", b.range(-8, 8) as f64 * 0.001);
+            }
+            if b.u8() % 2 == 0 {
+                let at = pos(b);
+                text += &format!(
+                    "[[load.jam]]\nat = [\"{at} usteps\", \"{} usteps\"]\ntorque = {}\n",
+                    at + span(b),
+                    b.range(1, 300) as f64 * 0.001
+                );
+            }
+            if b.u8() % 2 == 0 {
+                let lo = -b.range(1_000, 400_000);
+                let hi = b.range(1_000, 400_000);
+                text += &format!("[axis]\ntravel = [\"{lo} usteps\", \"{hi} usteps\"]\n");
+            }
+        }
+        4 => {
+            for _ in 0..b.range(0, 4) {
+                text += &format!("[[inputs.timeline]]\nat = \"{} ms\"\ndigital = {}\n", time(b), b.u8() % 16);
+            }
+            if b.u8() % 2 == 0 {
+                let from = time(b);
+                text += &format!(
+                    "[[faults.driver]]\nfrom = \"{from} ms\"\nuntil = \"{} ms\"\nflags = [\"{}\"]\n",
+                    from + time(b),
+                    b.pick(&["prewarning", "open_a", "short_a", "overtemperature"])
+                );
+            }
+            if b.u8() % 2 == 0 {
+                text += &format!("[[faults.encoder_slip]]\nat = \"{} ms\"\ncounts = {}\n", time(b), b.range(-200, 200));
+            }
+            if b.u8() % 2 == 0 {
+                let from = time(b);
+                text += &format!(
+                    "[[faults.supply_drop]]\nfrom = \"{from} ms\"\nuntil = \"{} ms\"\nvoltage = {}\n",
+                    from + time(b),
+                    b.range(5, 23)
+                );
+            }
+        }
+        5 => {
+            text += &format!("[load]\nfriction = {}\n", b.range(1, 8) as f64 * 0.001);
+            for _ in 0..b.range(0, 3) {
+                text += &format!(
+                    "[[load.script]]\nat = \"{} ms\"\ntorque = {}\n",
+                    time(b),
+                    b.range(-10, 10) as f64 * 0.001
+                );
+            }
+            if b.u8() % 2 == 0 {
+                text += &format!(
+                    "[[faults.stall]]\nat = \"{} usteps\"\nfrom = \"{} ms\"\nuntil = \"{} ms\"\n",
+                    pos(b),
+                    time(b),
+                    10_000 + time(b)
+                );
+            }
+        }
+        6 => {
+            text += &format!(
+                "[motor]\ndetent_torque = {}\n[load]\nspring = {{ rate = {}, rest = {} }}\n",
+                b.range(0, 4) as f64 * 0.001,
+                b.range(0, 5) as f64 * 0.00001,
+                b.range(-90, 90)
+            );
+        }
+        _ => text += LINEAR_STAGE,
+    }
+    text
+}
+
+/// The example linear stage (`examples/worlds/linear-stage.toml`), inline.
+const LINEAR_STAGE: &str = "[axis]\nkind = \"linear\"\nlead = 2.0\ntravel = [-4.0, 104.0]\nstart = 25.0\n\
+load_inertia = 2e-7\n[load]\nfriction = 0.004\n[switches.left]\nat = [-4.0, 0.0]\n[switches.right]\n\
+at = [100.0, 104.0]\n[switches.home]\nat = [49.5, 50.5]\nbounce = { time = \"2 ms\", count = 2 }\n";
+
+/// A setting: SAP of a motion, current, switch or drive parameter, or an interrupt's bank 3 setting.
+fn setting(b: &mut Bytes) -> Command {
+    if b.u8() % 5 == 0 {
+        // Timer periods (bank 3, 0..2) and the trigger transitions of switch and input interrupts.
+        let param = b.pick(&[0u8, 1, 2, 27, 28, 39, 40]);
+        let value = if param < 3 { b.range(1, 3000) } else { b.range(0, 3) };
+        return Command::Sgp { param, bank: 3, value: value as i32 };
+    }
+    let (param, lo, hi) = b.pick(AXIS);
+    Command::Sap { param, motor: 0, value: b.range(lo, hi) as i32 }
+}
+
+/// A program instruction; jumps stay within the program's `len` cells.
+fn instruction(b: &mut Bytes, len: u8) -> Command {
+    let address = |b: &mut Bytes| i32::from(b.u8() % len.max(1));
+    match b.u8() % 22 {
+        0..=3 => Command::Mvp { motor: 0, target: MoveTarget::Abs(b.range(-600_000, 600_000) as i32) },
+        4 => Command::Mvp { motor: 0, target: MoveTarget::Rel(b.range(-200_000, 200_000) as i32) },
+        5 => Command::Ror { motor: 0, velocity: b.range(0, 80_000) as i32 },
+        6 => Command::Rol { motor: 0, velocity: b.range(0, 80_000) as i32 },
+        7 => Command::Mst { motor: 0 },
+        8 | 9 => {
+            let condition = b.pick(&[
+                WaitCondition::Ticks,
+                WaitCondition::Pos,
+                WaitCondition::RefSw,
+                WaitCondition::LimSw,
+                WaitCondition::Rfs,
+            ]);
+            Command::Wait { condition, motor: 0, ticks: b.range(0, 300) as i32 }
+        }
+        10 | 11 => setting(b),
+        12 => Command::Sio { port: b.u8() % 3, bank: 2, value: i32::from(b.u8() % 2) },
+        13 => Command::Calc { op: b.pick(&[CalcOp::Add, CalcOp::Sub, CalcOp::Load]), operand: b.range(-5, 5) as i32 },
+        14 => Command::Comp { operand: b.range(-3, 3) as i32 },
+        15 => Command::Jc {
+            condition: b.pick(&[Condition::Zero, Condition::NotZero, Condition::Greater]),
+            address: address(b),
+        },
+        16 => Command::Ja { address: address(b) },
+        17 => Command::Gap { param: b.pick(&[1u8, 3, 8, 9, 10, 206, 208, 209]), motor: 0 },
+        18 => Command::Vect { interrupt: b.pick(&[0u8, 1, 2, 3, 27, 28, 39]), address: address(b) },
+        19 => Command::Ei { interrupt: b.pick(&[0u8, 1, 2, 3, 27, 28, 39, 255]) },
+        20 => Command::Reti,
+        _ => Command::Rfs { action: b.pick(&[RfsAction::Start, RfsAction::Stop]), motor: 0 },
+    }
+}
+
+/// A host command: a move, a setting, a question, an event request, the program stopped or restarted.
+fn host_command(b: &mut Bytes) -> Command {
+    match b.u8() % 10 {
+        0 | 1 => Command::Mvp { motor: 0, target: MoveTarget::Abs(b.range(-600_000, 600_000) as i32) },
+        2 => Command::Ror { motor: 0, velocity: b.range(-80_000, 80_000) as i32 },
+        3 => Command::Mst { motor: 0 },
+        4 => setting(b),
+        5 => Command::Gap { param: b.pick(&[1u8, 3, 8, 206, 208, 209]), motor: 0 },
+        6 => Command::RequestTargetReachedEvent { mode: b.pick(&[EventMode::Next, EventMode::Every]), mask: 1 },
+        7 => Command::Sgp { param: 68, bank: 0, value: b.range(0, 3000) as i32 },
+        8 => Command::StopApplication,
+        _ => Command::RunApplication { from: None },
+    }
+}
