@@ -731,11 +731,14 @@ impl SimBoard {
         }
         // The field's moves (physical µsteps) that keep the rotor within `lo..hi`, one µstep clear of the
         // edges (the sliding rotor's position is rounded).
+        let field = self.plan.mech.field() as f64;
         let (mut ahead, mut behind) = match steady.follow {
             Follow::Still => (u64::MAX, u64::MAX),
             Follow::Exact | Follow::Sliding => (clear(hi - x), clear(x - lo)),
+            // The rotor stays: the field may move up to where its pull frees the rotor.
+            Follow::Held => (clear(steady.lag - field), clear(field - steady.lag)),
         };
-        if steady.follow == Follow::Sliding || dir == 0 {
+        if matches!(steady.follow, Follow::Sliding | Follow::Held) || dir == 0 {
             // Sliding only onwards; standing: not at all.
             if dir <= 0 {
                 ahead = 0;
@@ -755,6 +758,9 @@ impl SimBoard {
             let threshold = (self.plan.min_speed * f64::from(1u32 << r)).ceil();
             let threshold = if threshold >= f64::from(u32::MAX) { u32::MAX } else { threshold as u32 };
             if state.velocity.unsigned_abs() >= threshold {
+                if steady.follow == Follow::Held {
+                    return None; // the rotor does not follow: the readings are 0 (no back-EMF)
+                }
                 min_speed = threshold;
                 max_speed = self.uncapped_speed();
             } else {
@@ -764,12 +770,13 @@ impl SimBoard {
                 Follow::Exact => 0.0,
                 _ => {
                     // The reading rounds 1023 · (1 − sin θ): the lag's angle θ is the same at every position
-                    // but for the rounding of the rotor's position, below a µstep's 10⁻⁶ within 2⁴⁰ µsteps.
+                    // but for the rounding of the rotor's position, 2⁻¹⁶ µstep within 2³⁶ µsteps: some 10⁻⁷
+                    // of a reading, far inside the margin kept from a rounding edge.
                     let angle = self.plan.mech.load_angle().abs();
                     let ratio = if angle >= std::f64::consts::FRAC_PI_2 { 1.0 } else { angle.sin() };
                     let reading = 1023.0 * (1.0 - ratio);
                     let edge = (reading - reading.floor() - 0.5).abs();
-                    if x.abs().max(self.plan.mech.field().unsigned_abs() as f64) > (1u64 << 40) as f64 || edge < 1e-3 {
+                    if x.abs().max(field.abs()) > (1u64 << 36) as f64 || edge < 1e-3 {
                         return None;
                     }
                     ratio

@@ -109,6 +109,8 @@ pub(crate) enum Follow {
     Exact,
     /// It slides behind the field against friction and constant torques, always at the same lag.
     Sliding,
+    /// It stays, held by friction, while the field moves towards where its pull overcomes the friction.
+    Held,
 }
 
 /// A steady way of following ([`Mechanics::steady`]): how, and the rotor positions (µsteps) within
@@ -121,7 +123,8 @@ pub(crate) struct Steady {
     pub lo: f64,
     /// The highest.
     pub hi: f64,
-    /// Sliding: how far the rotor lags the field (µsteps, signed).
+    /// Sliding: how far the rotor lags the field (µsteps, signed). Held: where the field's pull overcomes
+    /// the friction (µsteps): the field stays short of it.
     pub lag: f64,
 }
 
@@ -645,12 +648,6 @@ impl Mechanics {
             // Exactly on a stable point, it moves by exactly the field's moves while positions are exact.
             return self.locked().then_some(Steady { follow: Follow::Exact, lo: -EXACT, hi: EXACT, lag: 0.0 });
         }
-        if self.spring.is_some_and(|(k, _)| k != 0.0) || self.detent != 0.0 {
-            return None; // the lag depends on the position: `solve` iterates from where the rotor was
-        }
-        // Sliding: after each move of the field, `settle` puts the rotor where `solve` finds the lag for
-        // the friction and the constant torques, `field − asin(need)·P/2π`, the same number after every
-        // move. It is there now if it has moved this way before.
         let sf = s as f64;
         let x = self.rotor;
         let need = (sf * self.resist(x) - self.external(x)) / self.available;
@@ -658,7 +655,17 @@ impl Mechanics {
             return None; // beyond `solve`'s reach: the march decides
         }
         let lag = need.asin() * PERIOD / TAU;
-        if self.field as f64 - lag != x {
+        let sliding = self.field as f64 - lag == x;
+        if !sliding && self.settled() && sf * (self.field as f64 - x - lag) < -1.0 {
+            // Held by friction (after a reversal, say): the field moves on alone until its pull, at the lag
+            // ahead of the rotor, overcomes the friction; until then every settle leaves the rotor.
+            return Some(Steady { follow: Follow::Held, lo: x, hi: x, lag: x + lag });
+        }
+        // Sliding: after each move of the field, `settle` puts the rotor where `solve` finds the lag for
+        // the friction and the constant torques, `field − asin(need)·P/2π`, the same number after every
+        // move. It is there now if it has moved this way before. (With a spring or a detent torque the lag
+        // depends on the position, and `solve` iterates from where the rotor was.)
+        if !sliding || self.spring.is_some_and(|(k, _)| k != 0.0) || self.detent != 0.0 {
             return None;
         }
         // Within one friction zone (jams), and before the stop ahead (`solve` needs it clear).

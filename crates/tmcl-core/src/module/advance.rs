@@ -108,7 +108,9 @@ impl<B: Board> Module<B> {
             if tick_at > now {
                 break;
             }
-            self.check_heartbeat(self.st.motion_time);
+            // The heartbeat stops the motor for every tick after it ran out, whether a poll between the
+            // ticks or this check sees it first.
+            self.check_heartbeat(tick_at);
             if self.st.ramp.is_idle() && !self.st.reference.is_active() {
                 if self.idle_jump(now) {
                     continue;

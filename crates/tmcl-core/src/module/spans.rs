@@ -29,13 +29,16 @@ use crate::vm::RunState;
 /// The longest span, in ticks (about 50 days): keeps every sum of a span far inside 64 bits.
 const MAX_SPAN: u64 = 1 << 32;
 
-/// How many spans the module remembers.
-const MEMO: usize = 4;
+/// How many of the spans computed last the module remembers: the deadline's look-ahead computes the span
+/// the next poll takes.
+const RECENT: usize = 2;
+/// How many costly spans (braking) it remembers besides: a program that repeats its moves repeats them.
+const COSTLY: usize = 4;
+/// A span is costly from this many ticks computed one by one.
+const COSTLY_WORK: u64 = 64;
 
 /// A span the module computed: [`crate::motion::Ramp::span`] is a function of the ramp's state, its
-/// parameters, the limits and the bounds alone, so the same inputs give the same span. The deadline's
-/// look-ahead computes the span the next poll takes, and a program that repeats its moves repeats its
-/// spans (the braking ticks of a move are its costly part): both are taken from here.
+/// parameters, the limits and the bounds alone, so the same inputs give the same span.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Memo {
     from: Ramp,
@@ -47,31 +50,48 @@ struct Memo {
     span: Span,
 }
 
-/// The spans the module remembers, the newest in `next - 1`.
+impl Memo {
+    /// The span from `from` within `bounds`, if this is it: computed with the same inputs but a tick
+    /// count, which gives the same span for any count from its length up to its own count, and for any
+    /// longer count too if it ended before its count (at an event).
+    fn answers(&self, from: &Ramp, params: &RampParams, limits: Limits, bounds: &Bounds) -> bool {
+        self.from == *from
+            && self.params == *params
+            && self.limits == limits
+            && Bounds { ticks: bounds.ticks, ..self.bounds } == *bounds
+            && self.span.ticks <= bounds.ticks
+            && (!self.span.capped || bounds.ticks <= self.bounds.ticks)
+    }
+}
+
+/// The spans the module remembers (a few hundred bytes; a board that never reports a quiet window, as a
+/// microcontroller's, never fills them).
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Memos {
-    memos: [Option<Memo>; MEMO],
-    next: usize,
+    recent: [Option<Memo>; RECENT],
+    costly: [Option<Memo>; COSTLY],
+    next_recent: usize,
+    next_costly: usize,
 }
 
 impl Memos {
-    /// The span from `from` within `bounds`, if remembered: one computed with the same inputs but a tick
-    /// count, which gives the same span for any count from its length up to its own count, and for any
-    /// longer count too if it ended before its count (at an event).
     fn find(&self, from: &Ramp, params: &RampParams, limits: Limits, bounds: &Bounds) -> Option<(Ramp, Span)> {
-        self.memos.iter().flatten().find_map(|m| {
-            let same = m.from == *from
-                && m.params == *params
-                && m.limits == limits
-                && Bounds { ticks: bounds.ticks, ..m.bounds } == *bounds;
-            let fits = m.span.ticks <= bounds.ticks && (!m.span.capped || bounds.ticks <= m.bounds.ticks);
-            (same && fits).then_some((m.to, m.span))
-        })
+        self.recent
+            .iter()
+            .chain(&self.costly)
+            .flatten()
+            .find(|m| m.answers(from, params, limits, bounds))
+            .map(|m| (m.to, m.span))
     }
 
     fn keep(&mut self, memo: Memo) {
-        self.memos[self.next] = Some(memo);
-        self.next = (self.next + 1) % MEMO;
+        if memo.span.work >= COSTLY_WORK {
+            self.costly[self.next_costly] = Some(memo);
+            self.next_costly = (self.next_costly + 1) % COSTLY;
+        } else {
+            self.recent[self.next_recent] = Some(memo);
+            self.next_recent = (self.next_recent + 1) % RECENT;
+        }
     }
 }
 

@@ -61,6 +61,8 @@ pub struct Span {
     /// It stopped at the bounds' tick count, not before an event or the bounds' travel or speeds: a
     /// longer count may give a longer span.
     pub capped: bool,
+    /// Ticks computed one by one (braking): what the span cost beyond its closed forms.
+    pub work: u64,
 }
 
 /// A run of ticks over which the velocity changes by `dv` every tick.
@@ -122,7 +124,10 @@ impl Ramp {
                                 let moved = at.apply(run.dv, j);
                                 (at, moved)
                             };
-                            mark = Some((at, Span { ticks: done.ticks + j, steps: done.steps + moved, capped: false }));
+                            mark = Some((
+                                at,
+                                Span { ticks: done.ticks + j, steps: done.steps + moved, ..Span::default() },
+                            ));
                         }
                         done.ticks += n;
                         done.steps += steps;
@@ -142,6 +147,7 @@ impl Ramp {
             }
             let before = *self;
             let r = self.tick(TICK, p, limits);
+            done.work += 1;
             let total = done.steps + r.steps;
             let silent = !r.arrived
                 && !r.stopped_by_switch
@@ -161,13 +167,14 @@ impl Ramp {
             }
         }
         let capped = done.ticks == bounds.ticks;
+        let work = done.work;
         if let Some((at, upto)) = mark {
             // Ticks after the last step (slower than a step per tick) are given back: the span ends on the
             // step the board hears of last; the next span starts with them.
             *self = at;
             done = upto;
         }
-        Span { capped, ..done }
+        Span { capped, work, ..done }
     }
 
     /// The braking ticks of a position-mode ramp towards its target, one by one as [`Ramp::tick`] makes
@@ -240,11 +247,12 @@ impl Ramp {
             apply(&mut at, last_u, last_f, last_moved);
             *mark = Some((
                 at,
-                Span { ticks: done.ticks + last, steps: done.steps + last_moved as i64 * dir, capped: false },
+                Span { ticks: done.ticks + last, steps: done.steps + last_moved as i64 * dir, ..Span::default() },
             ));
         }
         apply(self, u, f, moved);
         done.ticks += ticks;
+        done.work += ticks;
         done.steps += moved as i64 * dir;
         true
     }
@@ -360,9 +368,24 @@ impl Ramp {
         }
         let window = i128::from(if sign > 0 { b.forward } else { b.backward }) - i128::from(done.abs());
         let half = 1i128 << (31 - self.shift);
+        // Where the run probably ends, from the present speed (exact for a cruise, a start for the search
+        // otherwise): where the travel reaches the window, and where the braking bound takes over.
+        let per_tick = u0 * DT; // 10⁻¹² microsteps per tick now
+        let fraction = i128::from(self.fraction.abs());
+        let ticks_to = |steps: i128| (steps * PICO - fraction).max(0) / per_tick.max(1);
+        let mut guess = i128::from(n).min(ticks_to(window + 1));
+        if let Some(t) = run.toward {
+            let reach = (u0 + du).unsigned_abs() + t.a_dt;
+            let base = super::braking_square(0, t.accel, t.v_min);
+            let per_step = 2 * u128::from(t.accel.max(1) as u32) * super::PICO as u128;
+            // The braking bound binds once sq(d) < reach², d the distance left: d < (reach² − base)/per_step.
+            let binds = (reach.saturating_mul(reach).saturating_sub(base) / per_step) as i128;
+            guess = guess.min(ticks_to(i128::from(t.distance) - binds) + 1);
+        }
+        let guess = u64::try_from(guess).unwrap_or(n).clamp(1, n);
         let ok = |k: u64| -> bool {
             let Some(total) = self.travel(run.dv, k) else { return false };
-            let steps = total / PICO;
+            let steps = whole(total);
             if steps.abs() > window {
                 return false;
             }
@@ -373,7 +396,7 @@ impl Ramp {
                     return false;
                 }
                 let Some(before) = self.travel(run.dv, k - 1) else { return false };
-                let left = t.distance - (before / PICO).unsigned_abs() as i64;
+                let left = t.distance - whole(before).unsigned_abs() as i64;
                 let reach = (u0 + du * i128::from(k)) as u128 + t.a_dt;
                 if reach.saturating_mul(reach) > super::braking_square(left, t.accel, t.v_min) {
                     return false;
@@ -387,7 +410,7 @@ impl Ramp {
             }
             true
         };
-        largest(n, ok)
+        largest_near(n, guess, ok)
     }
 
     /// The fraction after `k` more ticks of a run with `dv` per tick, before it is split into steps:
@@ -413,7 +436,7 @@ impl Ramp {
     /// For a run of `n` ticks with `dv` per tick from this state that moves `steps` (≠ 0) in all: its
     /// last tick that moved, i.e. the first at which the count reached `steps` (the count only grows).
     fn last_step(&self, dv: i64, n: u64, steps: i64) -> u64 {
-        let reached = |k: u64| self.travel(dv, k).is_some_and(|t| (t / PICO).abs() >= i128::from(steps.abs()));
+        let reached = |k: u64| self.travel(dv, k).is_some_and(|t| whole(t).abs() >= i128::from(steps.abs()));
         if !reached(n - 1) {
             return n; // the usual case: the last tick moved
         }
@@ -447,12 +470,73 @@ fn root_above(sq: u128, g: u64) -> u64 {
     sq.isqrt() as u64
 }
 
+/// The whole microsteps in `total` 10⁻¹² microsteps, truncated towards zero as a tick does; in 64 bits
+/// where it fits (a division by a constant is a multiplication there, in 128 bits a library call).
+#[inline]
+fn whole(total: i128) -> i128 {
+    match i64::try_from(total) {
+        Ok(t) => i128::from(t / super::PICO),
+        Err(_) => total / PICO,
+    }
+}
+
 /// Whether `total` steps in direction `sign` stay within the bounds' travel.
 fn within(total: i64, sign: i64, b: &Bounds) -> bool {
     if total != 0 && total.signum() != sign {
         return false;
     }
     total.unsigned_abs() <= if sign > 0 { b.forward } else { b.backward }
+}
+
+/// [`largest`], searching outwards from `guess` (in `1..=n`): galloping up or down from it, then bisecting
+/// — a few probes when the guess is close.
+fn largest_near(n: u64, guess: u64, ok: impl Fn(u64) -> bool) -> u64 {
+    let (mut good, mut bad);
+    if ok(guess) {
+        if guess == n {
+            return n;
+        }
+        (good, bad) = (guess, None);
+        let mut step = 1u64;
+        while good < n {
+            let probe = good.saturating_add(step).min(n);
+            if ok(probe) {
+                good = probe;
+                step = step.saturating_mul(2);
+            } else {
+                bad = Some(probe);
+                break;
+            }
+        }
+        let Some(b) = bad else { return good };
+        bad = Some(b);
+    } else {
+        let mut step = 1u64;
+        let mut high = guess;
+        loop {
+            let probe = high.saturating_sub(step);
+            if probe == 0 {
+                (good, bad) = (0, Some(high));
+                break;
+            }
+            if ok(probe) {
+                (good, bad) = (probe, Some(high));
+                break;
+            }
+            high = probe;
+            step = step.saturating_mul(2);
+        }
+    }
+    let mut bad = bad.unwrap_or(n);
+    while bad - good > 1 {
+        let mid = good + (bad - good) / 2;
+        if ok(mid) {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    good
 }
 
 /// The largest `k` in `0..=n` with `ok(k)`, for an `ok` that holds up to some point and not after it
