@@ -1,7 +1,7 @@
 //! Figures for docs/benchmarks.md: frames per second through the core, pty round-trip latency, memory.
 //!
 //! Run: `cargo bench -p tmcl-cli --bench throughput` (a plain harness that prints its figures; pass
-//! `--quick` for a short run).
+//! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory` for one part).
 
 use std::hint::black_box;
 use std::process::{Child, Command as Process, Stdio};
@@ -135,8 +135,10 @@ fn vm_rate(virtual_secs: u64) {
     assert!(module.registers().accumulator > 0);
 }
 
-/// The §2.4 program (moves between ±512000 with WAIT POS) for an hour of module time.
-fn motion_program_ratio(virtual_secs: u64) {
+/// The §2.4 program (moves between ±512000 with WAIT POS) for an hour of module time, ticking every 1 ms
+/// (`exact`, the reference, and what `scripts/instruction-counts.sh` divides by 3.6 M ticks) or from
+/// event to event.
+fn motion_program_ratio(virtual_secs: u64, exact: bool) {
     use tmcl_wire::{Command, MoveTarget, WaitCondition};
     let mut module = module_running(&[
         Command::Mvp { motor: 0, target: MoveTarget::Abs(512_000) },
@@ -145,12 +147,175 @@ fn motion_program_ratio(virtual_secs: u64) {
         Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
         Command::Ja { address: 0 },
     ]);
-    let secs = run_for(&mut module, virtual_secs);
+    module.set_exact_ticks(exact);
+    // Tick by tick as before event-driven time (a poll at least every 100 ms); event-driven as `tmcl run`
+    // without a trace now polls: at the end.
+    let secs = if exact { run_for(&mut module, virtual_secs) } else { run_for_coarse(&mut module, virtual_secs) };
+    let how = if exact { "tick by tick" } else { "event-driven" };
     println!(
-        "motion program (§2.4 loop), {virtual_secs} s      {:.0}x real time ({:.3} s wall)",
+        "motion program (§2.4 loop), {virtual_secs} s, {how}  {:.0}x real time ({:.4} s wall)",
         virtual_secs as f64 / secs,
         secs
     );
+}
+
+/// `tmcl run` of the §2.4 program for an hour, event-driven and with `--exact-ticks`, in worlds and with
+/// or without a trace, `rounds` times each, alternating: the wall time the run reports (module built,
+/// program assembled; the process start-up not counted) as min–max, and the speed-up.
+fn run_hour(rounds: usize) {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = std::env::temp_dir().join(format!("tmcl-bench-run-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let trace = dir.join("t.csv");
+    let plot = dir.join("t.svg");
+    let traced: Vec<String> =
+        ["--trace", trace.to_str().unwrap(), "--plot", plot.to_str().unwrap(), "--drive"].map(String::from).to_vec();
+    let cases: Vec<(&str, Vec<String>)> = vec![
+        ("free axis", vec![]),
+        ("linear stage", vec!["--world".into(), "examples/worlds/linear-stage.toml".into()]),
+        ("jammed axis", vec!["--world".into(), "examples/worlds/jammed-axis.toml".into()]),
+        ("free axis, traced (10 ms, --plot --drive)", traced.clone()),
+        (
+            "linear stage, traced (10 ms, --plot --drive)",
+            [vec!["--world".into(), "examples/worlds/linear-stage.toml".into()], traced].concat(),
+        ),
+    ];
+    for (name, args) in cases {
+        let mut walls = [Vec::new(), Vec::new()];
+        let mut summaries = [String::new(), String::new()];
+        for _ in 0..rounds {
+            for (i, exact) in [false, true].into_iter().enumerate() {
+                let mut cmd = Process::new(env!("CARGO_BIN_EXE_tmcl"));
+                cmd.current_dir(&root).args([
+                    "--json",
+                    "run",
+                    "tests/programs/manual_p01_first_steps.tmc",
+                    "--for",
+                    "3600",
+                ]);
+                cmd.args(&args);
+                if exact {
+                    cmd.arg("--exact-ticks");
+                }
+                let out = cmd.output().expect("tmcl run");
+                assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+                let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("a JSON summary");
+                walls[i].push(v["wall_s"].as_f64().unwrap());
+                summaries[i] = format!("{} {} {} {}", v["executed"], v["pc"], v["state"], v["rows"]);
+            }
+        }
+        assert_eq!(summaries[0], summaries[1], "{name}: the same run both ways");
+        let range = |w: &[f64]| {
+            let (lo, hi) = (w.iter().cloned().fold(f64::MAX, f64::min), w.iter().cloned().fold(0.0, f64::max));
+            format!("{:.4}–{:.4} s ({:.0}–{:.0}x)", lo, hi, 3600.0 / hi, 3600.0 / lo)
+        };
+        let median = |w: &mut Vec<f64>| {
+            w.sort_by(f64::total_cmp);
+            w[w.len() / 2]
+        };
+        println!(
+            "hour of §2.4, {name:<44} event-driven {}  tick by tick {}  speed-up {:.0}x",
+            range(&walls[0]),
+            range(&walls[1]),
+            median(&mut walls[1].clone()) / median(&mut walls[0].clone())
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// How the cost grows with the number of events, not with time: a program moving to targets that change
+/// from move to move (no two braking phases alike, so no span is remembered), with a pause after each
+/// move; event-driven, for 1 hour at several pauses (more moves, more events) and for 1, 10 and 100 hours
+/// at one pause (more time, as many events per hour).
+fn event_growth() {
+    use tmcl_wire::{CalcOp, Command, WaitCondition};
+    let program = |pause: i32| {
+        [
+            Command::Calc { op: CalcOp::Add, operand: 77_777 },
+            Command::Calc { op: CalcOp::Mod, operand: 400_000 },
+            Command::Aap { param: 0, motor: 0 },
+            Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
+            Command::Wait { condition: WaitCondition::Ticks, motor: 0, ticks: pause },
+            Command::Ja { address: 0 },
+        ]
+    };
+    let run = |pause: i32, hours: u64| {
+        let mut module = module_running(&program(pause));
+        let secs = run_for_coarse(&mut module, hours * 3600);
+        let moves = module.vm().executed() / 6;
+        (secs, moves)
+    };
+    for pause in [30_000, 3_000, 300, 30, 0] {
+        let (secs, moves) = run(pause, 1);
+        println!(
+            "growth: 1 h, pause {:>5} ms: {moves:>6} moves, {:>8.2} ms wall, {:>6.2} µs per move, {:.0}x real time",
+            pause * 10,
+            secs * 1e3,
+            secs * 1e6 / moves.max(1) as f64,
+            3600.0 / secs
+        );
+    }
+    for hours in [1, 10, 100] {
+        let (secs, moves) = run(3_000, hours);
+        println!(
+            "growth: {hours:>3} h, pause 30 s: {moves:>6} moves, {:>8.2} ms wall, {:>6.2} µs per move, {:.0}x real time",
+            secs * 1e3,
+            secs * 1e6 / moves.max(1) as f64,
+            hours as f64 * 3600.0 / secs
+        );
+    }
+}
+
+/// Runs for `virtual_secs` polling only at the end, as `tmcl run` without a trace does (the module
+/// catches up on everything in between); returns the wall time.
+fn run_for_coarse(module: &mut Module<SimBoard>, virtual_secs: u64) -> f64 {
+    let start = StdInstant::now();
+    module.poll(Instant::from_secs(virtual_secs), &mut |_: &[u8]| {});
+    start.elapsed().as_secs_f64()
+}
+
+/// CPU time of a `tmcl serve` whose motor turns (ROR 51200) with no host traffic, over `secs` seconds of
+/// wall time, event-driven and with `--exact-ticks`; then one GAP, which computes the position at that
+/// instant.
+fn serve_cpu(secs: u64) {
+    for exact in [false, true] {
+        let dir = std::env::temp_dir().join(format!("tmcl-bench-serve-{}-{exact}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let link = dir.join("tmcl0");
+        let mut cmd = Process::new(env!("CARGO_BIN_EXE_tmcl"));
+        cmd.args(["serve", "--pty"]).arg(&link).stdout(Stdio::piped());
+        if exact {
+            cmd.arg("--exact-ticks");
+        }
+        let child = cmd.spawn().expect("start tmcl serve");
+        let pid = child.id();
+        let _server = Server(child, link.clone());
+        let deadline = StdInstant::now() + StdDuration::from_secs(10);
+        while std::fs::symlink_metadata(&link).is_err() {
+            assert!(StdInstant::now() < deadline, "server did not start");
+            std::thread::sleep(StdDuration::from_millis(10));
+        }
+        let mut client = Client::new(SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty"));
+        client.rotate(0, 51_200).unwrap();
+        std::thread::sleep(StdDuration::from_secs(2)); // past the ramp
+        let cpu = || {
+            // utime + stime, fields 14 and 15 of /proc/PID/stat, in clock ticks (100 per second).
+            let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+            let fields: Vec<&str> = stat.rsplit_once(')').unwrap().1.split_whitespace().collect();
+            (fields[11].parse::<u64>().unwrap() + fields[12].parse::<u64>().unwrap()) as f64 / 100.0
+        };
+        let (cpu0, wall0) = (cpu(), StdInstant::now());
+        std::thread::sleep(StdDuration::from_secs(secs));
+        let (used, wall) = (cpu() - cpu0, wall0.elapsed().as_secs_f64());
+        let position = client.get_axis_parameter(1, 0).unwrap();
+        let how = if exact { "tick by tick" } else { "event-driven" };
+        println!(
+            "serve, motor turning at 51200 pps, no host traffic, {how}: {used:.2} s CPU in {wall:.1} s = {:.3} % of a core \
+             (GAP 1 afterwards: {position})",
+            100.0 * used / wall
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
 
 /// What one module holds in RAM, without the heap (there is none): the firmware state (with every host
@@ -177,7 +342,8 @@ fn memory() {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
-    // `--only core|vm|motion|pty|memory` runs one part (for instruction counts under valgrind).
+    // `--only core|vm|motion|events|run|growth|serve|pty|memory` runs one part (for instruction counts
+    // under valgrind: `motion` is the §2.4 hour tick by tick, `events` the same hour event-driven).
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).map(String::as_str);
     let part = |name: &str| only.is_none_or(|o| o == name);
     let n = if quick { 1_000_000 } else { 20_000_000 };
@@ -196,7 +362,19 @@ fn main() {
         vm_rate(if quick { 20 } else { 200 });
     }
     if part("motion") {
-        motion_program_ratio(3600);
+        motion_program_ratio(3600, true);
+    }
+    if part("events") {
+        motion_program_ratio(3600, false);
+    }
+    if part("run") {
+        run_hour(if quick { 2 } else { 5 });
+    }
+    if part("growth") {
+        event_growth();
+    }
+    if part("serve") {
+        serve_cpu(if quick { 10 } else { 60 });
     }
     if part("pty") {
         pty_latency(if quick { 2_000 } else { 20_000 });

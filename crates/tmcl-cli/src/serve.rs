@@ -76,6 +76,11 @@ pub struct ServeArgs {
     /// Log every request and reply to stderr.
     #[arg(short, long)]
     pub verbose: bool,
+    /// Tick the motion controller every 1 ms, and wake up for every tick while a motor moves, instead of
+    /// sleeping from event to event: the reference the event-driven module is measured against (same
+    /// replies, more CPU time).
+    #[arg(long)]
+    pub exact_ticks: bool,
 }
 
 /// Where the bytes come from and go to.
@@ -167,6 +172,7 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
             .map_err(|e| CliError::Input(e.to_string()))?
             .with_clock(clock);
         let mut module = Module::new(board, spec, clock());
+        module.set_exact_ticks(args.exact_ticks);
         if let Some(address) = address {
             if fresh && module.address() != address {
                 module

@@ -229,6 +229,25 @@ impl Scenario {
     }
 }
 
+/// Debugging aid (`EVENT_TRACE=1`): the board's rotor, field and load at each of a run's polls.
+fn trace(module: &mut Module<SimBoard>, now: Instant) {
+    if std::env::var_os("EVENT_TRACE").is_some() {
+        let exact = module.exact_ticks();
+        let b = module.board_mut();
+        let f = b.feedback();
+        eprintln!(
+            "{} {now} shaft {} field {} load {} flags {} coil {} drive {:?}",
+            if exact { "T" } else { "E" },
+            b.shaft(),
+            b.commanded(),
+            f.load,
+            f.driver_flags,
+            b.coil_current(),
+            b.drive()
+        );
+    }
+}
+
 /// Polls `module` from `*t` up to `stop` at its deadlines and the world's changes (and the extra polls
 /// before `stop`), as a runner does, collecting what it sends with the time.
 fn run_to<'a>(
@@ -247,6 +266,7 @@ fn run_to<'a>(
             // A runner moves the world on at its polls (`tmcl run`'s `sim::poll`); an extra poll only asks
             // the module.
             module.board_mut().advance(now);
+            trace(module, now);
             if now >= stop {
                 return;
             }

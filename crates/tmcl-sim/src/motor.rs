@@ -656,9 +656,12 @@ impl Mechanics {
         }
         let lag = need.asin() * PERIOD / TAU;
         let sliding = self.field as f64 - lag == x;
-        if !sliding && self.settled() && sf * (self.field as f64 - x - lag) < -1.0 {
+        let ahead = self.field as f64 - x;
+        if !sliding && self.settled() && sf * (ahead - lag) < -1.0 && ahead.abs() < PERIOD / 4.0 - 1.0 {
             // Held by friction (after a reversal, say): the field moves on alone until its pull, at the lag
-            // ahead of the rotor, overcomes the friction; until then every settle leaves the rotor.
+            // ahead of the rotor, overcomes the friction; until then every settle leaves the rotor. Within
+            // a quarter period of the rotor the pull grows steadily with the field's move all the way there
+            // (beyond, after lost steps, it need not).
             return Some(Steady { follow: Follow::Held, lo: x, hi: x, lag: x + lag });
         }
         // Sliding: after each move of the field, `settle` puts the rotor where `solve` finds the lag for
