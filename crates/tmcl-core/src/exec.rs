@@ -118,10 +118,7 @@ impl<B: Board> Module<B> {
             // §3.7.6 GAP.
             C::Gap { param, motor } => {
                 self.motor(motor)?;
-                if self.reads_board_clock(param) {
-                    self.sync_board(now);
-                }
-                value(self.get_axis(param)?)
+                value(self.read_axis(param, Some(now))?)
             }
             // §3.7.7 STAP: E parameters only.
             C::Stap { param, motor } => {
@@ -509,22 +506,26 @@ impl<B: Board> Module<B> {
         permitted(&self.spec.global, number, allowed)
     }
 
-    /// Whether axis parameter `number` reads something of the board that changes with the board's own
-    /// clock: a switch (it may bounce), the driver's flags (standstill after 2²⁰ clocks without a step) or
-    /// the status word made of them. [`Module::sync_board`] first, so that the value is the one at the
-    /// instant of the read, however often the module was polled before.
-    fn reads_board_clock(&self, number: u8) -> bool {
-        self.spec.axis.params.iter().find(|d| d.number == number).is_some_and(|d| {
-            matches!(
-                d.role,
-                Role::HomeSwitch | Role::RightSwitch | Role::LeftSwitch | Role::DriverFlags | Role::StatusWord
-            )
-        })
-    }
-
     /// GAP: an axis parameter's value (chapter 4, Table 15).
     pub fn get_axis(&mut self, number: u8) -> Result<i32, Status> {
+        self.read_axis(number, None)
+    }
+
+    /// GAP at `now` (`None`: whenever the board was last brought up to date). A parameter that reads
+    /// something of the board that changes with the board's own clock — a switch (it may bounce), the
+    /// driver's flags (standstill after 2²⁰ clocks without a step) or the status word made of them — is
+    /// read with the board brought to `now` first ([`Module::sync_board`]), so that it is the value at the
+    /// instant of the read however often the module was polled before.
+    pub(crate) fn read_axis(&mut self, number: u8, now: Option<Instant>) -> Result<i32, Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.read)?;
+        if let Some(now) = now {
+            if matches!(
+                d.role,
+                Role::HomeSwitch | Role::RightSwitch | Role::LeftSwitch | Role::DriverFlags | Role::StatusWord
+            ) {
+                self.sync_board(now);
+            }
+        }
         let ramp = &self.st.ramp;
         Ok(match d.role {
             Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axis[i],

@@ -928,8 +928,8 @@ impl StepDriver for SimBoard {
                 // At most 64 measurements per update, as many as one 1 ms tick can make at speeds up to
                 // `uncapped_speed` — below it the limit is left out, so that an update for many ticks (see
                 // `quiet_window`) counts what the updates of each would have.
-                let counted =
-                    if state.velocity.unsigned_abs() <= self.uncapped_speed() { crossings } else { crossings.min(64) };
+                let capped = crossings > 64 && state.velocity.unsigned_abs() > self.uncapped_speed();
+                let counted = if capped { 64 } else { crossings };
                 self.driver.measure(counted, speed, ratio, stalled);
             }
             self.track_switches();

@@ -53,6 +53,7 @@ impl<B: Board> Module<B> {
     }
 
     /// After each motion tick: new stallGuard2 readings (coolStep, stop on stall), and the encoder.
+    #[inline]
     pub(crate) fn drive_tick(&mut self) {
         let measurements = self.board.load_measurements();
         // In closed loop the loop sets the current and watches the following error: coolStep, stop on

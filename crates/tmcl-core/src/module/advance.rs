@@ -115,7 +115,7 @@ impl<B: Board> Module<B> {
                 if self.idle_jump(now) {
                     continue;
                 }
-            } else if self.take_span(now, &params) {
+            } else if !self.exact && self.take_span(now, &params) {
                 continue;
             }
             // A reference search looks at its switch after every microstep (sub-ticks), so that the
@@ -157,7 +157,7 @@ impl<B: Board> Module<B> {
 
     /// What follows every motion tick (and a span, at its last tick `t`), after the board has been
     /// updated: the drive's readings, the 138 event, the interrupt sources.
-    #[inline]
+    #[inline(always)]
     pub(super) fn tick_done(&mut self, t: Instant) {
         self.drive_tick();
         self.check_event(t);
