@@ -168,17 +168,22 @@ fn run_hour(rounds: usize) {
     std::fs::create_dir_all(&dir).unwrap();
     let trace = dir.join("t.csv");
     let plot = dir.join("t.svg");
-    let traced: Vec<String> =
-        ["--trace", trace.to_str().unwrap(), "--plot", plot.to_str().unwrap(), "--drive"].map(String::from).to_vec();
+    let trace_every = |ms: &str, plotted: bool| {
+        let mut args: Vec<String> =
+            ["--trace", trace.to_str().unwrap(), "--every", ms, "--drive"].map(String::from).to_vec();
+        if plotted {
+            args.extend(["--plot".to_string(), plot.to_str().unwrap().to_string()]);
+        }
+        args
+    };
+    let stage = || vec!["--world".to_string(), "examples/worlds/linear-stage.toml".to_string()];
     let cases: Vec<(&str, Vec<String>)> = vec![
         ("free axis", vec![]),
-        ("linear stage", vec!["--world".into(), "examples/worlds/linear-stage.toml".into()]),
+        ("linear stage", stage()),
         ("jammed axis", vec!["--world".into(), "examples/worlds/jammed-axis.toml".into()]),
-        ("free axis, traced (10 ms, --plot --drive)", traced.clone()),
-        (
-            "linear stage, traced (10 ms, --plot --drive)",
-            [vec!["--world".into(), "examples/worlds/linear-stage.toml".into()], traced].concat(),
-        ),
+        ("free axis, traced every 1 s (--drive)", trace_every("1000", false)),
+        ("free axis, traced every 10 ms (--drive)", trace_every("10", false)),
+        ("linear stage, traced every 10 ms, plotted", [stage(), trace_every("10", true)].concat()),
     ];
     for (name, args) in cases {
         let mut walls = [Vec::new(), Vec::new()];
@@ -214,7 +219,7 @@ fn run_hour(rounds: usize) {
             w[w.len() / 2]
         };
         println!(
-            "hour of §2.4, {name:<44} event-driven {}  tick by tick {}  speed-up {:.0}x",
+            "hour of §2.4, {name:<42} event-driven {}  tick by tick {}  speed-up {:.0}x",
             range(&walls[0]),
             range(&walls[1]),
             median(&mut walls[1].clone()) / median(&mut walls[0].clone())

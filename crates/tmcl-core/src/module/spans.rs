@@ -36,6 +36,8 @@ const RECENT: usize = 2;
 const COSTLY: usize = 4;
 /// A span is costly from this many ticks computed one by one.
 const COSTLY_WORK: u64 = 64;
+/// How many ticks a deadline's look-ahead computes one by one at most.
+const LOOKAHEAD_WORK: u64 = 64;
 
 /// A span the module computed: [`crate::motion::Ramp::span`] is a function of the ramp's state, its
 /// parameters, the limits and the bounds alone, so the same inputs give the same span.
@@ -58,9 +60,9 @@ impl Memo {
         self.from == *from
             && self.params == *params
             && self.limits == limits
-            && Bounds { ticks: bounds.ticks, ..self.bounds } == *bounds
+            && Bounds { ticks: bounds.ticks, work: bounds.work, ..self.bounds } == *bounds
             && self.span.ticks <= bounds.ticks
-            && (!self.span.capped || bounds.ticks <= self.bounds.ticks)
+            && (!self.span.capped || (bounds.ticks <= self.bounds.ticks && bounds.work <= self.bounds.work))
     }
 }
 
@@ -125,6 +127,9 @@ impl<B: Board> Module<B> {
     /// tick is an event, or no span may be taken): for the deadline.
     pub(super) fn span_ahead(&mut self) -> u64 {
         let Some((limits, bounds)) = self.span_bounds(None) else { return 0 };
+        // Braking computed only so far: a deadline before the event is only an extra poll, and a run polled
+        // often (a trace) must not compute the rest of a braking phase at every poll.
+        let bounds = Bounds { work: LOOKAHEAD_WORK, ..bounds };
         self.span(&self.ramp_params(), limits, &bounds).1.ticks
     }
 
@@ -202,6 +207,7 @@ impl<B: Board> Module<B> {
             min_speed,
             max_speed,
             ramping: self.st.ramping,
+            work: u64::MAX,
         };
         Some((self.limits(), bounds))
     }

@@ -49,6 +49,9 @@ pub struct Bounds {
     pub max_speed: u32,
     /// Every tick changes the speed (`true`) or none does (`false`), as the tick before the span did.
     pub ramping: bool,
+    /// At most this many ticks computed one by one (braking); the span stops there, `capped`. A look-ahead
+    /// for a deadline needs no more than a time no later than the next event.
+    pub work: u64,
 }
 
 /// What a span did.
@@ -58,8 +61,8 @@ pub struct Span {
     pub ticks: u64,
     /// Microsteps moved, signed (the position counter wraps at its width; this does not).
     pub steps: i64,
-    /// It stopped at the bounds' tick count, not before an event or the bounds' travel or speeds: a
-    /// longer count may give a longer span.
+    /// It stopped at the bounds' tick count or work, not before an event or the bounds' travel or
+    /// speeds: a longer count or more work may give a longer span.
     pub capped: bool,
     /// Ticks computed one by one (braking): what the span cost beyond its closed forms.
     pub work: u64,
@@ -105,6 +108,7 @@ impl Ramp {
         // span ends on its last step).
         let mut mark: Option<(Ramp, Span)> = None;
         let mut retry = 0u32;
+        let mut out_of_work = false;
         while done.ticks < bounds.ticks {
             let left = bounds.ticks - done.ticks;
             if retry == 0 {
@@ -145,6 +149,10 @@ impl Ramp {
             } else {
                 retry -= 1;
             }
+            if done.work >= bounds.work {
+                out_of_work = true;
+                break;
+            }
             let before = *self;
             let r = self.tick(TICK, p, limits);
             done.work += 1;
@@ -166,7 +174,7 @@ impl Ramp {
                 mark = Some((*self, done));
             }
         }
-        let capped = done.ticks == bounds.ticks;
+        let capped = done.ticks == bounds.ticks || out_of_work;
         let work = done.work;
         if let Some((at, upto)) = mark {
             // Ticks after the last step (slower than a step per tick) are given back: the span ends on the
@@ -204,7 +212,7 @@ impl Ramp {
         let hi = (i64::from(b.max_speed) + 1).saturating_mul(MICRO);
         let window = (if dir > 0 { b.forward } else { b.backward }).saturating_sub(done.steps.unsigned_abs());
         let (mut ticks, mut moved, mut last) = (0u64, 0u64, 0u64);
-        let left = b.ticks - done.ticks;
+        let left = (b.ticks - done.ticks).min(b.work.saturating_sub(done.work));
         let (mut last_u, mut last_f, mut last_moved) = (u, f, 0u64);
         while ticks < left {
             let sq = base + per_step * d as u128;

@@ -4,8 +4,15 @@ use super::*;
 use crate::motion::ramp::TickResult;
 
 /// Bounds that hold nothing back but the length (the check ticks one by one).
-const FREE: Bounds =
-    Bounds { ticks: 200_000, forward: u64::MAX, backward: u64::MAX, min_speed: 1, max_speed: u32::MAX, ramping: true };
+const FREE: Bounds = Bounds {
+    ticks: 200_000,
+    forward: u64::MAX,
+    backward: u64::MAX,
+    min_speed: 1,
+    max_speed: u32::MAX,
+    ramping: true,
+    work: u64::MAX,
+};
 
 /// Ticks `ramp` one by one as often as `span` did and checks that every tick was one a span may take,
 /// that the state is the same, and that the span ends on a step (or has none).
@@ -121,12 +128,13 @@ proptest::proptest! {
         speeds in (0u32..100_000, 0u32..u32::MAX),
         block in 0u8..4,
         bits in proptest::prop_oneof![proptest::strategy::Just(32u32), 20u32..32],
+        work in proptest::prop_oneof![proptest::strategy::Just(u64::MAX), 0u64..300],
     ) {
         let p = RampParams { max_speed: vmax, max_accel: amax, min_speed: vmin };
         let ramp = state(&commands, &p, bits);
         let limits = Limits { block_negative: block & 1 != 0, block_positive: block & 2 != 0 };
         for ramping in [false, true] {
-            let b = Bounds { ticks, forward, backward, min_speed: speeds.0, max_speed: speeds.1.max(speeds.0), ramping };
+            let b = Bounds { ticks, forward, backward, min_speed: speeds.0, max_speed: speeds.1.max(speeds.0), ramping, work };
             check(ramp, &p, limits, &b);
             check(ramp, &p, Limits::default(), &Bounds { ramping, ..FREE });
         }
