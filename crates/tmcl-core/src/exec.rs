@@ -776,6 +776,10 @@ impl<B: Board> Module<B> {
     pub(crate) fn set_encoder(&mut self, v: i32) {
         let counts = self.encoder_counts_now();
         self.st.encoder = crate::module::EncoderBase { counts, value: v };
+        // Clear-on-null (AP 210 + 4) looks for zero crossings from here on: not between a reading from
+        // before (taken when it was last on, perhaps long ago) and the next one, which would depend on
+        // when that next one is taken.
+        self.st.last_counts = counts;
     }
 
     /// AP 215: the absolute single-turn value 0..counts per revolution − 1 (0..1023 on the PD28-1021),

@@ -233,6 +233,15 @@ impl Scenario {
 fn trace(module: &mut Module<SimBoard>, now: Instant) {
     if std::env::var_os("EVENT_TRACE").is_some() {
         let exact = module.exact_ticks();
+        let st = format!("{:?}", module.state());
+        let enc = st.split("encoder: ").nth(1).unwrap_or("").split(", error_flags").next().unwrap_or("").to_string();
+        let lc = st.split("last_counts: ").nth(1).unwrap_or("").split(',').next().unwrap_or("").to_string();
+        eprintln!(
+            "{} {now} pos {} v {} enc {enc} last {lc}",
+            if exact { "T" } else { "E" },
+            module.ramp().position,
+            module.ramp().velocity()
+        );
         let b = module.board_mut();
         let f = b.feedback();
         eprintln!(
