@@ -41,6 +41,11 @@ impl Bytes<'_> {
         u32::from(self.u16()) << 16 | u32::from(self.u16())
     }
 
+    /// `true` one time in `n`.
+    fn one_in(&mut self, n: u8) -> bool {
+        self.u8().is_multiple_of(n)
+    }
+
     /// A value in `lo..=hi`.
     fn range(&mut self, lo: i64, hi: i64) -> i64 {
         lo + i64::from(self.u32()) % (hi - lo + 1)
@@ -119,7 +124,7 @@ impl Scenario {
     /// Decodes arbitrary bytes into a scenario (see the module docs).
     pub fn decode(data: &[u8]) -> Scenario {
         let mut b = Bytes(data);
-        let spec = if b.u8() % 8 == 0 { &tmcm_1310::SPEC } else { &pd28_1021::SPEC };
+        let spec = if b.one_in(8) { &tmcm_1310::SPEC } else { &pd28_1021::SPEC };
         let world = world(&mut b);
         let mut settings = Vec::new();
         for _ in 0..b.u8() % 6 {
@@ -306,7 +311,7 @@ fn compare(fast: &mut Module<SimBoard>, slow: &mut Module<SimBoard>, t: Instant)
         if x != y {
             // Where the two texts part, with some context before it.
             let at = x.bytes().zip(y.bytes()).position(|(p, q)| p != q).unwrap_or(x.len().min(y.len()));
-            let from = x.char_indices().map(|(i, _)| i).filter(|i| *i + 160 <= at).last().unwrap_or(0);
+            let from = x.char_indices().map(|(i, _)| i).rfind(|i| *i + 160 <= at).unwrap_or(0);
             let cut = |s: &str| s.get(from..).unwrap_or(s).chars().take(320).collect::<String>();
             return Err(format!("at {t}, {name}:\n  event-driven …{}\n  tick by tick …{}", cut(x), cut(y)));
         }
@@ -369,14 +374,14 @@ fn world(b: &mut Bytes) -> String {
         0 => {}
         1 | 2 => {
             for name in ["left", "right", "home"] {
-                if b.u8() % 3 != 0 {
+                if !b.one_in(3) {
                     let at = pos(b);
                     let to = at + span(b);
                     text += &format!("[switches.{name}]\nat = [\"{at} usteps\", \"{to} usteps\"]\n");
-                    if b.u8() % 3 == 0 {
+                    if b.one_in(3) {
                         text += "active = \"low\"\n";
                     }
-                    if b.u8() % 2 == 0 {
+                    if b.one_in(2) {
                         text +=
                             &format!("bounce = {{ time = \"{} us\", count = {} }}\n", b.range(1, 5000), b.range(1, 4));
                     }
@@ -385,10 +390,10 @@ fn world(b: &mut Bytes) -> String {
         }
         3 => {
             text += &format!("[load]\nfriction = {}\n", b.range(0, 12) as f64 * 0.001);
-            if b.u8() % 2 == 0 {
+            if b.one_in(2) {
                 text += &format!("constant = {}\n", b.range(-8, 8) as f64 * 0.001);
             }
-            if b.u8() % 2 == 0 {
+            if b.one_in(2) {
                 let at = pos(b);
                 text += &format!(
                     "[[load.jam]]\nat = [\"{at} usteps\", \"{} usteps\"]\ntorque = {}\n",
@@ -396,7 +401,7 @@ fn world(b: &mut Bytes) -> String {
                     b.range(1, 300) as f64 * 0.001
                 );
             }
-            if b.u8() % 2 == 0 {
+            if b.one_in(2) {
                 let lo = -b.range(1_000, 400_000);
                 let hi = b.range(1_000, 400_000);
                 text += &format!("[axis]\ntravel = [\"{lo} usteps\", \"{hi} usteps\"]\n");
@@ -406,7 +411,7 @@ fn world(b: &mut Bytes) -> String {
             for _ in 0..b.range(0, 4) {
                 text += &format!("[[inputs.timeline]]\nat = \"{} ms\"\ndigital = {}\n", time(b), b.u8() % 16);
             }
-            if b.u8() % 2 == 0 {
+            if b.one_in(2) {
                 let from = time(b);
                 text += &format!(
                     "[[faults.driver]]\nfrom = \"{from} ms\"\nuntil = \"{} ms\"\nflags = [\"{}\"]\n",
@@ -414,10 +419,10 @@ fn world(b: &mut Bytes) -> String {
                     b.pick(&["prewarning", "open_a", "short_a", "overtemperature"])
                 );
             }
-            if b.u8() % 2 == 0 {
+            if b.one_in(2) {
                 text += &format!("[[faults.encoder_slip]]\nat = \"{} ms\"\ncounts = {}\n", time(b), b.range(-200, 200));
             }
-            if b.u8() % 2 == 0 {
+            if b.one_in(2) {
                 let from = time(b);
                 text += &format!(
                     "[[faults.supply_drop]]\nfrom = \"{from} ms\"\nuntil = \"{} ms\"\nvoltage = {}\n",
@@ -435,7 +440,7 @@ fn world(b: &mut Bytes) -> String {
                     b.range(-10, 10) as f64 * 0.001
                 );
             }
-            if b.u8() % 2 == 0 {
+            if b.one_in(2) {
                 text += &format!(
                     "[[faults.stall]]\nat = \"{} usteps\"\nfrom = \"{} ms\"\nuntil = \"{} ms\"\n",
                     pos(b),
@@ -464,7 +469,7 @@ at = [100.0, 104.0]\n[switches.home]\nat = [49.5, 50.5]\nbounce = { time = \"2 m
 
 /// A setting: SAP of a motion, current, switch or drive parameter, or an interrupt's bank 3 setting.
 fn setting(b: &mut Bytes) -> Command {
-    if b.u8() % 5 == 0 {
+    if b.one_in(5) {
         // Timer periods (bank 3, 0..2) and the trigger transitions of switch and input interrupts.
         let param = b.pick(&[0u8, 1, 2, 27, 28, 39, 40]);
         let value = if param < 3 { b.range(1, 3000) } else { b.range(0, 3) };

@@ -651,7 +651,7 @@ impl Mechanics {
         let sf = s as f64;
         let x = self.rotor;
         let need = (sf * self.resist(x) - self.external(x)) / self.available;
-        if !(need.abs() <= 0.999) {
+        if need.is_nan() || need.abs() > 0.999 {
             return None; // beyond `solve`'s reach: the march decides
         }
         let lag = need.asin() * PERIOD / TAU;
