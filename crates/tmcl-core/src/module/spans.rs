@@ -31,10 +31,13 @@ const MAX_SPAN: u64 = 1 << 32;
 
 /// How many of the spans computed last the module remembers: the deadline's look-ahead computes the span
 /// the next poll takes.
+#[cfg(feature = "span-memo")]
 const RECENT: usize = 2;
 /// How many costly spans (braking) it remembers besides: a program that repeats its moves repeats them.
+#[cfg(feature = "span-memo")]
 const COSTLY: usize = 4;
 /// A span is costly from this many ticks computed one by one.
+#[cfg(feature = "span-memo")]
 const COSTLY_WORK: u64 = 64;
 /// How many ticks a deadline's look-ahead computes one by one at most.
 const LOOKAHEAD_WORK: u64 = 64;
@@ -52,6 +55,7 @@ struct Memo {
     span: Span,
 }
 
+#[cfg(feature = "span-memo")]
 impl Memo {
     /// The span from `from` within `bounds`, if this is it: computed with the same inputs but a tick
     /// count, which gives the same span for any count from its length up to its own count, and for any
@@ -66,8 +70,8 @@ impl Memo {
     }
 }
 
-/// The spans the module remembers (a few hundred bytes; a board that never reports a quiet window, as a
-/// microcontroller's, never fills them).
+/// The spans the module remembers (about 1 KiB; with the `span-memo` feature, on by default).
+#[cfg(feature = "span-memo")]
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Memos {
     recent: [Option<Memo>; RECENT],
@@ -76,6 +80,7 @@ pub(crate) struct Memos {
     next_costly: usize,
 }
 
+#[cfg(feature = "span-memo")]
 impl Memos {
     fn find(&self, from: &Ramp, params: &RampParams, limits: Limits, bounds: &Bounds) -> Option<(Ramp, Span)> {
         self.recent
@@ -95,6 +100,20 @@ impl Memos {
             self.next_recent = (self.next_recent + 1) % RECENT;
         }
     }
+}
+
+/// Without the `span-memo` feature: nothing is remembered, every span is computed.
+#[cfg(not(feature = "span-memo"))]
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Memos;
+
+#[cfg(not(feature = "span-memo"))]
+impl Memos {
+    fn find(&self, _: &Ramp, _: &RampParams, _: Limits, _: &Bounds) -> Option<(Ramp, Span)> {
+        None
+    }
+
+    fn keep(&mut self, _: Memo) {}
 }
 
 impl<B: Board> Module<B> {
