@@ -279,10 +279,17 @@ fn run_for_coarse(module: &mut Module<SimBoard>, virtual_secs: u64) -> f64 {
     start.elapsed().as_secs_f64()
 }
 
-/// CPU time of a `tmcl serve` whose motor turns (ROR 51200) with no host traffic, over `secs` seconds of
-/// wall time, event-driven and with `--exact-ticks`; then one GAP, which computes the position at that
-/// instant.
+/// CPU time of a `tmcl serve` whose motor turns (ROR 51200) with no host traffic for `secs` seconds of
+/// wall time, event-driven and with `--exact-ticks`: the server's whole CPU time (user and system, µs
+/// resolution, from `getrusage` of the reaped child), start-up and the request included. One GAP at the
+/// end computes the position at that instant.
 fn serve_cpu(secs: u64) {
+    use nix::sys::resource::{getrusage, UsageWho};
+    let children = || {
+        let usage = getrusage(UsageWho::RUSAGE_CHILDREN).expect("getrusage");
+        let (u, s) = (usage.user_time(), usage.system_time());
+        (u.tv_sec() + s.tv_sec()) as f64 + (u.tv_usec() + s.tv_usec()) as f64 * 1e-6
+    };
     for exact in [false, true] {
         let dir = std::env::temp_dir().join(format!("tmcl-bench-serve-{}-{exact}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -292,31 +299,27 @@ fn serve_cpu(secs: u64) {
         if exact {
             cmd.arg("--exact-ticks");
         }
-        let child = cmd.spawn().expect("start tmcl serve");
-        let pid = child.id();
-        let _server = Server(child, link.clone());
-        let deadline = StdInstant::now() + StdDuration::from_secs(10);
-        while std::fs::symlink_metadata(&link).is_err() {
-            assert!(StdInstant::now() < deadline, "server did not start");
-            std::thread::sleep(StdDuration::from_millis(10));
-        }
-        let mut client = Client::new(SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty"));
-        client.rotate(0, 51_200).unwrap();
-        std::thread::sleep(StdDuration::from_secs(2)); // past the ramp
-        let cpu = || {
-            // utime + stime, fields 14 and 15 of /proc/PID/stat, in clock ticks (100 per second).
-            let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
-            let fields: Vec<&str> = stat.rsplit_once(')').unwrap().1.split_whitespace().collect();
-            (fields[11].parse::<u64>().unwrap() + fields[12].parse::<u64>().unwrap()) as f64 / 100.0
-        };
-        let (cpu0, wall0) = (cpu(), StdInstant::now());
-        std::thread::sleep(StdDuration::from_secs(secs));
-        let (used, wall) = (cpu() - cpu0, wall0.elapsed().as_secs_f64());
-        let position = client.get_axis_parameter(1, 0).unwrap();
+        let before = children();
+        let wall0 = StdInstant::now();
+        let position = {
+            let _server = Server(cmd.spawn().expect("start tmcl serve"), link.clone());
+            let deadline = StdInstant::now() + StdDuration::from_secs(10);
+            while std::fs::symlink_metadata(&link).is_err() {
+                assert!(StdInstant::now() < deadline, "server did not start");
+                std::thread::sleep(StdDuration::from_millis(10));
+            }
+            let transport = SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty");
+            let mut client = Client::new(transport);
+            client.rotate(0, 51_200).unwrap();
+            std::thread::sleep(StdDuration::from_secs(secs));
+            client.get_axis_parameter(1, 0).unwrap()
+        }; // the server is stopped and reaped here
+        let (used, wall) = (children() - before, wall0.elapsed().as_secs_f64());
         let how = if exact { "tick by tick" } else { "event-driven" };
         println!(
-            "serve, motor turning at 51200 pps, no host traffic, {how}: {used:.2} s CPU in {wall:.1} s = {:.3} % of a core \
-             (GAP 1 afterwards: {position})",
+            "serve, motor turning at 51200 pps, no host traffic, {how}: {:.1} ms CPU in {wall:.1} s = {:.4} % of a \
+             core (GAP 1 at the end: {position})",
+            used * 1e3,
             100.0 * used / wall
         );
         let _ = std::fs::remove_dir_all(&dir);
