@@ -69,7 +69,7 @@ cleanup() {
         kill -TERM "$qemu_pid" 2>/dev/null || true
         wait "$qemu_pid" 2>/dev/null || true
     fi
-    exec 3>&- 2>/dev/null || true
+    exec 3>&- 4>&- 2>/dev/null || true
     if [[ -n "$pts" && -L "$link" && "$(readlink "$link")" == "$pts" ]]; then
         rm -f "$link"
     fi
@@ -79,8 +79,11 @@ stop() { cleanup; exit 0; }
 trap stop INT TERM
 trap cleanup EXIT
 
-monitor_args=(-monitor none)
-[[ -n "$monitor" ]] && monitor_args=(-monitor "unix:$monitor,server=on,wait=off")
+# A monitor of our own on two fifos ($work/ctl.in, $work/ctl.out; QEMU opens them read-write, so neither
+# side blocks), and on request one on a Unix socket.
+mkfifo "$work/ctl.in" "$work/ctl.out"
+monitor_args=(-chardev "pipe,id=ctl,path=$work/ctl" -mon chardev=ctl,mode=readline)
+[[ -n "$monitor" ]] && monitor_args+=(-monitor "unix:$monitor,server=on,wait=off")
 "$qemu" -machine lm3s6965evb -display none "${monitor_args[@]}" -serial pty -kernel "$image" \
     -device "loader,addr=0x2000ff00,data=$strap,data-len=4" "${icount[@]}" \
     >"$work/out" 2>"$work/err" </dev/null &
@@ -97,6 +100,12 @@ if [[ -z "$pts" ]]; then
     echo "qemu-serve: QEMU did not start: $(cat "$work/err")" >&2
     exit 1
 fi
+# The board's navigation switches (the digital inputs) have pull-ups, which QEMU's GPIO model does not
+# apply: a switch reads pressed until it has been released once. Press and release all five, as the
+# pull-ups would have them, before the module is announced.
+exec 4<>"$work/ctl.out"
+echo "sendkey up-down-left-right-ctrl 10" >"$work/ctl.in"
+sleep 0.2
 # Hold the pty open for the whole run: QEMU stops reading a pty that no one has open and looks again only
 # once a second, so a host that opens LINK would wait for its first reply; held open, it never does.
 exec 3<>"$pts"
