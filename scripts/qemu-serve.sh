@@ -109,6 +109,16 @@ sleep 0.2
 # Hold the pty open for the whole run: QEMU stops reading a pty that no one has open and looks again only
 # once a second, so a host that opens LINK would wait for its first reply; held open, it never does.
 exec 3<>"$pts"
+# QEMU reads a pty only once it has noticed that someone opened it, which it checks once a second; until
+# then a host's bytes pile up and reach the UART together, as one burst without the gaps that end a
+# partial frame. So ask the module something through our own descriptor (136 type 1, the version, which
+# changes nothing) and announce LINK only once the answer is back.
+printf '\x01\x88\x01\x00\x00\x00\x00\x00\x8a' >&3
+answer=$(timeout 10 dd bs=9 count=1 iflag=fullblock status=none <&3 | od -An -tx1 | tr -d ' \n' || true)
+if [[ "$answer" != 0201* ]]; then
+    echo "qemu-serve: the firmware did not answer on $pts (got '$answer'): $(cat "$work/err")" >&2
+    exit 1
+fi
 ln -sfn "$pts" "$link.tmp.$$"
 mv -Tf "$link.tmp.$$" "$link"
 echo "serving $name at address 1 on $link"

@@ -3,7 +3,8 @@
 use crate::shim::sysctl::{RCC, RIS};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
-use tmcl_mcu::clock::Ticks;
+use tmcl_core::Instant;
+use tmcl_mcu::clock::{micros_into_tick, Monotonic, Ticks};
 
 /// The system clock: the PLL's 200 MHz divided by 4, the LM3S6965's maximum of 50 MHz.
 pub const CLOCK_HZ: u32 = 50_000_000;
@@ -45,4 +46,16 @@ pub fn start_systick(syst: &mut SYST) {
     syst.clear_current();
     syst.enable_interrupt();
     syst.enable_counter();
+}
+
+/// The time now: the tick count and the microseconds into the tick, read until no tick came in between.
+pub fn now(time: &mut Monotonic) -> Instant {
+    const RELOAD: u32 = CLOCK_HZ / 1000 - 1;
+    loop {
+        let ticks = TICKS.read();
+        let current = SYST::get_current();
+        if TICKS.read() == ticks {
+            return time.at(ticks, micros_into_tick(RELOAD, current));
+        }
+    }
 }

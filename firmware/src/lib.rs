@@ -51,7 +51,7 @@ pub fn run() -> ! {
     clock::init();
     let board = Lm3sBoard::new(spec);
     let mut time = Monotonic::new();
-    let now = time.at(clock::TICKS.read());
+    let now = time.at(0, 0);
     let mut module = unpowered(board, spec, now);
     module.power_up(now);
     let mut baud = module.active_baud();
@@ -62,7 +62,7 @@ pub fn run() -> ! {
     let mut tx = uart::Tx;
     let mut chunk = [0u8; 64];
     loop {
-        let now = time.at(clock::TICKS.read());
+        let now = clock::now(&mut time);
         loop {
             let n = uart::RX.pop_into(&mut chunk);
             if n == 0 {

@@ -215,8 +215,7 @@ class QemuServer(Server):
     its EEPROM in the microcontroller's RAM (lost when QEMU stops), QEMU's monitor on a Unix socket."""
 
     def __init__(self, image: Path, workdir: Path, link_name: str = "tmcl-link", model: str = "pd28-1021"):
-        super().__init__(image, workdir, "pty", link_name=link_name,
-                         modules=None if model == "pd28-1021" else [model])
+        super().__init__(image, workdir, "pty", link_name=link_name, modules=[model])
         self.image = image
         self.model = model
         # A Unix socket's path must stay under 108 bytes; a test's temporary directory may not.
