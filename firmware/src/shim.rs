@@ -6,6 +6,8 @@
 //! [`Reg`] cannot be made outside this module, so no safe code can turn an arbitrary number into a
 //! register access.
 #![allow(unsafe_code)]
+// Offsets are written as the data sheet lists them, offset 0 included.
+#![allow(clippy::identity_op)]
 
 use core::sync::atomic::AtomicU8;
 use tmcl_core::model::{pd28_1021, tmcm_1310};

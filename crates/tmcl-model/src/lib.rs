@@ -357,7 +357,7 @@ mod tests {
     }
 
     /// The units follow the meaning: every speed the firmware reads is in pps, every acceleration in pps/s,
-    /// every position in microsteps (the manuals' "Range [Units]" columns), on every model.
+    /// every position in microsteps (the manuals' "Range \[Units\]" columns), on every model.
     #[test]
     fn units_follow_the_meaning() {
         for model in MODELS {

@@ -363,11 +363,11 @@ pub struct ParamDesc {
     pub role: Role,
     /// Which setting the firmware reads it as, if any.
     pub setting: Option<Setting>,
-    /// The unit of the value, from the manual's "Range [Units]" column (for host tools: `tmcl params`).
+    /// The unit of the value, from the manual's "Range \[Units\]" column (for host tools: `tmcl params`).
     pub unit: Unit,
 }
 
-/// The unit of a parameter's value, as the manuals' parameter tables give it ("Range [Units]").
+/// The unit of a parameter's value, as the manuals' parameter tables give it ("Range \[Units\]").
 ///
 /// Data for host tools (`tmcl params`, the workbench); the firmware never reads it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
