@@ -112,13 +112,22 @@ exec 3<>"$pts"
 # QEMU reads a pty only once it has noticed that someone opened it, which it checks once a second; until
 # then a host's bytes pile up and reach the UART together, as one burst without the gaps that end a
 # partial frame. So ask the module something through our own descriptor (136 type 1, the version, which
-# changes nothing) and announce LINK only once the answer is back.
-printf '\x01\x88\x01\x00\x00\x00\x00\x00\x8a' >&3
-answer=$(timeout 10 dd bs=9 count=1 iflag=fullblock status=none <&3 | od -An -tx1 | tr -d ' \n' || true)
-if [[ "$answer" != 0201* ]]; then
-    echo "qemu-serve: the firmware did not answer on $pts (got '$answer'): $(cat "$work/err")" >&2
+# changes nothing) and announce LINK only once the answer is back. Bytes that reach the UART before the
+# firmware has set it up are lost (as on a module that is still booting), so the question is repeated;
+# answers to earlier copies are read away before LINK appears.
+version_reply=02016488
+answers=""
+for _ in $(seq 1 12); do
+    printf '\x01\x88\x01\x00\x00\x00\x00\x00\x8a' >&3
+    answers+=$(timeout 2.5 dd bs=64 count=1 status=none <&3 2>/dev/null | od -An -tx1 | tr -d ' \n' || true)
+    [[ "$answers" == *"$version_reply"* ]] && break
+    kill -0 "$qemu_pid" 2>/dev/null || break
+done
+if [[ "$answers" != *"$version_reply"* ]]; then
+    echo "qemu-serve: the firmware did not answer on $pts (got '$answers'): $(cat "$work/err")" >&2
     exit 1
 fi
+while [[ -n "$(timeout 0.3 dd bs=64 count=1 status=none <&3 2>/dev/null | od -An -tx1 || true)" ]]; do :; done
 ln -sfn "$pts" "$link.tmp.$$"
 mv -Tf "$link.tmp.$$" "$link"
 echo "serving $name at address 1 on $link"

@@ -24,6 +24,11 @@ import pytest
 from tmcltest import BUS_MODULES, REPO_ROOT, QemuServer, Server, ServerFactory
 
 THUMB = "thumbv7m-none-eabi"
+# Test files about `tmcl serve` itself rather than about the module it serves: not run with `--target qemu`.
+SERVE_ONLY = {
+    "test_line_safety.py": "tests how `tmcl serve` guards its line (LINK.lock, clearing a killed host's "
+                           "exclusive mode); scripts/qemu-serve.sh does not",
+}
 
 
 def pytest_addoption(parser):
@@ -54,6 +59,15 @@ def tmcl_bin() -> Path:
     path = _target_dir() / "debug" / "tmcl"
     assert path.is_file(), f"cargo build did not produce {path}"
     return path
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--target") != "qemu":
+        return
+    for item in items:
+        reason = SERVE_ONLY.get(item.path.name)
+        if reason:
+            item.add_marker(pytest.mark.skip(reason=f"needs tmcl serve: {reason}"))
 
 
 @pytest.fixture(scope="session")

@@ -65,6 +65,7 @@ class Server:
         self._stderr_path: Path | None = None
         # The environment of the process (None: this one's).
         self.env: dict[str, str] | None = None
+        self.ready_timeout_s = READY_TIMEOUT_S
 
     # -- lifecycle ---------------------------------------------------------------------------------
     def models(self) -> list[str]:
@@ -95,12 +96,12 @@ class Server:
             stderr.close()
         self._lines = queue.Queue()
         threading.Thread(target=self._pump, args=(self.proc, self._lines), daemon=True).start()
-        deadline = time.monotonic() + READY_TIMEOUT_S
+        deadline = time.monotonic() + self.ready_timeout_s
         while True:
             left = deadline - time.monotonic()
             if left <= 0:
                 self.kill()
-                raise AssertionError(f"no ready line within {READY_TIMEOUT_S} s; stderr: {self.stderr()}")
+                raise AssertionError(f"no ready line within {self.ready_timeout_s} s; stderr: {self.stderr()}")
             try:
                 line = self._lines.get(timeout=min(left, 0.5))
             except queue.Empty:
@@ -221,6 +222,8 @@ class QemuServer(Server):
         # A Unix socket's path must stay under 108 bytes; a test's temporary directory may not.
         self.monitor_path = Path(f"/tmp/tmcl-qemu-{os.getpid()}-{next(_MONITORS)}.monitor")
         self.env = dict(os.environ, QEMU_IMAGE=str(image))
+        # QEMU boots and the script waits until the firmware answers on the pty: slower on a loaded machine.
+        self.ready_timeout_s = 60.0
 
     def args(self) -> list[str]:
         return ["bash", str(REPO_ROOT / "scripts" / "qemu-serve.sh"), str(self.link), "--module", self.model,
