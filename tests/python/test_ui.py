@@ -165,7 +165,7 @@ def test_a_velocity_from_the_motion_panel_moves_the_plot(browser, ui):
     speed.clear()
     speed.send_keys("30000")
     before = wb(browser, "counts['ap.0.1'] || 0")
-    by_name(browser, "button", "Rotate right ⟳").click()
+    by_name(browser, "button", "Rotate right").click()
     # The plot's actual-speed series reaches the speed, and the position series climbs.
     def moving():
         series = browser.execute_script(
@@ -184,7 +184,7 @@ def test_a_velocity_from_the_motion_panel_moves_the_plot(browser, ui):
     # Pause freezes the picture; stop the motor.
     by_name(browser, "button", "Pause").click()
     assert by_css(browser, "#plot-pause").get_attribute("aria-pressed") == "true"
-    by_name(browser, "button", "■ Stop motor").click()
+    by_name(browser, "button", "Stop motor").click()
     wait_until(lambda: wb(browser, "values['ap.0.3']") == 0, timeout=15, what="the motor to stop")
 
 
@@ -232,23 +232,23 @@ def test_the_program_editor_assembles_downloads_and_debugs(browser, ui):
     # A breakpoint on line 6 (AGP 0, 2), then Start: the program stops there.
     by_name(browser, "button", "Breakpoint at line 6").click()
     wait_until(lambda: "line 6" in by_css(browser, "#bp-list").text, what="the breakpoint")
-    by_name(browser, "button", "▶ Start").click()
+    by_name(browser, "button", "Start").click()
     wait_until(lambda: (wb(browser, "debug") or {}).get("reason") == "breakpoint", timeout=15,
                what="the stop at the breakpoint")
     assert wb(browser, "debug.line") == 6
     assert by_css(browser, "#dbg-acc").text == "1"
     assert "line 6" in by_css(browser, "#dbg-pc").text
     # Continue: once around the loop, back at the breakpoint with the next count.
-    by_name(browser, "button", "⏵ Continue").click()
+    by_name(browser, "button", "Continue").click()
     wait_until(lambda: by_css(browser, "#dbg-acc").text == "2", timeout=15, what="the second stop")
     assert wb(browser, "debug.reason") == "breakpoint"
     wait_until(lambda: by_css(browser, "#vars [data-key='gp.2.0']").text == "1", what="user variable 0")
-    by_name(browser, "button", "⤼ Step").click()
+    by_name(browser, "button", "Step").click()
     wait_until(lambda: by_css(browser, "#vars [data-key='gp.2.0']").text == "2", what="the step's AGP")
     assert by_css(browser, "#dbg-x").text == "1"
     shot(browser, "program-debug")
     by_name(browser, "button", "Breakpoint at line 6").click()
-    by_name(browser, "button", "■ Stop").click()
+    by_name(browser, "button", "Stop").click()
     wait_until(lambda: (wb(browser, "debug") or {}).get("reason") == "stopped", what="the stop")
 
 

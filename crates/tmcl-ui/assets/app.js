@@ -8,6 +8,7 @@
     const e = document.createElement(tag);
     for (const [k, v] of Object.entries(props || {})) {
       if (k === "class") e.className = v;
+      else if (k === "style") Object.assign(e.style, v); // an object: inline style attributes are not allowed (CSP)
       else if (k === "text") e.textContent = v;
       else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
       else if (v !== null && v !== undefined && v !== false) e.setAttribute(k, v === true ? "" : v);
@@ -93,7 +94,8 @@
     $("model").textContent = model ? model.name : "unknown model";
     $("version").textContent = h.version || "no answer";
     $("address").textContent = h.address;
-    $("link-name").textContent = h.link;
+    // Long paths keep their end, which names the port.
+    $("link-name").textContent = h.link.length > 44 ? "…" + h.link.slice(-43) : h.link; $("link-name").title = h.link;
     setLink(h.link_error, h.link_ok);
     $("m-link").textContent = h.link; $("m-address").textContent = h.address;
     $("m-version").textContent = h.version || "no answer to command 136";
@@ -266,11 +268,11 @@
     const defs = [
       ["position", [[k(roles.actual_position), "actual position", COLORS.actual], [k(roles.target_position), "target position", COLORS.target], [k(roles.encoder), "encoder", COLORS.encoder]]],
       ["velocity", [[k(roles.actual_speed), "actual speed", COLORS.actual], [k(roles.target_speed), "target speed", COLORS.target]]],
-      ["load", [[k(roles.load), "load value", COLORS.load], [k(roles.current), "current scale", COLORS.current]]],
+      ["load", [[k(roles.load), "load value", COLORS.load], [k(roles.current), "current scale (right axis)", COLORS.current, true]]],
     ];
     const windowMs = Number($("plot-window").value) * 1000;
     plots = defs.map(([id, series]) => {
-      const list = series.filter((s) => s[0]).map(([key, label, color]) => ({ key, label, color }));
+      const list = series.filter((s) => s[0]).map(([key, label, color, right]) => ({ key, label, color, right }));
       const canvas = $(`plot-${id}`);
       const fresh = canvas.cloneNode(false); canvas.replaceWith(fresh);
       const plot = new TmclPlot.Plot(fresh, list, { window: windowMs });
@@ -279,7 +281,7 @@
       legend.replaceChildren(...plot.series.map((s) => {
         const box = el("input", { type: "checkbox", checked: true, "aria-label": `Show ${s.label}` });
         box.addEventListener("change", () => { s.visible = box.checked; plot.dirty = true; if (plot.paused) plot.draw(); });
-        return el("label", {}, box, el("span", { class: "swatch", style: `background:${s.color}` }), s.label);
+        return el("label", {}, box, el("span", { class: "swatch", style: { background: s.color } }), s.label);
       }));
       return plot;
     });
@@ -349,7 +351,7 @@
         ins.append(el("li", {}, el("span", { text: p.name }), el("span", { class: "lamp", "data-key": key, "aria-label": `${p.name} input`, text: "–" })));
       } else if (p.kind === "analog" || p.kind === "temperature") {
         an.append(el("tr", {}, el("th", { scope: "row", text: p.name }), el("td", { "data-key": key, text: "–" }),
-          el("td", {}, el("meter", { min: 0, max: 4095, value: 0, "data-meter": key, "aria-label": `${p.name} level` }))));
+          el("td", {}, p.kind === "analog" ? el("meter", { min: 0, max: 4095, value: 0, "data-meter": key, "aria-label": `${p.name} level` }) : "")));
       } else if (p.kind === "output") {
         const box = el("input", { type: "checkbox", role: "switch", "aria-label": p.name, "data-key": key });
         box.addEventListener("change", async () => {

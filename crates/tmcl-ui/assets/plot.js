@@ -6,8 +6,8 @@
   const MAX_POINTS = 60000; // per series: 10 minutes at 100 samples a second
 
   class Series {
-    constructor(key, label, color) {
-      this.key = key; this.label = label; this.color = color; this.visible = true;
+    constructor(key, label, color, right) {
+      this.key = key; this.label = label; this.color = color; this.right = !!right; this.visible = true;
       this.t = []; this.v = [];
     }
     push(t, v) {
@@ -43,7 +43,7 @@
   class Plot {
     constructor(canvas, series, options) {
       this.canvas = canvas;
-      this.series = series.map((s) => new Series(s.key, s.label, s.color));
+      this.series = series.map((s) => new Series(s.key, s.label, s.color, s.right));
       this.window = (options && options.window) || 30000;
       this.paused = false; this.pausedAt = 0; this.dirty = true;
       this.frames = 0;
@@ -57,28 +57,33 @@
     setWindow(ms) { this.window = ms; this.dirty = true; if (this.paused) this.draw(); }
     clear() { for (const s of this.series) { s.t = []; s.v = []; } this.dirty = true; }
 
-    // The visible time range and value range.
+    // The visible time range, and the value range of the left axis (and of the right one, for the series
+    // that use it).
     view() {
       const end = this.paused ? this.pausedAt : Date.now();
       const start = end - this.window;
-      let min = Infinity, max = -Infinity;
-      for (const s of this.series) {
-        if (!s.visible) continue;
-        // The sample before the window too, so a line enters from the left edge.
-        for (let i = Math.max(0, s.from(start) - 1); i < s.t.length; i++) {
-          if (s.t[i] > end) break;
-          if (s.v[i] < min) min = s.v[i];
-          if (s.v[i] > max) max = s.v[i];
+      const range = (right) => {
+        let min = Infinity, max = -Infinity;
+        for (const s of this.series) {
+          if (!s.visible || s.right !== right) continue;
+          // The sample before the window too, so a line enters from the left edge.
+          for (let i = Math.max(0, s.from(start) - 1); i < s.t.length; i++) {
+            if (s.t[i] > end) break;
+            if (s.v[i] < min) min = s.v[i];
+            if (s.v[i] > max) max = s.v[i];
+          }
         }
-      }
-      if (min === Infinity) { min = 0; max = 1; }
-      if (min === max) { const pad = Math.max(1, Math.abs(min) * 0.1); min -= pad; max += pad; }
-      const pad = (max - min) * 0.06;
-      return { start, end, min: min - pad, max: max + pad };
+        if (min === Infinity) { min = 0; max = 1; }
+        if (min === max) { const pad = Math.max(1, Math.abs(min) * 0.1); min -= pad; max += pad; }
+        const pad = (max - min) * 0.06;
+        return { min: min - pad, max: max + pad };
+      };
+      const left = range(false), right = range(true);
+      return { start, end, min: left.min, max: left.max, right: this.series.some((s) => s.right) ? right : null };
     }
 
     // Layout in CSS pixels: plot area inside the axes.
-    layout(w, h) { return { x0: 58, y0: 8, x1: w - 10, y1: h - 22 }; }
+    layout(w, h) { return { x0: 58, y0: 8, x1: w - (this.series.some((s) => s.right) ? 46 : 10), y1: h - 22 }; }
 
     draw() {
       const c = this.canvas, dpr = window.devicePixelRatio || 1;
@@ -109,16 +114,25 @@
         g.beginPath(); g.moveTo(px, L.y0); g.lineTo(px, L.y1); g.stroke();
         g.fillText(s === 0 ? (this.paused ? "paused" : "now") : "−" + fmt(s) + " s", px, L.y1 + 5);
       }
+      if (v.right) {
+        const R = (y) => L.y1 - (y - v.right.min) / (v.right.max - v.right.min) * (L.y1 - L.y0);
+        const rs = niceStep(v.right.max - v.right.min, Math.max(2, Math.floor((L.y1 - L.y0) / 32)));
+        g.textAlign = "left"; g.textBaseline = "middle"; g.fillStyle = (this.series.find((s) => s.right) || {}).color || "#5b6475";
+        for (let y = Math.ceil(v.right.min / rs) * rs; y <= v.right.max; y += rs) g.fillText(fmt(y), L.x1 + 6, Math.round(R(y)) + 0.5);
+        g.fillStyle = "#5b6475";
+      }
       g.strokeStyle = "#c3c9d3"; g.strokeRect(L.x0 + 0.5, L.y0 + 0.5, L.x1 - L.x0, L.y1 - L.y0);
       // Lines: steps are drawn as they are (a value holds until the next sample).
       g.save(); g.beginPath(); g.rect(L.x0, L.y0, L.x1 - L.x0, L.y1 - L.y0); g.clip();
-      for (const s of this.series) {
+      // Drawn last to first, so the first series (the actual value) lies on top.
+      for (const s of [...this.series].reverse()) {
         if (!s.visible || !s.t.length) continue;
-        g.strokeStyle = s.color; g.lineWidth = 1.6; g.beginPath();
+        const Ys = s.right && v.right ? (y) => L.y1 - (y - v.right.min) / (v.right.max - v.right.min) * (L.y1 - L.y0) : Y;
+        g.strokeStyle = s.color; g.lineWidth = s === this.series[0] ? 2 : 1.5; g.beginPath();
         let first = true;
         for (let i = Math.max(0, s.from(v.start) - 1); i < s.t.length; i++) {
           if (s.t[i] > v.end) break;
-          const px = X(s.t[i]), py = Y(s.v[i]);
+          const px = X(s.t[i]), py = Ys(s.v[i]);
           if (first) { g.moveTo(px, py); first = false; } else g.lineTo(px, py);
         }
         g.stroke();
@@ -132,6 +146,7 @@
       const v = this.view(), L = this.layout(w, h);
       const X = (t) => (ox + L.x0 + (t - v.start) / (v.end - v.start) * (L.x1 - L.x0)).toFixed(1);
       const Y = (y) => (oy + L.y1 - (y - v.min) / (v.max - v.min) * (L.y1 - L.y0)).toFixed(1);
+      const R = (y) => (oy + L.y1 - (y - v.right.min) / (v.right.max - v.right.min) * (L.y1 - L.y0)).toFixed(1);
       const esc = (s) => String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;");
       let out = `<text x="${ox + L.x0}" y="${oy - 4}" font-weight="600">${esc(title)}</text>\n`;
       const ys = niceStep(v.max - v.min, Math.max(2, Math.floor((L.y1 - L.y0) / 32)));
@@ -145,6 +160,12 @@
         out += `<line x1="${x}" x2="${x}" y1="${oy + L.y0}" y2="${oy + L.y1}" stroke="#e6e9ee"/>` +
           `<text x="${x}" y="${oy + L.y1 + 15}" text-anchor="middle" fill="#5b6475">${s === 0 ? "0" : "−" + fmt(s) + " s"}</text>\n`;
       }
+      if (v.right) {
+        const rs = niceStep(v.right.max - v.right.min, Math.max(2, Math.floor((L.y1 - L.y0) / 32)));
+        for (let y = Math.ceil(v.right.min / rs) * rs; y <= v.right.max; y += rs) {
+          out += `<text x="${ox + L.x1 + 6}" y="${R(y)}" dominant-baseline="middle" fill="#5b6475">${fmt(y)}</text>\n`;
+        }
+      }
       out += `<rect x="${ox + L.x0}" y="${oy + L.y0}" width="${L.x1 - L.x0}" height="${L.y1 - L.y0}" fill="none" stroke="#c3c9d3"/>\n`;
       let lx = ox + L.x0 + 120;
       for (const s of this.series) {
@@ -152,7 +173,7 @@
         const pts = [];
         for (let i = Math.max(0, s.from(v.start) - 1); i < s.t.length; i++) {
           if (s.t[i] > v.end) break;
-          pts.push(`${X(Math.max(s.t[i], v.start))},${Y(s.v[i])}`);
+          pts.push(`${X(Math.max(s.t[i], v.start))},${s.right && v.right ? R(s.v[i]) : Y(s.v[i])}`);
         }
         if (pts.length) out += `<polyline fill="none" stroke="${s.color}" stroke-width="1.6" points="${pts.join(" ")}"/>\n`;
         out += `<line x1="${lx}" x2="${lx + 14}" y1="${oy - 8}" y2="${oy - 8}" stroke="${s.color}" stroke-width="3"/>` +
