@@ -43,9 +43,7 @@ pub(crate) fn run(args: UiArgs, json: bool) -> Result<(), CliError> {
     let client = args.conn.open()?;
     let (link_name, line_rate) = match (&args.conn.port, &args.conn.tcp) {
         (Some(path), _) if is_pty(path) => (format!("{path} (pty)"), tmcl_ui::UNTIMED_RATE),
-        (Some(path), _) => {
-            (format!("{path} at {} baud", args.conn.baud), tmcl_ui::line_rate(args.conn.baud))
-        }
+        (Some(path), _) => (format!("{path} at {} baud", args.conn.baud), tmcl_ui::line_rate(args.conn.baud)),
         (None, Some(addr)) => (format!("TCP {addr}"), tmcl_ui::UNTIMED_RATE),
         (None, None) => unreachable!("Connection::open fails without a link"),
     };
@@ -55,11 +53,8 @@ pub(crate) fn run(args: UiArgs, json: bool) -> Result<(), CliError> {
         let url = format!("http://{addr}/");
         let mut out = std::io::stdout().lock();
         // The first line is the address, for scripts; then how to stop.
-        let _ = if json {
-            writeln!(out, "{}", json!({"url": url, "address": address}))
-        } else {
-            writeln!(out, "{url}")
-        };
+        let _ =
+            if json { writeln!(out, "{}", json!({"url": url, "address": address})) } else { writeln!(out, "{url}") };
         let _ = out.flush();
         eprintln!("tmcl ui: the workbench of module {address} is at {url} (Ctrl-C stops it)");
     })

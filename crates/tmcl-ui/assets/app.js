@@ -27,7 +27,11 @@
   let ws = null, nextId = 1, retry = 500;
   const pending = new Map();
   const listeners = {};
-  const on = (e, f) => { (listeners[e] = listeners[e] || []).push(f); };
+  // Subscribes `f` to page events ("value", "prog", "debug", "progress", "view"); returns the unsubscribe.
+  const on = (e, f) => {
+    (listeners[e] = listeners[e] || []).push(f);
+    return () => { listeners[e] = listeners[e].filter((g) => g !== f); };
+  };
   const emit = (e, msg) => (listeners[e] || []).forEach((f) => f(msg));
 
   function connect() {
@@ -60,6 +64,7 @@
     });
   }
   wb.call = call;
+  wb.on = on;
 
   function event(ev) {
     wb.events++;

@@ -55,9 +55,7 @@ impl Guard {
         if let Some(origin) = origin {
             let origin = origin.trim().to_ascii_lowercase();
             if origin.strip_prefix("http://") != Some(host.as_str()) {
-                return Err(format!(
-                    "Origin {origin:?} is not this server: only the workbench's own page may use it"
-                ));
+                return Err(format!("Origin {origin:?} is not this server: only the workbench's own page may use it"));
             }
         }
         Ok(())

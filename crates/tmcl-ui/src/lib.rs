@@ -4,14 +4,14 @@
 //!
 //! The layers:
 //!
-//! - [`link`](crate::link): the one thread that owns the blocking host client. It runs the page's requests
+//! - `link`: the one thread that owns the blocking host client. It runs the page's requests
 //!   first and polls the values the open pages show in between, never faster than the line allows
-//!   ([`schedule`](crate::schedule)).
-//! - [`ops`](crate::ops): the page's requests (JSON) and what the link thread does for each;
-//!   [`debug`](crate::debug) the program debugger (breakpoints by single steps, since TMCL has no
+//!   (`schedule`).
+//! - `ops`: the page's requests (JSON) and what the link thread does for each;
+//!   `debug` the program debugger (breakpoints by single steps, since TMCL has no
 //!   breakpoint command).
-//! - [`server`](crate::server): the HTTP and WebSocket server (axum on a single-threaded tokio runtime),
-//!   the page's files compiled into the binary, and the [`guard`](crate::guard) that refuses requests
+//! - `server`: the HTTP and WebSocket server (axum on a single-threaded tokio runtime),
+//!   the page's files compiled into the binary, and the `guard` that refuses requests
 //!   whose `Host` or `Origin` is not the server's own.
 //!
 //! The page itself (`assets/`) is plain HTML, CSS and JavaScript with its own canvas plots; it loads
@@ -26,6 +26,8 @@ mod link;
 mod ops;
 mod schedule;
 mod server;
+#[cfg(test)]
+mod tests;
 
 pub use link::HostClient;
 

@@ -221,7 +221,8 @@ fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Value, Failur
             let value = match op {
                 ParamOp::Get => reply.value,
                 _ => {
-                    let read = if axis { Command::Gap { param, motor: index } } else { Command::Ggp { param, bank: index } };
+                    let read =
+                        if axis { Command::Gap { param, motor: index } } else { Command::Ggp { param, bank: index } };
                     link.request(read.encode()).map(|r| r.value).unwrap_or(reply.value)
                 }
             };
@@ -282,9 +283,10 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
     }
     let text = line.split("//").next().unwrap_or("").trim();
     let symbols = console_symbols(link);
-    let instruction = parse_instruction(text, &mut |name| symbols.get(name).copied())
-        .map_err(|e| Failure(json!({"error": e.with_text(text).to_string(), "column": e.span.start + 1,
-                                     "width": (e.span.end - e.span.start).max(1)})))?;
+    let instruction = parse_instruction(text, &mut |name| symbols.get(name).copied()).map_err(|e| {
+        Failure(json!({"error": e.with_text(text).to_string(), "column": e.span.start + 1,
+                                     "width": (e.span.end - e.span.start).max(1)}))
+    })?;
     let mut sent = String::new();
     let _ = format_instruction(&instruction, &mut sent, None);
     let bytes = tmcl_wire::Request { address: link.address(), instruction }.to_bytes();

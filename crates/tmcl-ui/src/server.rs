@@ -153,7 +153,12 @@ async fn page(mut socket: WebSocket, state: Arc<AppState>) {
 
 /// Hands a request to the link thread. `Ok(Some(answer))` for a message that is no request; `Err` when
 /// the link thread is gone.
-fn submit(state: &AppState, page: u64, text: &str, answers: &mpsc::UnboundedSender<Value>) -> Result<Option<Value>, ()> {
+fn submit(
+    state: &AppState,
+    page: u64,
+    text: &str,
+    answers: &mpsc::UnboundedSender<Value>,
+) -> Result<Option<Value>, ()> {
     let incoming: Incoming = match serde_json::from_str(text) {
         Ok(incoming) => incoming,
         Err(e) => {
