@@ -70,6 +70,7 @@ def measure(tmcl: Path, wire_timing: bool, seconds: float, changes: int) -> dict
                 rps.append(driver.execute_script("return window.workbench.stats.rps"))
             c1 = count()
             elapsed = (c1[2] - c0[2]) / 1000
+            transit = driver.execute_script("return window.workbench.transit.slice()")
             driver.set_script_timeout(15)
             after_answer, after_send = [], []
             for n in range(changes):
@@ -96,6 +97,8 @@ def measure(tmcl: Path, wire_timing: bool, seconds: float, changes: int) -> dict
         "latency_median_ms": statistics.median(after_answer),
         "latency_p90_ms": q(after_answer, 0.9),
         "send_to_seen_median_ms": statistics.median(after_send),
+        "transit_median_ms": statistics.median(transit),
+        "sample_interval_ms": 1000 / ((c1[0] - c0[0]) / elapsed),
     }
 
 
@@ -106,12 +109,14 @@ def main() -> None:
     ap.add_argument("--changes", type=int, default=30)
     args = ap.parse_args()
     rows = [("pty (200 requests/s cap)", False), ("9600 baud (--wire-timing)", True)]
-    print("| Line | Plot samples/s | Plot redraws/s | Requests/s | Change → page, median | p90 | Click → page, median |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+    print("| Line | Plot samples/s | Plot redraws/s | Requests/s | Read → page, median | "
+          "Page change → page, median | p90 | Click → page, median |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for name, timed in rows:
         r = measure(args.tmcl, timed, args.seconds, args.changes)
         print(f"| {name} | {r['samples_per_s']:.1f} | {r['redraws_per_s']:.1f} | {r['requests_per_s']:.1f} | "
-              f"{r['latency_median_ms']:.0f} ms | {r['latency_p90_ms']:.0f} ms | {r['send_to_seen_median_ms']:.0f} ms |")
+              f"{r['transit_median_ms']:.1f} ms | {r['latency_median_ms']:.0f} ms | {r['latency_p90_ms']:.0f} ms | "
+              f"{r['send_to_seen_median_ms']:.0f} ms |")
 
 
 if __name__ == "__main__":

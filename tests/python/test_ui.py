@@ -280,3 +280,19 @@ def test_a_foreign_origin_is_refused(browser, ui):
         "const ws = new WebSocket(arguments[0]);"
         "ws.onopen = () => done('open'); ws.onerror = () => done('refused');", f"ws://{own}/ws")
     assert result == "refused"
+
+
+def test_the_tmcm1310_table_and_its_plots(browser, tmcl_bin, tmp_path, tmcm1310_server):
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(tmcm1310_server.link)]).start()
+    try:
+        open_page(browser, u, "params")
+        wait_until(lambda: by_css(browser, "#model").text == "TMCM-1310", what="the model")
+        listed = subprocess.run([str(tmcl_bin), "params", "--module", "tmcm-1310", "--no-values", "--json"],
+                                capture_output=True, text=True, check=True).stdout.splitlines()
+        assert len(all_css(browser, "#param-table tbody tr[data-key]")) == len(listed)
+        # The closed loop's current scale (AP 123, by its role) is plotted, not the PD28-1021's AP 180.
+        assert wb(browser, "hello.roles.current") in (123, 180)
+        by_css(browser, "#tab-motion").click()
+        wait_until(lambda: wb(browser, f"counts['ap.0.{wb(browser, 'hello.roles.current')}']"), what="the current")
+    finally:
+        assert u.stop() == 0

@@ -20,7 +20,7 @@
   // Things tests and benchmarks read (`window.workbench`).
   const wb = window.workbench = {
     hello: null, values: {}, received: {}, counts: {}, events: 0, connected: false, stats: null,
-    program: null, debug: null, lastDownload: null,
+    program: null, debug: null, lastDownload: null, transit: [],
   };
 
   // Connection ---------------------------------------------------------------------------------------
@@ -72,6 +72,8 @@
       case "v": {
         const now = Date.now();
         wb.values[ev.k] = ev.v; wb.received[ev.k] = now; wb.counts[ev.k] = (wb.counts[ev.k] || 0) + 1;
+        // How long values take from the server's read to the page (the last 500), for the benchmarks.
+        wb.transit.push(now - ev.t); if (wb.transit.length > 500) wb.transit.shift();
         emit("value", ev); break;
       }
       case "link": setLink(ev.error, ev.ok); break;

@@ -70,6 +70,11 @@
           e.preventDefault();
           document.execCommand("insertText", false, "    ");
         }
+        if (e.key === "F9") {
+          // F9 toggles the breakpoint on the caret's line, as in most IDEs (the gutter is for the mouse).
+          e.preventDefault();
+          this.toggle(this.area.value.slice(0, this.area.selectionStart).split("\n").length);
+        }
         this.escaped = e.key === "Escape";
       });
       this.gutter.addEventListener("click", (e) => {

@@ -127,6 +127,12 @@ pub fn run_until(
             .map_err(UiError::Server)?;
         ready(addr);
         let app = server::router(state);
+        // Small WebSocket messages must go out at once: with Nagle's algorithm an answer waits for the
+        // browser's delayed acknowledgement of the last event (tens of milliseconds).
+        use axum::serve::ListenerExt;
+        let listener = listener.tap_io(|tcp| {
+            let _ = tcp.set_nodelay(true);
+        });
         let served = axum::serve(listener, app).with_graceful_shutdown(async move {
             stop.await;
             let _ = stop_pages.send(true);

@@ -15,7 +15,8 @@
 //! and once a second the requests per second on the line.
 
 use crate::debug::Debugger;
-use crate::schedule::{Limiter, Poll, Schedule};
+pub(crate) use crate::schedule::Poll;
+use crate::schedule::{Limiter, Schedule};
 use serde_json::{json, Value};
 use std::collections::{BTreeSet, HashMap};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
@@ -128,6 +129,12 @@ const IO_PERIOD: Duration = Duration::from_millis(250);
 const PARAM_PERIOD: Duration = Duration::from_millis(2000);
 /// How long the loop sleeps at most without a job or a due value (the stats event needs a beat).
 const IDLE: Duration = Duration::from_millis(250);
+/// The longest a poll request waits for its reply (the page's own requests wait `--timeout`): a module
+/// answers a read within a few frame times, and a poll must not keep the page's requests waiting long.
+const POLL_TIMEOUT: Duration = Duration::from_millis(500);
+/// After a poll that got no answer, polling pauses this long (the page's requests still go out), so a
+/// module that is off or at another address costs one timeout a second, not one per value.
+const BACKOFF: Duration = Duration::from_secs(1);
 
 /// Milliseconds since the Unix epoch: the time stamp of every event, comparable with the page's
 /// `Date.now()` on the same machine.
@@ -162,6 +169,8 @@ pub(crate) struct Link {
     /// Requests per second over the last full second.
     pub rps: f64,
     stopped: bool,
+    /// No polling before this instant (after a poll without an answer).
+    backoff: Option<Instant>,
 }
 
 impl Link {
@@ -191,6 +200,7 @@ impl Link {
             window: (Instant::now(), 0),
             rps: 0.0,
             stopped: false,
+            backoff: None,
         }
     }
 
@@ -354,6 +364,27 @@ impl Link {
         self.schedule.set(polls);
     }
 
+    /// Reads the values `which` picks next, before any other (see [`Schedule::hurry`]).
+    pub(crate) fn hurry(&mut self, which: impl FnMut(&Poll) -> bool) {
+        self.schedule.hurry(which);
+    }
+
+    /// After a request that may have changed what moves: reads the plotted values, switches and reference
+    /// status of `motor` next, or (`None`, after a console line, which may change anything) those of every
+    /// motor and the I/O, the program status and the user variables as well.
+    pub(crate) fn hurry_live(&mut self, motor: Option<u8>) {
+        let roles = Roles::of(self.model);
+        let switches = [roles.reached, roles.home, roles.right, roles.left];
+        let live: Vec<u8> = roles.plotted().chain(switches.into_iter().flatten()).collect();
+        let this = |m: u8| motor.is_none_or(|x| x == m);
+        self.schedule.hurry(|p| match *p {
+            Poll::Axis { param, motor: m } => live.contains(&param) && this(m),
+            Poll::Reference { motor: m } => this(m),
+            Poll::Global { bank, .. } => bank == 2 && motor.is_none(),
+            Poll::Input { .. } | Poll::ProgramCounter | Poll::Accumulator | Poll::XRegister => motor.is_none(),
+        });
+    }
+
     /// Reads one value and sends it to the pages.
     fn poll(&mut self, poll: Poll) {
         let t = now_ms();
@@ -365,7 +396,12 @@ impl Link {
                 (format!("rfs.{motor}"), Command::Rfs { action: tmcl_wire::RfsAction::Status, motor })
             }
             Poll::ProgramCounter => {
+                let timeout = self.set_timeout(POLL_TIMEOUT.min(self.client.timeout));
                 let reply = self.request(Command::GetStatus { kind: StatusKind::ProgramCounter }.encode());
+                self.client.timeout = timeout;
+                if self.link_error.is_some() {
+                    self.backoff = Some(Instant::now() + BACKOFF);
+                }
                 if let Ok(reply) = reply {
                     let status = crate::debug::Status::from_packed(reply.value);
                     self.debug.observe(&status);
@@ -376,7 +412,13 @@ impl Link {
             Poll::Accumulator => ("acc".into(), Command::GetStatus { kind: StatusKind::Accumulator }),
             Poll::XRegister => ("x".into(), Command::GetStatus { kind: StatusKind::XRegister }),
         };
-        match self.request(command.encode()) {
+        let timeout = self.set_timeout(POLL_TIMEOUT.min(self.client.timeout));
+        let result = self.request(command.encode());
+        self.client.timeout = timeout;
+        if self.link_error.is_some() {
+            self.backoff = Some(Instant::now() + BACKOFF);
+        }
+        match result {
             Ok(reply) => self.emit(json!({"e": "v", "k": key, "v": reply.value, "t": t})),
             Err(HostError::Status { status, .. }) => {
                 self.emit(json!({"e": "v", "k": key, "s": u8::from(status), "t": t}))
@@ -421,13 +463,27 @@ pub(crate) fn run(mut link: Link, jobs: Receiver<Job>) {
                 continue;
             }
         }
+        if let Some(until) = link.backoff.filter(|&until| until > now) {
+            match jobs.recv_timeout(until - now) {
+                Ok(job) => {
+                    job(&mut link);
+                    if link.stopped {
+                        return;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => link.backoff = None,
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+            continue;
+        }
         let wait = match link.schedule.next(now) {
             Ok(poll) => {
                 link.poll(poll);
                 continue;
             }
+            // Nothing due: the debugger's next step, or a nap until the next value is.
+            Err(_) if link.debug.is_continuing() => continue,
             Err(Some(due)) => due.saturating_duration_since(now).min(IDLE),
-            Err(None) if link.debug.is_continuing() => continue,
             Err(None) => IDLE,
         };
         match jobs.recv_timeout(wait) {

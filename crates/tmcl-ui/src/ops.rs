@@ -7,7 +7,7 @@
 
 use crate::debug::{self, Action, SOURCE_NAME};
 use crate::info::{self, model_json};
-use crate::link::{Link, Roles, Watch};
+use crate::link::{Link, Poll, Roles, Watch};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::collections::HashMap;
@@ -153,12 +153,23 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
         Op::Set { param, value } => param_request(link, param, ParamOp::Set(value32(value)?)),
         Op::Store { param } => param_request(link, param, ParamOp::Store),
         Op::Restore { param } => param_request(link, param, ParamOp::Restore),
-        Op::Motion { action, motor, value } => motion(link, action, motor, value32(value)?),
+        Op::Motion { action, motor, value } => {
+            let answer = motion(link, action, motor, value32(value)?);
+            link.hurry_live(Some(motor));
+            answer
+        }
         Op::Output { port, bank, value } => {
-            let reply = link.request(Command::Sio { port, bank, value: value32(value)? }.encode())?;
+            let reply = link.request(Command::Sio { port, bank, value: value32(value)? }.encode());
+            link.hurry(|p| matches!(p, Poll::Input { .. }));
+            let reply = reply?;
             Ok(json!({"status": u8::from(reply.status), "value": reply.value}))
         }
-        Op::Console { line } => console(link, &line),
+        Op::Console { line } => {
+            // A console line may change anything: what the pages show of the motors, I/O and program.
+            let answer = console(link, &line);
+            link.hurry_live(None);
+            answer
+        }
         Op::Assemble { source } => {
             let (program, diagnostics) = assemble(link, &source)?;
             Ok(json!({"diagnostics": diagnostics, "instructions": program.map(|p| p.instructions.len())}))

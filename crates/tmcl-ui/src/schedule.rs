@@ -58,6 +58,16 @@ impl Schedule {
         }
     }
 
+    /// Makes the values `which` picks due at once (in their order), after a request that changed them: a
+    /// change made from the page shows without waiting for the values' turn.
+    pub(crate) fn hurry(&mut self, mut which: impl FnMut(&Poll) -> bool) {
+        for item in &mut self.items {
+            if which(&item.poll) {
+                item.last = None;
+            }
+        }
+    }
+
     /// How many values are scheduled.
     pub(crate) fn len(&self) -> usize {
         self.items.len()
@@ -180,6 +190,9 @@ mod tests {
         s.set([(p, ms(100)), (Poll::Accumulator, ms(100))]);
         assert_eq!(s.next(t0 + ms(110)), Ok(Poll::Accumulator));
         assert_eq!(s.next(t0 + ms(120)), Err(Some(t0 + ms(200))));
+        // Hurried values come first, at once.
+        s.hurry(|p| *p == Poll::ProgramCounter);
+        assert_eq!(s.next(t0 + ms(121)), Ok(Poll::ProgramCounter));
         s.set([]);
         assert_eq!(s.next(t0), Err(None));
         assert_eq!(s.len(), 0);
