@@ -456,7 +456,7 @@
     try {
       const ok = await call("download", { source: editor.value });
       if (ok.diagnostics.length) { diagnostics(ok.diagnostics); say("pg-progress", "not downloaded: the program has errors", false); return false; }
-      diagnostics([], `Downloaded: ${ok.stored} instructions at 0..${ok.stored}.`);
+      diagnostics([], `Downloaded: ${ok.stored} instructions at addresses 0–${ok.stored - 1}.`);
       downloaded = editor.value; wb.lastDownload = ok;
       say("pg-progress", `${ok.stored} instructions stored`, true);
       await sendBreakpoints([...editor.breakpoints]);
