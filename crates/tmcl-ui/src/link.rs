@@ -171,6 +171,8 @@ pub(crate) struct Link {
     stopped: bool,
     /// No polling before this instant (after a poll without an answer).
     backoff: Option<Instant>,
+    /// A scan is under way: unanswered addresses say nothing about the link.
+    pub scanning: bool,
 }
 
 impl Link {
@@ -201,6 +203,7 @@ impl Link {
             rps: 0.0,
             stopped: false,
             backoff: None,
+            scanning: false,
         }
     }
 
@@ -230,6 +233,9 @@ impl Link {
         self.limiter.wait();
         self.requests += 1;
         let result = f(&mut self.client);
+        if self.scanning {
+            return result;
+        }
         let trouble = match &result {
             Err(e @ (HostError::Timeout { .. } | HostError::Io(_))) => Some(e.to_string()),
             Err(e) if e.is_reply_error() => Some(e.to_string()),

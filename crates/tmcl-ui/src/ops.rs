@@ -420,6 +420,7 @@ fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
     let address = link.address();
     let wait = Duration::from_secs_f64((2.0 / link.rate).max(0.02) + 0.02);
     let old = link.set_timeout(wait);
+    link.scanning = true;
     let mut found = Vec::new();
     let probe = Command::GetVersion { format: tmcl_wire::VersionFormat::Binary }.encode();
     let mut client_result = Ok(());
@@ -434,11 +435,13 @@ fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
             Err(_) => {}
         }
         found.extend(link.settle().into_iter().filter(|r| r.opcode == u8::from(Opcode::GetVersion)).map(|r| r.module));
-        if (a - first) % 8 == 7 || a == last {
-            link.emit(json!({"e": "progress", "what": "scan", "done": a - first + 1, "total": last - first + 1}));
+        let (done, total) = (u16::from(a - first) + 1, u16::from(last - first) + 1);
+        if done % 8 == 0 || a == last {
+            link.emit(json!({"e": "progress", "what": "scan", "done": done, "total": total}));
         }
     }
     link.set_timeout(old);
+    link.scanning = false;
     found.sort_unstable();
     found.dedup();
     let mut modules = Vec::new();

@@ -188,6 +188,10 @@ fn motion_requests_and_the_scan() {
     assert_eq!(found["modules"], json!([{"address": 1, "version": "1021V142"}]));
     assert_eq!(link.address(), 1);
     assert!(op(&mut link, json!({"op": "scan", "first": 3, "last": 1})).is_err());
+    // Every address, 0 and 255 included (the in-process line does not wait out its timeouts).
+    let found = op(&mut link, json!({"op": "scan", "first": 0, "last": 255})).unwrap();
+    assert_eq!(found["modules"][0]["address"], 1);
+    assert_eq!(link.link_error(), None, "unanswered addresses say nothing about the link");
 }
 
 // ---- the server over a socket ------------------------------------------------------------------------
