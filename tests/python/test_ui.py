@@ -296,3 +296,24 @@ def test_the_tmcm1310_table_and_its_plots(browser, tmcl_bin, tmp_path, tmcm1310_
         wait_until(lambda: wb(browser, f"counts['ap.0.{wb(browser, 'hello.roles.current')}']"), what="the current")
     finally:
         assert u.stop() == 0
+
+
+def test_the_rate_limit_holds_and_the_console_gets_its_turn(browser, tmcl_bin, tmp_path, pty_server):
+    # 25 requests per second, far fewer than the Motion view's values want: the polling is saturated.
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(pty_server.link), "--rate", "25"]).start()
+    try:
+        open_page(browser, u, "motion")
+        wait_until(lambda: (wb(browser, "stats") or {}).get("requests", 0) > 60, timeout=15,
+                   what="three seconds of polling")
+        stats = wb(browser, "stats")
+        assert stats["rate"] == 25
+        assert stats["rps"] <= 25.5, stats
+        # A console line still goes out before the next poll: answered within a few request slots.
+        answer = browser.execute_async_script(
+            "const done = arguments[arguments.length - 1]; const t0 = performance.now();"
+            "window.workbench.call('console', {line: 'GAP 4, 0'})"
+            ".then((ok) => done([ok.value, performance.now() - t0]), (e) => done([null, e]));")
+        assert answer[0] == 51200, answer
+        assert answer[1] < 500, f"the console waited {answer[1]:.0f} ms at 25 requests/s"
+    finally:
+        assert u.stop() == 0
