@@ -317,3 +317,23 @@ def test_the_rate_limit_holds_and_the_console_gets_its_turn(browser, tmcl_bin, t
         assert answer[1] < 500, f"the console waited {answer[1]:.0f} ms at 25 requests/s"
     finally:
         assert u.stop() == 0
+
+
+def test_command_line_errors(tmcl_bin, pty_server):
+    # No link: a usage error, as for every host command.
+    out = subprocess.run([str(tmcl_bin), "ui"], capture_output=True, text=True, timeout=20)
+    assert out.returncode == 2, out
+    assert "no connection" in out.stderr
+    # An address that is taken: exit code 3, and the port is not held.
+    import socket
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        out = subprocess.run([str(tmcl_bin), "ui", "--port", str(pty_server.link), "--listen", f"127.0.0.1:{port}"],
+                             capture_output=True, text=True, timeout=20)
+    assert out.returncode == 3, out
+    assert f"cannot listen on 127.0.0.1:{port}" in out.stderr
+    out = subprocess.run([str(tmcl_bin), "--port", str(pty_server.link), "get", "ap", "4"],
+                         capture_output=True, text=True, timeout=20)
+    assert out.returncode == 0 and "51200" in out.stdout, out
