@@ -337,3 +337,22 @@ def test_command_line_errors(tmcl_bin, pty_server):
     out = subprocess.run([str(tmcl_bin), "--port", str(pty_server.link), "get", "ap", "4"],
                          capture_output=True, text=True, timeout=20)
     assert out.returncode == 0 and "51200" in out.stdout, out
+
+
+def test_a_module_is_picked_on_a_bus_after_a_scan(browser, tmcl_bin, tmp_path, bus_server):
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(bus_server.link)]).start()
+    try:
+        open_page(browser, u, "module")
+        by_css(browser, "#scan-last").clear()
+        by_css(browser, "#scan-last").send_keys("5")
+        by_name(browser, "button", "Scan").click()
+        results = by_css(browser, "#scan-results")
+        wait_until(lambda: results.text.count("1021V142") == 3, timeout=20, what="three modules")
+        by_name(browser, "button", "Use module 2").click()
+        wait_until(lambda: by_css(browser, "#address").text == "2", what="the header's address")
+        command = by_name(browser, "button", "Console")
+        command.click()
+        by_name(browser, "input", "TMCL command").send_keys("GGP 66, 0\n")
+        wait_until(lambda: "value 2 (SerialAddress)" in by_css(browser, "#console-log").text, what="module 2's answer")
+    finally:
+        assert u.stop() == 0
