@@ -12,7 +12,9 @@ Chromium, and
   second), the plot's redraws per second, and the server's requests per second (its `stats` event);
 - then makes --changes module changes from the page (ROR with alternating speeds) and times each from
   the answer to the ROR (the module has changed by then) to the page's first polled AP 2 with the new
-  speed: that is the time a change takes to show, whatever made it.
+  speed: that is the time a change takes to show, whatever made it;
+- last, runs a counting loop to a breakpoint it never reaches for --seconds (the debugger's single steps)
+  and reports instructions per second.
 """
 
 from __future__ import annotations
@@ -43,6 +45,26 @@ const off = wb.on('value', (ev) => {
 wb.call('motion', {action: 'rotate_right', motor: 0, value: speed}).then(() => { tAnswer = performance.now(); });
 setTimeout(() => { off(); done(null); }, 10000);
 """
+
+
+# A four-instruction loop that counts in user variable 0, with a breakpoint on a line it never reaches.
+STEP_PROGRAM = "    SGP 0, 2, 0\nLoop:\n    GGP 0, 2\n    CALC ADD, 1\n    AGP 0, 2\n    JA Loop\n    STOP\n"
+
+
+def debugger_rate(driver, seconds: float) -> float:
+    """Instructions per second of the debugger's run to a breakpoint (single steps), Program view open."""
+    driver.find_element("css selector", "#tab-program").click()
+    run = lambda js: driver.execute_async_script(  # noqa: E731
+        "const done = arguments[arguments.length - 1]; const c = window.workbench.call;" + js)
+    source = STEP_PROGRAM.replace("\n", "\\n")
+    run(f"c('download', {{source: '{source}'}}).then(() => c('breakpoints', {{lines: [7]}})).then(done, done)")
+    run("c('program', {action: 'start'}).then(done, done)")
+    t0 = time.monotonic()
+    time.sleep(seconds)
+    run("c('program', {action: 'stop'}).then(done, done)")
+    elapsed = time.monotonic() - t0
+    count = run("c('get', {param: {kind: 'gp', number: 0, index: 2}}).then((ok) => done(ok.value), done)")
+    return 4 * count / elapsed
 
 
 def measure(tmcl: Path, wire_timing: bool, seconds: float, changes: int) -> dict:
@@ -80,6 +102,7 @@ def measure(tmcl: Path, wire_timing: bool, seconds: float, changes: int) -> dict
                 after_answer.append(r["seen"] - r["answer"])
                 after_send.append(r["seen"] - r["sent"])
             driver.execute_script("window.workbench.call('motion', {action: 'stop', motor: 0})")
+            steps = debugger_rate(driver, seconds)
         finally:
             driver.quit()
             ui.stop()
@@ -98,6 +121,7 @@ def measure(tmcl: Path, wire_timing: bool, seconds: float, changes: int) -> dict
         "latency_p90_ms": q(after_answer, 0.9),
         "send_to_seen_median_ms": statistics.median(after_send),
         "transit_median_ms": statistics.median(transit),
+        "steps_per_s": steps,
         "sample_interval_ms": 1000 / ((c1[0] - c0[0]) / elapsed),
     }
 
@@ -110,13 +134,13 @@ def main() -> None:
     args = ap.parse_args()
     rows = [("pty (200 requests/s cap)", False), ("9600 baud (--wire-timing)", True)]
     print("| Line | Plot samples/s | Plot redraws/s | Requests/s | Read → page, median | "
-          "Page change → page, median | p90 | Click → page, median |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+          "Page change → page, median | p90 | Click → page, median | Debugger steps/s |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, timed in rows:
         r = measure(args.tmcl, timed, args.seconds, args.changes)
         print(f"| {name} | {r['samples_per_s']:.1f} | {r['redraws_per_s']:.1f} | {r['requests_per_s']:.1f} | "
               f"{r['transit_median_ms']:.1f} ms | {r['latency_median_ms']:.0f} ms | {r['latency_p90_ms']:.0f} ms | "
-              f"{r['send_to_seen_median_ms']:.0f} ms |")
+              f"{r['send_to_seen_median_ms']:.0f} ms | {r['steps_per_s']:.0f} |")
 
 
 if __name__ == "__main__":
