@@ -15,9 +15,10 @@ pub struct UiArgs {
     pub conn: Connection,
     #[command(flatten)]
     pub model: ModelOption,
-    /// Where the workbench listens, HOST:PORT (port 0 picks a free one). Loopback by default, so no other
-    /// machine reaches the module; 0.0.0.0:PORT lets others in (see docs/workbench.md, "Security").
-    #[arg(long, value_name = "HOST:PORT", default_value = tmcl_ui::DEFAULT_LISTEN)]
+    /// Where the workbench listens: an IP address and a port (port 0 picks a free one). Loopback by
+    /// default, so no other machine reaches the module; 0.0.0.0:PORT lets others in (see
+    /// docs/workbench.md, "Security").
+    #[arg(long, value_name = "IP:PORT", default_value = tmcl_ui::DEFAULT_LISTEN)]
     pub listen: SocketAddr,
     /// The most requests per second the workbench sends [default: what --baud carries on a serial port,
     /// --baud / 180 (53 at 9600); 200 on a pty or TCP].
