@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Runs every test of OpenTMCL: formatting, lints, the no_std build of the firmware crates, the Rust unit,
-# property and integration tests, the Python host-compatibility suite (pytrinamic over a pty and TCP), and
-# a short fuzzing run of every fuzz target when cargo-fuzz and a nightly toolchain are installed.
+# property and integration tests (ethercrab drives the EtherCAT slave in memory), the Python
+# host-compatibility suite (pytrinamic over a pty and TCP; pysoem against the EtherCAT slave in network
+# namespaces of its own, skipped with a message without root), and a short fuzzing run of every fuzz
+# target when cargo-fuzz and a nightly toolchain are installed.
 #
 # Usage: scripts/test.sh            (FUZZ_SECONDS=N to fuzz each target N seconds; 0 skips fuzzing)
 set -euo pipefail
@@ -20,7 +22,7 @@ step "documentation (broken links are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 
 step "no_std, heap-free firmware crates"
-cargo build --quiet -p tmcl-wire -p tmcl-model -p tmcl-core --no-default-features
+cargo build --quiet -p tmcl-wire -p tmcl-model -p tmcl-core -p tmcl-ethercat --no-default-features
 
 step "Rust tests"
 cargo test --workspace --quiet 2>&1 | tee "${CARGO_TARGET_DIR:-target}/rust-tests.log" | grep -E "^(test result|error|failures:|---- )" || true

@@ -15,6 +15,8 @@ Scenarios:
   foe        INIT -> BOOT, a file written with FoE lands beside the EEPROM
   roundtrip  N frames (a BRD of AL status) from a raw socket on ecm0: round-trip times
   cycle      pysoem cycles process data at CYCLE_US for SECONDS: lost working counters
+  record     SOEM's bring-up to OP (no motion), a mailbox GAP and the way back to INIT, every frame
+             in both directions written to --out (the replay test of tmcl-ethercat reads it)
 Exit code 77 (and a {"skip": ...} line) where the namespace cannot have veth links or raw sockets.
 """
 
@@ -332,14 +334,60 @@ def scenario_cycle(args) -> None:
          worst_lateness_us=round(late * 1e6), velocity=f[5])
 
 
+def scenario_record(args) -> None:
+    import threading
+
+    serve = Serve(args.tmcl, Path(args.dir))
+    sniffer = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(0x0003))  # ETH_P_ALL
+    sniffer.bind((MASTER_IF, 0))
+    # pysoem holds the GIL through config_init and config_map: the kernel must queue every frame meanwhile.
+    sniffer.setsockopt(socket.SOL_SOCKET, 33, 64 << 20)  # SO_RCVBUFFORCE (root)
+    sniffer.settimeout(0.2)
+    frames: list[tuple[int, str, bytes]] = []
+    done = threading.Event()
+    t0 = time.perf_counter_ns()
+
+    def sniff() -> None:
+        while not done.is_set():
+            try:
+                data, addr = sniffer.recvfrom(4096)
+            except socket.timeout:
+                continue
+            if struct.unpack(">H", data[12:14])[0] == ETHERTYPE:
+                # pkttype 4: sent by this host (the master); otherwise the slave's answer.
+                frames.append(((time.perf_counter_ns() - t0) // 1000, ">" if addr[2] == 4 else "<", data))
+
+    thread = threading.Thread(target=sniff)
+    thread.start()
+    pysoem, master, slave = open_master()
+    to_op(pysoem, master, slave, struct.pack("<Ii", 0, 0))
+    cycle(master, slave, struct.pack("<Ii", 0, 0), 20)
+    assert tmcl(slave, 6, 4)[:2] == (100, 51200)
+    master.state = pysoem.INIT_STATE
+    master.write_state()
+    assert master.state_check(pysoem.INIT_STATE, 3_000_000) == pysoem.INIT_STATE
+    master.close()
+    time.sleep(0.3)
+    done.set()
+    thread.join()
+    serve.stop()
+    with open(args.out, "w") as f:
+        f.write("# SOEM (pysoem 1.1.13) and `tmcl serve --module tmcm-1310 --ethercat` over a veth pair, recorded\n")
+        f.write("# by `ethercat_master.py record`: microseconds since the start, > from the master, < the answer.\n")
+        for t, direction, data in frames:
+            f.write(f"{t} {direction} {data.hex()}\n")
+    emit(recorded=len(frames), out=args.out)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scenario", choices=["pysoem", "foe", "roundtrip", "cycle"])
+    p.add_argument("scenario", choices=["pysoem", "foe", "roundtrip", "cycle", "record"])
     p.add_argument("--tmcl", required=True)
     p.add_argument("--dir", required=True)
     p.add_argument("--frames", type=int, default=2000)
     p.add_argument("--cycle-us", type=int, default=1000)
     p.add_argument("--seconds", type=float, default=2.0)
+    p.add_argument("--out", help="record: the file to write")
     args = p.parse_args()
     set_up_network()
     globals()[f"scenario_{args.scenario}"](args)

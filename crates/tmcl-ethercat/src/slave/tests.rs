@@ -322,7 +322,8 @@ fn refused_frames_change_nothing() {
     let process = |r: &mut Rig, bytes: &mut [u8]| r.slave.process(r.now, bytes, &mut r.module, &mut r.files);
     // Cut short, wrong EtherType, wrong frame type, a datagram longer than the frame, a chain that
     // promises more.
-    assert_eq!(process(&mut r, &mut buf.clone()[..n - 1]), None);
+    let mut short = buf;
+    assert_eq!(process(&mut r, &mut short[..n - 1]), None);
     let mut other = buf;
     other[12] = 0x08;
     assert_eq!(process(&mut r, &mut other[..n]), None);

@@ -351,19 +351,20 @@ impl Repr {
 mod tests {
     use super::*;
 
-    /// An FPRD of 2 bytes at register 0x0130 (AL status) of station 0x1001, the way SOEM polls a slave's
-    /// state, already answered: data 0x0002 (PRE-OP), working counter 1.
-    static FPRD_AL_STATUS: [u8; 14] =
-        [0x04, 0x2a, 0x01, 0x10, 0x30, 0x01, 0x02, 0x00, 0x00, 0x00, 0x02, 0x00, 0x01, 0x00];
+    /// SOEM's FPRD of AL status, reserved word and AL status code (6 bytes at 0x0130) of station 0x1001,
+    /// as the slave answered it in the recorded session `tests/data/soem-session.txt`: INIT, code 0,
+    /// working counter 1.
+    static FPRD_AL_STATUS: [u8; 18] =
+        [0x04, 0x05, 0x01, 0x10, 0x30, 0x01, 0x06, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00];
 
     #[test]
     fn deconstruct() {
         let d = Datagram::new_checked(&FPRD_AL_STATUS[..]).unwrap();
         assert_eq!(d.command(), Command::Fprd);
         assert_eq!(d.command().addressing(), Addressing::Configured);
-        assert_eq!((d.index(), d.adp(), d.ado(), d.length()), (0x2a, 0x1001, 0x0130, 2));
+        assert_eq!((d.index(), d.adp(), d.ado(), d.length()), (0x05, 0x1001, 0x0130, 6));
         assert!(!d.more() && !d.circulating());
-        assert_eq!((d.data(), d.wkc(), d.total_len()), (&[2u8, 0][..], 1, 14));
+        assert_eq!((d.data(), d.wkc(), d.total_len()), (&[1u8, 0, 0, 0, 0, 0][..], 1, 18));
     }
 
     #[test]
@@ -371,10 +372,10 @@ mod tests {
         let d = Datagram::new_checked(&FPRD_AL_STATUS[..]).unwrap();
         let repr = Repr::parse(&d).unwrap();
         assert_eq!(repr.address, Repr::physical(0x1001, 0x0130));
-        let mut bytes = [0u8; 14];
+        let mut bytes = [0u8; 18];
         let mut out = Datagram::new_unchecked(&mut bytes[..]);
         repr.emit(&mut out);
-        out.data_mut().copy_from_slice(&[2, 0]);
+        out.data_mut().copy_from_slice(&[1, 0, 0, 0, 0, 0]);
         assert_eq!(bytes, FPRD_AL_STATUS);
     }
 
@@ -388,7 +389,7 @@ mod tests {
 
     #[test]
     fn declared_data_must_fit() {
-        assert_eq!(Datagram::new_checked(&FPRD_AL_STATUS[..13]), Err(Error::Truncated));
+        assert_eq!(Datagram::new_checked(&FPRD_AL_STATUS[..17]), Err(Error::Truncated));
         let mut long = FPRD_AL_STATUS;
         long[6] = 0xff;
         assert_eq!(Datagram::new_checked(&long[..]), Err(Error::Truncated));

@@ -167,7 +167,7 @@ mod tests {
         assert_eq!(f.destination(), [0xff; 6]);
         assert_eq!(f.source(), [1; 6]);
         assert_eq!(f.ethertype(), ETHERTYPE_ETHERCAT);
-        assert_eq!(f.payload(), &[0x0e, 0x10]);
+        assert_eq!(f.payload(), &[0x0d, 0x10]);
     }
 
     #[test]
@@ -176,7 +176,7 @@ mod tests {
         let repr = Repr::parse(&Frame::new_checked(&SOEM_HEAD[..]).unwrap()).unwrap();
         let mut f = Frame::new_unchecked(&mut bytes[..]);
         repr.emit(&mut f);
-        f.payload_mut().copy_from_slice(&[0x0e, 0x10]);
+        f.payload_mut().copy_from_slice(&[0x0d, 0x10]);
         assert_eq!(bytes, SOEM_HEAD);
         let mut f = Frame::new_unchecked(&mut bytes[..]);
         f.mark_processed();

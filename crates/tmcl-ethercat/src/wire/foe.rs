@@ -182,7 +182,8 @@ impl<'a> Repr<'a> {
 mod tests {
     use super::*;
 
-    /// SOEM's write request for "fw.bin" with password 0x12345678 (the FoE part of the mailbox message).
+    /// A write request for "fw.bin" with password 0x12345678, laid out as SOEM's `ecx_FOEwrite` builds it
+    /// (the FoE part of the mailbox message).
     static WRITE: [u8; 12] = [0x02, 0x00, 0x78, 0x56, 0x34, 0x12, b'f', b'w', b'.', b'b', b'i', b'n'];
 
     #[test]

@@ -186,8 +186,9 @@ pub const fn one_datagram_len(datagram_data: usize) -> usize {
 mod tests {
     use super::*;
 
-    /// An EtherCAT payload of two datagrams, as SOEM's `ecx_readeeprom` polls it (a BRD of register
-    /// 0x0000, 2 bytes, and an FPRD of 0x0502 at station 0x1001): header length 0x1C = 2 × 14, type 1.
+    /// An EtherCAT payload of two datagrams (made up: a one-slave session has no such frame; SOEM sends
+    /// them to read several slaves at once): a BRD of register 0x0000, 2 bytes, with "more", and an FPRD
+    /// of 0x0502 at station 0x1001; header length 0x1C = 2 × 14, type 1.
     static TWO: [u8; 30] = [
         0x1c, 0x10, // header: length 28, type 1
         0x07, 0x01, 0x00, 0x00, 0x00, 0x00, 0x02, 0x80, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // BRD, more

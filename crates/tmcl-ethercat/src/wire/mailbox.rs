@@ -229,8 +229,8 @@ pub fn emit_error(buffer: &mut [u8], counter: u8, detail: ErrorDetail) -> usize 
 mod tests {
     use super::*;
 
-    /// The head of SOEM's FoE write request for "fw.bin" (mailbox counter 1): length 12 (6 bytes of FoE
-    /// header, 6 of name), address 0, channel 0, type 4 (FoE).
+    /// The head of an FoE write request for "fw.bin" laid out as SOEM's `ecx_FOEwrite` builds it (mailbox
+    /// counter 1): length 12 (6 bytes of FoE header, 6 of name), address 0, channel 0, type 4 (FoE).
     static FOE_WRITE_HEAD: [u8; 8] = [0x0c, 0x00, 0x00, 0x00, 0x00, 0x14, 0x02, 0x00];
 
     #[test]
