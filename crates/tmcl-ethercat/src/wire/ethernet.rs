@@ -156,10 +156,11 @@ impl Repr {
 mod tests {
     use super::*;
 
-    /// The head of an EtherCAT frame as SOEM sends it: broadcast destination, source
-    /// 01:01:01:01:01:01 (SOEM's primary MAC), EtherType 0x88A4, then the first payload bytes.
+    /// The head of SOEM's first frame (a BWR of DL control byte 0x0103) in the recorded session
+    /// `tests/data/soem-session.txt`: broadcast destination, source 01:01:01:01:01:01 (SOEM's primary
+    /// MAC), EtherType 0x88A4, then the EtherCAT header (13 bytes of datagrams, type 1).
     static SOEM_HEAD: [u8; 16] =
-        [0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x88, 0xa4, 0x0e, 0x10];
+        [0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x88, 0xa4, 0x0d, 0x10];
 
     #[test]
     fn deconstruct() {
