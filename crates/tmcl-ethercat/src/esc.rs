@@ -16,7 +16,8 @@
 //!   a read while it is empty; in **buffered** (3-buffer) mode the master always gets the latest complete
 //!   buffer and a write only becomes visible to the application when it reaches the end. A denied access
 //!   leaves data and working counter alone. Access in the wrong direction (reading a buffer the master
-//!   writes) is denied.
+//!   writes) is denied, and so is any access to the buffer of a SyncManager the master enabled but the
+//!   application switched off (the ET1100's SyncManager then locks its memory area).
 //! - **Working counter** (ETG.1000.4): +1 for a successful read, +1 for a write, +1/+2/+3 for the read,
 //!   write or both of a read/write command; a logical command counts once per direction however many
 //!   FMMUs hit.
@@ -196,9 +197,15 @@ impl Esc {
     /// Whether SyncManager `n` guards its buffer now: the master enabled it, the application did not
     /// switch it off, it has a length, and its buffers lie in the process RAM.
     pub fn sm_active(&self, n: usize) -> bool {
-        let (c, Some(s)) = (self.sm_config(n), self.sm.get(n)) else { return false };
+        self.sm_guards(n) && self.sm.get(n).is_some_and(|s| !s.pdi_off)
+    }
+
+    /// Whether SyncManager `n` guards its buffer's addresses: the master enabled it with a length and its
+    /// buffers lie in the process RAM. While the application has it switched off, it locks them (ET1100
+    /// datasheet, SM "PDI control" bit 0: the SyncManager "locks access to the memory area").
+    fn sm_guards(&self, n: usize) -> bool {
+        let c = self.sm_config(n);
         c.enabled()
-            && !s.pdi_off
             && c.length > 0
             && u32::from(c.start) >= REGISTER_SPACE as u32
             && u32::from(c.start) + c.footprint() <= MEMORY_END
@@ -466,7 +473,7 @@ impl Esc {
     /// (index, start, end).
     fn sm_in(&self, from: u32, to: u32) -> Option<(usize, u32, u32)> {
         (0..SMS)
-            .filter(|&n| self.sm_active(n))
+            .filter(|&n| self.sm_guards(n))
             .map(|n| {
                 let c = self.sm_config(n);
                 (n, u32::from(c.start), c.end())
@@ -569,7 +576,7 @@ impl Esc {
 
     fn sm_read(&mut self, n: usize, a: u32, out: &mut [u8], or: bool) -> bool {
         let c = self.sm_config(n);
-        if c.direction() != SmDirection::MasterReads {
+        if c.direction() != SmDirection::MasterReads || self.sm[n].pdi_off {
             return false;
         }
         match c.mode() {
@@ -598,7 +605,7 @@ impl Esc {
 
     fn sm_write(&mut self, n: usize, a: u32, data: &[u8]) -> bool {
         let c = self.sm_config(n);
-        if c.direction() != SmDirection::MasterWrites {
+        if c.direction() != SmDirection::MasterWrites || self.sm[n].pdi_off {
             return false;
         }
         match c.mode() {
@@ -673,7 +680,8 @@ impl Esc {
                 self.regs[i] = (self.regs[i] & !0x07) | (v & 0x07);
                 self.events.sii_command = true;
             }
-            0x0800..=0x087F => {
+            // The 8 SyncManagers this ESC has (0x0840–0x087F, SyncManagers 8–15, are not implemented).
+            0x0800..=0x083F => {
                 let n = usize::from((a - reg::SM) / reg::SM_LEN);
                 match (a - reg::SM) % reg::SM_LEN {
                     0..=4 => self.regs[i] = v,

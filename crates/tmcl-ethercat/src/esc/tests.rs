@@ -164,13 +164,17 @@ fn mailbox_handshake() {
 }
 
 #[test]
-fn a_switched_off_syncmanager_leaves_plain_memory() {
+fn a_syncmanager_the_application_switched_off_locks_its_buffer() {
     let mut esc = Esc::new();
     sm(&mut esc, 0, 0x1000, 8, 0x26);
     esc.set_sm_enabled(0, false);
     assert_eq!(esc.reg8(reg::SM + 7) & 1, 1, "PDI control: deactivated");
-    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1004), &[1; 4]).0, 1);
+    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1000), &[1; 8]).0, 0);
     assert!(esc.mailbox_message(0).is_none());
+    // Disabled by the master, the area is plain memory.
+    run(&mut esc, Command::Bwr, at(0, reg::SM + 6), &[0]);
+    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1004), &[1; 4]).0, 1);
+    assert_eq!(esc.ram(0x1004, 4), [1; 4]);
 }
 
 #[test]
@@ -214,4 +218,13 @@ fn repeat_request_is_reported() {
     assert_eq!(esc.take_events().repeat, 0b10);
     esc.set_repeat_ack(1, true);
     assert_eq!(esc.reg8(reg::SM + 8 + 7) & 0x02, 0x02);
+}
+
+#[test]
+fn syncmanagers_8_to_15_are_not_there() {
+    // Found by the `ethercat_frames` fuzz target: activating SyncManager 8 (0x0846) indexed past the 8
+    // SyncManagers. Their registers are not implemented: written (and counted), read back as 0.
+    let mut esc = Esc::new();
+    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x0840), &[0x00, 0x10, 8, 0, 0x26, 0, 1, 0]).0, 1);
+    assert_eq!(run(&mut esc, Command::Brd, at(0, 0x0840), &[0; 64]).1, [0; 64]);
 }
