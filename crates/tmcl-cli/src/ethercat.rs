@@ -10,84 +10,134 @@
 //! The slave is `tmcl_ethercat::Slave` around the module the pty or TCP link also serves; FoE files
 //! written in BOOT go to [`FoeFiles`].
 
-use crate::error::CliError;
-use nix::sys::socket::{recvfrom, sendto, LinkAddr, MsgFlags, SockaddrLike};
 use std::fs::File;
-use std::io::{self, Write};
-use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
+use std::io::Write;
 use std::path::PathBuf;
 use tmcl_ethercat::wire::foe::ErrorCode;
 use tmcl_ethercat::FileStore;
 
-/// EtherType of EtherCAT.
-const ETHERTYPE: u16 = 0x88A4;
+#[cfg(target_os = "linux")]
+pub(crate) use packet::RawSocket;
+#[cfg(not(target_os = "linux"))]
+pub(crate) use unsupported::RawSocket;
 
-/// `PACKET_OUTGOING`: a frame this host sent (never seen with a protocol-bound socket; checked anyway).
-const PACKET_OUTGOING: u8 = 4;
+#[cfg(target_os = "linux")]
+mod packet {
+    use crate::error::CliError;
+    use nix::sys::socket::{recvfrom, sendto, LinkAddr, MsgFlags};
+    use std::io;
+    use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
 
-/// A packet socket for EtherCAT frames on one interface.
-pub(crate) struct RawSocket {
-    fd: OwnedFd,
-    ifindex: usize,
-    /// The interface's name, for messages.
-    pub(crate) name: String,
-}
+    /// EtherType of EtherCAT.
+    const ETHERTYPE: u16 = 0x88A4;
 
-impl RawSocket {
-    /// Opens the socket for interface `name`.
-    pub(crate) fn open(name: &str) -> Result<RawSocket, CliError> {
-        let ifindex = nix::net::if_::if_nametoindex(name).map_err(|e| {
-            CliError::Io(format!("--ethercat {name}: no such network interface ({e}); `ip link` lists them"))
-        })?;
-        let protocol = rustix::net::RawProtocol::new(u32::from(ETHERTYPE.to_be())).expect("0x88A4 is not 0");
-        let fd = rustix::net::socket_with(
-            rustix::net::AddressFamily::PACKET,
-            rustix::net::SocketType::RAW,
-            rustix::net::SocketFlags::NONBLOCK | rustix::net::SocketFlags::CLOEXEC,
-            Some(rustix::net::Protocol::from_raw(protocol)),
-        )
-        .map_err(|e| {
-            let why = if e == rustix::io::Errno::PERM || e == rustix::io::Errno::ACCESS {
-                " (raw Ethernet needs CAP_NET_RAW: run as root, or give the binary the capability with \
-                 `setcap cap_net_raw+ep`)"
-            } else {
-                ""
-            };
-            CliError::Io(format!("--ethercat {name}: cannot open a packet socket: {e}{why}"))
-        })?;
-        Ok(RawSocket { fd, ifindex: ifindex as usize, name: name.to_string() })
+    /// `PACKET_OUTGOING`: a frame this host sent (never seen with a protocol-bound socket; checked
+    /// anyway).
+    const PACKET_OUTGOING: u8 = 4;
+
+    /// Where a frame came from: its interface (and the master's address), to answer to.
+    pub(crate) type Peer = LinkAddr;
+
+    /// A packet socket for EtherCAT frames on one interface.
+    pub(crate) struct RawSocket {
+        fd: OwnedFd,
+        ifindex: usize,
+        /// The interface's name, for messages.
+        pub(crate) name: String,
     }
 
-    /// The next EtherCAT frame that arrived on the interface, with the address to answer to; `None`
-    /// when nothing is waiting.
-    pub(crate) fn recv(&self, buf: &mut [u8]) -> io::Result<Option<(usize, LinkAddr)>> {
-        loop {
-            match recvfrom::<LinkAddr>(self.fd.as_raw_fd(), buf) {
-                Ok((n, Some(from))) => {
-                    if from.ifindex() == self.ifindex && from.pkttype() != PACKET_OUTGOING {
-                        return Ok(Some((n, from)));
+    impl RawSocket {
+        /// Opens the socket for interface `name`.
+        pub(crate) fn open(name: &str) -> Result<RawSocket, CliError> {
+            let ifindex = nix::net::if_::if_nametoindex(name).map_err(|e| {
+                CliError::Io(format!("--ethercat {name}: no such network interface ({e}); `ip link` lists them"))
+            })?;
+            let protocol = rustix::net::RawProtocol::new(u32::from(ETHERTYPE.to_be())).expect("0x88A4 is not 0");
+            let fd = rustix::net::socket_with(
+                rustix::net::AddressFamily::PACKET,
+                rustix::net::SocketType::RAW,
+                rustix::net::SocketFlags::NONBLOCK | rustix::net::SocketFlags::CLOEXEC,
+                Some(rustix::net::Protocol::from_raw(protocol)),
+            )
+            .map_err(|e| {
+                let why = if e == rustix::io::Errno::PERM || e == rustix::io::Errno::ACCESS {
+                    " (raw Ethernet needs CAP_NET_RAW: run as root, or give the binary the capability with \
+                     `setcap cap_net_raw+ep`)"
+                } else {
+                    ""
+                };
+                CliError::Io(format!("--ethercat {name}: cannot open a packet socket: {e}{why}"))
+            })?;
+            Ok(RawSocket { fd, ifindex: ifindex as usize, name: name.to_string() })
+        }
+
+        /// The next EtherCAT frame that arrived on the interface, with the address to answer to; `None`
+        /// when nothing is waiting.
+        pub(crate) fn recv(&self, buf: &mut [u8]) -> io::Result<Option<(usize, Peer)>> {
+            loop {
+                match recvfrom::<LinkAddr>(self.fd.as_raw_fd(), buf) {
+                    Ok((n, Some(from))) => {
+                        if from.ifindex() == self.ifindex && from.pkttype() != PACKET_OUTGOING {
+                            return Ok(Some((n, from)));
+                        }
                     }
+                    Ok((_, None)) => {}
+                    Err(nix::Error::EAGAIN) => return Ok(None),
+                    Err(nix::Error::EINTR) => {}
+                    Err(e) => return Err(io::Error::from_raw_os_error(e as i32)),
                 }
-                Ok((_, None)) => {}
-                Err(nix::Error::EAGAIN) => return Ok(None),
-                Err(nix::Error::EINTR) => {}
-                Err(e) => return Err(io::Error::from_raw_os_error(e as i32)),
             }
+        }
+
+        /// Sends an answer to where a frame came from (its interface).
+        pub(crate) fn send(&self, bytes: &[u8], to: &Peer) -> io::Result<()> {
+            sendto(self.fd.as_raw_fd(), bytes, to, MsgFlags::empty())
+                .map(|_| ())
+                .map_err(|e| io::Error::from_raw_os_error(e as i32))
         }
     }
 
-    /// Sends an answer to where a frame came from (its interface).
-    pub(crate) fn send(&self, bytes: &[u8], to: &LinkAddr) -> io::Result<()> {
-        debug_assert_eq!(to.family(), Some(nix::sys::socket::AddressFamily::Packet));
-        sendto(self.fd.as_raw_fd(), bytes, to, MsgFlags::empty())
-            .map(|_| ())
-            .map_err(|e| io::Error::from_raw_os_error(e as i32))
+    impl AsFd for RawSocket {
+        fn as_fd(&self) -> BorrowedFd<'_> {
+            self.fd.as_fd()
+        }
     }
 }
 
-impl AsFd for RawSocket {
-    fn as_fd(&self) -> BorrowedFd<'_> {
-        self.fd.as_fd()
+/// Elsewhere there is no `AF_PACKET`: `--ethercat` fails with a message, the rest of `tmcl` builds.
+#[cfg(not(target_os = "linux"))]
+mod unsupported {
+    use crate::error::CliError;
+    use std::io;
+    use std::os::fd::{AsFd, BorrowedFd};
+
+    /// No peer can exist.
+    pub(crate) enum Peer {}
+
+    /// No socket can exist.
+    pub(crate) struct RawSocket {
+        never: Peer,
+        pub(crate) name: String,
+    }
+
+    impl RawSocket {
+        pub(crate) fn open(name: &str) -> Result<RawSocket, CliError> {
+            Err(CliError::Io(format!("--ethercat {name}: raw Ethernet (AF_PACKET) needs Linux")))
+        }
+
+        pub(crate) fn recv(&self, _: &mut [u8]) -> io::Result<Option<(usize, Peer)>> {
+            match self.never {}
+        }
+
+        pub(crate) fn send(&self, _: &[u8], to: &Peer) -> io::Result<()> {
+            match *to {}
+        }
+    }
+
+    impl AsFd for RawSocket {
+        fn as_fd(&self) -> BorrowedFd<'_> {
+            match self.never {}
+        }
     }
 }
 
