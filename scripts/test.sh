@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Runs every test of OpenTMCL: formatting, lints, the no_std build of the firmware crates, the firmware
 # image for the emulated Cortex-M3 (firmware/, its own workspace), the Rust unit, property and integration
-# tests, the Python host-compatibility suite (pytrinamic over a pty and TCP) against `tmcl serve` and
-# against the image under QEMU, and a short fuzzing run of every fuzz target when cargo-fuzz and a nightly
-# toolchain are installed. The QEMU steps are skipped, with a message, where qemu-system-arm or the
-# thumbv7m-none-eabi target is missing (.ci/run installs both where it can).
+# tests (ethercrab drives the EtherCAT slave in memory), the Python host-compatibility suite (pytrinamic
+# over a pty and TCP; pysoem against the EtherCAT slave in network namespaces of its own, skipped with a
+# message without root) against `tmcl serve` and against the image under QEMU, and a short fuzzing run of
+# every fuzz target when cargo-fuzz and a nightly toolchain are installed. The QEMU steps are skipped, with a
+# message, where qemu-system-arm or the thumbv7m-none-eabi target is missing (.ci/run installs both where
+# it can).
 #
 # Usage: scripts/test.sh            (FUZZ_SECONDS=N to fuzz each target N seconds; 0 skips fuzzing)
 set -euo pipefail
@@ -26,7 +28,7 @@ step "documentation (broken links are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 
 step "no_std, heap-free firmware crates"
-cargo build --quiet -p tmcl-wire -p tmcl-model -p tmcl-core --no-default-features
+cargo build --quiet -p tmcl-wire -p tmcl-model -p tmcl-core -p tmcl-ethercat --no-default-features
 
 step "firmware image for the Cortex-M3 (firmware/: fmt, clippy, release build for $thumb)"
 image_ok=0

@@ -4,6 +4,7 @@ mod asm;
 mod bus;
 mod debug;
 mod error;
+mod ethercat;
 mod host;
 mod names;
 mod program;

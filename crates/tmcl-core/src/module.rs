@@ -307,6 +307,12 @@ impl<B: Board> Module<B> {
         self.st.host_regs
     }
 
+    /// The error flags AP 207 reads (see [`error_flags`]), without clearing them as a GAP 207 does: for an
+    /// observer that must not take them from the host (the EtherCAT process data).
+    pub fn error_flags(&self) -> u8 {
+        self.st.error_flags
+    }
+
     /// The ramp generator (positions, velocity).
     pub fn ramp(&self) -> &Ramp {
         &self.st.ramp
