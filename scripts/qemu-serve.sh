@@ -82,6 +82,10 @@ trap cleanup EXIT
 # A monitor of our own on two fifos ($work/ctl.in, $work/ctl.out; QEMU opens them read-write, so neither
 # side blocks), and on request one on a Unix socket.
 mkfifo "$work/ctl.in" "$work/ctl.out"
+# The output files exist before QEMU starts: the loop below reads them at once, and the background job
+# may not have opened its redirections yet (a loaded machine made that race visible).
+: >"$work/out"
+: >"$work/err"
 monitor_args=(-chardev "pipe,id=ctl,path=$work/ctl" -mon chardev=ctl,mode=readline)
 [[ -n "$monitor" ]] && monitor_args+=(-monitor "unix:$monitor,server=on,wait=off")
 "$qemu" -machine lm3s6965evb -display none "${monitor_args[@]}" -serial pty -kernel "$image" \
