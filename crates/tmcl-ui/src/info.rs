@@ -1,7 +1,7 @@
 //! What the page learns about the module: the model's tables as JSON, and refusals explained from them.
 
 use serde_json::{json, Value};
-use tmcl_model::{Access, ModelSpec, ParamDesc, PortKind, Range, Table, MODELS};
+use tmcl_model::{ModelSpec, ParamDesc, PortKind, Table, MODELS};
 use tmcl_wire::Status;
 
 /// The bank of the interrupt configuration (PD28-1021 manual §5.4).
@@ -13,33 +13,11 @@ pub(crate) fn model_by_version(text: &str) -> Option<&'static ModelSpec> {
     MODELS.iter().copied().find(|m| m.version_string.get(..5) == Some(prefix.as_bytes()))
 }
 
-/// The access letters of the manuals' tables: R, W, E, A (and P for password protected).
-pub(crate) fn access_letters(access: Access) -> String {
-    [(access.read, 'R'), (access.write, 'W'), (access.store, 'E'), (access.auto, 'A'), (access.protected, 'P')]
-        .into_iter()
-        .filter_map(|(on, letter)| on.then_some(letter))
-        .collect()
-}
-
-/// A range as text: `1..2147483647`, `1..8, 65..68`.
-pub(crate) fn range_text(range: &Range) -> String {
-    match range {
-        Range::Signed(min, max) if min == max => min.to_string(),
-        Range::Signed(min, max) => format!("{min}..{max}"),
-        Range::Unsigned32 => "0..4294967295".into(),
-        Range::OneOf(set) => set
-            .iter()
-            .map(|r| if r.start() == r.end() { r.start().to_string() } else { format!("{}..{}", r.start(), r.end()) })
-            .collect::<Vec<_>>()
-            .join(", "),
-    }
-}
-
 /// One parameter as the page's table shows it.
 fn param_json(kind: &str, bank: Option<u8>, d: &ParamDesc) -> Value {
     json!({
         "kind": kind, "bank": bank, "number": d.number, "name": d.ident, "title": d.name,
-        "unit": d.unit.symbol(), "range": range_text(&d.range), "access": access_letters(d.access),
+        "unit": d.unit.symbol(), "range": d.range.to_string(), "access": d.access.to_string(),
         "read": d.access.read, "write": d.access.write, "store": d.access.store,
         "default": d.default, "section": d.section,
     })
@@ -100,16 +78,16 @@ pub(crate) fn explain(
     Some(match (model, desc, status) {
         (Some(model), None, Status::WrongType) => format!("the {} has no {kind} parameter {number}", model.name),
         (_, Some(d), Status::WrongType) if value.is_some() && !d.access.write => {
-            format!("{} is read-only ({})", d.ident, access_letters(d.access))
+            format!("{} is read-only ({})", d.ident, d.access)
         }
         (_, Some(d), Status::WrongType) if value.is_none() && !d.access.read => {
-            format!("{} cannot be read ({})", d.ident, access_letters(d.access))
+            format!("{} cannot be read ({})", d.ident, d.access)
         }
         (_, Some(d), Status::InvalidValue) if value.is_some_and(|v| !d.range.contains(v)) => {
-            format!("{} takes {}", d.ident, range_text(&d.range))
+            format!("{} takes {}", d.ident, d.range)
         }
         (_, Some(d), Status::InvalidValue) if value.is_none() && !d.access.store => {
-            format!("{} cannot be stored in the EEPROM ({})", d.ident, access_letters(d.access))
+            format!("{} cannot be stored in the EEPROM ({})", d.ident, d.access)
         }
         (_, _, Status::PasswordProtected) => {
             "the parameter is password protected: write the password to the model's password parameter first".into()
