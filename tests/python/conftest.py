@@ -28,6 +28,16 @@ THUMB = "thumbv7m-none-eabi"
 SERVE_ONLY = {
     "test_line_safety.py": "tests how `tmcl serve` guards its line (LINK.lock, clearing a killed host's "
                            "exclusive mode); scripts/qemu-serve.sh does not",
+    "test_ethercat.py": "tests the EtherCAT slave of `tmcl serve --ethercat`; the image has no EtherCAT",
+}
+
+# Tests that measure the module's timing in wall-clock milliseconds. QEMU's emulated clock falls behind the
+# host's whenever the host is busy (the emulated SysTick is late), so under QEMU they measure the host's
+# load, not the firmware. They run against `tmcl serve` (the same core); the port's clock arithmetic is
+# unit-tested in crates/tmcl-mcu (clock.rs).
+WALL_CLOCK_TIMING = {
+    "test_telegram_pause_in_ascii",
+    "test_tick_timer_runs_in_milliseconds",
 }
 
 
@@ -68,6 +78,9 @@ def pytest_collection_modifyitems(config, items):
         reason = SERVE_ONLY.get(item.path.name)
         if reason:
             item.add_marker(pytest.mark.skip(reason=f"needs tmcl serve: {reason}"))
+        elif item.name in WALL_CLOCK_TIMING:
+            item.add_marker(pytest.mark.skip(reason="measures wall-clock timing, which QEMU's emulated clock "
+                                                    "follows only on an idle host; checked against tmcl serve"))
 
 
 @pytest.fixture(scope="session")
