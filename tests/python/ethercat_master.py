@@ -310,16 +310,19 @@ def scenario_cycle(args) -> None:
     velocity = struct.pack("<Ii", 2, 51200)
     to_op(pysoem, master, slave, velocity)
     period = args.cycle_us / 1e6
-    cycles = lost = 0
+    cycles = lost = timeouts = 0
     late = 0.0
     start = next_at = time.perf_counter()
     end = start + args.seconds
     while next_at < end:
         master.send_processdata()
-        wkc = master.receive_processdata(2000)
+        wkc = master.receive_processdata(args.receive_timeout_us)
         cycles += 1
         if wkc != master.expected_wkc:
             lost += 1
+            # SOEM's EC_NOFRAME (-1): no answer within the receive timeout, as opposed to an answer with
+            # the wrong working counter.
+            timeouts += wkc < 0
         next_at += period
         now = time.perf_counter()
         late = max(late, now - next_at)
@@ -330,7 +333,7 @@ def scenario_cycle(args) -> None:
     f = fields(slave)
     master.close()
     serve.stop()
-    emit(cycle_us=args.cycle_us, seconds=args.seconds, cycles=cycles, lost=lost, state=state,
+    emit(cycle_us=args.cycle_us, seconds=args.seconds, cycles=cycles, lost=lost, timeouts=timeouts, state=state,
          worst_lateness_us=round(late * 1e6), velocity=f[5])
 
 
@@ -386,6 +389,8 @@ def main() -> None:
     p.add_argument("--dir", required=True)
     p.add_argument("--frames", type=int, default=2000)
     p.add_argument("--cycle-us", type=int, default=1000)
+    p.add_argument("--receive-timeout-us", type=int, default=2000,
+                   help="how long the master waits for each cycle's frame (cycle scenario)")
     p.add_argument("--seconds", type=float, default=2.0)
     p.add_argument("--out", help="record: the file to write")
     args = p.parse_args()

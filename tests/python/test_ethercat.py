@@ -91,8 +91,14 @@ def test_frames_round_trip_through_the_emulator(tmcl_bin, tmp_path):
 
 @in_namespace
 def test_pysoem_cycles_without_losing_a_working_counter(tmcl_bin, tmp_path):
-    """Two seconds of process data at 4 ms: every working counter as expected, the slave still in OP."""
-    (result,) = run_scenario(tmcl_bin, tmp_path, "cycle", "--cycle-us", "4000", "--seconds", "2")
+    """Two seconds of process data at 4 ms: every working counter as expected, the slave still in OP.
+
+    This checks that no cycle is answered wrongly or not at all, not how fast: the master waits up to
+    100 ms for each frame, so a CI machine that pauses either process for a few milliseconds does not
+    count as a loss. The real-time figures (a 2 ms receive timeout, cycles down to 30 µs) are measured by
+    scripts/ethercat-bench.sh and recorded in docs/benchmarks.md."""
+    (result,) = run_scenario(tmcl_bin, tmp_path, "cycle", "--cycle-us", "4000", "--seconds", "2",
+                             "--receive-timeout-us", "100000")
     assert result["lost"] == 0, result
     assert result["state"] == 8, result
 
