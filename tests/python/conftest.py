@@ -4,17 +4,47 @@ and the pty link removed are checked).
 
 The binary is $TMCL_BIN when set, else target/debug/tmcl built once per session with
 `cargo build -p tmcl-cli`.
+
+`--target qemu` runs the same tests against the firmware image on an emulated Cortex-M3
+(scripts/qemu-serve.sh): every single-module pty server is then the image under QEMU, and the tests that
+need what only `tmcl serve` has (TCP, an EEPROM file, a bus, a simulated world, its options) are skipped.
+`qemu_server` is the image whatever the target. Where qemu-system-arm or the thumbv7m-none-eabi target is
+missing, the tests that need the image are skipped with the reason.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
 
-from tmcltest import BUS_MODULES, REPO_ROOT, Server, ServerFactory
+from tmcltest import BUS_MODULES, REPO_ROOT, QemuServer, Server, ServerFactory
+
+THUMB = "thumbv7m-none-eabi"
+# Test files about `tmcl serve` itself rather than about the module it serves: not run with `--target qemu`.
+SERVE_ONLY = {
+    "test_line_safety.py": "tests how `tmcl serve` guards its line (LINK.lock, clearing a killed host's "
+                           "exclusive mode); scripts/qemu-serve.sh does not",
+    "test_ethercat.py": "tests the EtherCAT slave of `tmcl serve --ethercat`; the image has no EtherCAT",
+}
+
+# Tests that measure the module's timing in wall-clock milliseconds. QEMU's emulated clock falls behind the
+# host's whenever the host is busy (the emulated SysTick is late), so under QEMU they measure the host's
+# load, not the firmware. They run against `tmcl serve` (the same core); the port's clock arithmetic is
+# unit-tested in crates/tmcl-mcu (clock.rs).
+WALL_CLOCK_TIMING = {
+    "test_telegram_pause_in_ascii",
+    "test_tick_timer_runs_in_milliseconds",
+}
+
+
+def pytest_addoption(parser):
+    parser.addoption("--target", choices=["serve", "qemu"], default="serve",
+                     help="what the pty server fixtures start: `tmcl serve` (default) or the firmware image "
+                          "under QEMU (scripts/qemu-serve.sh)")
 
 
 def _target_dir() -> Path:
@@ -41,10 +71,49 @@ def tmcl_bin() -> Path:
     return path
 
 
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--target") != "qemu":
+        return
+    for item in items:
+        reason = SERVE_ONLY.get(item.path.name)
+        if reason:
+            item.add_marker(pytest.mark.skip(reason=f"needs tmcl serve: {reason}"))
+        elif item.name in WALL_CLOCK_TIMING:
+            item.add_marker(pytest.mark.skip(reason="measures wall-clock timing, which QEMU's emulated clock "
+                                                    "follows only on an idle host; checked against tmcl serve"))
+
+
+@pytest.fixture(scope="session")
+def qemu_image() -> Path:
+    """The firmware image (ELF), built once per session (release); skips where QEMU or the target is missing.
+    $QEMU_IMAGE names a prebuilt one."""
+    if shutil.which(os.environ.get("QEMU_SYSTEM_ARM", "qemu-system-arm")) is None:
+        pytest.skip("QEMU tests skipped: qemu-system-arm is not installed (Debian: apt-get install qemu-system-arm)")
+    env = os.environ.get("QEMU_IMAGE")
+    if env:
+        path = Path(env)
+        assert path.is_file(), f"QEMU_IMAGE={env} does not exist"
+        return path
+    if shutil.which("rustup"):
+        installed = subprocess.run(["rustup", "target", "list", "--installed"], capture_output=True, text=True)
+        if installed.returncode == 0 and THUMB not in installed.stdout.split():
+            pytest.skip(f"QEMU tests skipped: the {THUMB} target is not installed (rustup target add {THUMB})")
+    build = subprocess.run(["cargo", "build", "--release", "--quiet", "--bin", "tmcl-lm3s6965"],
+                           cwd=REPO_ROOT / "firmware", capture_output=True, text=True, timeout=1200)
+    if build.returncode != 0 and "target may not be installed" in build.stderr:
+        pytest.skip(f"QEMU tests skipped: the {THUMB} target is not installed (rustup target add {THUMB})")
+    assert build.returncode == 0, f"building the firmware image failed:\n{build.stderr[-4000:]}"
+    path = _target_dir() / THUMB / "release" / "tmcl-lm3s6965"
+    assert path.is_file(), f"cargo build did not produce {path}"
+    return path
+
+
 @pytest.fixture
-def serve(tmcl_bin, tmp_path):
-    """Factory: `serve(kind="pty"|"tcp", eeprom=None, extra=None)` → a started Server."""
-    factory = ServerFactory(tmcl_bin, tmp_path)
+def serve(tmcl_bin, tmp_path, request):
+    """Factory: `serve(kind="pty"|"tcp", eeprom=None, extra=None)` → a started Server (under
+    `--target qemu`, the image under QEMU where the request allows it, see the module docs)."""
+    image = request.getfixturevalue("qemu_image") if request.config.getoption("--target") == "qemu" else None
+    factory = ServerFactory(tmcl_bin, tmp_path, qemu_image=image)
     try:
         yield factory
     finally:
@@ -87,3 +156,14 @@ def model_server(request, serve) -> Server:
     """A pty server of each model in turn, state in memory (for what the models share);
     `model_server.modules[0]` names the model."""
     return serve("pty", modules=[request.param])
+
+
+@pytest.fixture
+def qemu_server(qemu_image, tmp_path) -> QemuServer:
+    """The firmware image under QEMU: a PD28-1021 on a pty, with QEMU's monitor."""
+    factory = ServerFactory(Path("tmcl"), tmp_path, qemu_image=qemu_image)
+    try:
+        yield factory.qemu("qemu-link")
+    finally:
+        problems = factory.cleanup()
+    assert not problems, "; ".join(problems)

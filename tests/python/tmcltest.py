@@ -4,11 +4,14 @@ connections, bounded polling and raw TMCL frames."""
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import queue
 import re
 import select
 import signal
+import socket
+import struct
 import subprocess
 import threading
 import time
@@ -61,6 +64,9 @@ class Server:
             self.expect_addresses = [int(m.partition("@")[2] or n + 1) for n, m in enumerate(self.modules)]
         self._lines: queue.Queue = queue.Queue()
         self._stderr_path: Path | None = None
+        # The environment of the process (None: this one's).
+        self.env: dict[str, str] | None = None
+        self.ready_timeout_s = READY_TIMEOUT_S
 
     # -- lifecycle ---------------------------------------------------------------------------------
     def models(self) -> list[str]:
@@ -86,17 +92,17 @@ class Server:
         stderr = open(self._stderr_path, "wb")
         try:
             self.proc = subprocess.Popen(self.args(), cwd=self.workdir, stdin=subprocess.DEVNULL,
-                                         stdout=subprocess.PIPE, stderr=stderr)
+                                         stdout=subprocess.PIPE, stderr=stderr, env=self.env)
         finally:
             stderr.close()
         self._lines = queue.Queue()
         threading.Thread(target=self._pump, args=(self.proc, self._lines), daemon=True).start()
-        deadline = time.monotonic() + READY_TIMEOUT_S
+        deadline = time.monotonic() + self.ready_timeout_s
         while True:
             left = deadline - time.monotonic()
             if left <= 0:
                 self.kill()
-                raise AssertionError(f"no ready line within {READY_TIMEOUT_S} s; stderr: {self.stderr()}")
+                raise AssertionError(f"no ready line within {self.ready_timeout_s} s; stderr: {self.stderr()}")
             try:
                 line = self._lines.get(timeout=min(left, 0.5))
             except queue.Empty:
@@ -205,21 +211,147 @@ class Server:
         return f"--interface socket_serial_tmcl --port 127.0.0.1:{self.port}{module}"
 
 
-class ServerFactory:
-    """Starts servers in one test's temporary directory and cleans all of them up."""
+_MONITORS = itertools.count()
 
-    def __init__(self, tmcl: Path, workdir: Path):
+
+class QemuServer(Server):
+    """The firmware image on an emulated Cortex-M3 (`scripts/qemu-serve.sh LINK`): one module on a pty,
+    its EEPROM in the microcontroller's RAM (lost when QEMU stops), QEMU's monitor on a Unix socket."""
+
+    def __init__(self, image: Path, workdir: Path, link_name: str = "tmcl-link", model: str = "pd28-1021"):
+        super().__init__(image, workdir, "pty", link_name=link_name, modules=[model])
+        self.image = image
+        self.model = model
+        # A Unix socket's path must stay under 108 bytes; a test's temporary directory may not.
+        self.monitor_path = Path(f"/tmp/tmcl-qemu-{os.getpid()}-{next(_MONITORS)}.monitor")
+        self.env = dict(os.environ, QEMU_IMAGE=str(image))
+        # QEMU boots and the script waits until the firmware answers on the pty: slower on a loaded machine.
+        self.ready_timeout_s = 60.0
+
+    def args(self) -> list[str]:
+        return ["bash", str(REPO_ROOT / "scripts" / "qemu-serve.sh"), str(self.link), "--module", self.model,
+                "--monitor", str(self.monitor_path)]
+
+    def monitor(self, *commands: str, timeout_s: float = 10.0) -> list[str]:
+        """Runs QEMU human-monitor commands; returns what each printed."""
+        with socket.socket(socket.AF_UNIX) as sock:
+            sock.connect(str(self.monitor_path))
+            sock.settimeout(timeout_s)
+
+            def prompt() -> str:
+                buf = b""
+                while not buf.endswith(b"(qemu) "):
+                    data = sock.recv(65536)
+                    if not data:
+                        break
+                    buf += data
+                return re.sub(r"\x1b\[[0-9;]*[A-Za-z]|\r", "", buf.decode("utf-8", "replace"))
+
+            prompt()
+            out = []
+            for command in commands:
+                sock.sendall(command.encode() + b"\n")
+                text = prompt()
+                # The monitor echoes the command line first and ends with the next prompt.
+                lines = text.split("\n")[1:]
+                out.append("\n".join(line for line in lines if not line.startswith("(qemu)")).strip())
+            return out
+
+    def stop(self, sig: int = signal.SIGTERM) -> int:
+        try:
+            return super().stop(sig)
+        finally:
+            with contextlib.suppress(FileNotFoundError):
+                self.monitor_path.unlink()
+
+    def read_words(self, address: int, count: int = 1) -> list[int]:
+        """`count` 32-bit words of the emulated memory (RAM or a peripheral register) from `address`."""
+        text = self.monitor(f"xp /{count}xw {address:#x}")[0]
+        return [int(word, 16) for line in text.splitlines() for word in line.split(":", 1)[1].split()]
+
+    def dump(self, address: int, length: int, path: Path) -> bytes:
+        """`length` bytes of the emulated memory from `address`, through a file."""
+        self.monitor(f'pmemsave {address:#x} {length} "{path}"')
+        return path.read_bytes()
+
+
+def elf_symbols(path: Path) -> dict[str, int]:
+    """Symbol name (demangled to its path without the hash, e.g. `tmcl_lm3s6965::steps::STEPS`) -> address,
+    from the .symtab of a 32-bit little-endian ELF."""
+    data = path.read_bytes()
+    assert data[:4] == b"\x7fELF" and data[4] == 1 and data[5] == 1, f"{path} is no ELF32 LE file"
+    shoff, = struct.unpack_from("<I", data, 0x20)
+    shentsize, shnum = struct.unpack_from("<HH", data, 0x2E)
+    sections = [struct.unpack_from("<IIIIIIIIII", data, shoff + i * shentsize) for i in range(shnum)]
+    symbols = {}
+    for _name, kind, _flags, _addr, offset, size, link, _info, _align, entsize in sections:
+        if kind != 2:  # SHT_SYMTAB
+            continue
+        strtab = sections[link]
+        for at in range(offset, offset + size, entsize):
+            name_at, value = struct.unpack_from("<II", data, at)
+            start = strtab[4] + name_at
+            name = data[start:data.index(b"\0", start)].decode("ascii", "replace")
+            symbols[demangle(name)] = value
+    return symbols
+
+
+def demangle(name: str) -> str:
+    """`_ZN13tmcl_lm3s69655steps5STEPS17h…E` -> `tmcl_lm3s6965::steps::STEPS` (legacy Rust mangling, the
+    hash dropped); other names unchanged."""
+    if not name.startswith("_ZN"):
+        return name
+    parts, at = [], 3
+    while at < len(name) and name[at].isdigit():
+        end = at
+        while name[end].isdigit():
+            end += 1
+        length = int(name[at:end])
+        parts.append(name[end:end + length])
+        at = end + length
+    if parts and re.fullmatch(r"h[0-9a-f]{16}", parts[-1]):
+        parts.pop()
+    return "::".join(parts)
+
+
+class ServerFactory:
+    """Starts servers in one test's temporary directory and cleans all of them up. With `qemu_image`, a
+    single-module pty server is the firmware image under QEMU (the `--target qemu` run of the suite); a
+    test that asks for more (TCP, an EEPROM file, options of `tmcl serve`, several modules) is skipped."""
+
+    def __init__(self, tmcl: Path, workdir: Path, qemu_image: Path | None = None):
         self.tmcl = tmcl
         self.workdir = workdir
+        self.qemu_image = qemu_image
         self.servers: list[Server] = []
 
     def __call__(self, kind: str = "pty", eeprom: Path | None = None, extra: list[str] | None = None,
                  link_name: str | None = None, expect_address: int | None = 1,
                  modules: list[str] | None = None, listen: str = "127.0.0.1:0") -> Server:
         name = link_name or f"tmcl-link-{len(self.servers)}"
+        if self.qemu_image is not None:
+            return self.qemu(name, kind=kind, eeprom=eeprom, extra=extra, modules=modules)
         server = Server(self.tmcl, self.workdir, kind, eeprom=eeprom, extra=extra, link_name=name,
                         modules=modules, listen=listen)
         server.expect_address = expect_address
+        self.servers.append(server)
+        return server.start()
+
+    def qemu(self, name: str, kind: str = "pty", eeprom: Path | None = None, extra: list[str] | None = None,
+             modules: list[str] | None = None) -> QemuServer:
+        import pytest
+
+        needs = [what for what, asked in [
+            ("a TCP port", kind != "pty"), ("an EEPROM file", eeprom is not None),
+            (f"the options {extra}", bool(extra)),
+            ("several modules or a start address", bool(modules) and (len(modules) > 1 or "@" in modules[0])),
+            ("a TMCM-1310 (its encoder and closed loop need the simulated world)",
+             bool(modules) and modules[0] != "pd28-1021"),
+        ] if asked]
+        if needs:
+            pytest.skip(f"needs tmcl serve: {', '.join(needs)}; the QEMU image is one PD28-1021 on a pty")
+        assert self.qemu_image is not None
+        server = QemuServer(self.qemu_image, self.workdir, link_name=name)
         self.servers.append(server)
         return server.start()
 

@@ -1,4 +1,5 @@
-//! Figures for docs/benchmarks.md: frames per second through the core, pty round-trip latency, memory.
+//! Figures for docs/benchmarks.md: frames per second through the core, pty round-trip latency, memory,
+//! EtherCAT frames through the slave in process.
 //!
 //! Run: `cargo bench -p tmcl-cli --bench throughput` (a plain harness that prints its figures; pass
 //! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory` for one part).
@@ -347,11 +348,53 @@ fn memory() {
     println!("size_of::<Module<SimBoard>>() = {} bytes", size_of::<Module<SimBoard>>());
 }
 
+/// EtherCAT frames per second through `Slave::process` in process (no socket): SOEM's cyclic LRW of the
+/// whole image (8 output bytes, velocity mode; 48 input bytes read from the module) in OP, time advancing
+/// 1 ms per frame, so the motor turns and every input is fresh; and an FPRD of AL status.
+fn ethercat_rate(n: u64) {
+    use tmcl_ethercat::fuzzing::{bring_up, build_frame, MAX_FRAME};
+    use tmcl_ethercat::wire::datagram::{Command, Repr};
+    use tmcl_ethercat::{AlState, NoFiles, Slave};
+    let spec = &tmcl_core::model::tmcm_1310::SPEC;
+    let mut module = Module::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO);
+    let mut slave = Slave::new(spec).unwrap();
+    bring_up(&mut slave, &mut module, Instant::ZERO, AlState::Op);
+    assert_eq!(slave.status().state, AlState::Op);
+    let mut t = Instant::ZERO;
+    let mut image = [0u8; 56];
+    image[..8].copy_from_slice(&[2, 0, 0, 0, 0x00, 0xC8, 0, 0]);
+    for (name, datagram) in [
+        ("LRW 56 bytes (process data)", (Command::Lrw, 0u32, &image[..])),
+        ("FPRD AL status", (Command::Fprd, Repr::physical(0x1001, 0x0130), &[0u8; 6][..])),
+    ] {
+        let mut template = [0u8; MAX_FRAME];
+        let len = build_frame(&mut template, &[datagram]).unwrap();
+        let mut frame = template;
+        let start = StdInstant::now();
+        for _ in 0..n {
+            frame[..len].copy_from_slice(&template[..len]);
+            t += tmcl_core::Duration::from_millis(1);
+            black_box(slave.process(t, black_box(&mut frame[..len]), &mut module, &mut NoFiles)).unwrap();
+        }
+        let secs = start.elapsed().as_secs_f64();
+        println!(
+            "ethercat {name:<28} {:>8.2} M frames/s  ({:.0} ns/frame, {n} frames)",
+            n as f64 / secs / 1e6,
+            secs * 1e9 / n as f64
+        );
+        if datagram.0 == Command::Lrw {
+            // (Without process data the watchdog then takes the slave to SAFE-OP, as it should.)
+            assert_eq!(slave.status().state, AlState::Op);
+            assert!(module.ramp().position > 0, "the motor turned");
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
-    // `--only core|vm|motion|events|run|growth|serve|pty|memory` runs one part (for instruction counts
-    // under valgrind: `motion` is the §2.4 hour tick by tick, `events` the same hour event-driven).
+    // `--only core|vm|motion|events|run|growth|serve|pty|memory|ethercat` runs one part (for instruction
+    // counts under valgrind: `motion` is the §2.4 hour tick by tick, `events` the same hour event-driven).
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).map(String::as_str);
     let part = |name: &str| only.is_none_or(|o| o == name);
     let n = if quick { 1_000_000 } else { 20_000_000 };
@@ -386,5 +429,8 @@ fn main() {
     }
     if part("pty") {
         pty_latency(if quick { 2_000 } else { 20_000 });
+    }
+    if part("ethercat") {
+        ethercat_rate(if quick { 100_000 } else { 2_000_000 });
     }
 }

@@ -20,9 +20,6 @@ use std::collections::VecDeque;
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_sim::SimBoard;
 
-/// GP 65 values → baud (manual §5.1 Table 17).
-pub const BAUD_RATES: [u32; 9] = [9600, 14400, 19200, 28800, 38400, 57600, 76800, 115200, 230400];
-
 /// One module on the line.
 pub struct Node {
     /// The module.
@@ -41,7 +38,7 @@ impl Node {
 
     /// Time of one byte (10 bits) at the module's baud rate.
     pub fn byte_time(&self) -> Duration {
-        let baud = BAUD_RATES.get(usize::from(self.module.active_baud())).copied().unwrap_or(9600);
+        let baud = tmcl_core::model::baud_rate(self.module.active_baud());
         Duration::from_micros(10_000_000 / u64::from(baud))
     }
 }

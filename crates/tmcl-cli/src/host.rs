@@ -17,7 +17,7 @@ use tmcl_wire::command::{
 use tmcl_wire::{Command, Instruction, Opcode, Reply};
 
 /// A client on whatever link the options name.
-pub(crate) type HostClient = Client<Box<dyn Transport>>;
+pub(crate) type HostClient = Client<Box<dyn Transport + Send>>;
 
 /// How to reach the module: the options of every command that talks to one. They may also come before
 /// the command's name (`tmcl --port LINK get ap 4`).
@@ -244,7 +244,7 @@ pub(crate) fn run(cmd: HostCommand, json: bool) -> Result<(), CliError> {
 impl Connection {
     /// Opens the one connection the options name.
     pub(crate) fn open(&self) -> Result<HostClient, CliError> {
-        let transport: Box<dyn Transport> = match (&self.port, &self.tcp) {
+        let transport: Box<dyn Transport + Send> = match (&self.port, &self.tcp) {
             (Some(path), None) => Box::new(SerialTransport::open(path, self.baud)?),
             (None, Some(addr)) => Box::new(TcpTransport::connect(addr)?),
             (Some(_), Some(_)) => return Err(CliError::Usage("give either --port or --tcp, not both".into())),
@@ -424,7 +424,7 @@ impl Progress {
 /// module, so a reply that comes late (during the drain after its address, or while a later address waits)
 /// still counts for the module that sent it. The version string of each module found is asked for then.
 fn scan(
-    client: &mut Client<Box<dyn Transport>>,
+    client: &mut Client<Box<dyn Transport + Send>>,
     plan: &ScanPlan,
     json: bool,
     out: &mut dyn Write,
@@ -518,7 +518,7 @@ fn scan(
 /// Prints one module found: its version string (with --timeout), or the binary version of `reply` if the
 /// string does not come.
 fn report_module(
-    client: &mut Client<Box<dyn Transport>>,
+    client: &mut Client<Box<dyn Transport + Send>>,
     plan: &ScanPlan,
     reply: &Reply,
     json: bool,

@@ -4,6 +4,7 @@ mod asm;
 mod bus;
 mod debug;
 mod error;
+mod ethercat;
 mod host;
 mod names;
 mod program;
@@ -11,6 +12,7 @@ mod pty;
 mod run;
 mod serve;
 mod sim;
+mod ui;
 mod watch;
 
 use clap::{Parser, Subcommand};
@@ -47,6 +49,10 @@ enum Command {
     /// Debug a program on a simulated module: breakpoints, stepping, registers (commands from stdin).
     #[command(after_help = debug::after_help())]
     Debug(debug::DebugArgs),
+    /// Serve the browser workbench of a module: parameters, motion, live plots, I/O, console, program
+    /// editor and debugger (open the printed address in a browser).
+    #[command(after_help = EXIT_CODES)]
+    Ui(ui::UiArgs),
     #[command(flatten)]
     Host(host::HostCommand),
     #[command(flatten)]
@@ -62,6 +68,7 @@ impl Command {
             Command::Disasm(_) => "disasm",
             Command::Run(_) => "run",
             Command::Debug(_) => "debug",
+            Command::Ui(_) => "ui",
             Command::Host(c) => c.name(),
             Command::Program(c) => c.name(),
         }
@@ -71,7 +78,7 @@ impl Command {
 /// The subcommands that talk to a module: they take the connection options.
 const HOST_COMMANDS: &[&str] = &[
     "version", "get", "set", "store", "restore", "send", "scan", "params", "wait", "watch", "download", "upload",
-    "start", "stop", "status",
+    "start", "stop", "status", "ui",
 ];
 
 /// Options of the host commands that take a value and may come before the command's name: the connection
@@ -132,6 +139,7 @@ fn main() -> ExitCode {
         Command::Disasm(args) => asm::run_disasm(args, json),
         Command::Run(args) => run::run(args, json),
         Command::Debug(args) => debug::run(args, json),
+        Command::Ui(args) => ui::run(args, json),
         Command::Host(command) => host::run(command, json),
         Command::Program(command) => program::run(command, json),
     };

@@ -10,7 +10,7 @@ use crate::host::{Connection, HostClient};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::io::Write;
-use tmcl_core::model::{self, Access, ModelSpec, ParamDesc, Range, Table, Unit};
+use tmcl_core::model::{self, ModelSpec, ParamDesc, Table, Unit};
 use tmcl_host::HostError;
 use tmcl_wire::{Instruction, Opcode, Reply, Status};
 
@@ -285,13 +285,13 @@ impl Target {
                 )
             }
             (_, Some(desc), Status::WrongType) if value.is_some() && !desc.access.write => {
-                format!("{} is read-only ({})", desc.ident, access_letters(desc.access))
+                format!("{} is read-only ({})", desc.ident, desc.access)
             }
             (_, Some(desc), Status::WrongType) if value.is_none() && !desc.access.read => {
-                format!("{} cannot be read ({})", desc.ident, access_letters(desc.access))
+                format!("{} cannot be read ({})", desc.ident, desc.access)
             }
             (_, Some(desc), Status::InvalidValue) if value.is_some_and(|v| !desc.range.contains(v)) => {
-                format!("{} takes {}", desc.ident, range_text(&desc.range))
+                format!("{} takes {}", desc.ident, desc.range)
             }
             (_, _, Status::PasswordProtected) => {
                 "the parameter is password protected: write the password to the model's password parameter first".into()
@@ -299,33 +299,6 @@ impl Target {
             _ => return err.into(),
         };
         CliError::Explained { source: err, explanation }
-    }
-}
-
-/// The access letters of the manuals' tables: R, W, E, A (and P for password protected).
-pub(crate) fn access_letters(access: Access) -> String {
-    let mut s = String::new();
-    for (on, letter) in
-        [(access.read, 'R'), (access.write, 'W'), (access.store, 'E'), (access.auto, 'A'), (access.protected, 'P')]
-    {
-        if on {
-            s.push(letter);
-        }
-    }
-    s
-}
-
-/// A range as text: `1..2147483647`, `1..8, 65..68`.
-pub(crate) fn range_text(range: &Range) -> String {
-    match range {
-        Range::Signed(min, max) if min == max => min.to_string(),
-        Range::Signed(min, max) => format!("{min}..{max}"),
-        Range::Unsigned32 => "0..4294967295".into(),
-        Range::OneOf(set) => set
-            .iter()
-            .map(|r| if r.start() == r.end() { r.start().to_string() } else { format!("{}..{}", r.start(), r.end()) })
-            .collect::<Vec<_>>()
-            .join(", "),
     }
 }
 
@@ -421,8 +394,8 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
                     "type": desc.number,
                     "name": desc.ident,
                     "title": desc.name,
-                    "access": access_letters(desc.access),
-                    "range": range_text(&desc.range),
+                    "access": desc.access.to_string(),
+                    "range": desc.range.to_string(),
                     "unit": desc.unit.symbol(),
                     "default": desc.default,
                     "section": desc.section,
@@ -445,8 +418,8 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
                     out,
                     "{place:<11} {:<28} {:<6} {:<24} {:<22} {value}",
                     desc.ident,
-                    access_letters(desc.access),
-                    range_text(&desc.range),
+                    desc.access.to_string(),
+                    desc.range.to_string(),
                     desc.unit.symbol()
                 )?;
             }
@@ -458,6 +431,7 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tmcl_core::model::Range;
 
     fn pd28() -> &'static ModelSpec {
         model::by_id("pd28-1021").unwrap()
@@ -519,13 +493,13 @@ mod tests {
             "{err}"
         );
         let t = lookup(pd28(), "ActualSpeed", true, None).unwrap();
-        assert_eq!(access_letters(t.desc.unwrap().access), "RW");
+        assert_eq!(t.desc.unwrap().access.to_string(), "RW");
     }
 
     #[test]
     fn ranges_as_text() {
-        assert_eq!(range_text(&Range::Signed(1, 8)), "1..8");
-        assert_eq!(range_text(&Range::OneOf(&[1..=8, 65..=68, 129..=129])), "1..8, 65..68, 129");
-        assert_eq!(range_text(&Range::Unsigned32), "0..4294967295");
+        assert_eq!(Range::Signed(1, 8).to_string(), "1..8");
+        assert_eq!(Range::OneOf(&[1..=8, 65..=68, 129..=129]).to_string(), "1..8, 65..68, 129");
+        assert_eq!(Range::Unsigned32.to_string(), "0..4294967295");
     }
 }

@@ -1,12 +1,17 @@
-//! `tmcl serve`: a virtual module on a pty or a TCP port, in real time.
+//! `tmcl serve`: a virtual module on a pty or a TCP port, in real time, and a TMCM-1310 also on a
+//! network interface as an EtherCAT slave (`--ethercat`).
 //!
 //! The firmware core runs on a [`SimBoard`]; this file only moves bytes and wall-clock time between the
-//! OS and [`Module::receive`]/[`Module::poll`], and sleeps until the module's next deadline or the next
-//! byte, whichever comes first. The deadline of a moving module is its next event, not its next motion
-//! tick; a request during a move computes the state at the instant it arrives.
+//! OS and [`Module::receive`]/[`Module::poll`] (and, for EtherCAT, frames between a packet socket and
+//! [`Slave::process`]/[`Slave::poll`]), and sleeps until the module's next deadline, the next byte or
+//! the next frame, whichever comes first. The deadline of a moving module is its next event, not its
+//! next motion tick; a request during a move computes the state at the instant it arrives. The pty (or
+//! TCP) link and the EtherCAT slave reach the same module: a host on the USB port sees what the
+//! EtherCAT master does, at the same time.
 
 use crate::bus::{Bus, Node};
 use crate::error::CliError;
+use crate::ethercat::{FoeFiles, RawSocket};
 use crate::pty::{Pty, PtyError};
 use clap::Args;
 use nix::poll::{ppoll, PollFd, PollFlags};
@@ -19,6 +24,7 @@ use std::sync::Arc;
 use tmcl_core::model::{self, ModelSpec};
 use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
+use tmcl_ethercat::{AlStatus, Slave};
 use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
 use tmcl_wire::{Command, Frame, Instruction, Reply, ReplyFrame, Request};
 
@@ -44,7 +50,7 @@ pub struct ServeArgs {
     /// LINK another live server holds is refused (exit code 3, naming that server's PID); a LINK left behind
     /// by a server that died (kill -9) is replaced. On exit LINK and LINK.lock are removed, LINK only if it
     /// still points at this server's pty.
-    #[arg(long, value_name = "LINK", conflicts_with = "tcp", required_unless_present = "tcp")]
+    #[arg(long, value_name = "LINK", conflicts_with = "tcp", required_unless_present_any = ["tcp", "ethercat"])]
     pub pty: Option<PathBuf>,
     /// Serve on a TCP port instead, HOST:PORT (e.g. localhost:2323 or 127.0.0.1:2323; a bare PORT means
     /// 127.0.0.1; port 0 picks a free one).
@@ -73,7 +79,17 @@ pub struct ServeArgs {
     /// Put the motor into the world described by FILE (docs/world.md); default: a free axis.
     #[arg(long, value_name = "FILE")]
     pub world: Option<PathBuf>,
-    /// Log every request and reply to stderr.
+    /// Serve the module's EtherCAT interface too, as a slave on the network interface IFACE (Linux):
+    /// raw Ethernet frames of EtherType 0x88A4, each answered as it arrives (docs/ethercat.md).
+    ///
+    /// For a module with EtherCAT (the TMCM-1310), one module only. A master on the other end (SOEM,
+    /// pysoem, ethercrab, a PLC) finds it, brings it to OP, cycles process data and talks TMCL through
+    /// its mailbox; --pty or --tcp, if given, serves its USB port to the same module at the same time.
+    /// Needs CAP_NET_RAW (root). Files a master writes by FoE in BOOT land beside the EEPROM (FILE.foe,
+    /// or DIR/MODEL@ADDRESS.foe) and are reported on stderr; nothing is flashed.
+    #[arg(long, value_name = "IFACE")]
+    pub ethercat: Option<String>,
+    /// Log every request and reply to stderr (EtherCAT: the AL state changes).
     #[arg(short, long)]
     pub verbose: bool,
     /// Tick the motion controller every 1 ms, and wake up for every tick while a motor moves, instead of
@@ -87,6 +103,13 @@ pub struct ServeArgs {
 enum Link {
     Pty(Pty),
     Tcp { listener: TcpListener, peer: Option<TcpStream> },
+}
+
+/// The EtherCAT side of `--ethercat`: the socket, the slave, and where FoE files go.
+struct EtherCat {
+    socket: RawSocket,
+    slave: Slave,
+    files: FoeFiles,
 }
 
 /// Runs the server until SIGINT or SIGTERM.
@@ -132,6 +155,16 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
                 "the {} is served on its {} interface, which answers every address: one module per link",
                 spec.name, spec.interfaces[0].name
             )));
+        }
+    }
+    if args.ethercat.is_some() {
+        if wanted.len() > 1 {
+            return Err(CliError::Usage("--ethercat serves one module".into()));
+        }
+        if let Some((spec, _)) = wanted.first() {
+            Slave::new(spec).map_err(|_| {
+                CliError::Usage(format!("the {} has no EtherCAT interface (the TMCM-1310 has)", spec.name))
+            })?;
         }
     }
     let stop = Arc::new(AtomicBool::new(false));
@@ -188,22 +221,40 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
         nodes.push(Node::new(module, name));
     }
     let mut bus = Bus::new(nodes, args.wire_timing);
+    // The raw socket first: without the privilege for it, no pty link is made at all.
+    let mut ecat = match &args.ethercat {
+        Some(iface) => {
+            let socket = RawSocket::open(iface)?;
+            let spec = bus.nodes[0].module.spec();
+            let slave = Slave::new(spec).map_err(|e| CliError::Usage(e.to_string()))?;
+            let foe = match (&args.eeprom, &args.eeprom_dir) {
+                (Some(file), _) => Some(with_suffix(file, ".foe")),
+                (None, Some(dir)) => Some(dir.join(format!("{}.foe", bus.nodes[0].name))),
+                (None, None) => None,
+            };
+            Some(EtherCat { socket, slave, files: FoeFiles::new(foe) })
+        }
+        None => None,
+    };
     let mut link = match (&args.pty, &args.tcp) {
-        (Some(path), None) => Link::Pty(Pty::open(path).map_err(|e| match e {
+        (Some(path), None) => Some(Link::Pty(Pty::open(path).map_err(|e| match e {
             PtyError::Busy { .. } => CliError::Io(e.to_string()),
             PtyError::Io(e) => CliError::Io(format!("cannot open a pty at {}: {e}", path.display())),
-        })?),
+        })?)),
         (None, Some(addr)) => {
             let listener = listen(addr)?;
             listener.set_nonblocking(true).map_err(|e| CliError::Io(e.to_string()))?;
-            Link::Tcp { listener, peer: None }
+            Some(Link::Tcp { listener, peer: None })
         }
+        (None, None) if ecat.is_some() => None,
         _ => return Err(CliError::Usage("give exactly one of --pty LINK or --tcp HOST:PORT".into())),
     };
     let place = match &link {
-        Link::Pty(pty) => pty.link.display().to_string(),
-        Link::Tcp { listener, .. } => listener.local_addr().map(|a| a.to_string()).unwrap_or_default(),
+        Some(Link::Pty(pty)) => Some(pty.link.display().to_string()),
+        Some(Link::Tcp { listener, .. }) => Some(listener.local_addr().map(|a| a.to_string()).unwrap_or_default()),
+        None => None,
     };
+    let iface = ecat.as_ref().map(|e| e.socket.name.clone());
     let modules: Vec<String> =
         bus.nodes.iter().map(|n| format!("{} at address {}", n.module.spec().name, n.module.address())).collect();
     if json {
@@ -212,13 +263,15 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
             .iter()
             .map(|n| serde_json::json!({"model": n.module.spec().id, "address": n.module.address()}))
             .collect();
-        println!("{}", serde_json::json!({"serving": names, "link": place}));
+        println!("{}", serde_json::json!({"serving": names, "link": place, "ethercat": iface}));
     } else {
-        println!("serving {} on {place}", modules.join(", "));
+        let mut on: Vec<String> = place.into_iter().collect();
+        on.extend(iface.map(|i| format!("EtherCAT {i}")));
+        println!("serving {} on {}", modules.join(", "), on.join(" and "));
     }
     let _ = io::stdout().flush();
     if args.verbose {
-        if let Link::Pty(pty) = &link {
+        if let Some(Link::Pty(pty)) = &link {
             eprintln!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
         }
     }
@@ -227,11 +280,17 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
     let mut exclusive_checked = std::time::Instant::now();
     while !stop.load(Ordering::Relaxed) {
         let now = clock();
-        let deadline = {
-            let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
+        let mut deadline = {
+            let mut sink = Sender { link: link.as_mut(), verbose: args.verbose, now };
             bus.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
         };
-        if let Link::Pty(pty) = &link {
+        if let Some(e) = ecat.as_mut() {
+            let before = e.slave.status();
+            let next = e.slave.poll(now, &mut bus.nodes[0].module, &mut e.files);
+            log_al(args.verbose, now, before, e.slave.status());
+            deadline = [deadline, next].into_iter().flatten().min();
+        }
+        if let Some(Link::Pty(pty)) = &link {
             if exclusive_checked.elapsed() >= EXCLUSIVE_CHECK {
                 pty.release_abandoned_exclusive_mode();
                 exclusive_checked = std::time::Instant::now();
@@ -241,12 +300,19 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
             .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
             .unwrap_or(MAX_SLEEP)
             .min(MAX_SLEEP);
-        let readable = wait(&link, sleep).map_err(|e| CliError::Io(format!("poll: {e}")))?;
-        if !readable {
-            continue;
+        let ready = wait(link.as_ref(), ecat.as_ref().map(|e| &e.socket), sleep)
+            .map_err(|e| CliError::Io(format!("poll: {e}")))?;
+        if let Some(e) = ecat.as_mut() {
+            if ready.ethercat {
+                serve_frames(e, &mut bus.nodes[0].module, &clock, args.verbose)?;
+            } else {
+                // No frame waits: the time to write a file a master sent by FoE.
+                e.files.write_pending();
+            }
         }
+        let Some(link) = link.as_mut().filter(|_| ready.link) else { continue };
         // The host's bytes first: they are answered before a new TCP client is let in.
-        let received = match &mut link {
+        let received = match &mut *link {
             Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
             Link::Tcp { peer, .. } => match peer {
                 None => 0,
@@ -269,12 +335,15 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
             if args.verbose {
                 log_request(now, &buf[..received]);
             }
-            let mut sink = Sender { link: &mut link, verbose: args.verbose, now };
+            let mut sink = Sender { link: Some(&mut *link), verbose: args.verbose, now };
             bus.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
         }
-        if let Link::Tcp { listener, peer } = &mut link {
+        if let Link::Tcp { listener, peer } = link {
             accept_clients(listener, peer, &mut bus, args.verbose, clock());
         }
+    }
+    if let Some(e) = ecat.as_mut() {
+        e.files.write_pending();
     }
     for node in &mut bus.nodes {
         node.module
@@ -287,6 +356,50 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
         eprintln!("[{}] stopped", clock());
     }
     Ok(())
+}
+
+/// `path` with `suffix` appended to its file name (`a.eeprom` → `a.eeprom.foe`).
+fn with_suffix(path: &std::path::Path, suffix: &str) -> PathBuf {
+    let mut p = path.as_os_str().to_owned();
+    p.push(suffix);
+    PathBuf::from(p)
+}
+
+/// Answers every EtherCAT frame waiting on the socket, each as it comes, with the time it is taken.
+fn serve_frames(
+    e: &mut EtherCat,
+    module: &mut Module<SimBoard>,
+    clock: &impl Fn() -> Instant,
+    verbose: bool,
+) -> Result<(), CliError> {
+    let mut frame = [0u8; 2048];
+    loop {
+        let received =
+            e.socket.recv(&mut frame).map_err(|err| CliError::Io(format!("--ethercat {}: {err}", e.socket.name)))?;
+        let Some((n, from)) = received else { return Ok(()) };
+        let now = clock();
+        let before = e.slave.status();
+        if let Some(len) = e.slave.process(now, &mut frame[..n], module, &mut e.files) {
+            if let Err(err) = e.socket.send(&frame[..len], &from) {
+                if verbose {
+                    eprintln!("[{now}] EtherCAT: cannot send the answer: {err}");
+                }
+            }
+        }
+        log_al(verbose, now, before, e.slave.status());
+    }
+}
+
+/// Logs a change of the slave's AL status (with -v).
+fn log_al(verbose: bool, now: Instant, before: AlStatus, after: AlStatus) {
+    if !verbose || before == after {
+        return;
+    }
+    if after.error {
+        eprintln!("[{now}] EtherCAT: {} with error, AL status code {:#06x}", after.state, u16::from(after.code));
+    } else {
+        eprintln!("[{now}] EtherCAT: {} -> {}", before.state, after.state);
+    }
 }
 
 /// Listens on `HOST:PORT` or a bare `PORT` (on 127.0.0.1). HOST may be a name, resolved as the host side
@@ -384,29 +497,45 @@ fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
     file.read(buf).unwrap_or_default()
 }
 
-/// Waits until the link is readable (for TCP: the client, or the listener with a new connection) or
-/// `timeout` passes (with microsecond resolution: byte times at high baud rates are far below a
-/// millisecond).
-fn wait(link: &Link, timeout: std::time::Duration) -> io::Result<bool> {
+/// What woke [`wait`].
+struct Ready {
+    /// The link has bytes (or a TCP connection waits).
+    link: bool,
+    /// EtherCAT frames wait.
+    ethercat: bool,
+}
+
+/// Waits until the link is readable (for TCP: the client, or the listener with a new connection), an
+/// EtherCAT frame arrives, or `timeout` passes (with microsecond resolution: byte times at high baud
+/// rates are far below a millisecond).
+fn wait(link: Option<&Link>, ethercat: Option<&RawSocket>, timeout: std::time::Duration) -> io::Result<Ready> {
     let mut fds = match link {
-        Link::Pty(pty) => vec![PollFd::new(pty.master.as_fd(), PollFlags::POLLIN)],
-        Link::Tcp { listener, peer } => {
+        Some(Link::Pty(pty)) => vec![PollFd::new(pty.master.as_fd(), PollFlags::POLLIN)],
+        Some(Link::Tcp { listener, peer }) => {
             let mut fds = vec![PollFd::new(listener.as_fd(), PollFlags::POLLIN)];
             fds.extend(peer.iter().map(|stream| PollFd::new(stream.as_fd(), PollFlags::POLLIN)));
             fds
         }
+        None => Vec::new(),
     };
+    let link_fds = fds.len();
+    fds.extend(ethercat.map(|s| PollFd::new(s.as_fd(), PollFlags::POLLIN)));
     let timeout = nix::sys::time::TimeSpec::from_duration(timeout.max(std::time::Duration::from_micros(20)));
+    let none = Ready { link: false, ethercat: false };
     match ppoll(&mut fds, Some(timeout), None) {
-        Ok(n) => Ok(n > 0),
-        Err(nix::Error::EINTR) => Ok(false),
+        Ok(0) => Ok(none),
+        Ok(_) => {
+            let ready = |fd: &PollFd| fd.revents().is_some_and(|r| !r.is_empty());
+            Ok(Ready { link: fds[..link_fds].iter().any(ready), ethercat: fds[link_fds..].iter().any(ready) })
+        }
+        Err(nix::Error::EINTR) => Ok(none),
         Err(e) => Err(io::Error::from_raw_os_error(e as i32)),
     }
 }
 
 /// Writes what the module sends; a host that is not listening loses it, as on a real line.
 struct Sender<'a> {
-    link: &'a mut Link,
+    link: Option<&'a mut Link>,
     verbose: bool,
     now: Instant,
 }
@@ -416,10 +545,10 @@ impl Sender<'_> {
         if self.verbose {
             log_reply(self.now, bytes);
         }
-        let _ = match self.link {
-            Link::Pty(pty) => pty.master.write_all(bytes),
-            Link::Tcp { peer: Some(stream), .. } => stream.write_all(bytes),
-            Link::Tcp { peer: None, .. } => Ok(()),
+        let _ = match &mut self.link {
+            Some(Link::Pty(pty)) => pty.master.write_all(bytes),
+            Some(Link::Tcp { peer: Some(stream), .. }) => stream.write_all(bytes),
+            Some(Link::Tcp { peer: None, .. }) | None => Ok(()),
         };
     }
 }

@@ -267,7 +267,17 @@ impl<B: Board> Module<B> {
     /// factory defaults if it holds no valid image for this model. The model was checked against the
     /// core's capacities when it was compiled ([`ModelSpec::new`]).
     pub fn new(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
-        let mut module = Module {
+        let mut module = Module::unpowered(board, spec, now);
+        module.power_up(now);
+        module
+    }
+
+    /// [`Module::new`] in two steps, for a caller that has to build the module where it will live: a
+    /// microcontroller port, whose RAM holds one module but not the temporary copies that returning a
+    /// powered-up module by value takes. This is the module before power-up, with empty RAM tables; it
+    /// must be given [`Module::power_up`] before anything else.
+    pub fn unpowered(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
+        Module {
             board,
             spec,
             st: State::new(now),
@@ -275,9 +285,12 @@ impl<B: Board> Module<B> {
             program: Program::default(),
             exact: false,
             memos: Default::default(),
-        };
-        module.start(now);
-        module
+        }
+    }
+
+    /// Powers an [`Module::unpowered`] module up at `now`, as [`Module::new`] does.
+    pub fn power_up(&mut self, now: Instant) {
+        self.start(now);
     }
 
     /// The model.
@@ -308,6 +321,12 @@ impl<B: Board> Module<B> {
     /// The host's registers (direct-mode calculations).
     pub fn host_registers(&self) -> Registers {
         self.st.host_regs
+    }
+
+    /// The error flags AP 207 reads (see [`error_flags`]), without clearing them as a GAP 207 does: for an
+    /// observer that must not take them from the host (the EtherCAT process data).
+    pub fn error_flags(&self) -> u8 {
+        self.st.error_flags
     }
 
     /// The ramp generator (positions, velocity).

@@ -4,6 +4,20 @@
 //! EtherCAT mailbox that carries TMCL without address and checksum (its manual chapter 3). The firmware
 //! keeps a framer, an outbox and an ASCII line per interface and answers on the interface that asked.
 
+/// The baud rates of the serial interfaces, indexed by the value of GP 65 (PD28-1021 manual §5.1,
+/// Table 17: 0 = 9600 … 8 = 230400; 8 data bits, no parity, one stop bit). A new value is in force after
+/// the next restart.
+pub const BAUD_RATES: [u32; 9] = [9600, 14400, 19200, 28800, 38400, 57600, 76800, 115200, 230400];
+
+/// The baud rate of GP 65 value `index`; an index past Table 17 falls back to 9600, the factory setting.
+pub const fn baud_rate(index: u8) -> u32 {
+    if (index as usize) < BAUD_RATES.len() {
+        BAUD_RATES[index as usize]
+    } else {
+        BAUD_RATES[0]
+    }
+}
+
 /// How an interface frames TMCL.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Framing {

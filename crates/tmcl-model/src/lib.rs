@@ -36,7 +36,7 @@ pub mod port;
 pub mod tmcm_1310;
 pub mod variant;
 
-pub use interface::{Framing, InterfaceDesc, InterfaceKind};
+pub use interface::{baud_rate, Framing, InterfaceDesc, InterfaceKind, BAUD_RATES};
 pub use interrupt::{InterruptDesc, Interrupts, Source, GLOBAL_INTERRUPTS};
 pub use layout::Layout;
 pub use param::{Access, ParamDesc, ParamError, Range, Role, Setting, Table, Unit};
@@ -357,7 +357,7 @@ mod tests {
     }
 
     /// The units follow the meaning: every speed the firmware reads is in pps, every acceleration in pps/s,
-    /// every position in microsteps (the manuals' "Range [Units]" columns), on every model.
+    /// every position in microsteps (the manuals' "Range \[Units\]" columns), on every model.
     #[test]
     fn units_follow_the_meaning() {
         for model in MODELS {

@@ -55,6 +55,21 @@ impl Access {
     }
 }
 
+/// The access letters of the manuals' tables, R, W, E, A, and P for password protected (`RWE`).
+impl core::fmt::Display for Access {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        use core::fmt::Write;
+        for (on, letter) in
+            [(self.read, 'R'), (self.write, 'W'), (self.store, 'E'), (self.auto, 'A'), (self.protected, 'P')]
+        {
+            if on {
+                f.write_char(letter)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The value range of a parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Range {
@@ -64,6 +79,28 @@ pub enum Range {
     Unsigned32,
     /// A set of allowed values that is not one interval (reference search modes).
     OneOf(&'static [core::ops::RangeInclusive<i32>]),
+}
+
+/// The range as the host tools print it: `1..2147483647`, `1..8, 65..68, 129`.
+impl core::fmt::Display for Range {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Range::Signed(min, max) if min == max => write!(f, "{min}"),
+            Range::Signed(min, max) => write!(f, "{min}..{max}"),
+            Range::Unsigned32 => write!(f, "0..{}", u32::MAX),
+            Range::OneOf(set) => {
+                for (n, r) in set.iter().enumerate() {
+                    let sep = if n == 0 { "" } else { ", " };
+                    if r.start() == r.end() {
+                        write!(f, "{sep}{}", r.start())?;
+                    } else {
+                        write!(f, "{sep}{}..{}", r.start(), r.end())?;
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
 }
 
 impl Range {

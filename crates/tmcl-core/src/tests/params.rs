@@ -199,3 +199,21 @@ fn access_letters_are_consistent() {
         }
     }
 }
+
+#[test]
+fn a_module_built_in_two_steps_is_the_one_new_builds() {
+    // A microcontroller port builds the module in place: `unpowered`, then `power_up` (firmware/).
+    let mut b = Bench::new();
+    assert_eq!(b.sap(4, 12345), Status::Ok);
+    assert_eq!(b.cmd(Command::Stap { param: 4, motor: 0 }).0, Status::Ok);
+    b.sgp(7, 2, -9);
+    let board = b.module.board().clone();
+    let mut two = crate::Module::unpowered(board.clone(), &SPEC, b.now);
+    two.power_up(b.now);
+    let one = crate::Module::new(board, &SPEC, b.now);
+    assert_eq!(format!("{:?}", two.state()), format!("{:?}", one.state()));
+    assert_eq!(two.registers(), one.registers());
+    b.module = two;
+    assert_eq!(b.gap(4), 12345);
+    assert_eq!(b.ggp(7, 2), 0);
+}

@@ -62,11 +62,24 @@ pub struct Program {
 
 impl Default for Program {
     fn default() -> Program {
-        Program { cells: [EMPTY; MAX_PROGRAM], known: [0; MAX_PROGRAM / 64], end: 0 }
+        Program::EMPTY
     }
 }
 
 impl Program {
+    /// Empty program memory, as a constant: `Program::default()` copies it into place, where building
+    /// the array of empty cells would take a 16 KiB temporary on the stack first (too much for a
+    /// microcontroller port, see `firmware/`).
+    const EMPTY: Program = Program { cells: [EMPTY; MAX_PROGRAM], known: [0; MAX_PROGRAM / 64], end: 0 };
+
+    /// Empties every cell, in place: a `Program` is 16 KiB, more than a microcontroller port can afford
+    /// to build on its stack as a temporary (`*self = Program::default()` would).
+    pub(crate) fn clear(&mut self) {
+        self.cells.fill(EMPTY);
+        self.known.fill(0);
+        self.end = 0;
+    }
+
     /// Writes cell `address` (inside memory); `known` says whether the model has its command.
     pub(crate) fn set(&mut self, address: usize, instruction: Instruction, known: bool) {
         if address < MAX_PROGRAM {

@@ -513,7 +513,7 @@ impl<B: Board> Module<B> {
     pub(crate) fn protection_changed(&mut self, old: i32, new: i32) -> Result<(), Status> {
         if old & 1 != 0 && new & 1 == 0 {
             persist::erase_program(&mut self.board, self.spec)?;
-            self.program = super::Program::default();
+            self.program.clear();
             self.reset_application();
             self.vm.state = RunState::Stopped;
         }

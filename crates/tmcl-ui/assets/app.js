@@ -1,0 +1,555 @@
+// OpenTMCL workbench: the page. One WebSocket to the server that owns the module's link; requests carry
+// an id and get one answer each, events (values, link state, program state) arrive in batches.
+"use strict";
+
+(function () {
+  const $ = (id) => document.getElementById(id);
+  const el = (tag, props, ...children) => {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(props || {})) {
+      if (k === "class") e.className = v;
+      else if (k === "style") Object.assign(e.style, v); // an object: inline style attributes are not allowed (CSP)
+      else if (k === "text") e.textContent = v;
+      else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+      else if (v !== null && v !== undefined && v !== false) e.setAttribute(k, v === true ? "" : v);
+    }
+    e.append(...children);
+    return e;
+  };
+
+  // Things tests and benchmarks read (`window.workbench`).
+  const wb = window.workbench = {
+    hello: null, values: {}, received: {}, counts: {}, events: 0, connected: false, stats: null,
+    program: null, debug: null, lastDownload: null, transit: [],
+  };
+
+  // Connection ---------------------------------------------------------------------------------------
+  let ws = null, nextId = 1, retry = 500;
+  const pending = new Map();
+  const listeners = {};
+  // Subscribes `f` to page events ("value", "prog", "debug", "progress", "view"); returns the unsubscribe.
+  const on = (e, f) => {
+    (listeners[e] = listeners[e] || []).push(f);
+    return () => { listeners[e] = listeners[e].filter((g) => g !== f); };
+  };
+  const emit = (e, msg) => (listeners[e] || []).forEach((f) => f(msg));
+
+  function connect() {
+    ws = new WebSocket(`ws://${location.host}/ws`);
+    ws.onopen = () => { retry = 500; wb.connected = true; setLink(null, true); call("hello").then(hello); watch(); };
+    ws.onclose = () => {
+      wb.connected = false;
+      for (const [, p] of pending) p.reject(new Error("the workbench server went away"));
+      pending.clear();
+      setLink("the workbench server is not reachable; retrying", false, true);
+      setTimeout(connect, retry); retry = Math.min(retry * 2, 5000);
+    };
+    ws.onmessage = (m) => {
+      let msg;
+      try { msg = JSON.parse(m.data); } catch (e) { return; }
+      if (Array.isArray(msg)) { for (const ev of msg) event(ev); return; }
+      const p = pending.get(msg.id);
+      if (!p) return;
+      pending.delete(msg.id);
+      if ("ok" in msg) p.resolve(msg.ok); else p.reject(msg);
+    };
+  }
+
+  function call(op, args) {
+    return new Promise((resolve, reject) => {
+      if (!ws || ws.readyState !== 1) { reject({ error: "not connected to the workbench server" }); return; }
+      const id = nextId++;
+      pending.set(id, { resolve, reject });
+      ws.send(JSON.stringify(Object.assign({ id, op }, args || {})));
+    });
+  }
+  wb.call = call;
+  wb.on = on;
+
+  function event(ev) {
+    wb.events++;
+    switch (ev.e) {
+      case "v": {
+        const now = Date.now();
+        wb.values[ev.k] = ev.v; wb.received[ev.k] = now; wb.counts[ev.k] = (wb.counts[ev.k] || 0) + 1;
+        // How long values take from the server's read to the page (the last 500), for the benchmarks.
+        wb.transit.push(now - ev.t); if (wb.transit.length > 500) wb.transit.shift();
+        emit("value", ev); break;
+      }
+      case "link": setLink(ev.error, ev.ok); break;
+      case "stats": wb.stats = ev; $("rps").textContent = `${ev.rps.toFixed(0)}/s of ${ev.rate.toFixed(0)}`; break;
+      case "prog": wb.program = ev; emit("prog", ev); break;
+      case "debug": wb.debug = ev; emit("debug", ev); break;
+      case "progress": emit("progress", ev); break;
+      case "hello": hello(ev.hello); break;
+      default: break;
+    }
+  }
+
+  function setLink(error, ok, serverGone) {
+    const pill = $("link-state");
+    pill.className = "pill " + (ok ? "ok" : serverGone ? "wait" : "bad");
+    pill.textContent = ok ? "answering" : serverGone ? "offline" : "no answer";
+    pill.title = error || "";
+  }
+
+  // Module and model ----------------------------------------------------------------------------------
+  let model = null, roles = {}, motor = 0;
+
+  function hello(h) {
+    wb.hello = h; model = h.model; roles = h.roles || {};
+    $("model").textContent = model ? model.name : "unknown model";
+    $("version").textContent = h.version || "no answer";
+    $("address").textContent = h.address;
+    // Long paths keep their end, which names the port.
+    $("link-name").textContent = h.link.length > 44 ? "…" + h.link.slice(-43) : h.link; $("link-name").title = h.link;
+    setLink(h.link_error, h.link_ok);
+    $("m-link").textContent = h.link; $("m-address").textContent = h.address;
+    $("m-version").textContent = h.version || "no answer to command 136";
+    $("m-model").textContent = model ? `${model.name} (${model.id})` : "unknown: give --module MODEL";
+    $("m-manual").textContent = model ? model.manual : "–";
+    $("m-rate").textContent = `${h.rate.toFixed(0)} requests per second`;
+    $("select-address").value = h.address;
+    const motors = model ? model.motors : 1;
+    for (const s of document.querySelectorAll(".motor-select")) {
+      s.replaceChildren(...Array.from({ length: motors }, (_, m) => el("option", { value: m, text: String(m) })));
+      s.value = String(Math.min(motor, motors - 1));
+      s.closest(".motor-choice").hidden = motors < 2;
+    }
+    buildParams(); buildIo(); setupPlots(); buildVars();
+    document.title = `${model ? model.name : "TMCL module"} ${h.address} · OpenTMCL workbench`;
+  }
+
+  // Views: what is open decides what the server polls.
+  let view = "params";
+  function watch() {
+    if (!ws || ws.readyState !== 1) return;
+    const from = Number($("vars-from").value) || 0, count = Math.min(64, Math.max(1, Number($("vars-count").value) || 8));
+    call("watch", { views: [view], motor, vars: [from, count] }).catch(() => {});
+  }
+  const tabs = [...document.querySelectorAll('[role="tab"]')];
+  function selectTab(tab) {
+    for (const t of tabs) {
+      const on = t === tab;
+      t.setAttribute("aria-selected", on ? "true" : "false");
+      t.tabIndex = on ? 0 : -1;
+      $(t.getAttribute("aria-controls")).hidden = !on;
+    }
+    view = tab.id.replace("tab-", "");
+    location.hash = view;
+    watch();
+    if (view === "console") $("console-input").focus();
+    emit("view", view);
+  }
+  tabs.forEach((t, i) => {
+    t.addEventListener("click", () => selectTab(t));
+    t.addEventListener("keydown", (e) => {
+      const d = e.key === "ArrowRight" ? 1 : e.key === "ArrowLeft" ? -1 : 0;
+      if (d) { const n = tabs[(i + d + tabs.length) % tabs.length]; n.focus(); selectTab(n); }
+    });
+  });
+  for (const s of document.querySelectorAll(".motor-select")) {
+    s.addEventListener("change", () => {
+      motor = Number(s.value);
+      for (const o of document.querySelectorAll(".motor-select")) o.value = s.value;
+      buildParams(); setupPlots(); watch();
+    });
+  }
+
+  function say(id, text, ok) {
+    const p = $(id); p.textContent = text; p.className = "status-line " + (ok === true ? "ok" : ok === false ? "bad" : "");
+  }
+  // A refusal in words: the module's status and, where the tables know, why.
+  function refusal(err) {
+    if (!err) return "failed";
+    let text = err.error || String(err);
+    if (err.explanation) text += `: ${err.explanation}`;
+    return text;
+  }
+
+  // Parameters ---------------------------------------------------------------------------------------
+  const paramRows = new Map(); // key -> {row, input|span, desc}
+  function keyOf(p) { return p.kind === "ap" ? `ap.${motor}.${p.number}` : `gp.${p.bank}.${p.number}`; }
+  function buildParams() {
+    const table = $("param-table");
+    for (const b of table.querySelectorAll("tbody")) b.remove();
+    paramRows.clear();
+    $("param-empty").hidden = !!model;
+    if (!model) return;
+    const groups = [
+      ["ap", `Axis parameters, motor ${motor}`, (p) => p.kind === "ap"],
+      ["gp0", "Global parameters, bank 0", (p) => p.kind === "gp" && p.bank === 0],
+      ["gp3", "Interrupt configuration, bank 3", (p) => p.kind === "gp" && p.bank === 3],
+    ];
+    for (const [id, title, pick] of groups) {
+      const body = el("tbody", { "data-group": id });
+      body.append(el("tr", { class: "group" }, el("th", { colspan: 7, scope: "colgroup", text: title })));
+      for (const p of model.params.filter(pick)) {
+        const key = keyOf(p);
+        let cell;
+        if (p.write) {
+          cell = el("input", { type: "text", inputmode: "numeric", "aria-label": `${p.name} value`, value: "", "data-key": key });
+          cell.addEventListener("keydown", (e) => {
+            if (e.key === "Enter") { e.preventDefault(); writeParam(p, cell); }
+            if (e.key === "Escape") { cell.value = wb.values[key] ?? ""; cell.blur(); }
+          });
+          cell.addEventListener("change", () => writeParam(p, cell));
+        } else {
+          cell = el("span", { "data-key": key, text: p.read ? "…" : "(write only)" });
+        }
+        const store = p.store ? [
+          el("button", { type: "button", "aria-label": `Store ${p.name}`, text: "Store", onclick: () => eeprom("store", p) }), " ",
+          el("button", { type: "button", "aria-label": `Restore ${p.name}`, text: "Restore", onclick: () => eeprom("restore", p) }),
+        ] : [];
+        const row = el("tr", { "data-key": key, "data-search": `${p.number} ${p.name} ${p.title}`.toLowerCase() },
+          el("td", { class: "num", text: String(p.number) }),
+          el("td", { class: "name", title: `${p.title} (${p.section})` }, p.name, el("small", { text: p.title })),
+          el("td", { class: "val" }, cell),
+          el("td", { class: "unit-cell", text: p.unit }),
+          el("td", { class: "range", text: p.range }),
+          el("td", { class: "access", text: p.access, title: "R read, W write, E EEPROM, A stored automatically, P password protected" }),
+          el("td", { class: "eeprom" }, ...store));
+        body.append(row);
+        paramRows.set(key, { row, cell, p });
+        if (key in wb.values) showParam(key, wb.values[key]);
+      }
+      table.append(body);
+    }
+    filterParams();
+  }
+  function showParam(key, value) {
+    const r = paramRows.get(key);
+    if (!r) return;
+    if (r.cell.tagName === "INPUT") {
+      if (document.activeElement === r.cell || r.cell.dataset.dirty) return; // the user is typing
+      if (r.cell.value !== String(value)) { r.cell.value = value; flash(r.row); }
+    } else if (r.cell.textContent !== String(value)) { r.cell.textContent = value; flash(r.row); }
+  }
+  function flash(row) { row.classList.remove("changed"); void row.offsetWidth; row.classList.add("changed"); }
+  function paramArg(p) { return { kind: p.kind, number: p.number, index: p.kind === "ap" ? motor : p.bank }; }
+  async function writeParam(p, input) {
+    const text = input.value.trim();
+    if (text === "" || text === String(wb.values[keyOf(p)])) return;
+    const value = /^[-+]?0x[0-9a-f]+$/i.test(text) ? parseInt(text, 16) : Number(text);
+    const r = paramRows.get(keyOf(p));
+    if (!Number.isInteger(value)) { r.row.classList.add("refused"); say("param-status", `${p.name}: "${text}" is not a whole number`, false); return; }
+    try {
+      const ok = await call("set", { param: paramArg(p), value });
+      r.row.classList.remove("refused");
+      input.value = ok.value;
+      say("param-status", `${p.kind === "ap" ? "SAP" : "SGP"} ${p.number}: ${p.name} = ${ok.value}${p.unit ? " " + p.unit : ""}`, true);
+    } catch (err) {
+      r.row.classList.add("refused");
+      say("param-status", `${p.name} = ${value} refused: ${refusal(err)}`, false);
+    }
+  }
+  async function eeprom(what, p) {
+    try {
+      const ok = await call(what, { param: paramArg(p) });
+      say("param-status", `${what === "store" ? "Stored" : "Restored"} ${p.name} (${ok.value})`, true);
+    } catch (err) { say("param-status", `${p.name}: ${refusal(err)}`, false); }
+  }
+  function filterParams() {
+    const q = $("param-filter").value.trim().toLowerCase(), which = $("param-which").value;
+    for (const body of $("param-table").querySelectorAll("tbody")) {
+      const groupOn = which === "all" || body.dataset.group === which;
+      let any = false;
+      for (const row of body.querySelectorAll("tr[data-key]")) {
+        const on = groupOn && (!q || row.dataset.search.includes(q));
+        row.hidden = !on; any = any || on;
+      }
+      body.hidden = !any;
+    }
+  }
+  $("param-filter").addEventListener("input", filterParams);
+  $("param-which").addEventListener("change", filterParams);
+  on("value", (ev) => { if ("v" in ev) showParam(ev.k, ev.v); });
+
+  // Motion and plots ---------------------------------------------------------------------------------
+  let plots = [];
+  const COLORS = { actual: "#1f6feb", target: "#d4762c", encoder: "#2da44e", load: "#8250df", current: "#cf222e" };
+  function setupPlots() {
+    const keep = plots.length && plots[0].motor === motor;
+    if (keep) return;
+    const k = (n) => (n === null || n === undefined ? null : `ap.${motor}.${n}`);
+    const defs = [
+      ["position", [[k(roles.actual_position), "actual position", COLORS.actual], [k(roles.target_position), "target position", COLORS.target], [k(roles.encoder), "encoder", COLORS.encoder]]],
+      ["velocity", [[k(roles.actual_speed), "actual speed", COLORS.actual], [k(roles.target_speed), "target speed", COLORS.target]]],
+      ["load", [[k(roles.load), "load value", COLORS.load], [k(roles.current), "current scale (right axis)", COLORS.current, true]]],
+    ];
+    const windowMs = Number($("plot-window").value) * 1000;
+    plots = defs.map(([id, series]) => {
+      const list = series.filter((s) => s[0]).map(([key, label, color, right]) => ({ key, label, color, right }));
+      const canvas = $(`plot-${id}`);
+      const fresh = canvas.cloneNode(false); canvas.replaceWith(fresh);
+      const plot = new TmclPlot.Plot(fresh, list, { window: windowMs });
+      plot.motor = motor; plot.title = id;
+      const legend = $(`legend-${id}`);
+      legend.replaceChildren(...plot.series.map((s) => {
+        const box = el("input", { type: "checkbox", checked: true, "aria-label": `Show ${s.label}` });
+        box.addEventListener("change", () => { s.visible = box.checked; plot.dirty = true; if (plot.paused) plot.draw(); });
+        return el("label", {}, box, el("span", { class: "swatch", style: { background: s.color } }), s.label);
+      }));
+      return plot;
+    });
+    wb.plots = plots;
+  }
+  on("value", (ev) => {
+    if (!("v" in ev)) return;
+    for (const p of plots) p.push(ev.k, ev.t, ev.v);
+    const m = (n) => `ap.${motor}.${n}`;
+    const show = (id, n, unit) => { if (n !== null && n !== undefined && ev.k === m(n)) $(id).textContent = `${ev.v} ${unit}`; };
+    show("st-apos", roles.actual_position, "µsteps"); show("st-tpos", roles.target_position, "µsteps");
+    show("st-aspeed", roles.actual_speed, "pps"); show("st-tspeed", roles.target_speed, "pps");
+    if (ev.k === m(roles.reached)) $("st-reached").textContent = ev.v ? "yes" : "no";
+    const lamp = (id, n) => { if (ev.k === m(n)) { $(id).classList.toggle("on", !!ev.v); $(id).setAttribute("aria-label", `${$(id).textContent} switch ${ev.v ? "active" : "inactive"}`); } };
+    lamp("sw-left", roles.left); lamp("sw-right", roles.right); lamp("sw-home", roles.home);
+    if (ev.k === `rfs.${motor}`) $("rfs-status").textContent = ev.v ? `searching (${ev.v})` : "no search active";
+  });
+  // The plot update rate: new samples of the actual position per second, shown and kept for tests.
+  let lastCount = 0;
+  setInterval(() => {
+    const key = `ap.${motor}.${roles.actual_position}`;
+    const n = wb.counts[key] || 0;
+    wb.plotRate = n - lastCount; lastCount = n;
+    $("plot-rate").textContent = `${wb.plotRate} samples/s`;
+  }, 1000);
+  async function motion(action, value) {
+    try {
+      const ok = await call("motion", { action, motor, value: value || 0 });
+      wb.lastMotion = { action, value, t: ok.t, at: Date.now() };
+      say("motion-status", `${action.replace(/_/g, " ")}${value !== undefined ? " " + value : ""}: done`, true);
+    } catch (err) { say("motion-status", `${action.replace(/_/g, " ")}: ${refusal(err)}`, false); }
+  }
+  const num = (id) => { const v = Number($(id).value); return Number.isFinite(v) ? Math.trunc(v) : 0; };
+  $("ror").addEventListener("click", () => motion("rotate_right", num("speed")));
+  $("rol").addEventListener("click", () => motion("rotate_left", num("speed")));
+  $("mst").addEventListener("click", () => motion("stop"));
+  $("mvp-abs").addEventListener("click", () => motion("move_absolute", num("position")));
+  $("mvp-rel").addEventListener("click", () => motion("move_relative", num("position")));
+  $("rfs-start").addEventListener("click", () => motion("reference_start"));
+  $("rfs-stop").addEventListener("click", () => motion("reference_stop"));
+  $("plot-pause").addEventListener("click", (e) => {
+    const p = e.currentTarget.getAttribute("aria-pressed") !== "true";
+    e.currentTarget.setAttribute("aria-pressed", p ? "true" : "false");
+    e.currentTarget.textContent = p ? "Resume" : "Pause";
+    for (const pl of plots) pl.setPaused(p);
+  });
+  $("plot-window").addEventListener("change", () => { for (const p of plots) p.setWindow(Number($("plot-window").value) * 1000); });
+  function save(name, text, type) {
+    const a = el("a", { href: URL.createObjectURL(new Blob([text], { type })), download: name });
+    document.body.append(a); a.click(); a.remove();
+    setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+  }
+  const stamp = () => new Date().toISOString().replace(/[:.]/g, "-").slice(0, 19);
+  $("plot-csv").addEventListener("click", () => save(`tmcl-plot-${stamp()}.csv`, TmclPlot.toCsv(plots), "text/csv"));
+  $("plot-svg").addEventListener("click", () => save(`tmcl-plot-${stamp()}.svg`, TmclPlot.toSvg(plots, ["Position", "Velocity", "Load and current"]), "image/svg+xml"));
+  wb.exportCsv = () => TmclPlot.toCsv(plots);
+  wb.exportSvg = () => TmclPlot.toSvg(plots, ["Position", "Velocity", "Load and current"]);
+
+  // I/O ----------------------------------------------------------------------------------------------
+  function buildIo() {
+    const ports = model ? model.ports : [];
+    const ins = $("io-inputs"), an = $("io-analog").tBodies[0], outs = $("io-outputs");
+    ins.replaceChildren(); an.replaceChildren(); outs.replaceChildren();
+    for (const p of ports) {
+      const key = `io.${p.bank}.${p.port}`;
+      if (p.kind === "input") {
+        ins.append(el("li", {}, el("span", { text: p.name }), el("span", { class: "lamp", "data-key": key, "aria-label": `${p.name} input`, text: "–" })));
+      } else if (p.kind === "analog" || p.kind === "temperature") {
+        an.append(el("tr", {}, el("th", { scope: "row", text: p.name }), el("td", { "data-key": key, text: "–" }),
+          el("td", {}, p.kind === "analog" ? el("meter", { min: 0, max: 4095, value: 0, "data-meter": key, "aria-label": `${p.name} level` }) : "")));
+      } else if (p.kind === "output") {
+        const box = el("input", { type: "checkbox", role: "switch", "aria-label": p.name, "data-key": key });
+        box.addEventListener("change", async () => {
+          try {
+            await call("output", { port: p.port, bank: p.bank, value: box.checked ? 1 : 0 });
+            say("io-status", `SIO ${p.port}, ${p.bank}, ${box.checked ? 1 : 0}: ${p.name} ${box.checked ? "on" : "off"}`, true);
+          } catch (err) { box.checked = !box.checked; say("io-status", `${p.name}: ${refusal(err)}`, false); }
+        });
+        outs.append(el("li", {}, el("span", { text: p.name }), el("label", { class: "switch" }, box)));
+      }
+    }
+    if (!ins.children.length) ins.append(el("li", { class: "hint", text: "none known" }));
+    if (!outs.children.length) outs.append(el("li", { class: "hint", text: "none known" }));
+  }
+  on("value", (ev) => {
+    if (!ev.k.startsWith("io.") || !("v" in ev)) return;
+    for (const e of document.querySelectorAll(`#view-io [data-key="${ev.k}"]`)) {
+      if (e.tagName === "INPUT") { if (document.activeElement !== e) e.checked = !!ev.v; }
+      else if (e.classList.contains("lamp")) { e.classList.toggle("on", !!ev.v); e.textContent = ev.v ? "high" : "low"; }
+      else e.textContent = ev.v;
+    }
+    const m = document.querySelector(`#view-io [data-meter="${ev.k}"]`);
+    if (m) m.value = ev.v;
+  });
+
+  // Console ------------------------------------------------------------------------------------------
+  const history = JSON.parse(localStorage.getItem("tmcl-console-history") || "[]");
+  let historyAt = history.length, draft = "";
+  function log(cls, text) {
+    const list = $("console-log");
+    const li = el("li", { class: cls, text });
+    list.append(li);
+    while (list.children.length > 2000) list.firstChild.remove();
+    list.scrollTop = list.scrollHeight;
+    return li;
+  }
+  $("console-form").addEventListener("submit", async (e) => {
+    e.preventDefault();
+    const input = $("console-input"), line = input.value.trim();
+    if (!line) return;
+    if (history[history.length - 1] !== line) history.push(line);
+    while (history.length > 200) history.shift();
+    localStorage.setItem("tmcl-console-history", JSON.stringify(history));
+    historyAt = history.length; draft = ""; input.value = "";
+    log("cmd", line);
+    try {
+      const ok = await call("console", { line });
+      log("bytes", `  sent ${ok.sent}  [${ok.bytes}]`);
+      const named = ok.name ? ` (${ok.name})` : "";
+      log("ok", `  ${ok.reply}${named}`);
+    } catch (err) {
+      if (err.sent) log("bytes", `  sent ${err.sent}`);
+      log("err", `  ${refusal(err)}`);
+    }
+  });
+  $("console-input").addEventListener("keydown", (e) => {
+    const input = e.currentTarget;
+    if (e.key === "ArrowUp" && historyAt > 0) {
+      if (historyAt === history.length) draft = input.value;
+      input.value = history[--historyAt]; e.preventDefault();
+    } else if (e.key === "ArrowDown" && historyAt < history.length) {
+      historyAt++; input.value = historyAt === history.length ? draft : history[historyAt]; e.preventDefault();
+    }
+  });
+  $("console-clear").addEventListener("click", () => $("console-log").replaceChildren());
+
+  // Program ------------------------------------------------------------------------------------------
+  const editor = new TmclEditor.Editor($("editor"));
+  wb.editor = editor;
+  const SAMPLE = "// A first program: back and forth between two positions.\n#include TMCLParam.tmc\n\n" +
+    "Speed = 51200\n\n    SAP APMaxPositioningSpeed, Motor0, Speed\n    SGP 0, 2, 0            // user variable 0 counts the moves\n" +
+    "Loop:\n    MVP ABS, Motor0, 25600\n    WAIT POS, Motor0, 0\n    MVP ABS, Motor0, 0\n    WAIT POS, Motor0, 0\n" +
+    "    GGP 0, 2\n    CALC ADD, 1\n    AGP 0, 2\n    JA Loop\n";
+  editor.value = localStorage.getItem("tmcl-program") ?? SAMPLE;
+  editor.onChange = () => { localStorage.setItem("tmcl-program", editor.value); downloaded = null; };
+  let downloaded = null; // the source last downloaded
+  function diagnostics(list, okText) {
+    const ul = $("diagnostics");
+    ul.replaceChildren(...list.map((d) => el("li", {}, el("button", {
+      type: "button", text: d.line ? `line ${d.line}, column ${d.column}: ${d.message}` : d.message,
+      onclick: () => d.line && editor.goTo(d.line, d.column),
+    }))));
+    if (!list.length && okText) ul.append(el("li", { class: "ok", text: okText }));
+    editor.setDiagnostics(list);
+  }
+  async function assemble() {
+    try {
+      const ok = await call("assemble", { source: editor.value });
+      diagnostics(ok.diagnostics, ok.instructions !== null ? `Assembled: ${ok.instructions} instructions, no errors.` : "");
+      return ok.diagnostics.length === 0;
+    } catch (err) { diagnostics([{ line: 0, message: refusal(err) }]); return false; }
+  }
+  async function download() {
+    say("pg-progress", "downloading…");
+    try {
+      const ok = await call("download", { source: editor.value });
+      if (ok.diagnostics.length) { diagnostics(ok.diagnostics); say("pg-progress", "not downloaded: the program has errors", false); return false; }
+      diagnostics([], `Downloaded: ${ok.stored} instructions at addresses 0–${ok.stored - 1}.`);
+      downloaded = editor.value; wb.lastDownload = ok;
+      say("pg-progress", `${ok.stored} instructions stored`, true);
+      await sendBreakpoints([...editor.breakpoints]);
+      return true;
+    } catch (err) { say("pg-progress", `download failed: ${refusal(err)}`, false); return false; }
+  }
+  async function sendBreakpoints(lines) {
+    if (downloaded === null) { showBreakpoints(lines); return; }
+    try {
+      const ok = await call("breakpoints", { lines });
+      editor.setBreakpoints(ok.lines); showBreakpoints(ok.lines);
+    } catch (err) { say("pg-progress", refusal(err), false); }
+  }
+  function showBreakpoints(lines) {
+    $("bp-list").replaceChildren(...(lines.length ? lines.map((n) => el("li", {},
+      el("span", { text: `line ${n}: ${(editor.lines()[n - 1] || "").trim()}` }),
+      el("button", { type: "button", "aria-label": `Remove breakpoint at line ${n}`, text: "×", onclick: () => editor.toggle(n) }))) :
+      [el("li", { class: "hint", text: "none" })]));
+  }
+  editor.onBreakpoints = (lines) => sendBreakpoints(lines);
+  showBreakpoints([]);
+  async function program(action) {
+    if (downloaded === null && (action === "start")) { if (!(await download())) return; }
+    try { await call("program", { action }); } catch (err) { say("pg-progress", `${action}: ${refusal(err)}`, false); }
+  }
+  $("pg-assemble").addEventListener("click", assemble);
+  $("pg-download").addEventListener("click", download);
+  for (const a of ["start", "stop", "step", "continue", "reset"]) $(`pg-${a}`).addEventListener("click", () => program(a));
+  $("pg-open").addEventListener("change", async (e) => {
+    const f = e.target.files[0]; if (!f) return;
+    editor.value = await f.text(); editor.onChange(); e.target.value = "";
+  });
+  $("pg-save").addEventListener("click", () => save("program.tmc", editor.value, "text/plain"));
+  function showProgram(ev) {
+    const state = ev.continuing ? "running to a breakpoint" : ev.mode_text + (ev.waiting ? " (waiting)" : "");
+    $("prog-state").textContent = `${ev.mode_text}${ev.continuing ? " ⇢ bp" : ""}, pc ${ev.pc}`;
+    $("dbg-state").textContent = state;
+    $("dbg-pc").textContent = ev.line ? `${ev.pc} (line ${ev.line})` : String(ev.pc);
+    const live = ev.mode === 1 || ev.continuing;
+    editor.setPc(downloaded !== null && ev.line && !live ? ev.line : downloaded !== null && ev.line && live ? ev.line : null);
+  }
+  on("prog", showProgram);
+  on("debug", (ev) => {
+    if (ev.error) { say("pg-progress", ev.error, false); return; }
+    showProgram(ev);
+    $("dbg-acc").textContent = ev.acc; $("dbg-x").textContent = ev.x;
+    const why = { breakpoint: `stopped at the breakpoint on line ${ev.line}`, stopped: "stopped", step: "stepped",
+      reset: "reset", running: "running", continuing: "running to the next breakpoint (single steps)" }[ev.reason] || ev.reason;
+    say("pg-progress", why, true);
+  });
+  on("progress", (ev) => {
+    if (ev.what === "download") say("pg-progress", `downloading ${ev.done}/${ev.total}`);
+    if (ev.what === "scan") say("scan-status", `scanning ${ev.done}/${ev.total}`);
+  });
+  on("value", (ev) => {
+    if (ev.k === "acc") $("dbg-acc").textContent = ev.v;
+    if (ev.k === "x") $("dbg-x").textContent = ev.v;
+    if (ev.k.startsWith("gp.2.")) { const c = document.querySelector(`#vars [data-key="${ev.k}"]`); if (c) c.textContent = "v" in ev ? ev.v : `status ${ev.s}`; }
+  });
+  function buildVars() {
+    const from = Math.max(0, Number($("vars-from").value) || 0);
+    const count = Math.min(64, Math.max(1, Number($("vars-count").value) || 8));
+    const limit = model ? model.user_variables : 256;
+    const rows = [];
+    for (let n = from; n < Math.min(from + count, limit); n++) {
+      const key = `gp.2.${n}`;
+      rows.push(el("tr", {}, el("th", { scope: "row", text: `GGP ${n}, 2` }), el("td", { "data-key": key, text: key in wb.values ? wb.values[key] : "–" })));
+    }
+    $("vars").tBodies[0].replaceChildren(...rows);
+  }
+  for (const id of ["vars-from", "vars-count"]) $(id).addEventListener("change", () => { buildVars(); watch(); });
+
+  // Module: scan and select -------------------------------------------------------------------------
+  $("scan-form").addEventListener("submit", async (e) => {
+    e.preventDefault();
+    const first = Number($("scan-first").value), last = Number($("scan-last").value);
+    say("scan-status", "scanning…");
+    try {
+      const ok = await call("scan", { first, last });
+      $("scan-results").replaceChildren(...ok.modules.map((m) => el("li", {},
+        el("span", { text: `address ${m.address}` }), el("span", { text: m.version || "(no version string)" }),
+        el("button", { type: "button", text: "Use", "aria-label": `Use module ${m.address}`, onclick: () => select(m.address) }))));
+      say("scan-status", `${ok.modules.length} module${ok.modules.length === 1 ? "" : "s"} between ${first} and ${last}`, true);
+    } catch (err) { say("scan-status", refusal(err), false); }
+  });
+  async function select(address) {
+    try { await call("select", { address }); say("scan-status", `talking to address ${address}`, true); watch(); }
+    catch (err) { say("scan-status", refusal(err), false); }
+  }
+  $("select-form").addEventListener("submit", (e) => { e.preventDefault(); select(Number($("select-address").value)); });
+
+  // Start ----------------------------------------------------------------------------------------------
+  const first = tabs.find((t) => t.id === `tab-${location.hash.slice(1)}`) || tabs[0];
+  selectTab(first);
+  connect();
+})();

@@ -1,0 +1,506 @@
+//! The one thread that talks to the module: it owns the blocking [`Client`], runs the page's requests
+//! (jobs) first, and polls the values the open pages show in between.
+//!
+//! **Turns.** The loop takes every job waiting in the queue before the next poll request, so a console
+//! command or a debugger step waits at most for the one poll request already on the line. While the
+//! debugger runs a program to a breakpoint (by single steps, see [`crate::debug`]) steps and polls take
+//! turns, so the plots and the other pages stay live.
+//!
+//! **Rate.** Every request, jobs and polls alike, goes through one [`Limiter`]: never more requests per
+//! second than the line carries (`baud / 180` on a serial port: a 9-byte request and a 9-byte reply of
+//! 10-bit characters), and a fixed cap on a pty or TCP link, which have no baud rate of their own.
+//!
+//! **Events.** Every value read is sent to the pages as it arrives (a JSON text on a broadcast channel,
+//! see [`crate::server`]); so are changes of the link state, the debugger's stops, progress of long jobs,
+//! and once a second the requests per second on the line.
+
+use crate::debug::Debugger;
+pub(crate) use crate::schedule::Poll;
+use crate::schedule::{Limiter, Schedule};
+use serde_json::{json, Value};
+use std::collections::{BTreeSet, HashMap};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tmcl_host::{Client, HostError, Transport};
+use tmcl_model::{ModelSpec, PortKind, Role};
+use tmcl_wire::{Command, Instruction, Reply, StatusKind};
+
+/// A client on whatever link the command line named.
+pub type HostClient = Client<Box<dyn Transport + Send>>;
+
+/// Work for the link thread, sent by a page's connection.
+pub(crate) type Job = Box<dyn FnOnce(&mut Link) + Send>;
+
+/// What one page shows, so what must be polled for it.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Watch {
+    /// The views open: `params`, `motion`, `io`, `program` (the plot values are always read).
+    pub views: BTreeSet<String>,
+    /// The motor whose axis parameters are shown.
+    pub motor: u8,
+    /// The user variables shown: first and count (bank 2, PD28-1021 manual §5.3).
+    pub vars: (u8, u8),
+}
+
+/// The axis parameter numbers the workbench reads by meaning. A model without a table (an unknown
+/// version string) gets the numbers most TMCL modules share (PD28-1021 manual §4, Table 15).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Roles {
+    pub target_position: Option<u8>,
+    pub actual_position: Option<u8>,
+    pub target_speed: Option<u8>,
+    pub actual_speed: Option<u8>,
+    pub load: Option<u8>,
+    pub current: Option<u8>,
+    pub encoder: Option<u8>,
+    pub reached: Option<u8>,
+    pub home: Option<u8>,
+    pub right: Option<u8>,
+    pub left: Option<u8>,
+}
+
+impl Roles {
+    pub(crate) fn of(model: Option<&'static ModelSpec>) -> Roles {
+        let Some(model) = model else {
+            return Roles {
+                target_position: Some(0),
+                actual_position: Some(1),
+                target_speed: Some(2),
+                actual_speed: Some(3),
+                load: Some(206),
+                current: Some(180),
+                encoder: Some(209),
+                reached: Some(8),
+                home: Some(9),
+                right: Some(10),
+                left: Some(11),
+            };
+        };
+        let find = |role: Role| model.axis.params.iter().find(|d| d.role == role && d.access.read).map(|d| d.number);
+        Roles {
+            target_position: find(Role::TargetPosition),
+            actual_position: find(Role::ActualPosition),
+            target_speed: find(Role::TargetSpeed),
+            actual_speed: find(Role::ActualSpeed),
+            load: find(Role::LoadValue),
+            current: find(Role::ActualCurrent).or_else(|| find(Role::CurrentScale)),
+            encoder: find(Role::EncoderPosition),
+            reached: find(Role::PositionReached),
+            home: find(Role::HomeSwitch),
+            right: find(Role::RightSwitch),
+            left: find(Role::LeftSwitch),
+        }
+    }
+
+    /// The plotted values, fastest first.
+    fn plotted(&self) -> impl Iterator<Item = u8> {
+        [
+            self.actual_position,
+            self.target_position,
+            self.actual_speed,
+            self.target_speed,
+            self.load,
+            self.current,
+            self.encoder,
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    pub(crate) fn json(&self) -> Value {
+        json!({
+            "target_position": self.target_position, "actual_position": self.actual_position,
+            "target_speed": self.target_speed, "actual_speed": self.actual_speed, "load": self.load,
+            "current": self.current, "encoder": self.encoder, "reached": self.reached, "home": self.home,
+            "right": self.right, "left": self.left,
+        })
+    }
+}
+
+/// How often each kind of value is read when the line allows (see [`crate::schedule`]).
+const PLOT_PERIOD: Duration = Duration::from_millis(20);
+const SWITCH_PERIOD: Duration = Duration::from_millis(150);
+const PROGRAM_PERIOD: Duration = Duration::from_millis(100);
+const PROGRAM_IDLE_PERIOD: Duration = Duration::from_millis(1000);
+const REGISTER_PERIOD: Duration = Duration::from_millis(200);
+const VARIABLE_PERIOD: Duration = Duration::from_millis(400);
+const IO_PERIOD: Duration = Duration::from_millis(250);
+const PARAM_PERIOD: Duration = Duration::from_millis(2000);
+/// How long the loop sleeps at most without a job or a due value (the stats event needs a beat).
+const IDLE: Duration = Duration::from_millis(250);
+/// The longest a poll request waits for its reply (the page's own requests wait `--timeout`): a module
+/// answers a read within a few frame times, and a poll must not keep the page's requests waiting long.
+const POLL_TIMEOUT: Duration = Duration::from_millis(500);
+/// After a poll that got no answer, polling pauses this long (the page's requests still go out), so a
+/// module that is off or at another address costs one timeout a second, not one per value.
+const BACKOFF: Duration = Duration::from_secs(1);
+
+/// Milliseconds since the Unix epoch: the time stamp of every event, comparable with the page's
+/// `Date.now()` on the same machine.
+pub(crate) fn now_ms() -> f64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64() * 1000.0)
+}
+
+/// The link thread's state.
+pub(crate) struct Link {
+    client: HostClient,
+    limiter: Limiter,
+    /// The most requests per second.
+    pub rate: f64,
+    events: tokio::sync::broadcast::Sender<Arc<str>>,
+    /// The model, from `--module` or the version string.
+    pub model: Option<&'static ModelSpec>,
+    /// Whether the model came from `--module` (then a change of address keeps it).
+    model_fixed: bool,
+    /// The version string, once read.
+    pub version: Option<String>,
+    /// The link in words (`/dev/ttyUSB0 at 9600 baud`).
+    pub link_name: String,
+    link_error: Option<String>,
+    schedule: Schedule,
+    watches: HashMap<u64, Watch>,
+    /// The program debugger.
+    pub debug: Debugger,
+    /// Whose turn it is while the debugger steps: a step (true) or a poll.
+    step_turn: bool,
+    requests: u64,
+    window: (Instant, u64),
+    /// Requests per second over the last full second.
+    pub rps: f64,
+    stopped: bool,
+    /// No polling before this instant (after a poll without an answer).
+    backoff: Option<Instant>,
+    /// A scan is under way: unanswered addresses say nothing about the link.
+    pub scanning: bool,
+}
+
+impl Link {
+    /// A link over `client`, `rate` requests per second at most.
+    pub(crate) fn new(
+        client: HostClient,
+        rate: f64,
+        model: Option<&'static ModelSpec>,
+        link_name: String,
+        events: tokio::sync::broadcast::Sender<Arc<str>>,
+    ) -> Link {
+        Link {
+            client,
+            limiter: Limiter::new(rate),
+            rate,
+            events,
+            model,
+            model_fixed: model.is_some(),
+            version: None,
+            link_name,
+            link_error: None,
+            schedule: Schedule::default(),
+            watches: HashMap::new(),
+            debug: Debugger::default(),
+            step_turn: false,
+            requests: 0,
+            window: (Instant::now(), 0),
+            rps: 0.0,
+            stopped: false,
+            backoff: None,
+            scanning: false,
+        }
+    }
+
+    /// Ends the link thread after the job that calls it.
+    pub(crate) fn stop(&mut self) {
+        self.stopped = true;
+    }
+
+    /// The module address requests go to.
+    pub(crate) fn address(&self) -> u8 {
+        self.client.module_address
+    }
+
+    /// The link's trouble, if the last request failed on the line.
+    pub(crate) fn link_error(&self) -> Option<&str> {
+        self.link_error.as_deref()
+    }
+
+    /// Sends an event to every page.
+    pub(crate) fn emit(&self, event: Value) {
+        // No page connected is no error.
+        let _ = self.events.send(Arc::from(event.to_string()));
+    }
+
+    /// Runs `f` on the client after waiting for the rate limit; notes the link state.
+    fn on_line<R>(&mut self, f: impl FnOnce(&mut HostClient) -> Result<R, HostError>) -> Result<R, HostError> {
+        self.limiter.wait();
+        self.requests += 1;
+        let result = f(&mut self.client);
+        if self.scanning {
+            return result;
+        }
+        let trouble = match &result {
+            Err(e @ (HostError::Timeout { .. } | HostError::Io(_))) => Some(e.to_string()),
+            Err(e) if e.is_reply_error() => Some(e.to_string()),
+            _ => None,
+        };
+        if trouble != self.link_error {
+            self.link_error = trouble;
+            self.emit(json!({"e": "link", "ok": self.link_error.is_none(), "error": self.link_error}));
+        }
+        result
+    }
+
+    /// One request and its reply (PD28-1021 TMCL manual §3.1).
+    pub(crate) fn request(&mut self, instruction: Instruction) -> Result<Reply, HostError> {
+        self.on_line(|c| c.request(instruction))
+    }
+
+    /// A request without a reply (commands 137 and 242, §3.7.38).
+    pub(crate) fn request_no_reply(&mut self, instruction: Instruction) -> Result<(), HostError> {
+        self.on_line(|c| c.request_no_reply(instruction))
+    }
+
+    /// Command 136 type 0 (§3.7.38).
+    pub(crate) fn version_string(&mut self) -> Result<String, HostError> {
+        self.on_line(|c| c.version_string())
+    }
+
+    /// Command 134 (§3.7.38).
+    pub(crate) fn read_program_memory(&mut self, address: u16) -> Result<Instruction, HostError> {
+        self.on_line(|c| c.read_program_memory(address))
+    }
+
+    /// Sets the reply timeout, returning the old one (the scan waits briefly at each address).
+    pub(crate) fn set_timeout(&mut self, timeout: Duration) -> Duration {
+        std::mem::replace(&mut self.client.timeout, timeout)
+    }
+
+    /// Drains late replies and returns those skipped (the scan counts late answers).
+    pub(crate) fn settle(&mut self) -> Vec<Reply> {
+        let _ = self.client.settle();
+        self.client.take_skipped()
+    }
+
+    /// Sends the next requests to `address` (the scan; [`Link::select`] for a change of module).
+    pub(crate) fn set_address(&mut self, address: u8) {
+        self.client.module_address = address;
+    }
+
+    /// Talks to another module address, and asks it who it is.
+    pub(crate) fn select(&mut self, address: u8) {
+        self.client.module_address = address;
+        if !self.model_fixed {
+            self.model = None;
+        }
+        self.version = None;
+        self.debug = Debugger::default();
+        self.identify();
+        self.reschedule();
+    }
+
+    /// Reads the version string and, unless `--module` named it, finds the model by it.
+    pub(crate) fn identify(&mut self) {
+        match self.version_string() {
+            Ok(text) => {
+                if !self.model_fixed {
+                    self.model = crate::info::model_by_version(&text);
+                }
+                self.version = Some(text);
+            }
+            Err(_) => self.version = None,
+        }
+    }
+
+    /// A page's view changed (`None`: the page went away).
+    pub(crate) fn watch(&mut self, page: u64, watch: Option<Watch>) {
+        match watch {
+            Some(w) => self.watches.insert(page, w),
+            None => self.watches.remove(&page),
+        };
+        self.reschedule();
+    }
+
+    /// Builds the poll schedule from what the open pages show.
+    pub(crate) fn reschedule(&mut self) {
+        let mut polls: Vec<(Poll, Duration)> = Vec::new();
+        let roles = Roles::of(self.model);
+        let model = self.model;
+        let mut watches: Vec<&Watch> = self.watches.values().collect();
+        watches.sort_by_key(|w| w.motor);
+        for w in &watches {
+            let motor = w.motor;
+            polls.extend(roles.plotted().map(|param| (Poll::Axis { param, motor }, PLOT_PERIOD)));
+            let switches = [roles.reached, roles.home, roles.right, roles.left];
+            polls.extend(switches.into_iter().flatten().map(|param| (Poll::Axis { param, motor }, SWITCH_PERIOD)));
+            let program = w.views.contains("program");
+            polls.push((Poll::ProgramCounter, if program { PROGRAM_PERIOD } else { PROGRAM_IDLE_PERIOD }));
+            if program {
+                polls.push((Poll::Accumulator, REGISTER_PERIOD));
+                polls.push((Poll::XRegister, REGISTER_PERIOD));
+                let (first, count) = w.vars;
+                let limit = model.map_or(256, |m| usize::from(m.user_variables));
+                for n in usize::from(first)..(usize::from(first) + usize::from(count)).min(limit) {
+                    polls.push((Poll::Global { param: n as u8, bank: 2 }, VARIABLE_PERIOD));
+                }
+            }
+            if w.views.contains("motion") {
+                polls.push((Poll::Reference { motor }, SWITCH_PERIOD));
+            }
+            if w.views.contains("io") {
+                for p in model.map_or(&[][..], |m| m.ports) {
+                    let all = matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs);
+                    if !all {
+                        polls.push((Poll::Input { port: p.port, bank: p.bank }, IO_PERIOD));
+                    }
+                }
+            }
+            if w.views.contains("params") {
+                if let Some(m) = model {
+                    let tables = [(&m.axis, None), (&m.global, Some(0)), (&m.interrupt, Some(3))];
+                    for (table, bank) in tables {
+                        for d in table.params.iter().filter(|d| d.access.read) {
+                            let poll = match bank {
+                                None => Poll::Axis { param: d.number, motor },
+                                Some(bank) => Poll::Global { param: d.number, bank },
+                            };
+                            polls.push((poll, PARAM_PERIOD));
+                        }
+                    }
+                }
+            }
+        }
+        self.schedule.set(polls);
+    }
+
+    /// Reads the values `which` picks next, before any other (see [`Schedule::hurry`]).
+    pub(crate) fn hurry(&mut self, which: impl FnMut(&Poll) -> bool) {
+        self.schedule.hurry(which);
+    }
+
+    /// After a request that may have changed what moves: reads the plotted values, switches and reference
+    /// status of `motor` next, or (`None`, after a console line, which may change anything) those of every
+    /// motor and the I/O, the program status and the user variables as well.
+    pub(crate) fn hurry_live(&mut self, motor: Option<u8>) {
+        let roles = Roles::of(self.model);
+        let switches = [roles.reached, roles.home, roles.right, roles.left];
+        let live: Vec<u8> = roles.plotted().chain(switches.into_iter().flatten()).collect();
+        let this = |m: u8| motor.is_none_or(|x| x == m);
+        self.schedule.hurry(|p| match *p {
+            Poll::Axis { param, motor: m } => live.contains(&param) && this(m),
+            Poll::Reference { motor: m } => this(m),
+            Poll::Global { bank, .. } => bank == 2 && motor.is_none(),
+            Poll::Input { .. } | Poll::ProgramCounter | Poll::Accumulator | Poll::XRegister => motor.is_none(),
+        });
+    }
+
+    /// Reads one value and sends it to the pages.
+    fn poll(&mut self, poll: Poll) {
+        let t = now_ms();
+        let (key, command) = match poll {
+            Poll::Axis { param, motor } => (format!("ap.{motor}.{param}"), Command::Gap { param, motor }),
+            Poll::Global { param, bank } => (format!("gp.{bank}.{param}"), Command::Ggp { param, bank }),
+            Poll::Input { port, bank } => (format!("io.{bank}.{port}"), Command::Gio { port, bank }),
+            Poll::Reference { motor } => {
+                (format!("rfs.{motor}"), Command::Rfs { action: tmcl_wire::RfsAction::Status, motor })
+            }
+            Poll::ProgramCounter => {
+                let timeout = self.set_timeout(POLL_TIMEOUT.min(self.client.timeout));
+                let reply = self.request(Command::GetStatus { kind: StatusKind::ProgramCounter }.encode());
+                self.client.timeout = timeout;
+                if self.link_error.is_some() {
+                    self.backoff = Some(Instant::now() + BACKOFF);
+                }
+                if let Ok(reply) = reply {
+                    let status = crate::debug::Status::from_packed(reply.value);
+                    self.debug.observe(&status);
+                    self.emit(self.debug.status_event(&status, t));
+                }
+                return;
+            }
+            Poll::Accumulator => ("acc".into(), Command::GetStatus { kind: StatusKind::Accumulator }),
+            Poll::XRegister => ("x".into(), Command::GetStatus { kind: StatusKind::XRegister }),
+        };
+        let timeout = self.set_timeout(POLL_TIMEOUT.min(self.client.timeout));
+        let result = self.request(command.encode());
+        self.client.timeout = timeout;
+        if self.link_error.is_some() {
+            self.backoff = Some(Instant::now() + BACKOFF);
+        }
+        match result {
+            Ok(reply) => self.emit(json!({"e": "v", "k": key, "v": reply.value, "t": t})),
+            Err(HostError::Status { status, .. }) => {
+                self.emit(json!({"e": "v", "k": key, "s": u8::from(status), "t": t}))
+            }
+            Err(_) => {}
+        }
+    }
+
+    /// Counts requests per second and says so once a second.
+    fn tick(&mut self, now: Instant) {
+        let elapsed = now.saturating_duration_since(self.window.0);
+        if elapsed >= Duration::from_secs(1) {
+            self.rps = (self.requests - self.window.1) as f64 / elapsed.as_secs_f64();
+            self.window = (now, self.requests);
+            self.emit(json!({"e": "stats", "rps": self.rps, "requests": self.requests, "rate": self.rate,
+                             "polled": self.schedule.len()}));
+        }
+    }
+}
+
+/// The link thread: jobs first, then the debugger's steps and the polls, until the job queue closes.
+pub(crate) fn run(mut link: Link, jobs: Receiver<Job>) {
+    link.identify();
+    loop {
+        match jobs.try_recv() {
+            Ok(job) => {
+                job(&mut link);
+                if link.stopped {
+                    return;
+                }
+                continue;
+            }
+            Err(TryRecvError::Disconnected) => return,
+            Err(TryRecvError::Empty) => {}
+        }
+        let now = Instant::now();
+        link.tick(now);
+        if link.debug.is_continuing() {
+            link.step_turn = !link.step_turn;
+            if link.step_turn {
+                crate::debug::continue_step(&mut link);
+                continue;
+            }
+        }
+        if let Some(until) = link.backoff.filter(|&until| until > now) {
+            match jobs.recv_timeout(until - now) {
+                Ok(job) => {
+                    job(&mut link);
+                    if link.stopped {
+                        return;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => link.backoff = None,
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+            continue;
+        }
+        let wait = match link.schedule.next(now) {
+            Ok(poll) => {
+                link.poll(poll);
+                continue;
+            }
+            // Nothing due: the debugger's next step, or a nap until the next value is.
+            Err(_) if link.debug.is_continuing() => continue,
+            Err(Some(due)) => due.saturating_duration_since(now).min(IDLE),
+            Err(None) => IDLE,
+        };
+        match jobs.recv_timeout(wait) {
+            Ok(job) => {
+                job(&mut link);
+                if link.stopped {
+                    return;
+                }
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => return,
+        }
+    }
+}

@@ -1,0 +1,457 @@
+//! The page's requests (JSON over the WebSocket) and what the link thread does for each.
+//!
+//! A request is `{"id": N, "op": NAME, ...}`; the answer is `{"id": N, "ok": {...}}` or
+//! `{"id": N, "error": TEXT, ...}` with, for a refusal of the module, its `status` and `status_text` and,
+//! where the model's tables say why, an `explanation`. A message that is not a known request is answered
+//! with an error, never a panic.
+
+use crate::debug::{self, Action, SOURCE_NAME};
+use crate::info::{self, model_json};
+use crate::link::{Link, Poll, Roles, Watch};
+use serde::Deserialize;
+use serde_json::{json, Value};
+use std::collections::HashMap;
+use std::time::Duration;
+use tmcl_asm::{assemble_str, BuiltinResolver, Diagnostic};
+use tmcl_host::HostError;
+use tmcl_wire::{format_instruction, parse_instruction, Command, Instruction, MoveTarget, Opcode, RfsAction};
+
+/// The longest console line and program the page may send: more is refused, not parsed.
+pub(crate) const MAX_LINE: usize = 1024;
+pub(crate) const MAX_SOURCE: usize = 1 << 20;
+
+/// A parameter: `ap` with its motor, or `gp` with its bank.
+#[derive(Debug, Clone, Copy, Deserialize)]
+pub(crate) struct Param {
+    kind: ParamKind,
+    number: u8,
+    #[serde(default)]
+    index: u8,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum ParamKind {
+    Ap,
+    Gp,
+}
+
+/// What the motion panel asks for (PD28-1021 TMCL manual §3.7.1–3.7.4, §3.7.13).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(crate) enum Motion {
+    /// ROR: rotate right at the value's speed.
+    RotateRight,
+    /// ROL: rotate left.
+    RotateLeft,
+    /// MST.
+    Stop,
+    /// MVP ABS.
+    MoveAbsolute,
+    /// MVP REL.
+    MoveRelative,
+    /// RFS START.
+    ReferenceStart,
+    /// RFS STOP.
+    ReferenceStop,
+}
+
+/// One request of the page.
+#[derive(Debug, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case")]
+pub(crate) enum Op {
+    /// The module, the model's tables, the link.
+    Hello,
+    /// What this page shows (what to poll for it).
+    Watch {
+        #[serde(default)]
+        views: Vec<String>,
+        #[serde(default)]
+        motor: u8,
+        #[serde(default)]
+        vars: (u8, u8),
+    },
+    /// GAP/GGP.
+    Get { param: Param },
+    /// SAP/SGP.
+    Set { param: Param, value: i64 },
+    /// STAP/STGP.
+    Store { param: Param },
+    /// RSAP/RSGP.
+    Restore { param: Param },
+    /// The motion panel.
+    Motion {
+        action: Motion,
+        #[serde(default)]
+        motor: u8,
+        #[serde(default)]
+        value: i64,
+    },
+    /// SIO: an output (bank 2).
+    Output { port: u8, bank: u8, value: i64 },
+    /// A console line: one instruction in the assembler's syntax.
+    Console { line: String },
+    /// Assembles the editor's text.
+    Assemble { source: String },
+    /// Assembles and downloads it.
+    Download { source: String },
+    /// Start, stop, step, continue, reset.
+    Program { action: Action },
+    /// The breakpoints, as source lines.
+    Breakpoints { lines: Vec<u32> },
+    /// Asks every address in first..=last for its version.
+    Scan { first: u8, last: u8 },
+    /// Talks to another address.
+    Select { address: u8 },
+}
+
+/// A failed request: the words, and for a refusal of the module its status.
+pub(crate) struct Failure(Value);
+
+impl From<HostError> for Failure {
+    fn from(e: HostError) -> Failure {
+        let mut v = json!({"error": e.to_string()});
+        if let HostError::Status { status, .. } = e {
+            v["status"] = json!(u8::from(status));
+            v["status_text"] = json!(status.description());
+        }
+        Failure(v)
+    }
+}
+
+impl From<String> for Failure {
+    fn from(e: String) -> Failure {
+        Failure(json!({"error": e}))
+    }
+}
+
+impl Failure {
+    /// The failure as the body of an answer.
+    pub(crate) fn into_value(self) -> Value {
+        self.0
+    }
+}
+
+fn value32(value: i64) -> Result<i32, Failure> {
+    // Values are 32 bits; 2^31..2^32 are the upper half of an unsigned value (as the assembler takes them).
+    match value {
+        v if (i64::from(i32::MIN)..=i64::from(u32::MAX)).contains(&v) => Ok(v as u32 as i32),
+        v => Err(format!("{v} does not fit in 32 bits").into()),
+    }
+}
+
+/// Runs one request on the link thread. `page` identifies the connection (for `watch`).
+pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failure> {
+    match op {
+        Op::Hello => Ok(hello(link)),
+        Op::Watch { views, motor, vars } => {
+            let vars = (vars.0, vars.1.min(64));
+            link.watch(page, Some(Watch { views: views.into_iter().take(16).collect(), motor, vars }));
+            Ok(json!({}))
+        }
+        Op::Get { param } => param_request(link, param, ParamOp::Get),
+        Op::Set { param, value } => param_request(link, param, ParamOp::Set(value32(value)?)),
+        Op::Store { param } => param_request(link, param, ParamOp::Store),
+        Op::Restore { param } => param_request(link, param, ParamOp::Restore),
+        Op::Motion { action, motor, value } => {
+            let answer = motion(link, action, motor, value32(value)?);
+            link.hurry_live(Some(motor));
+            answer
+        }
+        Op::Output { port, bank, value } => {
+            let reply = link.request(Command::Sio { port, bank, value: value32(value)? }.encode());
+            link.hurry(|p| matches!(p, Poll::Input { .. }));
+            let reply = reply?;
+            Ok(json!({"status": u8::from(reply.status), "value": reply.value}))
+        }
+        Op::Console { line } => {
+            // A console line may change anything: what the pages show of the motors, I/O and program.
+            let answer = console(link, &line);
+            link.hurry_live(None);
+            answer
+        }
+        Op::Assemble { source } => {
+            let (program, diagnostics) = assemble(link, &source)?;
+            Ok(json!({"diagnostics": diagnostics, "instructions": program.map(|p| p.instructions.len())}))
+        }
+        Op::Download { source } => download(link, &source),
+        Op::Program { action } => Ok(debug::act(link, action)?),
+        Op::Breakpoints { lines } => {
+            let lines: Vec<u32> = lines.into_iter().take(4096).collect();
+            let effective = link.debug.set_breakpoint_lines(&lines);
+            debug::breakpoints_changed(link)?;
+            Ok(json!({"lines": effective}))
+        }
+        Op::Scan { first, last } => scan(link, first, last),
+        Op::Select { address } => {
+            link.select(address);
+            let hello = hello(link);
+            link.emit(json!({"e": "hello", "hello": hello}));
+            Ok(hello)
+        }
+    }
+}
+
+/// What the header and every view start from.
+pub(crate) fn hello(link: &Link) -> Value {
+    json!({
+        "version": link.version,
+        "address": link.address(),
+        "link": link.link_name,
+        "link_ok": link.link_error().is_none(),
+        "link_error": link.link_error(),
+        "rate": link.rate,
+        "model": link.model.map(model_json),
+        "roles": Roles::of(link.model).json(),
+    })
+}
+
+enum ParamOp {
+    Get,
+    Set(i32),
+    Store,
+    Restore,
+}
+
+fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Value, Failure> {
+    let axis = p.kind == ParamKind::Ap;
+    let (param, index) = (p.number, p.index);
+    let (command, value) = match (&op, axis) {
+        (ParamOp::Get, true) => (Command::Gap { param, motor: index }, None),
+        (ParamOp::Get, false) => (Command::Ggp { param, bank: index }, None),
+        (ParamOp::Set(v), true) => (Command::Sap { param, motor: index, value: *v }, Some(*v)),
+        (ParamOp::Set(v), false) => (Command::Sgp { param, bank: index, value: *v }, Some(*v)),
+        (ParamOp::Store, true) => (Command::Stap { param, motor: index }, None),
+        (ParamOp::Store, false) => (Command::Stgp { param, bank: index }, None),
+        (ParamOp::Restore, true) => (Command::Rsap { param, motor: index }, None),
+        (ParamOp::Restore, false) => (Command::Rsgp { param, bank: index }, None),
+    };
+    match link.request(command.encode()) {
+        Ok(reply) => {
+            // After a write, store or restore, read the value back: what the module keeps is what counts.
+            let value = match op {
+                ParamOp::Get => reply.value,
+                _ => {
+                    let read =
+                        if axis { Command::Gap { param, motor: index } } else { Command::Ggp { param, bank: index } };
+                    link.request(read.encode()).map(|r| r.value).unwrap_or(reply.value)
+                }
+            };
+            let key = if axis { format!("ap.{index}.{param}") } else { format!("gp.{index}.{param}") };
+            link.emit(json!({"e": "v", "k": key, "v": value, "t": crate::link::now_ms()}));
+            Ok(json!({"value": value, "status": u8::from(reply.status)}))
+        }
+        Err(e) => {
+            let mut failure = Failure::from(e);
+            if let Some(status) = failure.0.get("status").and_then(Value::as_u64) {
+                let status = tmcl_wire::Status::from(status as u8);
+                // A store of a parameter without E is refused as an invalid value by some firmware.
+                let value = if matches!(op, ParamOp::Store | ParamOp::Restore) { None } else { value };
+                if let Some(why) = info::explain(link.model, axis, index, param, status, value) {
+                    failure.0["explanation"] = json!(why);
+                }
+            }
+            Err(failure)
+        }
+    }
+}
+
+fn motion(link: &mut Link, action: Motion, motor: u8, value: i32) -> Result<Value, Failure> {
+    let command = match action {
+        Motion::RotateRight => Command::Ror { motor, velocity: value },
+        Motion::RotateLeft => Command::Rol { motor, velocity: value },
+        Motion::Stop => Command::Mst { motor },
+        Motion::MoveAbsolute => Command::Mvp { motor, target: MoveTarget::Abs(value) },
+        Motion::MoveRelative => Command::Mvp { motor, target: MoveTarget::Rel(value) },
+        Motion::ReferenceStart => Command::Rfs { action: RfsAction::Start, motor },
+        Motion::ReferenceStop => Command::Rfs { action: RfsAction::Stop, motor },
+    };
+    let reply = link.request(command.encode())?;
+    Ok(json!({"status": u8::from(reply.status), "value": reply.value, "t": crate::link::now_ms()}))
+}
+
+/// The symbols the console knows: the model's parameter names (`APMaxPositioningSpeed`, ...) and motors, as
+/// the built-in include file `TMCLParam.tmc` defines them for the assembler.
+fn console_symbols(link: &Link) -> HashMap<String, i32> {
+    let model = link.model.unwrap_or(&tmcl_model::pd28_1021::SPEC);
+    let mut resolver = BuiltinResolver { model };
+    let mut symbols: HashMap<String, i32> = assemble_str("console", "#include TMCLParam.tmc\n", &mut resolver)
+        .map(|p| p.constants.into_iter().collect())
+        .unwrap_or_default();
+    // Also the bare identifiers (`MaxPositioningSpeed`), where no other table uses the same name.
+    for table in [&model.axis, &model.global] {
+        for d in table.params {
+            symbols.entry(d.ident.to_string()).or_insert(i32::from(d.number));
+        }
+    }
+    symbols
+}
+
+/// One console line: parsed as the assembler parses an instruction, sent, the reply decoded.
+fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
+    if line.len() > MAX_LINE {
+        return Err(format!("the line is longer than {MAX_LINE} characters").into());
+    }
+    let text = line.split("//").next().unwrap_or("").trim();
+    let symbols = console_symbols(link);
+    let instruction = parse_instruction(text, &mut |name| symbols.get(name).copied()).map_err(|e| {
+        Failure(json!({"error": e.with_text(text).to_string(), "column": e.span.start + 1,
+                                     "width": (e.span.end - e.span.start).max(1)}))
+    })?;
+    let mut sent = String::new();
+    let _ = format_instruction(&instruction, &mut sent, None);
+    let bytes = tmcl_wire::Request { address: link.address(), instruction }.to_bytes();
+    let hex: Vec<String> = bytes.iter().map(|b| format!("{b:02X}")).collect();
+    let base = json!({"sent": sent, "bytes": hex.join(" ")});
+    let with = |mut v: Value, extra: Value| {
+        if let (Some(v), Some(extra)) = (v.as_object_mut(), extra.as_object()) {
+            v.extend(extra.clone());
+        }
+        v
+    };
+    match instruction.opcode {
+        Opcode::GetVersion if instruction.kind == 0 => {
+            let text = link.version_string()?;
+            Ok(with(base, json!({"text": text, "reply": format!("version {text}")})))
+        }
+        Opcode::ReadMemory => {
+            let address = u16::try_from(instruction.value).map_err(|_| format!("no address {}", instruction.value))?;
+            let stored = link.read_program_memory(address)?;
+            let mut text = String::new();
+            let _ = format_instruction(&stored, &mut text, None);
+            Ok(with(base, json!({"reply": format!("address {address}: {text}")})))
+        }
+        // 137 (factory defaults) and 242 (boot loader) send no reply (§3.7.38).
+        Opcode::Unknown(137) | Opcode::Unknown(242) => {
+            link.request_no_reply(instruction)?;
+            Ok(with(base, json!({"reply": "sent; this command has no reply"})))
+        }
+        _ => {
+            let reply = link.request(instruction).map_err(|e| {
+                let mut f = Failure::from(e);
+                if let (Some(status), Some((axis, index))) =
+                    (f.0.get("status").and_then(Value::as_u64), param_place(&instruction))
+                {
+                    let value = matches!(instruction.opcode, Opcode::Sap | Opcode::Sgp).then_some(instruction.value);
+                    let status = tmcl_wire::Status::from(status as u8);
+                    if let Some(why) = info::explain(link.model, axis, index, instruction.kind, status, value) {
+                        f.0["explanation"] = json!(why);
+                    }
+                }
+                f.0["sent"] = json!(sent);
+                f
+            })?;
+            let name = param_place(&instruction)
+                .and_then(|(axis, index)| info::find_param(link.model?, axis, index, instruction.kind))
+                .map(|d| d.ident);
+            let status = reply.status;
+            let text = format!("{} {}, value {}", u8::from(status), status.description(), reply.value);
+            Ok(with(
+                base,
+                json!({"status": u8::from(status), "status_text": status.description(), "value": reply.value,
+                       "reply": text, "name": name}),
+            ))
+        }
+    }
+}
+
+/// Whether an instruction names an axis parameter (`Some((true, motor))`) or a global one
+/// (`Some((false, bank))`).
+fn param_place(i: &Instruction) -> Option<(bool, u8)> {
+    match i.opcode {
+        Opcode::Sap | Opcode::Gap | Opcode::Stap | Opcode::Rsap | Opcode::Aap => Some((true, i.motor)),
+        Opcode::Sgp | Opcode::Ggp | Opcode::Stgp | Opcode::Rsgp | Opcode::Agp => Some((false, i.motor)),
+        _ => None,
+    }
+}
+
+fn diagnostic_json(d: &Diagnostic) -> Value {
+    json!({"file": d.file, "line": d.line, "column": d.column, "width": d.width, "message": d.message})
+}
+
+/// Assembles the editor's text with the model's built-in include files.
+fn assemble(link: &Link, source: &str) -> Result<(Option<tmcl_asm::Program>, Vec<Value>), Failure> {
+    if source.len() > MAX_SOURCE {
+        return Err(format!("the program is longer than {MAX_SOURCE} bytes").into());
+    }
+    let model = link.model.unwrap_or(&tmcl_model::pd28_1021::SPEC);
+    let mut resolver = BuiltinResolver { model };
+    match assemble_str(SOURCE_NAME, source, &mut resolver) {
+        Ok(program) => {
+            let capacity = usize::from(model.program_memory);
+            if program.instructions.len() > capacity {
+                let message = format!(
+                    "the program has {} instructions; the {} holds {capacity}",
+                    program.instructions.len(),
+                    model.name
+                );
+                let d = json!({"file": SOURCE_NAME, "line": 0, "column": 0, "width": 0, "message": message});
+                return Ok((None, vec![d]));
+            }
+            Ok((Some(program), Vec::new()))
+        }
+        Err(diagnostics) => Ok((None, diagnostics.iter().map(diagnostic_json).collect())),
+    }
+}
+
+fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
+    let (program, diagnostics) = assemble(link, source)?;
+    let Some(program) = program else {
+        return Ok(json!({"diagnostics": diagnostics}));
+    };
+    let total = program.instructions.len();
+    debug::download(link, &program.instructions, |link, n| {
+        if n % 8 == 0 || n == total {
+            link.emit(json!({"e": "progress", "what": "download", "done": n, "total": total}));
+        }
+    })?;
+    let lines: Vec<Option<u32>> =
+        program.source_lines.iter().map(|s| (&*s.file == SOURCE_NAME).then_some(s.line)).collect();
+    link.debug.set_program(program);
+    Ok(json!({"stored": total, "lines": lines, "diagnostics": []}))
+}
+
+/// Asks each address for its binary version (136 type 1) with a short wait, as `tmcl scan` does, then
+/// goes back to the address it talked to.
+fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
+    if first > last {
+        return Err(format!("the first address {first} is after the last {last}").into());
+    }
+    let address = link.address();
+    let wait = Duration::from_secs_f64((2.0 / link.rate).max(0.02) + 0.02);
+    let old = link.set_timeout(wait);
+    link.scanning = true;
+    let mut found = Vec::new();
+    let probe = Command::GetVersion { format: tmcl_wire::VersionFormat::Binary }.encode();
+    let mut client_result = Ok(());
+    for a in first..=last {
+        link.set_address(a);
+        match link.request(probe) {
+            Ok(reply) => found.push(reply.module),
+            Err(HostError::Io(e)) => {
+                client_result = Err(HostError::Io(e));
+                break;
+            }
+            Err(_) => {}
+        }
+        found.extend(link.settle().into_iter().filter(|r| r.opcode == u8::from(Opcode::GetVersion)).map(|r| r.module));
+        let (done, total) = (u16::from(a - first) + 1, u16::from(last - first) + 1);
+        if done % 8 == 0 || a == last {
+            link.emit(json!({"e": "progress", "what": "scan", "done": done, "total": total}));
+        }
+    }
+    link.set_timeout(old);
+    link.scanning = false;
+    found.sort_unstable();
+    found.dedup();
+    let mut modules = Vec::new();
+    for a in found {
+        link.set_address(a);
+        let version = link.version_string().ok();
+        modules.push(json!({"address": a, "version": version}));
+    }
+    link.set_address(address);
+    link.settle();
+    client_result?;
+    Ok(json!({"modules": modules}))
+}

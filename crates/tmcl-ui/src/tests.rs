@@ -1,0 +1,319 @@
+//! The workbench against a real firmware core in process: the page's requests on a [`Link`], and the
+//! server over a real socket (Host/Origin refusals, WebSocket requests that are no requests).
+
+use crate::debug::{self, Action};
+use crate::link::{HostClient, Link};
+use crate::ops::{handle, Op};
+use serde_json::{json, Value};
+use std::collections::VecDeque;
+use std::io::{self, Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::sync::Arc;
+use std::time::Duration;
+use tmcl_core::model::pd28_1021::SPEC;
+use tmcl_core::{Instant, Module};
+use tmcl_host::{Client, HostError, Transport};
+use tmcl_sim::SimBoard;
+
+/// A transport into a simulated PD28-1021; each request lets 1 ms of module time pass.
+struct InProcess {
+    module: Module<SimBoard>,
+    now: Instant,
+    rx: VecDeque<u8>,
+}
+
+impl InProcess {
+    fn client() -> HostClient {
+        let module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
+        let transport = InProcess { module, now: Instant::ZERO, rx: VecDeque::new() };
+        Client::new(Box::new(transport) as Box<dyn Transport + Send>).with_timeout(Duration::from_millis(50))
+    }
+
+    fn advance(&mut self, d: Duration) {
+        self.now += tmcl_core::Duration::from_micros(d.as_micros() as u64);
+        let rx = &mut self.rx;
+        self.module.poll(self.now, &mut |b: &[u8]| rx.extend(b));
+    }
+}
+
+impl Transport for InProcess {
+    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.advance(Duration::from_millis(1));
+        let rx = &mut self.rx;
+        self.module.receive(self.now, bytes, &mut |b: &[u8]| rx.extend(b));
+        Ok(())
+    }
+
+    fn recv_exact(&mut self, buf: &mut [u8], timeout: Duration) -> Result<(), HostError> {
+        if self.rx.len() < buf.len() {
+            self.advance(timeout);
+        }
+        if self.rx.len() < buf.len() {
+            let received = self.rx.len();
+            self.rx.clear();
+            return Err(HostError::Timeout { waited: timeout, received });
+        }
+        for b in buf.iter_mut() {
+            *b = self.rx.pop_front().unwrap_or_default();
+        }
+        Ok(())
+    }
+
+    fn clear_input(&mut self) {
+        self.rx.clear();
+    }
+}
+
+fn link() -> (Link, tokio::sync::broadcast::Receiver<Arc<str>>) {
+    let (events, rx) = tokio::sync::broadcast::channel(4096);
+    let mut link = Link::new(InProcess::client(), 100_000.0, None, "in process".into(), events);
+    link.identify();
+    (link, rx)
+}
+
+fn op(link: &mut Link, request: Value) -> Result<Value, Value> {
+    let op: Op = serde_json::from_value(request).expect("a request");
+    handle(link, 1, op).map_err(|f| f.into_value())
+}
+
+#[test]
+fn hello_names_the_model_by_its_version_string() {
+    let (mut link, _) = link();
+    let hello = op(&mut link, json!({"op": "hello"})).unwrap();
+    assert_eq!(hello["version"], "1021V142");
+    assert_eq!(hello["model"]["id"], "pd28-1021");
+    assert_eq!(hello["roles"]["actual_position"], 1);
+    assert_eq!(hello["link_ok"], true);
+}
+
+#[test]
+fn parameters_are_written_read_back_and_refusals_explained() {
+    let (mut link, _) = link();
+    let speed = json!({"kind": "ap", "number": 4, "index": 0});
+    let ok = op(&mut link, json!({"op": "set", "param": speed, "value": 12345})).unwrap();
+    assert_eq!(ok["value"], 12345);
+    assert_eq!(op(&mut link, json!({"op": "get", "param": speed})).unwrap()["value"], 12345);
+    let refused = op(&mut link, json!({"op": "set", "param": speed, "value": 0})).unwrap_err();
+    assert_eq!(refused["status"], 4);
+    assert_eq!(refused["explanation"], "MaxPositioningSpeed takes 1..2147483647");
+    let too_big = op(&mut link, json!({"op": "set", "param": speed, "value": 1_i64 << 40})).unwrap_err();
+    assert!(too_big["error"].as_str().unwrap().contains("does not fit in 32 bits"));
+    let stored = op(&mut link, json!({"op": "store", "param": speed})).unwrap();
+    assert_eq!(stored["value"], 12345);
+}
+
+#[test]
+fn console_lines_are_parsed_as_the_assembler_does() {
+    let (mut link, _) = link();
+    let ok =
+        op(&mut link, json!({"op": "console", "line": "SAP APMaxPositioningSpeed, Motor0, 40000 // comment"})).unwrap();
+    assert_eq!(ok["sent"], "SAP 4, 0, 40000");
+    assert_eq!(ok["bytes"], "01 05 04 00 00 00 9C 40 E6");
+    assert_eq!(ok["name"], "MaxPositioningSpeed");
+    let ok = op(&mut link, json!({"op": "console", "line": "GAP MaxPositioningSpeed, 0"})).unwrap();
+    assert_eq!(ok["value"], 40000);
+    let ok = op(&mut link, json!({"op": "console", "line": "#op 136, 0, 0, 0"})).unwrap();
+    assert_eq!(ok["reply"], "version 1021V142");
+    let bad = op(&mut link, json!({"op": "console", "line": "MVP ABS, 0"})).unwrap_err();
+    assert!(bad["error"].as_str().unwrap().contains("MVP"), "{bad}");
+    let bad = op(&mut link, json!({"op": "console", "line": "x".repeat(5000)})).unwrap_err();
+    assert!(bad["error"].as_str().unwrap().contains("longer than"));
+    let refused = op(&mut link, json!({"op": "console", "line": "SAP 4, 0, 0"})).unwrap_err();
+    assert_eq!(refused["explanation"], "MaxPositioningSpeed takes 1..2147483647");
+}
+
+const PROGRAM: &str = "    SGP 0, 2, 0\nLoop:\n    GGP 0, 2\n    CALC ADD, 1\n    AGP 0, 2\n    JA Loop\n";
+
+/// Runs the link's single steps until the debugger stops (as the link thread does between polls).
+fn run_to_stop(link: &mut Link, events: &mut tokio::sync::broadcast::Receiver<Arc<str>>) -> Value {
+    for _ in 0..1000 {
+        if !link.debug.is_continuing() {
+            break;
+        }
+        debug::continue_step(link);
+    }
+    let mut last = Value::Null;
+    while let Ok(e) = events.try_recv() {
+        let e: Value = serde_json::from_str(&e).unwrap();
+        if e["e"] == "debug" {
+            last = e;
+        }
+    }
+    last
+}
+
+#[test]
+fn the_debugger_stops_at_breakpoints_by_single_steps() {
+    let (mut link, mut events) = link();
+    let bad = op(&mut link, json!({"op": "assemble", "source": "  JA Nowhere\n"})).unwrap();
+    assert_eq!(bad["diagnostics"][0]["line"], 1);
+    assert_eq!(bad["diagnostics"][0]["column"], 6);
+    let ok = op(&mut link, json!({"op": "download", "source": PROGRAM})).unwrap();
+    assert_eq!(ok["stored"], 5);
+    assert_eq!(ok["lines"], json!([1, 3, 4, 5, 6]));
+    // Line 2 is the label: the breakpoint lands on line 3.
+    let set = op(&mut link, json!({"op": "breakpoints", "lines": [2, 5]})).unwrap();
+    assert_eq!(set["lines"], json!([3, 5]));
+    op(&mut link, json!({"op": "program", "action": "start"})).unwrap();
+    let stop = run_to_stop(&mut link, &mut events);
+    assert_eq!(
+        (stop["reason"].as_str(), stop["line"].as_u64(), stop["pc"].as_u64()),
+        (Some("breakpoint"), Some(3), Some(1))
+    );
+    debug::act(&mut link, Action::Continue).unwrap();
+    let stop = run_to_stop(&mut link, &mut events);
+    assert_eq!((stop["line"].as_u64(), stop["acc"].as_i64()), (Some(5), Some(1)));
+    debug::act(&mut link, Action::Continue).unwrap();
+    let stop = run_to_stop(&mut link, &mut events);
+    assert_eq!((stop["line"].as_u64(), stop["acc"].as_i64()), (Some(3), Some(1)));
+    let var = op(&mut link, json!({"op": "get", "param": {"kind": "gp", "number": 0, "index": 2}})).unwrap();
+    assert_eq!(var["value"], 1);
+    // Without breakpoints the program runs at full speed (129) and Stop stops it.
+    op(&mut link, json!({"op": "breakpoints", "lines": []})).unwrap();
+    let running = op(&mut link, json!({"op": "program", "action": "continue"})).unwrap();
+    assert_eq!(running["mode"], 1);
+    let stopped = op(&mut link, json!({"op": "program", "action": "stop"})).unwrap();
+    assert_eq!(stopped["mode"], 0);
+}
+
+#[test]
+fn motion_requests_and_the_scan() {
+    let (mut link, _) = link();
+    let ok = op(&mut link, json!({"op": "motion", "action": "rotate_right", "value": 1000})).unwrap();
+    assert_eq!(ok["status"], 100);
+    let speed = op(&mut link, json!({"op": "get", "param": {"kind": "ap", "number": 2}})).unwrap();
+    assert_eq!(speed["value"], 1000);
+    op(&mut link, json!({"op": "motion", "action": "stop"})).unwrap();
+    let found = op(&mut link, json!({"op": "scan", "first": 1, "last": 3})).unwrap();
+    assert_eq!(found["modules"], json!([{"address": 1, "version": "1021V142"}]));
+    assert_eq!(link.address(), 1);
+    assert!(op(&mut link, json!({"op": "scan", "first": 3, "last": 1})).is_err());
+    // Every address, 0 and 255 included (the in-process line does not wait out its timeouts).
+    let found = op(&mut link, json!({"op": "scan", "first": 0, "last": 255})).unwrap();
+    assert_eq!(found["modules"][0]["address"], 1);
+    assert_eq!(link.link_error(), None, "unanswered addresses say nothing about the link");
+}
+
+// ---- the server over a socket ------------------------------------------------------------------------
+
+/// Starts the workbench on an ephemeral port; the returned sender stops it.
+fn server() -> (SocketAddr, tokio::sync::oneshot::Sender<()>, std::thread::JoinHandle<()>) {
+    let (addr_tx, addr_rx) = std::sync::mpsc::channel();
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let options = crate::Options {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        rate: 1000.0,
+        model: None,
+        link_name: "in process".into(),
+    };
+    let thread = std::thread::spawn(move || {
+        crate::run_until(InProcess::client(), options, |a| addr_tx.send(a).unwrap(), async {
+            let _ = stop_rx.await;
+        })
+        .unwrap();
+    });
+    (addr_rx.recv_timeout(Duration::from_secs(10)).unwrap(), stop_tx, thread)
+}
+
+fn http(addr: SocketAddr, request: &str) -> String {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut head = Vec::new();
+    let mut byte = [0u8; 1];
+    while !head.ends_with(b"\r\n\r\n") && s.read(&mut byte).unwrap_or(0) == 1 {
+        head.push(byte[0]);
+    }
+    String::from_utf8_lossy(&head).into_owned()
+}
+
+/// A masked WebSocket text frame (RFC 6455 §5.2), as a browser sends one.
+fn ws_frame(text: &str) -> Vec<u8> {
+    let mask = [0x12u8, 0x34, 0x56, 0x78];
+    let payload = text.as_bytes();
+    let mut frame = vec![0x81];
+    match payload.len() {
+        n if n < 126 => frame.push(0x80 | n as u8),
+        n => {
+            frame.push(0x80 | 126);
+            frame.extend_from_slice(&(n as u16).to_be_bytes());
+        }
+    }
+    frame.extend_from_slice(&mask);
+    frame.extend(payload.iter().enumerate().map(|(i, b)| b ^ mask[i % 4]));
+    frame
+}
+
+/// Reads server frames until a text frame with an `"id"` arrives (events, arrays, are skipped).
+fn ws_answer(s: &mut TcpStream) -> Value {
+    loop {
+        let mut head = [0u8; 2];
+        s.read_exact(&mut head).unwrap();
+        let len = match head[1] & 0x7F {
+            126 => {
+                let mut l = [0u8; 2];
+                s.read_exact(&mut l).unwrap();
+                u16::from_be_bytes(l) as usize
+            }
+            127 => {
+                let mut l = [0u8; 8];
+                s.read_exact(&mut l).unwrap();
+                u64::from_be_bytes(l) as usize
+            }
+            n => n as usize,
+        };
+        let mut payload = vec![0u8; len];
+        s.read_exact(&mut payload).unwrap();
+        let v: Value = serde_json::from_slice(&payload).unwrap_or(Value::Null);
+        if v.get("id").is_some() {
+            return v;
+        }
+    }
+}
+
+#[test]
+fn the_server_refuses_foreign_hosts_and_origins_and_survives_bad_messages() {
+    let (addr, stop, thread) = server();
+    let own = addr.to_string();
+    let page = http(addr, &format!("GET / HTTP/1.1\r\nHost: {own}\r\nConnection: close\r\n\r\n"));
+    assert!(page.starts_with("HTTP/1.1 200"), "{page}");
+    assert!(page.to_ascii_lowercase().contains("content-security-policy: default-src 'self'"), "{page}");
+    let foreign = http(addr, &format!("GET / HTTP/1.1\r\nHost: {own}\r\nOrigin: http://evil.example\r\n\r\n"));
+    assert!(foreign.starts_with("HTTP/1.1 403"), "{foreign}");
+    let rebound = http(addr, &format!("GET / HTTP/1.1\r\nHost: evil.example:{}\r\n\r\n", addr.port()));
+    assert!(rebound.starts_with("HTTP/1.1 403"), "{rebound}");
+    let upgrade = "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\n\
+                   Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n";
+    let foreign_ws =
+        http(addr, &format!("GET /ws HTTP/1.1\r\nHost: {own}\r\nOrigin: http://evil.example\r\n{upgrade}\r\n"));
+    assert!(foreign_ws.starts_with("HTTP/1.1 403"), "{foreign_ws}");
+
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    s.write_all(format!("GET /ws HTTP/1.1\r\nHost: {own}\r\nOrigin: http://{own}\r\n{upgrade}\r\n").as_bytes())
+        .unwrap();
+    let mut head = Vec::new();
+    let mut byte = [0u8; 1];
+    while !head.ends_with(b"\r\n\r\n") {
+        s.read_exact(&mut byte).unwrap();
+        head.push(byte[0]);
+    }
+    assert!(head.starts_with(b"HTTP/1.1 101"), "{}", String::from_utf8_lossy(&head));
+    for (message, expect) in [
+        ("not json", "not a request"),
+        (r#"{"id": 7, "op": "launch_missiles"}"#, "unknown variant"),
+        (r#"{"id": 8, "op": "set", "param": {"kind": "ap", "number": 999}, "value": 1}"#, "not a request"),
+        (r#"{"id": 9, "op": "console", "line": "\u0000\u0001"}"#, ""),
+    ] {
+        s.write_all(&ws_frame(message)).unwrap();
+        let answer = ws_answer(&mut s);
+        let error = answer["error"].as_str().unwrap_or_default();
+        assert!(error.contains(expect), "{message}: {answer}");
+    }
+    s.write_all(&ws_frame(r#"{"id": 10, "op": "hello"}"#)).unwrap();
+    let hello = ws_answer(&mut s);
+    assert_eq!(hello["id"], 10);
+    assert_eq!(hello["ok"]["version"], "1021V142");
+    stop.send(()).unwrap();
+    thread.join().unwrap();
+}
