@@ -263,7 +263,18 @@ fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, bar: &ProgressB
     let mut t = Instant::ZERO;
     let progress = !bar.is_hidden();
     loop {
-        crate::sim::poll(module, t);
+        // One poll runs at most `tmcl_core::vm::run::BUDGET` instructions (so that a poll always returns);
+        // a program that runs without waiting gets further in each poll at the same time until it has
+        // caught up, which its deadline says (it is then still `t` or before).
+        // (A poll that executed nothing is the last: whatever its deadline says, no further poll at `t`
+        // would get further.)
+        loop {
+            let executed = module.vm().executed();
+            let behind = crate::sim::poll(module, t).is_some_and(|d| d <= t);
+            if !behind || module.vm().executed() == executed {
+                break;
+            }
+        }
         if progress {
             show_progress(bar, t);
         }

@@ -207,6 +207,28 @@ fn traces_are_byte_identical() {
     }
 }
 
+/// A program that never waits executes one instruction every 20 µs of module time for the whole run, with
+/// and without a trace, event-driven and tick by tick. (One poll of the core runs at most 2^20
+/// instructions, 21 s of module time; a run without a trace polls rarely and must poll again until the
+/// program has caught up.)
+#[test]
+fn a_busy_program_runs_for_the_whole_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = dir.path().join("busy.tmc");
+    // PD28-1021 manual §3.7.14's copy loop, with a counter in user variable 0.
+    std::fs::write(&prog, "Loop:\nGIO 255, 0\nSIO 255, 2, -1\nGGP 0, 2\nCALC ADD, 1\nAGP 0, 2\nJA Loop\n").unwrap();
+    let trace = dir.path().join("busy.csv");
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let out = ok(&tmcl(&[&["--json", "run", prog.to_str().unwrap(), "--for", "30"], extra].concat()));
+        serde_json::from_str(out.lines().last().unwrap()).unwrap()
+    };
+    // 30 s / 20 µs = 1 500 000 instructions, and the one at 30 s itself.
+    for extra in [&[][..], &["--exact-ticks"], &["--trace", trace.to_str().unwrap(), "--every", "30000"]] {
+        let summary = json(extra);
+        assert_eq!(summary["executed"], 1_500_001, "{extra:?}: {summary}");
+    }
+}
+
 #[test]
 fn set_changes_parameters_before_the_start() {
     let dir = tempfile::tempdir().unwrap();
