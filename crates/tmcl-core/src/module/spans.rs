@@ -121,6 +121,9 @@ impl<B: Board> Module<B> {
     /// (see the module docs); then does what follows a tick, at the span's last tick. Returns whether it
     /// took any tick.
     pub(super) fn take_span(&mut self, now: Instant, params: &RampParams) -> bool {
+        if !cfg!(feature = "spans") {
+            return false; // (the rest is left out of the build)
+        }
         let Some((limits, bounds)) = self.span_bounds(Some(now)) else { return false };
         let (to, span) = self.span(params, limits, &bounds);
         if span.ticks == 0 {
@@ -145,6 +148,9 @@ impl<B: Board> Module<B> {
     /// How many ticks from `motion_time` on a span would take now, without taking them (0: the next
     /// tick is an event, or no span may be taken): for the deadline.
     pub(super) fn span_ahead(&mut self) -> u64 {
+        if !cfg!(feature = "spans") {
+            return 0;
+        }
         let Some((limits, bounds)) = self.span_bounds(None) else { return 0 };
         // Braking computed only so far: a deadline before the event is only an extra poll, and a run polled
         // often (a trace) must not compute the rest of a braking phase at every poll.
