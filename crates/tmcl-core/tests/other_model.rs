@@ -9,8 +9,9 @@
 
 use std::vec::Vec;
 use tmcl_core::model::{
-    Access, Driver, Encoder, EncoderKind, FitError, Framing, InterfaceDesc, InterfaceKind, Interrupts, Kinematics,
-    ModelDesc, ModelSpec, ParamDesc, PortDesc, PortKind, Range, ReferenceModes, Role, Setting, Table,
+    Access, AppStatusReply, Driver, Encoder, EncoderKind, FitError, Framing, GlobalBanks, InterfaceDesc, InterfaceKind,
+    Interrupts, Kinematics, ModelDesc, ModelSpec, ParamDesc, PortDesc, PortKind, Range, ReferenceModes, Role, Setting,
+    Table,
 };
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CommandSet, Instruction, Opcode, Reply, ReplyFrame, Request, Status};
@@ -102,6 +103,8 @@ const DESC: ModelDesc = ModelDesc {
     interfaces: &INTERFACES,
     commands: COMMANDS,
     ascii_commands: COMMANDS.ascii_subset(),
+    app_status: AppStatusReply::Typed,
+    banks: GlobalBanks::ARM,
     kinematics: Kinematics::Tmc428 { clock_hz: 16_000_000 },
     reference_modes: ReferenceModes::Tmc428,
     driver: Driver::Tmc428Tmc24x,
