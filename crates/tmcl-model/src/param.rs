@@ -464,8 +464,8 @@ impl Unit {
             Unit::FullSteps => "full steps",
             Unit::TenthVolts => "× 0.1 V",
             Unit::Celsius => "°C",
-            Unit::Tmc428Velocity => "TMC428 velocity units (pulse divisor AP 154)",
-            Unit::Tmc428Acceleration => "TMC428 acceleration units (AP 153, 154)",
+            Unit::Tmc428Velocity => "TMC428 v units",
+            Unit::Tmc428Acceleration => "TMC428 a units",
         }
     }
 }
