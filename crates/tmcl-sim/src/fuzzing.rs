@@ -259,7 +259,14 @@ pub fn sac_datagrams(data: &[u8]) {
         match module.execute_instruction(now, instruction) {
             Ok(_) => {}
             Err(status) => assert!(
-                matches!(status, Status::InvalidCommand | Status::WrongType | Status::InvalidValue | Status::NotAvailable | Status::EepromLocked),
+                matches!(
+                    status,
+                    Status::InvalidCommand
+                        | Status::WrongType
+                        | Status::InvalidValue
+                        | Status::NotAvailable
+                        | Status::EepromLocked
+                ),
                 "{instruction:?}: {status:?}"
             ),
         }
