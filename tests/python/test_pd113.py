@@ -9,6 +9,7 @@ move_to, the version string) is what host software for the module uses, with the
 
 from __future__ import annotations
 
+import pathlib
 import re
 
 import pytest
@@ -158,3 +159,25 @@ def test_a_pdx_113_and_a_pd28_1021_share_a_bus(bus):
         assert line.ok(2, 6, 1, 0, 0).value == 20000
         assert line.request(1, 4, 0, 0, 10_000_000).status == STATUS_INVALID_VALUE
         line.ok(2, 4, 0, 0, 10_000_000)
+
+
+def test_cli_status_and_parameters_in_its_units(tmcl_bin, pd113):
+    """`tmcl status` shows the state 135 answers (PDx-113 manual §5.5: no PC, accumulator or X register to
+    ask for), and `tmcl get` the model's own units."""
+    import json
+    import subprocess
+
+    def tmcl(*args):
+        proc = subprocess.run([str(tmcl_bin), "--json", *args, "--port", str(pd113.link)], capture_output=True,
+                              text=True, timeout=30)
+        assert proc.returncode == 0, proc.stderr
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+    assert tmcl("status") == {"mode": 0, "mode_text": "stopped"}
+    tmcl("download", str(pathlib.Path(__file__).parents[1] / "programs" / "pd113_first_program.tmc"))
+    tmcl("start")
+    assert tmcl("status")["mode_text"] == "running"
+    tmcl("stop")
+    assert tmcl("status")["mode_text"] == "stopped"
+    speed = tmcl("get", "ap", "MaxPositioningSpeed")
+    assert (speed["type"], speed["value"], speed["unit"]) == (4, 1000, "TMC428 v units"), speed
