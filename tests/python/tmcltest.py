@@ -24,6 +24,8 @@ READY_RE = re.compile(r"^serving (\S+) at address (\d+) on (.+)$")
 # The ready line of one or more modules: `serving PD28-1021 at address 1, PD28-1021 at address 2 on LINK`.
 BUS_READY_RE = re.compile(r"^serving (.+?) on (.+)$")
 BUS_MODULE_RE = re.compile(r"^(\S+) at address (\d+)$")
+# `--module` names whose product name is not the name in upper case.
+PRODUCT_NAMES = {"pd-113": "PDx-113-57/60-SE"}
 
 # Factory defaults of the PD28-1021: AP 140 (manual §6.1), AP 214 (Table 22), GP 66 and 76 (the reply
 # examples of §3.2); AP 4 and 5 are OpenTMCL's choice (docs/decisions.md).
@@ -71,7 +73,8 @@ class Server:
     # -- lifecycle ---------------------------------------------------------------------------------
     def models(self) -> list[str]:
         """The product names the ready line must show, in command-line order (`tmcm-1310@2` → TMCM-1310)."""
-        return [m.partition("@")[0].upper() for m in self.modules or ["pd28-1021"]]
+        return [PRODUCT_NAMES.get(m.partition("@")[0], m.partition("@")[0].upper())
+                for m in self.modules or ["pd28-1021"]]
 
     def args(self) -> list[str]:
         args = [str(self.tmcl), "serve"]

@@ -25,9 +25,14 @@ pub const INTERRUPT_FILE: &str = "Interrupts.inc";
 /// The directory part of built-in files' names in diagnostics.
 pub const BUILTIN_PREFIX: &str = "<builtin>/";
 
-/// The built-in include files of `model`: (name, text).
+/// The built-in include files of `model`: (name, text). A model without interrupts (the PDx-113, its
+/// manual §5.4) has no `Interrupts.inc`.
 pub fn builtin_files(model: &ModelSpec) -> Vec<(&'static str, String)> {
-    vec![(PARAM_FILE, param_file(model)), (INTERRUPT_FILE, interrupt_file(model))]
+    let mut files = vec![(PARAM_FILE, param_file(model))];
+    if !model.interrupts.list.is_empty() {
+        files.push((INTERRUPT_FILE, interrupt_file(model)));
+    }
+    files
 }
 
 /// One built-in include file by name (ignoring case).
@@ -45,6 +50,9 @@ fn param_file(model: &ModelSpec) -> String {
         ("IP", "Interrupt configuration, bank 3 (SGP, GGP, AGP with bank 3)", &model.interrupt),
     ];
     for (prefix, title, table) in sections {
+        if table.params.is_empty() {
+            continue;
+        }
         let _ = writeln!(s, "\n// {title}");
         for p in table.params {
             let _ = writeln!(s, "{prefix}{} = {} // {}, {}", p.ident, p.number, p.name, p.section);

@@ -173,7 +173,27 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
             }
         }
         ProgramCommand::Status { conn } => {
-            let s = conn.open()?.application_status()?;
+            let mut client = conn.open()?;
+            // A model whose 135 answers the state alone, whatever the type (the PDx-113, its manual §5.5),
+            // has no program counter, accumulator or X register to show: asking types 1 and 2 would print
+            // the state three times. Which form a module has follows from its version string.
+            let plain = client
+                .version_string()
+                .ok()
+                .and_then(|text| crate::names::model_by_version(&text))
+                .is_some_and(|m| m.app_status == tmcl_core::model::AppStatusReply::Plain);
+            if plain {
+                let request = tmcl_wire::Command::GetStatus { kind: tmcl_wire::StatusKind::MemoryPointer };
+                let mode = client.request(request.encode())?.value;
+                let s = tmcl_host::ApplicationStatus { mode: mode as u8, waiting: false, pc: 0, accumulator: 0, x: 0 };
+                if json {
+                    writeln!(out, "{}", json!({"mode": s.mode, "mode_text": s.mode_name()}))?;
+                } else {
+                    writeln!(out, "{}", s.mode_name())?;
+                }
+                return Ok(());
+            }
+            let s = client.application_status()?;
             if json {
                 let row = json!({"mode": s.mode, "mode_text": s.mode_name(), "waiting": s.waiting, "pc": s.pc,
                                  "accumulator": s.accumulator, "x": s.x});

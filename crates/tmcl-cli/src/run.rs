@@ -49,7 +49,7 @@ use tmcl_wire::{Command, WaitCondition};
 pub const TRACE_HELP: &str = "\
 Trace columns (--trace OUT.csv), in this order, one row every --every ms and one at each event.
 `--drive:` marks the columns --drive adds, `--drive, closed loop:` those it adds on a closed-loop model
-(--module tmcm-1310):
+(--module tmcm-1310); `TMC428 units:` the column of the TMC428 generation (--module pd-113):
   time_s            simulated time in s, 6 decimals (µs)
   target_position   AP 0 target position, µsteps
   actual_position   AP 1 actual position, µsteps (the encoder while a closed loop is closed)
@@ -68,6 +68,8 @@ Trace columns (--trace OUT.csv), in this order, one row every --every ms and one
   position_error    --drive, closed loop: AP 237 virtual − actual position, µsteps
   scaler            --drive, closed loop: AP 123 current scaler, the current is AP 6 × scaler / 255
   status_word       --drive, closed loop: AP 18 status word, bit field (bit 2 = closed loop)
+  velocity_units    TMC428 units: AP 3 in the module's own unit, a TMC428 velocity -2047..2047
+                    (--module pd-113; `velocity` is the same in pps)
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
                     execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
                     MVP; the row shows where the motor was then); several are joined with `;`
@@ -179,6 +181,7 @@ fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
             variables.into_iter().collect(),
             args.drive,
             module.spec().axis.has(tmcl_core::model::Setting::ClosedLoop),
+            module.spec().kinematics != tmcl_core::model::Kinematics::Pps,
         )?;
         let run = Traced { every: Duration::from_millis(args.every), end: Instant::ZERO + args.duration };
         run.run(&mut module, &source, &mut trace, &bar)?;

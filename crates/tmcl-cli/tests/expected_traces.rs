@@ -30,6 +30,8 @@ const RUNS: &[(&str, &str, &str, &[&str])] = &[
     ("manual_p14_jump_table", "3", "20", &[]),
     // TMCM-1310 manual §6.6.5: the same timer example on a module with OUT3.
     ("tmcm1310_timer_interrupt", "3", "50", &["--module", "tmcm-1310"]),
+    // PDx-113 manual §4.2: the first program, in TMC428 units (AP 4 = 1000 at pulse divisor 3).
+    ("pd113_first_program", "12", "100", &["--module", "pd-113"]),
     // TMCM-1310 closed loop through a seizure (position error, scaler and status word with --drive).
     (
         "tmcm1310_closed_loop",

@@ -23,6 +23,7 @@ enum With {
     Always,
     Drive,
     ClosedLoop,
+    Units,
 }
 
 /// The columns `tmcl run --help` lists, in order: a line that starts with two spaces and a name; its
@@ -38,7 +39,9 @@ fn help_columns() -> Vec<(String, With)> {
         }
         let (name, description) = rest.split_once(' ').unwrap_or((rest, ""));
         let description = description.trim_start();
-        let with = if description.starts_with("--drive, closed loop:") {
+        let with = if description.starts_with("TMC428 units:") {
+            With::Units
+        } else if description.starts_with("--drive, closed loop:") {
             With::ClosedLoop
         } else if description.starts_with("--drive:") {
             With::Drive
@@ -85,6 +88,11 @@ fn the_trace_header_lists_exactly_the_columns_the_help_lists() {
         header(dir.path(), "tmcm1310_closed_loop.tmc", &["--drive", "--module", "tmcm-1310"]),
         expected(&[With::Always, With::Drive, With::ClosedLoop]),
         "--drive on the TMCM-1310"
+    );
+    assert_eq!(
+        header(dir.path(), "pd113_first_program.tmc", &["--module", "pd-113"]),
+        expected(&[With::Always, With::Units]),
+        "the PDx-113's own velocity unit"
     );
     // A user variable takes the place of `varN`.
     let with_variable = header(dir.path(), "manual_p01_first_steps.tmc", &["--drive", "--set", "gp7.2=1"]);

@@ -18,7 +18,7 @@
 //!   module's registers.
 
 use crate::hal::Board;
-use crate::model::{PortKind, Setting};
+use crate::model::{AppStatusReply, Driver, PortKind, Setting};
 use crate::module::{flags, Module, Origin, Outcome, Registers, RNG_SEED};
 use crate::motion::reference::Action;
 use crate::motion::{Mode, SearchMode};
@@ -73,6 +73,7 @@ impl<B: Board> Module<B> {
             // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
             C::Ror { motor, velocity } => {
                 self.motor(motor)?;
+                self.velocity_in_range(velocity)?;
                 self.start_rotation(self.units_to_pps(velocity));
                 value(velocity)
             }
@@ -82,6 +83,7 @@ impl<B: Board> Module<B> {
             C::Rol { motor, velocity } => {
                 self.motor(motor)?;
                 let v = velocity.checked_neg().unwrap_or(i32::MAX);
+                self.velocity_in_range(v)?;
                 self.start_rotation(self.units_to_pps(v));
                 value(velocity)
             }
@@ -104,6 +106,13 @@ impl<B: Board> Module<B> {
                         self.st.coords[n.ok_or(Status::InvalidValue)?]
                     }
                 };
+                // The target must be a position the counter holds (PDx-113 manual §5.7.4: −2^23 … 2^23 − 1,
+                // "the new resulting position value must not exceed the above mentioned limits, too").
+                if let Some(i) = self.spec.axis.role(Role::TargetPosition) {
+                    if !self.spec.axis.params[i].range.contains(to) {
+                        return Err(Status::InvalidValue);
+                    }
+                }
                 self.start_move(to);
                 value(match target {
                     MoveTarget::Abs(v) | MoveTarget::Rel(v) | MoveTarget::Coord(v) => v,
@@ -146,6 +155,7 @@ impl<B: Board> Module<B> {
             // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
             // and a STGP rewrites them (the manual does not say what STGP does on bank 0).
             C::Stgp { param, bank } => {
+                self.bank(bank)?;
                 match bank {
                     0 => {
                         let (i, _) = self.global_desc(param, |d| d.access.auto)?;
@@ -156,6 +166,8 @@ impl<B: Board> Module<B> {
                         let v = self.st.user[self.user_index(param)?];
                         persist::store_user(&mut self.board, self.spec, param, v)?
                     }
+                    // A bank 1 with no parameter the sources name (PDx-113 manual §5.7.9).
+                    1 => return Err(ParamError::Unknown.into()),
                     3 => return Err(ParamError::NotPermitted.into()),
                     _ => return Err(ParamError::NoSuchMotor.into()),
                 }
@@ -163,6 +175,7 @@ impl<B: Board> Module<B> {
             }
             // §3.7.12 RSGP.
             C::Rsgp { param, bank } => {
+                self.bank(bank)?;
                 match bank {
                     0 => {
                         let (i, d) = self.global_desc(param, |d| d.access.auto)?;
@@ -173,6 +186,8 @@ impl<B: Board> Module<B> {
                         let n = self.user_index(param)?;
                         self.st.user[n] = persist::load_user(&mut self.board, self.spec, param)?;
                     }
+                    // A bank 1 with no parameter the sources name (PDx-113 manual §5.7.9).
+                    1 => return Err(ParamError::Unknown.into()),
                     3 => return Err(ParamError::NotPermitted.into()),
                     _ => return Err(ParamError::NoSuchMotor.into()),
                 }
@@ -393,6 +408,8 @@ impl<B: Board> Module<B> {
             // §3.7.38 134: read program memory (special reply).
             C::ReadMemory { address } => Ok(Outcome::Raw(self.read_memory(address)?)),
             // §3.7.38 135: application status.
+            // PDx-113 manual §5.5: the state alone (0 stop, 1 run, 2 step, 3 reset), type "don't care".
+            C::GetStatus { .. } if self.spec.app_status == AppStatusReply::Plain => value(self.vm.state.code()),
             C::GetStatus { kind } => value(match kind {
                 StatusKind::MemoryPointer => self.application_status(false),
                 StatusKind::ProgramCounter => self.application_status(true),
@@ -435,9 +452,31 @@ impl<B: Board> Module<B> {
             C::Boot => Ok(Outcome::Silent),
             // §3.7.38 255 (value 1234): restart like a power cycle; the reply goes out first.
             C::SoftwareReset => Ok(Outcome::Restart(MAGIC_KEY)),
-            // SAC (PDx-113 manual §5.4.3): SPI access to the motion controller and driver chain. A model
-            // that lists it needs a board with that SPI chain, which no board of this core has yet.
-            C::Sac { .. } => Err(Status::NotAvailable),
+            // SAC (PDx-113 manual §5.4.3): SPI access to the motion controller and driver chain; the
+            // emulated TMC428 answers (`crate::drive::tmc428`). A model without one: status 6.
+            C::Sac { bus, bytes, data } => match self.spec.driver {
+                Driver::Tmc428Tmc24x => value(self.sac(bus, bytes, data)?),
+                _ => Err(Status::NotAvailable),
+            },
+        }
+    }
+
+    /// A global parameter bank the model has (PD28-1021 manual chapter 5; PDx-113 manual §5.7.9): else
+    /// status 4, the bank byte being a value of the command.
+    fn bank(&self, bank: u8) -> Result<(), Status> {
+        if self.spec.banks.has(bank) {
+            Ok(())
+        } else {
+            Err(ParamError::NoSuchMotor.into())
+        }
+    }
+
+    /// A ROR/ROL velocity in the model's unit within AP 2's range (PDx-113 manual §5.7.1: 0…2047), else
+    /// status 4.
+    fn velocity_in_range(&self, v: i32) -> Result<(), Status> {
+        match self.spec.axis.role(Role::TargetSpeed) {
+            Some(i) if !self.spec.axis.params[i].range.contains(v) => Err(Status::InvalidValue),
+            _ => Ok(()),
         }
     }
 
@@ -536,6 +575,9 @@ impl<B: Board> Module<B> {
             Role::ActualSpeed => self.pps_to_units(ramp.velocity()),
             Role::PositionReached => i32::from(self.target_reached()),
             Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
+            // TMC428: 2 velocity; in position mode what was written, 0 (ramp) or 1 (soft).
+            Role::RampModeTmc428 if ramp.mode == Mode::Velocity => 2,
+            Role::RampModeTmc428 => i32::from(self.st.axis[i] == 1),
             Role::HomeSwitch => i32::from(self.switches().2),
             Role::RightSwitch => i32::from(self.switches().1),
             Role::LeftSwitch => i32::from(self.switches().0),
@@ -598,6 +640,12 @@ impl<B: Board> Module<B> {
             Role::RampMode => {
                 self.st.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
             }
+            // TMC428: 2 velocity mode; 0 ramp and 1 soft are position mode (the soft approach is not
+            // simulated).
+            Role::RampModeTmc428 => {
+                self.st.ramp.mode = if v == 2 { Mode::Velocity } else { Mode::Position };
+                self.st.axis[i] = v;
+            }
             // In closed loop the step counter moves with the encoder, so that the loop sees no error.
             Role::EncoderPosition if self.st.cl.active => {
                 let delta = v.wrapping_sub(self.encoder_position());
@@ -642,6 +690,7 @@ impl<B: Board> Module<B> {
 
     /// GGP: a global parameter (chapter 5).
     pub fn get_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
+        self.bank(bank)?;
         match bank {
             0 => {
                 let (i, d) = self.global_desc(number, |d| d.access.read)?;
@@ -669,6 +718,8 @@ impl<B: Board> Module<B> {
                 })
             }
             2 => Ok(self.st.user[self.user_index(number)?]),
+            // A bank 1 with no parameter the sources name (PDx-113 manual §5.7.9).
+            1 => Err(ParamError::Unknown.into()),
             3 => {
                 let (i, _) = self.spec.interrupt.find(number)?;
                 Ok(self.st.interrupt[i])
@@ -679,6 +730,7 @@ impl<B: Board> Module<B> {
 
     /// SGP/AGP: writes a global parameter; bank 0 A parameters go to the EEPROM at once (§5.1).
     pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
+        self.bank(bank)?;
         match bank {
             0 => {
                 let (i, d) = self.global_desc(number, |d| d.access.write)?;
@@ -709,6 +761,7 @@ impl<B: Board> Module<B> {
                 self.st.user[n] = v;
                 Ok(())
             }
+            1 => Err(ParamError::Unknown.into()),
             3 => {
                 let (i, d) = self.spec.interrupt.find(number)?;
                 if !d.range.contains(v) {
@@ -728,6 +781,7 @@ impl<B: Board> Module<B> {
             PortKind::AllInputs => i32::from(self.board.digital_inputs()),
             PortKind::EncoderNearZero => i32::from(self.encoder_near_zero()),
             PortKind::Analog(ch) => i32::from(self.board.analog_input(ch).min(4095)),
+            PortKind::Analog10(ch) => i32::from(self.board.analog_input(ch).min(4095) >> 2),
             PortKind::Temperature => self.board.temperature(),
             PortKind::Output(bit) => i32::from((self.st.outputs >> bit) & 1),
             PortKind::AllOutputs => i32::from(self.st.outputs),

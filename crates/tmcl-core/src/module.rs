@@ -166,6 +166,8 @@ pub struct State {
     pub(crate) cl: ClosedLoop,
     /// An SSI encoder's last reading and the counts it adds up to.
     pub(crate) ssi: (i64, i64),
+    /// The TMC428 registers SAC reaches that no firmware state stands behind (TMC428-generation models).
+    pub(crate) tmc428: crate::drive::tmc428::Tmc428Regs,
 }
 
 impl State {
@@ -205,6 +207,7 @@ impl State {
             last_counts: 0,
             cl: ClosedLoop::default(),
             ssi: (0, 0),
+            tmc428: Default::default(),
         }
     }
 

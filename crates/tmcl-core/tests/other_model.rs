@@ -9,8 +9,9 @@
 
 use std::vec::Vec;
 use tmcl_core::model::{
-    Access, Driver, Encoder, EncoderKind, FitError, Framing, InterfaceDesc, InterfaceKind, Interrupts, Kinematics,
-    ModelDesc, ModelSpec, ParamDesc, PortDesc, PortKind, Range, ReferenceModes, Role, Setting, Table,
+    Access, AppStatusReply, Driver, Encoder, EncoderKind, FitError, Framing, GlobalBanks, InterfaceDesc, InterfaceKind,
+    Interrupts, Kinematics, ModelDesc, ModelSpec, ParamDesc, PortDesc, PortKind, Range, ReferenceModes, Role, Setting,
+    Table,
 };
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CommandSet, Instruction, Opcode, Reply, ReplyFrame, Request, Status};
@@ -102,6 +103,8 @@ const DESC: ModelDesc = ModelDesc {
     interfaces: &INTERFACES,
     commands: COMMANDS,
     ascii_commands: COMMANDS.ascii_subset(),
+    app_status: AppStatusReply::Typed,
+    banks: GlobalBanks::ARM,
     kinematics: Kinematics::Tmc428 { clock_hz: 16_000_000 },
     reference_modes: ReferenceModes::Tmc428,
     driver: Driver::Tmc428Tmc24x,
@@ -330,8 +333,10 @@ fn the_ascii_line_with_its_command_set() {
     assert_eq!(r.text("ASIO 7, 2, 1\r"), "ASIO 7, 2, 1\rBA 100 1\r");
     assert_eq!(r.module.board().outputs, 0x80);
     assert_eq!(r.text("ASAP 250, 0, 5\r"), "ASAP 250, 0, 5\rBA 8 5\r", "protected");
-    // SAC may be typed (its manual lists it) but this board has no SPI chain behind it.
-    assert_eq!(r.text("ASAC 0, 1, 5\r"), "ASAC 0, 1, 5\rBA 6 5\r");
+    // SAC may be typed (its manual lists it) and reaches the emulated TMC428 of its driver: one byte is
+    // no datagram (status 4), four are (the TMC429's type/version register, all motors at their targets).
+    assert_eq!(r.text("ASAC 0, 1, 5\r"), "ASAC 0, 1, 5\rBA 4 5\r");
+    assert_eq!(r.text("ASAC 0, 4, 1929379840\r"), "ASAC 0, 4, 1929379840\rBA 100 356684033\r");
     assert_eq!(r.text("ABIN\r"), "ABIN\rBA 100 0\r");
     assert!(!r.module.ascii_mode_on(0));
 }

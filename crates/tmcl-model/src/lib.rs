@@ -32,6 +32,7 @@ pub mod interrupt;
 pub mod layout;
 pub mod param;
 pub mod pd28_1021;
+pub mod pd_113;
 pub mod port;
 pub mod tmcm_1310;
 pub mod variant;
@@ -41,7 +42,9 @@ pub use interrupt::{InterruptDesc, Interrupts, Source, GLOBAL_INTERRUPTS};
 pub use layout::Layout;
 pub use param::{Access, ParamDesc, ParamError, Range, Role, Setting, Table, Unit};
 pub use port::{PortDesc, PortKind};
-pub use variant::{is_closed_loop, Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
+pub use variant::{
+    is_closed_loop, AppStatusReply, Driver, Encoder, EncoderKind, GlobalBanks, Kinematics, ReferenceModes,
+};
 
 use capacity::*;
 use core::ops::Deref;
@@ -91,6 +94,10 @@ pub struct ModelDesc {
     pub commands: CommandSet,
     /// The commands it takes in ASCII mode.
     pub ascii_commands: CommandSet,
+    /// What command 135 answers.
+    pub app_status: AppStatusReply,
+    /// The global parameter banks; SGP/GGP/STGP/RSGP/AGP of another bank is status 4.
+    pub banks: GlobalBanks,
     /// Units and position width.
     pub kinematics: Kinematics,
     /// The reference-search modes.
@@ -326,7 +333,7 @@ const fn any_protected(params: &[ParamDesc]) -> bool {
 }
 
 /// Every model this build knows.
-pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC];
+pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC];
 
 /// Finds a model by its `--module` name (case-insensitive).
 pub fn by_id(id: &str) -> Option<&'static ModelSpec> {
@@ -362,11 +369,16 @@ mod tests {
     fn units_follow_the_meaning() {
         for model in MODELS {
             for p in model.axis.params {
+                let (pps, pps2) = match model.kinematics {
+                    Kinematics::Pps => (Unit::Pps, Unit::PpsPerSecond),
+                    Kinematics::Tmc428 { .. } => (Unit::Tmc428Velocity, Unit::Tmc428Acceleration),
+                };
                 let expected = match (p.role, p.setting) {
                     (Role::TargetPosition | Role::ActualPosition, _) => Some(Unit::Microsteps),
-                    (Role::TargetSpeed | Role::ActualSpeed, _) => Some(Unit::Pps),
-                    (_, Some(Setting::MaxPositioningSpeed | Setting::MinimumSpeed)) => Some(Unit::Pps),
-                    (_, Some(Setting::MaxAcceleration)) => Some(Unit::PpsPerSecond),
+                    (Role::TargetSpeed | Role::ActualSpeed, _) => Some(pps),
+                    (_, Some(Setting::MaxPositioningSpeed | Setting::MinimumSpeed)) => Some(pps),
+                    (_, Some(Setting::ReferenceSearchSpeed | Setting::ReferenceSwitchSpeed)) => Some(pps),
+                    (_, Some(Setting::MaxAcceleration)) => Some(pps2),
                     (_, Some(Setting::RunCurrent | Setting::StandbyCurrent)) => Some(Unit::CurrentOf255),
                     _ => None,
                 };

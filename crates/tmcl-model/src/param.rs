@@ -204,11 +204,15 @@ pub enum Role {
     VirtualPosition,
     /// AP 237: virtual minus actual position, microsteps.
     PositionError,
+    // ---- the TMC428 generation (PDx-113) -------------------------------------------------------------
+    /// AP 138: the TMC428's ramp mode (TMC428 datasheet, ref_conf/ramp mode register): 0 position
+    /// (ramp), 1 soft (position mode with a soft approach), 2 velocity. ROR/ROL/MST set 2, MVP sets 0.
+    RampModeTmc428,
 }
 
 impl Role {
     /// Number of roles (the size of [`Table`]'s role index).
-    pub const COUNT: usize = Role::PositionError as usize + 1;
+    pub const COUNT: usize = Role::RampModeTmc428 as usize + 1;
 }
 
 macro_rules! settings {
@@ -435,6 +439,12 @@ pub enum Unit {
     TenthVolts,
     /// Degrees Celsius.
     Celsius,
+    /// A TMC428 velocity 0..2047: `16 MHz · v / (2^pulse_div · 2048 · 32)` microsteps per second
+    /// (PDx-113 manual §5.7.1: "0…2047", the TMC428 datasheet's velocity formula).
+    Tmc428Velocity,
+    /// A TMC428 acceleration 0..2047: `16 MHz² · a / 2^(pulse_div + ramp_div + 29)` microsteps per second²
+    /// (the TMC428 datasheet's acceleration formula).
+    Tmc428Acceleration,
 }
 
 impl Unit {
@@ -454,6 +464,8 @@ impl Unit {
             Unit::FullSteps => "full steps",
             Unit::TenthVolts => "× 0.1 V",
             Unit::Celsius => "°C",
+            Unit::Tmc428Velocity => "TMC428 v units",
+            Unit::Tmc428Acceleration => "TMC428 a units",
         }
     }
 }

@@ -26,7 +26,7 @@ use crate::interface::InterfaceDesc;
 use crate::interrupt::{InterruptDesc, Interrupts, Source};
 use crate::param::{Access, ParamDesc, Range, Role, Setting, Table, Unit};
 use crate::port::{PortDesc, PortKind};
-use crate::variant::{Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
+use crate::variant::{AppStatusReply, Driver, Encoder, EncoderKind, GlobalBanks, Kinematics, ReferenceModes};
 use crate::{ModelDesc, ModelSpec};
 use tmcl_wire::{CommandSet, Opcode};
 
@@ -348,6 +348,8 @@ pub const DESC: ModelDesc = ModelDesc {
     // §3.4: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO,
     // UF0..UF7".
     ascii_commands: COMMANDS.ascii_subset(),
+    app_status: AppStatusReply::Typed,
+    banks: GlobalBanks::ARM,
     kinematics: Kinematics::Pps,
     reference_modes: ReferenceModes::Pd28,
     driver: Driver::Tmc262,

@@ -12,6 +12,9 @@ pub enum PortKind {
     EncoderNearZero,
     /// A 12-bit analog input; the field is the ADC channel.
     Analog(u8),
+    /// A 10-bit analog input, 0..1023 (PDx-113 manual §5.7.15.2); the field is the ADC channel. The
+    /// board's inputs are 12-bit: the value is the board's divided by 4.
+    Analog10(u8),
     /// The module temperature.
     Temperature,
     /// A digital output (SIO and GIO on bank 2); the field is its bit.

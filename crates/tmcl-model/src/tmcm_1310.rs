@@ -49,7 +49,7 @@ use crate::interrupt::{InterruptDesc, Interrupts, Source};
 use crate::param::{cited, join, Access, ParamDesc, Range, Role, Setting, Table, Unit};
 use crate::pd28_1021;
 use crate::port::{PortDesc, PortKind};
-use crate::variant::{Driver, Encoder, EncoderKind, Kinematics, ReferenceModes};
+use crate::variant::{AppStatusReply, Driver, Encoder, EncoderKind, GlobalBanks, Kinematics, ReferenceModes};
 use crate::{ModelDesc, ModelSpec};
 use tmcl_wire::{CommandSet, Opcode};
 
@@ -443,6 +443,8 @@ pub const DESC: ModelDesc = ModelDesc {
     // §5: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO,
     // UF0–UF7", the PD28-1021's list.
     ascii_commands: COMMANDS.ascii_subset(),
+    app_status: AppStatusReply::Typed,
+    banks: GlobalBanks::ARM,
     kinematics: Kinematics::Pps,
     reference_modes: ReferenceModes::Pd28,
     // The TMC262 (front page of the CoE manual of the same board); closed loop is firmware.

@@ -79,6 +79,34 @@ pub enum ReferenceModes {
     Tmc428,
 }
 
+/// What command 135 (get application status) answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AppStatusReply {
+    /// Types 0–3: mode, wait flag and pointer packed, the accumulator or the X register (PD28-1021 manual
+    /// §3.7.38, Table 13); another type is status 3.
+    Typed,
+    /// The state alone, 0 stop, 1 run, 2 step, 3 reset, whatever the type byte (PDx-113 manual §5.5: type,
+    /// motor/bank and value "don't care").
+    Plain,
+}
+
+/// Which global parameter banks (SGP/GGP/STGP/RSGP/AGP) a model has, one bit per bank number 0..=7.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GlobalBanks(pub u8);
+
+impl GlobalBanks {
+    /// Banks 0, 2 and 3 (PD28-1021 manual chapter 5: bank 1 "normally not available").
+    pub const ARM: GlobalBanks = GlobalBanks(0b1101);
+    /// Banks 0, 1 and 2 and no bank 3 (PDx-113 manual §5.7.9: "only bank 0 and 1 are used for global
+    /// parameters, and bank 2 is used for user variables"; no interrupts).
+    pub const TMC428: GlobalBanks = GlobalBanks(0b0111);
+
+    /// Whether the model has bank `bank`.
+    pub const fn has(self, bank: u8) -> bool {
+        bank < 8 && self.0 & (1 << bank) != 0
+    }
+}
+
 /// The motor driver behind the step generator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Driver {

@@ -3,7 +3,7 @@
 
 use crate::board::SimBoard;
 use tmcl_core::model::pd28_1021::{self, SPEC};
-use tmcl_core::model::tmcm_1310;
+use tmcl_core::model::{pd_113, tmcm_1310};
 use tmcl_core::model::{InterfaceDesc, ModelDesc, ModelSpec};
 use tmcl_core::module::MAILBOX_LEN;
 use tmcl_core::{Duration, Instant, Module};
@@ -234,6 +234,49 @@ pub fn closed_loop(data: &[u8]) {
     }
 }
 
+/// The PDx-113's SAC (PDx-113 manual §5.4.3) with arbitrary TMC428 datagrams, mixed with arbitrary
+/// commands: every answer is a status of the manual's list and leaves a position the 24-bit counter
+/// holds (§5.7.4).
+///
+/// Input layout: repeated 6-byte chunks `[gap, selector, word (4)]`: `gap` in tenths of a millisecond
+/// before the command, then 1..64 ms of motion after it; an even `selector` sends `SAC 0, 4, word`, an
+/// odd one the command `word[0]` with type `word[1]`, motor `word[2] % 2` and value `word[3]` − 128 times
+/// a few thousand, so moves stay short.
+pub fn sac_datagrams(data: &[u8]) {
+    let spec = &pd_113::SPEC;
+    let mut module = Module::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO);
+    let mut now = Instant::ZERO;
+    let mut sink = |_: &[u8]| {};
+    for chunk in data.chunks_exact(6) {
+        now += Duration::from_micros(100 * u64::from(chunk[0]));
+        let word = [chunk[2], chunk[3], chunk[4], chunk[5]];
+        let instruction = if chunk[1] % 2 == 0 {
+            tmcl_wire::Instruction::new(tmcl_wire::Opcode::Sac, 0, 4, i32::from_be_bytes(word))
+        } else {
+            let value = (i32::from(word[3]) - 128) * (1 + i32::from(chunk[1] >> 1));
+            tmcl_wire::Instruction::new(word[0].into(), word[1], word[2] % 2, value)
+        };
+        match module.execute_instruction(now, instruction) {
+            Ok(_) => {}
+            Err(status) => assert!(
+                matches!(
+                    status,
+                    Status::InvalidCommand
+                        | Status::WrongType
+                        | Status::InvalidValue
+                        | Status::NotAvailable
+                        | Status::EepromLocked
+                ),
+                "{instruction:?}: {status:?}"
+            ),
+        }
+        now += Duration::from_millis(1 + u64::from(chunk[1] % 64));
+        module.poll(now, &mut sink);
+        let position = module.ramp().position;
+        assert!((-(1 << 23)..(1 << 23)).contains(&position), "position {position} beyond 24 bits");
+    }
+}
+
 /// The mailbox's answer to one request (and what else fell due with it, which can only be 138 events).
 fn check_mailbox_reply(request: &[u8; MAILBOX_LEN], out: &[u8]) {
     assert_eq!(out.len() % MAILBOX_LEN, 0, "mailbox replies come whole: {out:02X?}");
@@ -269,6 +312,14 @@ fn check_replies(out: &[u8]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sac_datagrams_on_a_few_inputs() {
+        sac_datagrams(&[]);
+        sac_datagrams(&[0, 0, 0x73, 0, 0, 0, 5, 2, 0x06, 0, 0x07, 0xFF, 0, 1, 1, 0, 0, 255]);
+        let every_register: Vec<u8> = (0..=255u8).flat_map(|a| [1, 0, a, 0xFF, 0xFF, 0xFF]).collect();
+        sac_datagrams(&every_register);
+    }
 
     /// The campaign's find: `A`, backspace, NULs, then a line for module C: echoed while addressed, no
     /// reply.

@@ -38,7 +38,7 @@ pub(crate) fn model_json(model: &'static ModelSpec) -> Value {
         .map(|p| {
             let kind = match p.kind {
                 PortKind::DigitalInput(_) | PortKind::EncoderNearZero => "input",
-                PortKind::Analog(_) => "analog",
+                PortKind::Analog(_) | PortKind::Analog10(_) => "analog",
                 PortKind::Temperature => "temperature",
                 PortKind::Output(_) => "output",
                 PortKind::AllInputs | PortKind::AllOutputs => "all",

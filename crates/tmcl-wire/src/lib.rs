@@ -40,6 +40,7 @@ pub mod instruction;
 pub mod opcode;
 pub mod reply;
 pub mod status;
+pub mod tmc428;
 
 pub use ascii::{format_instruction, parse_instruction, ParseError, ParseErrorKind};
 pub use command::{

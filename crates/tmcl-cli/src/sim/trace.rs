@@ -3,7 +3,8 @@
 //! The columns, in order, with their units are listed once, in `tmcl run --help`
 //! ([`crate::run::TRACE_HELP`]); a test checks that the header written here is the list given there.
 //! [`FIXED_COLUMNS`] come first, then a `varN` column per user variable, then [`DRIVE_COLUMNS`] and
-//! [`CLOSED_LOOP_COLUMNS`] with `--drive`, and `event` last.
+//! [`CLOSED_LOOP_COLUMNS`] with `--drive`, [`UNITS_COLUMN`] on a model with units of its own, and
+//! `event` last.
 //!
 //! Every value is an integer, except two with six decimals that are formatted from integers: the time
 //! (from integer microseconds) and the coil energy (from integer µA²·s). The same run gives byte-identical
@@ -25,6 +26,8 @@ pub(crate) const FIXED_COLUMNS: [&str; 8] =
 pub(crate) const DRIVE_COLUMNS: [&str; 4] = ["load", "current_scale", "encoder", "energy_a2s"];
 /// The columns `--drive` adds after [`DRIVE_COLUMNS`] on a closed-loop model.
 pub(crate) const CLOSED_LOOP_COLUMNS: [&str; 4] = ["virtual_position", "position_error", "scaler", "status_word"];
+/// The column a model with units of its own (the TMC428 generation) adds before `event`: AP 3 in them.
+pub(crate) const UNITS_COLUMN: &str = "velocity_units";
 
 /// With `--drive`: what the driver reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -83,6 +86,7 @@ pub(crate) struct Trace<W: Write> {
     variables: Vec<u8>,
     drive: bool,
     closed_loop: bool,
+    units: bool,
     line: String,
     /// Samples, when kept.
     pub samples: Vec<Sample>,
@@ -98,13 +102,22 @@ impl<W: Write> Trace<W> {
     /// A trace of `variables` (user variable numbers, ascending) that writes CSV to `csv` and keeps
     /// samples and events in memory if `keep`.
     /// `closed_loop`: the model has a closed loop (its columns come with `drive`).
-    pub fn new(csv: Option<W>, keep: bool, variables: Vec<u8>, drive: bool, closed_loop: bool) -> io::Result<Trace<W>> {
+    /// `units`: the model's velocities are not in pps (AP 3 in its unit gets a column of its own).
+    pub fn new(
+        csv: Option<W>,
+        keep: bool,
+        variables: Vec<u8>,
+        drive: bool,
+        closed_loop: bool,
+        units: bool,
+    ) -> io::Result<Trace<W>> {
         let mut trace = Trace {
             csv,
             keep,
             variables,
             drive,
             closed_loop: drive && closed_loop,
+            units,
             line: String::new(),
             samples: Vec::new(),
             events: Vec::new(),
@@ -121,6 +134,10 @@ impl<W: Write> Trace<W> {
             for column in drive.iter().chain(closed_loop) {
                 header.push(',');
                 header.push_str(column);
+            }
+            if trace.units {
+                header.push(',');
+                header.push_str(UNITS_COLUMN);
             }
             header.push_str(",event\n");
             out.write_all(header.as_bytes())?;
@@ -182,6 +199,9 @@ impl<W: Write> Trace<W> {
         }
         if let Some([virtual_position, error, scaler, status]) = closed_loop {
             let _ = write!(line, ",{virtual_position},{error},{scaler},{status}");
+        }
+        if self.units {
+            let _ = write!(line, ",{}", module.get_axis(3).unwrap_or(0));
         }
         line.push(',');
         line.push_str(&events.join(";"));

@@ -7,10 +7,10 @@
 
 use crate::hal::Board;
 use crate::iface::Sink;
-use crate::model::{Framing, InterfaceDesc, Setting};
+use crate::model::{AppStatusReply, Framing, InterfaceDesc, Setting};
 use crate::module::{Module, Origin, Outcome, ReplyOf};
 use crate::time::{Duration, Instant};
-use tmcl_wire::{Command, CommandSet, Frame, Instruction, Opcode, Reply, Request, Status, FRAME_LEN};
+use tmcl_wire::{Command, CommandSet, Frame, Instruction, Opcode, Reply, Request, Status, StatusKind, FRAME_LEN};
 
 /// The length of a mailbox message (TMCM-1310 manual §3.6: an 8-byte command, an 8-byte reply).
 pub const MAILBOX_LEN: usize = 8;
@@ -158,6 +158,10 @@ impl<B: Board> Module<B> {
     fn decode_code(&self, instruction: Instruction, code: u8) -> Result<Command, Status> {
         if !self.spec.commands.contains_code(code) {
             return Err(Status::InvalidCommand);
+        }
+        // PDx-113 manual §5.5: 135 has no type variants; its type byte is "don't care".
+        if code == Opcode::GetStatus.code() && self.spec.app_status == AppStatusReply::Plain {
+            return Ok(Command::GetStatus { kind: StatusKind::MemoryPointer });
         }
         Command::decode(instruction)
     }
