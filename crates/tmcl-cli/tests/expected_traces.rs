@@ -98,7 +98,13 @@ fn event_driven_traces_are_the_tick_by_tick_traces() {
     let mut failures = Vec::new();
     for program in &programs {
         let name = program.file_stem().unwrap().to_string_lossy().to_string();
-        let model: &[&str] = if name.starts_with("tmcm1310") { &["--module", "tmcm-1310"] } else { &[] };
+        let model: &[&str] = if name.starts_with("tmcm1310") {
+            &["--module", "tmcm-1310"]
+        } else if name.starts_with("pd113") {
+            &["--module", "pd-113"]
+        } else {
+            &[]
+        };
         for world in worlds {
             let world_args: Vec<String> =
                 if world.is_empty() { vec![] } else { vec!["--world".into(), format!("examples/worlds/{world}.toml")] };
