@@ -47,6 +47,16 @@ impl Drop for Server {
     }
 }
 
+/// A client on the pty link of a `tmcl serve` just started (waits up to 10 s for the link).
+fn connect(link: &std::path::Path) -> Client<SerialTransport> {
+    let deadline = StdInstant::now() + StdDuration::from_secs(10);
+    while std::fs::symlink_metadata(link).is_err() {
+        assert!(StdInstant::now() < deadline, "server did not start");
+        std::thread::sleep(StdDuration::from_millis(10));
+    }
+    Client::new(SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty"))
+}
+
 fn pty_latency(n: usize) {
     let dir = std::env::temp_dir().join(format!("tmcl-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -58,13 +68,7 @@ fn pty_latency(n: usize) {
         .spawn()
         .expect("start tmcl serve");
     let _server = Server(child, link.clone());
-    let deadline = StdInstant::now() + StdDuration::from_secs(10);
-    while std::fs::symlink_metadata(&link).is_err() {
-        assert!(StdInstant::now() < deadline, "server did not start");
-        std::thread::sleep(StdDuration::from_millis(10));
-    }
-    let transport = SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty");
-    let mut client = Client::new(transport);
+    let mut client = connect(&link);
     for _ in 0..100 {
         client.get_axis_parameter(1, 0).unwrap();
     }
@@ -304,13 +308,7 @@ fn serve_cpu(secs: u64) {
         let wall0 = StdInstant::now();
         let position = {
             let _server = Server(cmd.spawn().expect("start tmcl serve"), link.clone());
-            let deadline = StdInstant::now() + StdDuration::from_secs(10);
-            while std::fs::symlink_metadata(&link).is_err() {
-                assert!(StdInstant::now() < deadline, "server did not start");
-                std::thread::sleep(StdDuration::from_millis(10));
-            }
-            let transport = SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty");
-            let mut client = Client::new(transport);
+            let mut client = connect(&link);
             client.rotate(0, 51_200).unwrap();
             std::thread::sleep(StdDuration::from_secs(secs));
             client.get_axis_parameter(1, 0).unwrap()

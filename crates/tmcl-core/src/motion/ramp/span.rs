@@ -535,16 +535,7 @@ fn largest_near(n: u64, guess: u64, ok: impl Fn(u64) -> bool) -> u64 {
             step = step.saturating_mul(2);
         }
     }
-    let mut bad = bad.unwrap_or(n);
-    while bad - good > 1 {
-        let mid = good + (bad - good) / 2;
-        if ok(mid) {
-            good = mid;
-        } else {
-            bad = mid;
-        }
-    }
-    good
+    bisect(good, bad.unwrap_or(n), ok)
 }
 
 /// The largest `k` in `0..=n` with `ok(k)`, for an `ok` that holds up to some point and not after it
@@ -563,7 +554,12 @@ fn largest(n: u64, ok: impl Fn(u64) -> bool) -> u64 {
             break;
         }
     }
-    let Some(mut bad) = bad else { return good };
+    let Some(bad) = bad else { return good };
+    bisect(good, bad, ok)
+}
+
+/// The largest `k` in `good..bad` with `ok(k)`, given `ok(good)` and not `ok(bad)`: bisecting.
+fn bisect(mut good: u64, mut bad: u64, ok: impl Fn(u64) -> bool) -> u64 {
     while bad - good > 1 {
         let mid = good + (bad - good) / 2;
         if ok(mid) {
