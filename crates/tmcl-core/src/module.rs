@@ -43,6 +43,7 @@ pub use crate::iface::host::MAILBOX_LEN;
 
 mod advance;
 mod spans;
+mod spin;
 
 /// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
 pub mod flags {
@@ -260,6 +261,8 @@ pub struct Module<B: Board> {
     pub(crate) exact: bool,
     /// The spans computed last (see `module/spans.rs`).
     pub(crate) memos: spans::Memos,
+    /// Watches a program spinning in a fixed point (see `module/spin.rs`).
+    pub(crate) spin: spin::Spin,
 }
 
 impl<B: Board> Module<B> {
@@ -285,6 +288,7 @@ impl<B: Board> Module<B> {
             program: Program::default(),
             exact: false,
             memos: Default::default(),
+            spin: Default::default(),
         }
     }
 
@@ -575,6 +579,7 @@ impl<B: Board> Module<B> {
         self.st.unreported_steps = 0;
         self.st.last_drive = Some(unchanged);
         self.st.board_time = now;
+        self.spin.touch();
         self.board.update(now, &state);
     }
 

@@ -80,6 +80,8 @@ impl<B: Board> Module<B> {
         };
         let mut budget = BUDGET;
         let closed_loop = self.has_closed_loop();
+        // A program spinning in a fixed point is looked for within this advance only (`module/spin.rs`).
+        self.spin.arm(true);
         // Instructions up to and including `now`.
         let horizon = now + MICROSECOND;
         loop {
@@ -92,7 +94,11 @@ impl<B: Board> Module<B> {
                 let executed = self.vm.executed;
                 let limit = due.map_or(tick_at, |d| tick_at.min(d + MICROSECOND));
                 // (It returns early after an instruction that changed what the driver sees.)
-                self.run_program(limit.min(horizon), &mut budget);
+                if self.run_program(limit.min(horizon), &mut budget) {
+                    // Whole turns of a loop in a fixed point jumped over, ticks and all.
+                    params = self.ramp_params();
+                    continue;
+                }
                 if budget == 0 {
                     break; // the rest at the next poll (its deadline is now)
                 }
@@ -152,6 +158,7 @@ impl<B: Board> Module<B> {
             self.st.motion_time = tick_at;
             self.tick_done(tick_at);
         }
+        self.spin.arm(false);
         self.after_advance(now);
     }
 
