@@ -53,6 +53,10 @@ impl<B: Board> Module<B> {
     /// Executes one validated command from the host or the program at `now`.
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
+        if origin == Origin::Host {
+            // A running program that spins in a fixed point may do otherwise now (`module/spin.rs`).
+            self.spin.unrest();
+        }
         // A parameter write may change what the driver sees (a current, the chopper, the resolution), and a
         // stop (MST, RFS) stops the motor at once: the board is brought up to date at this instant, not at
         // the next motion tick (a standing motor has none), however often the module is polled.

@@ -307,8 +307,19 @@ impl<B: Board> Module<B> {
         &self.board
     }
 
-    /// The board, mutably (the simulator changes its world through this).
+    /// The board, mutably (the simulator changes its world through this). The module takes it that the
+    /// board may have changed in any way (a program spinning in a fixed point is looked at afresh, see
+    /// `module/spin.rs`); to move the board's world on along its own timeline, or to read it, use
+    /// [`Module::board_timeline`].
     pub fn board_mut(&mut self) -> &mut B {
+        self.spin.touch();
+        &mut self.board
+    }
+
+    /// The board, mutably, only to move its world on along its own timeline — the changes the board
+    /// announces as the end of its quiet windows ([`crate::hal::StepDriver::quiet`]), as a simulator does
+    /// at its polls — or to take readings. Any other change goes through [`Module::board_mut`].
+    pub fn board_timeline(&mut self) -> &mut B {
         &mut self.board
     }
 

@@ -199,8 +199,8 @@ impl Scenario {
                 fast.receive(t, &frame, &mut |_: &[u8]| {});
                 slow.receive(t, &frame, &mut |_: &[u8]| {});
             }
-            fast.board_mut().advance(t);
-            slow.board_mut().advance(t);
+            fast.board_timeline().advance(t);
+            slow.board_timeline().advance(t);
             let tick = Instant::from_micros((t.micros() / 1000 + 1) * 1000);
             let next = [a, b, host.peek().map(|(at, _)| *at), Some(tick)]
                 .into_iter()
@@ -279,7 +279,7 @@ fn run_to<'a>(
         if now == due {
             // A runner moves the world on at its polls (`tmcl run`'s `sim::poll`); an extra poll only asks
             // the module.
-            module.board_mut().advance(now);
+            module.board_timeline().advance(now);
             trace(module, now);
             if now >= stop {
                 return;

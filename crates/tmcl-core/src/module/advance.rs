@@ -45,6 +45,7 @@ impl<B: Board> Module<B> {
     /// Ticks the motion controller one by one (`true`), as the reference for the spans it takes by
     /// default (`false`); both give the same results (see `module/advance.rs`).
     pub fn set_exact_ticks(&mut self, exact: bool) {
+        self.spin.touch();
         self.exact = exact;
     }
 
@@ -80,7 +81,7 @@ impl<B: Board> Module<B> {
         };
         let mut budget = BUDGET;
         let closed_loop = self.has_closed_loop();
-        // A program spinning in a fixed point is looked for within this advance only (`module/spin.rs`).
+        // A program spinning in a fixed point is looked for in advances only (`module/spin.rs`).
         self.spin.arm(true);
         // Instructions up to and including `now`.
         let horizon = now + MICROSECOND;
@@ -327,7 +328,9 @@ impl<B: Board> Module<B> {
                 None => consider(self.st.motion_time + TICK),
             }
         }
-        for t in [self.program_deadline(), self.timer_deadline()].into_iter().flatten() {
+        // A program spinning in a fixed point (`module/spin.rs`) needs no poll before the next event.
+        let program = self.spin.rest(self.st.now).unwrap_or_else(|| self.program_deadline());
+        for t in [program, self.timer_deadline()].into_iter().flatten() {
             consider(t.max(self.st.now));
         }
         if let Some(since) = self.st.standstill_since {

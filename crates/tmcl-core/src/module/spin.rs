@@ -100,17 +100,37 @@ pub(crate) struct Spin {
     failures: u32,
     /// Passes of the key to let go by before the next copy or comparison.
     skip: u32,
+    /// A fixed point found, with nothing due before this (`None`: ever): the program needs no poll before
+    /// it. Forgotten when anything from outside reaches the module (a host command, the board).
+    rest: Option<Option<Instant>>,
 }
 
 #[cfg(feature = "spin-skip")]
 impl Spin {
-    /// Starts watching (the start of an advance) or stops (its end): nothing is carried over.
+    /// Watches (within an advance) or not (outside: a single step, command 130, jumps over nothing).
+    #[inline(always)]
     pub(crate) fn arm(&mut self, armed: bool) {
         self.armed = armed;
+    }
+
+    /// Starts looking afresh (after a jump).
+    fn restart(&mut self) {
         self.anchor = None;
         self.snapshot = None;
         self.failures = 0;
         self.skip = 0;
+    }
+
+    /// Forgets the fixed point found (a host command: it may change what the program does).
+    #[inline(always)]
+    pub(crate) fn unrest(&mut self) {
+        self.rest = None;
+    }
+
+    /// The program spins in a fixed point with nothing due before `now`: when it needs its next poll
+    /// (`Some(None)`: never by itself). `None`: not known to spin.
+    pub(crate) fn rest(&self, now: Instant) -> Option<Option<Instant>> {
+        self.rest.filter(|r| r.is_none_or(|e| e > now))
     }
 
     /// The board is told something it was not told before (a new drive state, driver settings, outputs,
@@ -118,6 +138,7 @@ impl Spin {
     #[inline(always)]
     pub(crate) fn touch(&mut self) {
         self.epoch = self.epoch.wrapping_add(1);
+        self.rest = None;
     }
 }
 
@@ -301,14 +322,20 @@ impl<B: Board> Module<B> {
         };
         let epoch = self.spin.epoch;
         let turn = match &self.spin.snapshot {
-            Some(s) if s.epoch == epoch => turned(s, &self.st, &self.vm).map(|(d, n)| (d, n, s.until)),
-            _ => None,
+            // The copy's quiet window has ended since (the board may have changed): a fresh copy, no failure.
+            Some(s) if s.until.is_some_and(|u| u <= self.vm.time) => None,
+            Some(s) => {
+                let turn = if s.epoch == epoch { turned(s, &self.st, &self.vm) } else { None };
+                if turn.is_none() {
+                    self.spin.failures = (self.spin.failures + 1).min(MAX_BACKOFF);
+                    self.spin.skip = (1 << self.spin.failures) - 1;
+                }
+                turn.map(|(d, n)| (d, n, s.until))
+            }
+            None => None,
         };
         let Some((period, n, until)) = turn else {
-            if self.spin.snapshot.is_some() {
-                self.spin.failures = (self.spin.failures + 1).min(MAX_BACKOFF);
-                self.spin.skip = (1 << self.spin.failures) - 1;
-            }
+            self.spin.rest = None;
             self.spin.snapshot = Some(Snapshot { st: self.st.clone(), vm: self.vm.clone(), until: quiet.until, epoch });
             return false;
         };
@@ -316,25 +343,28 @@ impl<B: Board> Module<B> {
         // (instructions up to and including `now` run in it), the board's quiet window (as it was at both
         // passes), a standby or freewheeling delay, the heartbeat, a timer (sampled at the ticks).
         let timers = if self.vm.enabled != 0 { self.vm.timers } else { [None; MAX_TIMERS] };
-        let bound = [Some(self.st.now + Duration::from_micros(1)), until, quiet.until, self.st.drive_due]
-            .into_iter()
-            .chain([self.heartbeat_expiry()])
-            .chain(timers)
-            .flatten()
-            .min();
+        let event = [until, quiet.until, self.st.drive_due, self.heartbeat_expiry()].into_iter().chain(timers).flatten().min();
+        let now = self.st.now;
+        // Nothing is due within this advance: the loop spins on in its fixed point up to `event`, and the
+        // program needs no poll before it (the deadline after this advance says so).
+        self.spin.rest = event.is_none_or(|e| e > now).then_some(event);
+        let bound = match event {
+            Some(e) if e <= now => e,
+            _ => now + Duration::from_micros(1), // instructions and ticks up to and including `now`
+        };
         // The last thing the k turns do happens before `t0 + k·Δ` (an instruction) and at `m0 + k·Δ` (a
         // tick), and `m0 < t0`: so k·Δ ≤ bound − t0 keeps it all before the bound.
-        let room = bound.map_or(0, |b| b.saturating_duration_since(self.vm.time).micros());
+        let room = bound.saturating_duration_since(self.vm.time).micros();
         let k = room / period.micros();
-        self.spin.snapshot = None;
+        self.spin.failures = 0;
         if k == 0 {
-            return false;
+            return false; // (the copy stays: the next pass is a whole number of turns after it too)
         }
         let jump = Duration::from_micros(k * period.micros());
         self.vm.time += jump;
         self.st.motion_time += jump;
         self.vm.executed += k * n;
-        self.spin.arm(true);
+        self.spin.restart(); // (the fixed point's `rest` stays)
         true
     }
 }
@@ -351,6 +381,14 @@ impl Spin {
 
     #[inline(always)]
     pub(crate) fn touch(&mut self) {}
+
+    #[inline(always)]
+    pub(crate) fn unrest(&mut self) {}
+
+    #[inline(always)]
+    pub(crate) fn rest(&self, _: crate::time::Instant) -> Option<Option<crate::time::Instant>> {
+        None
+    }
 }
 
 #[cfg(not(feature = "spin-skip"))]

@@ -416,6 +416,7 @@ impl<B: Board> Module<B> {
 
     /// Mutable access to the program machine (debuggers: breakpoints).
     pub fn vm_mut(&mut self) -> &mut super::Vm {
+        self.spin.touch(); // (a spinning program is looked at afresh, see `module/spin.rs`)
         &mut self.vm
     }
 
