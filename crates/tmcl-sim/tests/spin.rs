@@ -12,7 +12,11 @@ use tmcl_wire::{CalcOp, Command, Instruction};
 
 /// `tests/programs/manual_p04_copy_inputs.tmc` (§3.7.14): `Loop: GIO 255, 0 / SIO 255, 2, -1 / JA Loop`.
 fn p04() -> Vec<Command> {
-    vec![Command::Gio { port: 255, bank: 0 }, Command::Sio { port: 255, bank: 2, value: -1 }, Command::Ja { address: 0 }]
+    vec![
+        Command::Gio { port: 255, bank: 0 },
+        Command::Sio { port: 255, bank: 2, value: -1 },
+        Command::Ja { address: 0 },
+    ]
 }
 
 /// `tests/programs/manual_p09_vect.tmc` (§3.7.34): `VECT 0, Timer0Irq / Loop: JA Loop / Timer0Irq: SIO 0,

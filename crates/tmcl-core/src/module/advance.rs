@@ -17,6 +17,16 @@
 //! tick), coolStep regulating, a deviation check that is armed, and a board that cannot say when its
 //! readings next change ([`crate::hal::StepDriver::quiet`] returns `None`).
 //!
+//! # A program that never waits
+//!
+//! Each instruction is an event (it takes [`crate::vm::INSTRUCTION_TIME`]), so a busy loop would make
+//! every 20 µs one. A loop that spins in a fixed point — its whole state back as it was one turn before
+//! at the same address and the same phase to the ticks, the axis standing, the board quiet and told
+//! nothing new — is jumped over in whole turns, ticks and all, up to the next event that is not the
+//! loop's (a timer, a standby delay, the heartbeat, the end of the board's quiet window, the caller's
+//! `now`), and the deadline says the program needs no poll before that event (`spin.rs`, with the
+//! default feature `spin-skip`). Tick-by-tick mode runs every instruction: it stays the reference.
+//!
 //! # The same result however often the caller polls
 //!
 //! Spans make polls rare, so nothing may depend on when the caller polls: the ramp parameters are read

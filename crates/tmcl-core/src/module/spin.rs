@@ -10,30 +10,39 @@
 //!
 //! # Why it is exact
 //!
-//! Within one [`Module::advance`] (nothing from outside reaches the module in it) the module and its
-//! board are a deterministic machine whose next steps depend on their state and on time only through
+//! The module and its board are a deterministic machine whose next steps depend on their state and on
+//! time only through
 //! - the ticks, [`crate::motion::TICK`] apart from `motion_time`;
 //! - the instants kept in the state (a timer, a standby or freewheeling delay `drive_due`, the heartbeat);
 //! - the board's readings, which a quiet window ([`crate::hal::StepDriver::quiet`]) promises to keep
 //!   until its end while the driver is told nothing new;
-//! - the caller's `now`, where the advance ends.
+//! - the caller's `now`, where an advance ends;
+//! - and whatever reaches it from outside: a host command changes the firmware state (compared below),
+//!   a change of the board through [`Module::board_mut`] counts as telling it something new (the epoch).
+//!   [`Module::board_timeline`] moves the board's world on along its timeline, which the quiet windows
+//!   announce.
 //!
 //! Two passes through the same address, with the program's clock as far after the last tick both times
 //! (the same *phase*, so the ticks fall between the same instructions), with every field of the firmware
 //! state and the program machine equal but those that move with time (the program's and the motion
 //! controller's clocks by the same Δ, the instruction count by n; the board's clock and the caller's
-//! `now` are not the module's to compare), with nothing told to the board in between but what it was told
-//! already (the *epoch*: a new drive state, driver settings, outputs, an EEPROM write), and the board
-//! quiet over both: then from the second pass the machine does exactly what it did from the first,
-//! shifted by Δ, for as long as none of the instants above falls within. So k turns later it is in the
-//! second pass's state with the clocks k·Δ on and k·n more instructions executed — which is what the
-//! module sets. Everything the turns would have done in between is undone within each turn: that is what
-//! equal states at both passes say.
+//! `now` are not the module's to compare), with nothing told to the board in between (the *epoch*: a new
+//! drive state, driver settings, outputs, an EEPROM write, the board changed from outside), and both
+//! within the quiet window the board reported at the first: then from the second pass the machine does
+//! exactly what it did from the first, shifted by Δ, for as long as none of the instants above falls
+//! within. So k turns later it is in the second pass's state with the clocks k·Δ on and k·n more
+//! instructions executed — which is what the module sets. Everything the turns would have done in
+//! between is undone within each turn: that is what equal states at both passes say.
+//!
+//! A fixed point found with nothing due before the end of the advance also tells the deadline
+//! ([`Module::poll`]): the program needs no poll before the next of those instants, until a host command
+//! or the board says otherwise. A caller that polls at the deadlines polls a spinning program at its
+//! events, not at its instructions.
 //!
 //! Not covered (the program runs instruction by instruction, as before): a moving axis, a reference
 //! search, a closed-loop model, a board that cannot say it is quiet, a loop whose state changes from turn
-//! to turn, a WAIT in progress at the pass, and tick-by-tick mode (`Module::set_exact_ticks`), the
-//! reference this is tested against.
+//! to turn, a WAIT in progress at the pass, single steps (command 130), and tick-by-tick mode
+//! (`Module::set_exact_ticks`), the reference this is tested against.
 //!
 //! # Cost
 //!
@@ -88,7 +97,7 @@ struct Snapshot {
 }
 
 #[cfg(feature = "spin-skip")]
-/// The detector (see the module docs); only within one advance (`armed`).
+/// The detector (see the module docs); it watches within advances only (`armed`).
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Spin {
     armed: bool,
@@ -343,7 +352,8 @@ impl<B: Board> Module<B> {
         // (instructions up to and including `now` run in it), the board's quiet window (as it was at both
         // passes), a standby or freewheeling delay, the heartbeat, a timer (sampled at the ticks).
         let timers = if self.vm.enabled != 0 { self.vm.timers } else { [None; MAX_TIMERS] };
-        let event = [until, quiet.until, self.st.drive_due, self.heartbeat_expiry()].into_iter().chain(timers).flatten().min();
+        let event =
+            [until, quiet.until, self.st.drive_due, self.heartbeat_expiry()].into_iter().chain(timers).flatten().min();
         let now = self.st.now;
         // Nothing is due within this advance: the loop spins on in its fixed point up to `event`, and the
         // program needs no poll before it (the deadline after this advance says so).
