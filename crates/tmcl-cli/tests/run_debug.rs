@@ -229,6 +229,39 @@ fn a_busy_program_runs_for_the_whole_run() {
     }
 }
 
+/// The manual's busy listings (they never WAIT): an hour of each event-driven executes every one of its
+/// 180 000 001 instructions (one every 20 µs from 0 to 3600 s) in a fraction of a second, a loop in a
+/// fixed point being jumped over (`tmcl_core` `module/spin.rs`); and over 65 s, more than three polls'
+/// worth of instructions, it ends where the tick-by-tick reference ends.
+#[test]
+fn the_busy_listings_spin_through_an_hour() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["manual_p04_copy_inputs.tmc", "manual_p09_vect.tmc", "manual_p10_aap.tmc"] {
+        let prog = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/programs").join(name);
+        if !prog.is_file() {
+            continue; // (a copy of the crate without the listings)
+        }
+        let json = |args: &[&str]| -> serde_json::Value {
+            let out = ok(&tmcl(&[&["--json", "run", prog.to_str().unwrap()], args].concat()));
+            serde_json::from_str(out.lines().last().unwrap()).unwrap()
+        };
+        let hour = json(&["--for", "3600"]);
+        assert_eq!(hour["executed"], 180_000_001, "{name}: {hour}");
+        assert_eq!(hour["pc"], 1, "{name}: {hour}");
+        assert!(hour["wall_s"].as_f64().unwrap() < 10.0, "{name}: {hour}");
+        let trace = dir.path().join("t.csv");
+        // Event-driven traced (polled every 5 s and at its deadlines) and not, against tick by tick.
+        let traced = json(&["--for", "65", "--trace", trace.to_str().unwrap(), "--every", "5000"]);
+        let (fast, exact) = (json(&["--for", "65"]), json(&["--for", "65", "--exact-ticks"]));
+        for key in ["executed", "pc", "state"] {
+            assert_eq!(traced[key], exact[key], "{name}: {traced} {exact}");
+        }
+        for key in ["executed", "pc", "state"] {
+            assert_eq!(fast[key], exact[key], "{name}: {fast} {exact}");
+        }
+    }
+}
+
 #[test]
 fn set_changes_parameters_before_the_start() {
     let dir = tempfile::tempdir().unwrap();

@@ -53,6 +53,10 @@ impl<B: Board> Module<B> {
     /// Executes one validated command from the host or the program at `now`.
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
+        if origin == Origin::Host {
+            // A running program that spins in a fixed point may do otherwise now (`module/spin.rs`).
+            self.spin.unrest();
+        }
         // A parameter write may change what the driver sees (a current, the chopper, the resolution), and a
         // stop (MST, RFS) stops the motor at once: the board is brought up to date at this instant, not at
         // the next motion tick (a standing motor has none), however often the module is polled.
@@ -134,6 +138,7 @@ impl<B: Board> Module<B> {
                 self.motor(motor)?;
                 let (i, _) = self.axis_desc(param, |d| d.access.store)?;
                 self.unlocked_for(&self.spec.axis.params[i])?;
+                self.spin.touch(); // an EEPROM write
                 persist::store_axis(&mut self.board, self.spec, i, self.st.axis[i])?;
                 value(0)
             }
@@ -160,10 +165,12 @@ impl<B: Board> Module<B> {
                     0 => {
                         let (i, _) = self.global_desc(param, |d| d.access.auto)?;
                         self.unlocked_for(&self.spec.global.params[i])?;
+                        self.spin.touch(); // an EEPROM write
                         persist::store_global(&mut self.board, self.spec, i, self.st.global[i])?;
                     }
                     2 => {
                         let v = self.st.user[self.user_index(param)?];
+                        self.spin.touch(); // an EEPROM write
                         persist::store_user(&mut self.board, self.spec, param, v)?
                     }
                     // A bank 1 with no parameter the sources name (PDx-113 manual §5.7.9).
@@ -218,7 +225,11 @@ impl<B: Board> Module<B> {
                     },
                     _ => return Err(Status::WrongType),
                 };
-                self.st.outputs = bits & (((1u16 << self.spec.outputs) - 1) as u8); // outputs ≤ 8
+                let bits = bits & (((1u16 << self.spec.outputs) - 1) as u8); // outputs ≤ 8
+                if bits != self.st.outputs {
+                    self.spin.touch();
+                }
+                self.st.outputs = bits;
                 self.board.set_outputs(self.st.outputs);
                 value(v)
             }
@@ -429,6 +440,7 @@ impl<B: Board> Module<B> {
             // §3.7.38 137 (value 1234, checked by decode): factory defaults into the EEPROM, no reply; the
             // module then restarts on them (the program memory is kept: it is not a setting).
             C::FactoryDefault => {
+                self.spin.touch(); // an EEPROM write
                 persist::format(&mut self.board, self.spec, false).map_err(Status::from)?;
                 Ok(Outcome::Silent)
             }
@@ -740,6 +752,7 @@ impl<B: Board> Module<B> {
                 self.unlocked_for(d)?;
                 if d.access.auto {
                     // Stored first: if the EEPROM refuses, nothing changes.
+                    self.spin.touch(); // an EEPROM write
                     persist::store_global(&mut self.board, self.spec, i, v)?;
                 }
                 if d.setting == Some(Setting::CodeProtection) {
@@ -800,6 +813,7 @@ impl<B: Board> Module<B> {
     fn write_coordinate(&mut self, coord: u8, v: i32) -> Result<(), Status> {
         let n = self.coord_index(coord)?;
         if n > 0 && self.gp_flag(Setting::CoordinateStorage) {
+            self.spin.touch(); // an EEPROM write
             persist::store_coordinate(&mut self.board, self.spec, coord, v)?;
         }
         self.st.coords[n] = v;
@@ -812,6 +826,7 @@ impl<B: Board> Module<B> {
         let range = if n == 0 { 1..=self.spec.coordinates } else { n..=n };
         for c in range {
             if to_eeprom {
+                self.spin.touch(); // an EEPROM write
                 persist::store_coordinate(&mut self.board, self.spec, c, self.st.coords[usize::from(c)])?;
             } else {
                 self.st.coords[usize::from(c)] = persist::load_coordinate(&mut self.board, self.spec, c)?;

@@ -43,6 +43,7 @@ pub use crate::iface::host::MAILBOX_LEN;
 
 mod advance;
 mod spans;
+mod spin;
 
 /// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
 pub mod flags {
@@ -263,6 +264,8 @@ pub struct Module<B: Board> {
     pub(crate) exact: bool,
     /// The spans computed last (see `module/spans.rs`).
     pub(crate) memos: spans::Memos,
+    /// Watches a program spinning in a fixed point (see `module/spin.rs`).
+    pub(crate) spin: spin::Spin,
 }
 
 impl<B: Board> Module<B> {
@@ -288,6 +291,7 @@ impl<B: Board> Module<B> {
             program: Program::default(),
             exact: false,
             memos: Default::default(),
+            spin: Default::default(),
         }
     }
 
@@ -306,8 +310,19 @@ impl<B: Board> Module<B> {
         &self.board
     }
 
-    /// The board, mutably (the simulator changes its world through this).
+    /// The board, mutably (the simulator changes its world through this). The module takes it that the
+    /// board may have changed in any way (a program spinning in a fixed point is looked at afresh, see
+    /// `module/spin.rs`); to move the board's world on along its own timeline, or to read it, use
+    /// [`Module::board_timeline`].
     pub fn board_mut(&mut self) -> &mut B {
+        self.spin.touch();
+        &mut self.board
+    }
+
+    /// The board, mutably, only to move its world on along its own timeline — the changes the board
+    /// announces as the end of its quiet windows ([`crate::hal::StepDriver::quiet`]), as a simulator does
+    /// at its polls — or to take readings. Any other change goes through [`Module::board_mut`].
+    pub fn board_timeline(&mut self) -> &mut B {
         &mut self.board
     }
 
@@ -578,6 +593,7 @@ impl<B: Board> Module<B> {
         self.st.unreported_steps = 0;
         self.st.last_drive = Some(unchanged);
         self.st.board_time = now;
+        self.spin.touch();
         self.board.update(now, &state);
     }
 

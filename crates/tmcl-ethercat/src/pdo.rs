@@ -186,7 +186,9 @@ pub fn read_inputs<B: Board>(module: &mut Module<B>, out: &mut [u8; INPUTS_LEN])
     for (field, slot) in INPUT_FIELDS.iter().zip(out.chunks_exact_mut(4)) {
         let v = match field.source {
             Source::Axis(n) => module.get_axis(n).unwrap_or(0) as u32,
-            Source::ErrorFlags => u32::from(module.error_flags()) | u32::from(module.board_mut().driver_flags()) << 8,
+            Source::ErrorFlags => {
+                u32::from(module.error_flags()) | u32::from(module.board_timeline().driver_flags()) << 8
+            }
         };
         slot.copy_from_slice(&v.to_le_bytes());
     }

@@ -147,6 +147,11 @@ impl Scenario {
         let mut polls: Vec<Instant> =
             (0..b.u8() % 6).map(|_| Instant::from_micros(b.range(0, end.micros() as i64) as u64)).collect();
         polls.sort();
+        // One time in three a program that never waits and spins (read last, so that the byte strings of
+        // earlier failures decode as before: past the end every byte reads 0).
+        if b.u8() % 3 == 1 {
+            program = spin_program(&mut b);
+        }
         Scenario { spec, world, settings, program, host, polls, end }
     }
 
@@ -199,8 +204,8 @@ impl Scenario {
                 fast.receive(t, &frame, &mut |_: &[u8]| {});
                 slow.receive(t, &frame, &mut |_: &[u8]| {});
             }
-            fast.board_mut().advance(t);
-            slow.board_mut().advance(t);
+            fast.board_timeline().advance(t);
+            slow.board_timeline().advance(t);
             let tick = Instant::from_micros((t.micros() / 1000 + 1) * 1000);
             let next = [a, b, host.peek().map(|(at, _)| *at), Some(tick)]
                 .into_iter()
@@ -279,7 +284,7 @@ fn run_to<'a>(
         if now == due {
             // A runner moves the world on at its polls (`tmcl run`'s `sim::poll`); an extra poll only asks
             // the module.
-            module.board_mut().advance(now);
+            module.board_timeline().advance(now);
             trace(module, now);
             if now >= stop {
                 return;
@@ -513,6 +518,73 @@ fn instruction(b: &mut Bytes, len: u8) -> Command {
         20 => Command::Reti,
         _ => Command::Rfs { action: b.pick(&[RfsAction::Start, RfsAction::Stop]), motor: 0 },
     }
+}
+
+/// A program that never waits: a prelude (timers, vectors, interrupts, a first move, a setting), then a
+/// busy loop of reads, writes, calculations, comparisons and conditional jumps within it, closed by a JA,
+/// then an interrupt handler. Many such loops reach a fixed point once the axis stands (the copy loop, the
+/// potentiometer loop); others change every turn (a counter, the tick timer) or only every few turns.
+fn spin_program(b: &mut Bytes) -> Vec<Command> {
+    const HANDLER: i32 = -1; // patched below
+    let mut program = Vec::new();
+    for _ in 0..b.u8() % 5 {
+        program.push(match b.u8() % 6 {
+            0 => Command::Sgp { param: b.u8() % 3, bank: 3, value: b.range(1, 3000) as i32 },
+            1 => Command::Sgp { param: b.pick(&[27u8, 28, 39, 40]), bank: 3, value: b.range(0, 3) as i32 },
+            2 => Command::Vect { interrupt: b.pick(&[0u8, 1, 2, 3, 27, 28, 39, 40]), address: HANDLER },
+            3 => Command::Ei { interrupt: b.pick(&[0u8, 1, 2, 3, 27, 28, 39, 40, 255]) },
+            4 => Command::Mvp { motor: 0, target: MoveTarget::Abs(b.range(-20_000, 20_000) as i32) },
+            _ => setting(b),
+        });
+    }
+    let start = program.len() as i32;
+    let body = i32::from(b.u8() % 6) + 1;
+    // Jumps within the loop: its first instruction up to the closing JA.
+    let within = |b: &mut Bytes| start + b.range(0, i64::from(body)) as i32;
+    for _ in 0..body {
+        program.push(match b.u8() % 16 {
+            0 | 1 => Command::Gio { port: 255, bank: 0 },
+            2 => Command::Gio { port: b.u8() % 4, bank: 0 },
+            3 => Command::Gio { port: 0, bank: 1 },
+            4 | 5 => Command::Sio { port: 255, bank: 2, value: -1 },
+            6 => Command::Sio { port: b.u8() % 2, bank: 2, value: i32::from(b.u8() % 2) },
+            7 | 8 => Command::Calc {
+                op: b.pick(&[CalcOp::Add, CalcOp::Sub, CalcOp::Mul, CalcOp::And, CalcOp::Or, CalcOp::Load]),
+                operand: b.range(-4, 4) as i32,
+            },
+            9 => Command::Comp { operand: b.range(-2, 8) as i32 },
+            10 => Command::Jc {
+                condition: b.pick(&[Condition::Zero, Condition::NotZero, Condition::Greater, Condition::Lower]),
+                address: within(b),
+            },
+            11 | 12 => Command::Aap { param: 0, motor: 0 },
+            13 => Command::Agp { param: b.u8() % 3, bank: 2 },
+            14 => Command::Ggp { param: b.u8() % 3, bank: 2 },
+            _ => match b.u8() % 3 {
+                0 => Command::Ggp { param: 132, bank: 0 }, // the tick timer: a new value every turn
+                1 => Command::Gap { param: b.pick(&[1u8, 8, 9, 10, 206]), motor: 0 },
+                _ => Command::Ja { address: within(b) },
+            },
+        });
+    }
+    program.push(Command::Ja { address: start });
+    let handler = program.len() as i32;
+    for _ in 0..b.u8() % 3 {
+        program.push(match b.u8() % 3 {
+            0 => Command::Sio { port: b.u8() % 2, bank: 2, value: i32::from(b.u8() % 2) },
+            1 => Command::Calc { op: CalcOp::Add, operand: 1 },
+            _ => Command::Agp { param: 2, bank: 2 },
+        });
+    }
+    program.push(Command::Reti);
+    for c in &mut program {
+        if let Command::Vect { address, .. } = c {
+            if *address == HANDLER {
+                *address = handler;
+            }
+        }
+    }
+    program
 }
 
 /// A host command: a move, a setting, a question, an event request, the program stopped or restarted.

@@ -244,7 +244,7 @@ fn board(spec: &'static ModelSpec, world: Option<&Path>) -> Result<SimBoard, Cli
 /// change if that comes first: a run never steps over a change of an input.
 pub(crate) fn poll(module: &mut Module<SimBoard>, t: Instant) -> Option<Instant> {
     let deadline = module.poll(t, &mut |_: &[u8]| {});
-    module.board_mut().advance(t);
+    module.board_timeline().advance(t);
     match (deadline, module.board().next_event()) {
         (Some(d), Some(e)) => Some(d.min(e)),
         (d, e) => d.or(e),

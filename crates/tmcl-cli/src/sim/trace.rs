@@ -218,7 +218,7 @@ impl<W: Write> Trace<W> {
             return;
         }
         let outputs = module.board().outputs();
-        let inputs = module.board_mut().digital_inputs();
+        let inputs = module.board_timeline().digital_inputs();
         if self.levels.last().is_none_or(|l| (l.inputs, l.outputs) != (inputs, outputs)) {
             self.levels.push(Levels { micros: now.micros(), inputs, outputs });
         }

@@ -18,6 +18,7 @@ impl<B: Board> Module<B> {
             high_range: self.ap(Setting::CurrentRange) == Some(0),
             ssi_encoder: self.ssi_selected(),
         };
+        self.spin.touch();
         self.board.configure(&settings);
     }
 

@@ -43,7 +43,7 @@ const DELETE: u8 = 0x7F;
 const TAB: u8 = b'\t';
 
 /// The line being typed.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct AsciiLine {
     /// ASCII mode is on.
     pub active: bool,

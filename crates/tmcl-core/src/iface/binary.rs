@@ -26,7 +26,7 @@ impl<F: FnMut(&[u8])> Sink for F {
 }
 
 /// Collects bytes into frames.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Framer {
     buf: [u8; FRAME_LEN],
     len: usize,
@@ -78,7 +78,7 @@ pub const OUTBOX_BYTES: usize = 256;
 pub const OUTBOX_MESSAGES: usize = 16;
 
 /// Messages waiting for their time to be sent: a byte ring with one mark (length, due time) per message.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Outbox {
     bytes: [u8; OUTBOX_BYTES],
     start: usize,

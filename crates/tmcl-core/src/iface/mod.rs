@@ -9,7 +9,7 @@ pub mod host;
 pub use binary::{Framer, Outbox, Sink, INTER_BYTE_TIMEOUT};
 
 /// The state of one host interface.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Port {
     /// Collects bytes into frames (binary interfaces).
     pub framer: Framer,

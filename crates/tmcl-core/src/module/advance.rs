@@ -17,6 +17,16 @@
 //! tick), coolStep regulating, a deviation check that is armed, and a board that cannot say when its
 //! readings next change ([`crate::hal::StepDriver::quiet`] returns `None`).
 //!
+//! # A program that never waits
+//!
+//! Each instruction is an event (it takes [`crate::vm::INSTRUCTION_TIME`]), so a busy loop would make
+//! every 20 µs one. A loop that spins in a fixed point — its whole state back as it was one turn before
+//! at the same address and the same phase to the ticks, the axis standing, the board quiet and told
+//! nothing new — is jumped over in whole turns, ticks and all, up to the next event that is not the
+//! loop's (a timer, a standby delay, the heartbeat, the end of the board's quiet window, the caller's
+//! `now`), and the deadline says the program needs no poll before that event (`spin.rs`, with the
+//! default feature `spin-skip`). Tick-by-tick mode runs every instruction: it stays the reference.
+//!
 //! # The same result however often the caller polls
 //!
 //! Spans make polls rare, so nothing may depend on when the caller polls: the ramp parameters are read
@@ -45,6 +55,7 @@ impl<B: Board> Module<B> {
     /// Ticks the motion controller one by one (`true`), as the reference for the spans it takes by
     /// default (`false`); both give the same results (see `module/advance.rs`).
     pub fn set_exact_ticks(&mut self, exact: bool) {
+        self.spin.touch();
         self.exact = exact;
     }
 
@@ -80,6 +91,8 @@ impl<B: Board> Module<B> {
         };
         let mut budget = BUDGET;
         let closed_loop = self.has_closed_loop();
+        // A program spinning in a fixed point is looked for in advances only (`module/spin.rs`).
+        self.spin.arm(true);
         // Instructions up to and including `now`.
         let horizon = now + MICROSECOND;
         loop {
@@ -92,7 +105,11 @@ impl<B: Board> Module<B> {
                 let executed = self.vm.executed;
                 let limit = due.map_or(tick_at, |d| tick_at.min(d + MICROSECOND));
                 // (It returns early after an instruction that changed what the driver sees.)
-                self.run_program(limit.min(horizon), &mut budget);
+                if self.run_program(limit.min(horizon), &mut budget) {
+                    // Whole turns of a loop in a fixed point jumped over, ticks and all.
+                    params = self.ramp_params();
+                    continue;
+                }
                 if budget == 0 {
                     break; // the rest at the next poll (its deadline is now)
                 }
@@ -152,6 +169,7 @@ impl<B: Board> Module<B> {
             self.st.motion_time = tick_at;
             self.tick_done(tick_at);
         }
+        self.spin.arm(false);
         self.after_advance(now);
     }
 
@@ -320,7 +338,9 @@ impl<B: Board> Module<B> {
                 None => consider(self.st.motion_time + TICK),
             }
         }
-        for t in [self.program_deadline(), self.timer_deadline()].into_iter().flatten() {
+        // A program spinning in a fixed point (`module/spin.rs`) needs no poll before the next event.
+        let program = self.spin.rest(self.st.now).unwrap_or_else(|| self.program_deadline());
+        for t in [program, self.timer_deadline()].into_iter().flatten() {
             consider(t.max(self.st.now));
         }
         if let Some(since) = self.st.standstill_since {

@@ -39,8 +39,10 @@ impl<B: Board> Module<B> {
         self.spec.commands.contains(i.opcode)
     }
 
-    /// Runs the program up to (not including) `limit`, at most `budget` instructions.
-    pub(crate) fn run_program(&mut self, limit: Instant, budget: &mut u32) {
+    /// Runs the program up to (not including) `limit`, at most `budget` instructions. Returns whether it
+    /// jumped over turns of a loop in a fixed point (`module/spin.rs`): then the program's and the motion
+    /// controller's clocks have moved on, past `limit`.
+    pub(crate) fn run_program(&mut self, limit: Instant, budget: &mut u32) -> bool {
         while self.vm.state == RunState::Running && self.vm.time < limit && *budget > 0 {
             let t = self.vm.time;
             self.service_interrupts();
@@ -66,16 +68,22 @@ impl<B: Board> Module<B> {
                 // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
                 self.vm.state = RunState::Stopped;
                 self.vm.at_breakpoint = true;
-                return;
+                return false;
             }
             *budget -= 1;
             self.vm.executed += 1;
+            let pc = self.vm.pc;
             self.step_instruction(t);
             self.vm.time = self.vm.time.max(t) + INSTRUCTION_TIME;
             if self.st.drive_due.is_some_and(|d| d <= t) {
-                return; // the board hears of it before the next instruction (see `module/advance.rs`)
+                return false; // the board hears of it before the next instruction (see `module/advance.rs`)
+            }
+            // A jump back: perhaps a loop in a fixed point.
+            if self.vm.pc <= pc && self.spin_pass() {
+                return true;
             }
         }
+        false
     }
 
     /// Executes the instruction at the PC (fetch, decode, execute).
@@ -398,6 +406,7 @@ impl<B: Board> Module<B> {
         for address in 0..memory {
             let i = instructions.get(address).copied().unwrap_or(super::EMPTY);
             if self.program.cells[address] != i {
+                self.spin.touch(); // an EEPROM write
                 persist::store_program_cell(&mut self.board, self.spec, address, &i)?;
                 self.program.set(address, i, self.knows(i));
             }
@@ -407,6 +416,7 @@ impl<B: Board> Module<B> {
 
     /// Mutable access to the program machine (debuggers: breakpoints).
     pub fn vm_mut(&mut self) -> &mut super::Vm {
+        self.spin.touch(); // (a spinning program is looked at afresh, see `module/spin.rs`)
         &mut self.vm
     }
 
@@ -476,6 +486,7 @@ impl<B: Board> Module<B> {
         }
         // Only what a program of this model can execute is stored; anything else is refused and not stored.
         self.decode(instruction)?;
+        self.spin.touch(); // an EEPROM write
         persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
         self.program.set(usize::from(address), instruction, true); // decoded for this model above
         self.vm.download = Some(address + 1); // at most program_memory ≤ 2048
@@ -512,6 +523,7 @@ impl<B: Board> Module<B> {
     /// (§5.1).
     pub(crate) fn protection_changed(&mut self, old: i32, new: i32) -> Result<(), Status> {
         if old & 1 != 0 && new & 1 == 0 {
+            self.spin.touch(); // an EEPROM write
             persist::erase_program(&mut self.board, self.spec)?;
             self.program.clear();
             self.reset_application();
