@@ -15,7 +15,7 @@
 
 use crate::board::SimBoard;
 use crate::world::World;
-use tmcl_core::model::{pd28_1021, tmcm_1310, ModelSpec};
+use tmcl_core::model::{pd28_1021, pd_113, tmcm_1310, Kinematics, ModelSpec};
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CalcOp, Command, Condition, EventMode, Instruction, MoveTarget, Request, RfsAction, WaitCondition};
 
@@ -124,9 +124,19 @@ impl Scenario {
     /// Decodes arbitrary bytes into a scenario (see the module docs).
     pub fn decode(data: &[u8]) -> Scenario {
         let mut b = Bytes(data);
-        let spec = if b.one_in(8) { &tmcm_1310::SPEC } else { &pd28_1021::SPEC };
+        let spec: &'static ModelSpec = match b.u8() % 8 {
+            0 => &tmcm_1310::SPEC,
+            1 => &pd_113::SPEC,
+            _ => &pd28_1021::SPEC,
+        };
         let world = world(&mut b);
         let mut settings = Vec::new();
+        if matches!(spec.kinematics, Kinematics::Tmc428 { .. }) {
+            // The TMC428 generation's pulse and ramp divisors (AP 154, 153), which scale its velocities
+            // and accelerations (read only for this model, so other scenarios decode as before).
+            settings.push(Command::Sap { param: 154, motor: 0, value: b.range(0, 13) as i32 });
+            settings.push(Command::Sap { param: 153, motor: 0, value: b.range(0, 13) as i32 });
+        }
         for _ in 0..b.u8() % 6 {
             settings.push(setting(&mut b));
         }
@@ -151,6 +161,12 @@ impl Scenario {
         // earlier failures decode as before: past the end every byte reads 0).
         if b.u8() % 3 == 1 {
             program = spin_program(&mut b);
+        }
+        if matches!(spec.kinematics, Kinematics::Tmc428 { .. }) {
+            // Velocities and accelerations in its units, 0..2047, so that they are taken, not refused.
+            for c in settings.iter_mut().chain(&mut program).chain(host.iter_mut().map(|(_, c)| c)) {
+                fit_tmc428(c);
+            }
         }
         Scenario { spec, world, settings, program, host, polls, end }
     }
@@ -471,6 +487,17 @@ fn world(b: &mut Bytes) -> String {
 const LINEAR_STAGE: &str = "[axis]\nkind = \"linear\"\nlead = 2.0\ntravel = [-4.0, 104.0]\nstart = 25.0\n\
 load_inertia = 2e-7\n[load]\nfriction = 0.004\n[switches.left]\nat = [-4.0, 0.0]\n[switches.right]\n\
 at = [100.0, 104.0]\n[switches.home]\nat = [49.5, 50.5]\nbounce = { time = \"2 ms\", count = 2 }\n";
+
+/// Velocities (ROR, ROL, SAP 2, 4, 130, 194, 195) and accelerations (SAP 5) folded into the TMC428's
+/// 0..2047, the sign kept.
+fn fit_tmc428(c: &mut Command) {
+    let fold = |v: &mut i32| *v %= 2048;
+    match c {
+        Command::Ror { velocity, .. } | Command::Rol { velocity, .. } => fold(velocity),
+        Command::Sap { param: 2 | 4 | 5 | 130 | 194 | 195, value, .. } => fold(value),
+        _ => {}
+    }
+}
 
 /// A setting: SAP of a motion, current, switch or drive parameter, or an interrupt's bank 3 setting.
 fn setting(b: &mut Bytes) -> Command {

@@ -241,6 +241,7 @@ fn turned(a: &Snapshot, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         last_counts,
         cl,
         ssi,
+        tmc428,
     } = &a.st;
     let same = *motion_time + shift == st.motion_time
         && *axis == st.axis
@@ -273,7 +274,8 @@ fn turned(a: &Snapshot, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         && *load_measurements == st.load_measurements
         && *last_counts == st.last_counts
         && *cl == st.cl
-        && *ssi == st.ssi;
+        && *ssi == st.ssi
+        && *tmc428 == st.tmc428;
     same.then_some((shift, n))
 }
 
