@@ -399,6 +399,15 @@ fn sac_round_trips() {
     assert_eq!(r.cmd(Opcode::Sac.code(), 0, 4, bad).0, Status::InvalidValue);
     assert_eq!((r.gap(154), r.gap(153), r.gap(140)), (2, 5, 3));
     r.sac(write(0, 12, (3 << 12) | (7 << 8) | 4));
+    // pmul/pdiv follow a_max and the divisors as the firmware computes them (a_max 300, pulse_div 3,
+    // ramp_div 7: p_reduced 0.145, · 8 · 2^7 = 148.5: pmul 148, pdiv 7); a value a host writes stands
+    // until one of them changes.
+    assert_eq!(r.sac(read(0, 9)).data, (148 << 8) | 7);
+    r.sac(write(0, 9, (200 << 8) | 5));
+    assert_eq!(r.sac(read(0, 9)).data, (200 << 8) | 5);
+    r.sap(5, 1000);
+    assert_eq!(r.sac(read(0, 9)).data, (247 << 8) | 6);
+    r.sap(5, 300);
     // x_target: a move in ramp mode; x_actual and v_actual follow the motor.
     r.sac(write(0, 0, 20_000));
     assert_eq!(r.gap(0), 20_000);
