@@ -482,6 +482,20 @@ impl Esc {
             .min_by_key(|&(_, s, _)| s.max(from))
     }
 
+    /// The stretch of the memory that begins at `a` (below [`MEMORY_END`]) and what lies there, at most
+    /// `rest` bytes long: registers, a SyncManager's buffer the access starts in, or plain process RAM up
+    /// to the next buffer. Never empty.
+    fn segment(&self, a: u32, rest: u32) -> (Segment, usize) {
+        if a < REGISTER_SPACE as u32 {
+            return (Segment::Registers, rest.min(REGISTER_SPACE as u32 - a) as usize);
+        }
+        let to = (a + rest).min(MEMORY_END);
+        match self.sm_in(a, to) {
+            Some((sm, s, e)) if s <= a => (Segment::Sm(sm), (e.min(to) - a) as usize),
+            hit => (Segment::Ram, (hit.map_or(to, |(_, s, _)| s) - a) as usize),
+        }
+    }
+
     /// The master reads `out.len()` bytes at `addr` (ORed into `out` for a broadcast). Returns whether
     /// any byte was read.
     pub fn ecat_read(&mut self, addr: u16, out: &mut [u8], or: bool) -> bool {
@@ -492,34 +506,22 @@ impl Esc {
             if a >= MEMORY_END {
                 break;
             }
-            let rest = (out.len() - i) as u32;
-            let (n, seg_ok) = if a < REGISTER_SPACE as u32 {
-                let n = rest.min(REGISTER_SPACE as u32 - a) as usize;
-                for k in 0..n {
-                    let v = self.read_register(a as usize + k);
-                    out[i + k] = if or { out[i + k] | v } else { v };
+            let (segment, n) = self.segment(a, (out.len() - i) as u32);
+            let out = &mut out[i..i + n];
+            ok |= match segment {
+                Segment::Registers => {
+                    for (k, o) in out.iter_mut().enumerate() {
+                        put(o, self.read_register(a as usize + k), or);
+                    }
+                    true
                 }
-                (n, true)
-            } else {
-                let to = (a + rest).min(MEMORY_END);
-                match self.sm_in(a, to) {
-                    Some((sm, s, e)) if s <= a => {
-                        let n = (e.min(to) - a) as usize;
-                        (n, self.sm_read(sm, a, &mut out[i..i + n], or))
-                    }
-                    hit => {
-                        let plain_end = hit.map_or(to, |(_, s, _)| s);
-                        let n = (plain_end - a) as usize;
-                        let r = a as usize - REGISTER_SPACE;
-                        for k in 0..n {
-                            let v = self.ram[r + k];
-                            out[i + k] = if or { out[i + k] | v } else { v };
-                        }
-                        (n, true)
-                    }
+                Segment::Sm(sm) => self.sm_read(sm, a, out, or),
+                Segment::Ram => {
+                    let r = a as usize - REGISTER_SPACE;
+                    out.iter_mut().zip(&self.ram[r..r + n]).for_each(|(o, &v)| put(o, v, or));
+                    true
                 }
             };
-            ok |= seg_ok;
             i += n.max(1);
         }
         ok
@@ -535,30 +537,22 @@ impl Esc {
             if a >= MEMORY_END {
                 break;
             }
-            let rest = (data.len() - i) as u32;
-            let (n, seg_ok) = if a < REGISTER_SPACE as u32 {
-                let n = rest.min(REGISTER_SPACE as u32 - a) as usize;
-                for k in 0..n {
-                    self.write_register(a as u16 + k as u16, data[i + k]);
+            let (segment, n) = self.segment(a, (data.len() - i) as u32);
+            let data = &data[i..i + n];
+            ok |= match segment {
+                Segment::Registers => {
+                    for (k, &v) in data.iter().enumerate() {
+                        self.write_register(a as u16 + k as u16, v);
+                    }
+                    true
                 }
-                (n, true)
-            } else {
-                let to = (a + rest).min(MEMORY_END);
-                match self.sm_in(a, to) {
-                    Some((sm, s, e)) if s <= a => {
-                        let n = (e.min(to) - a) as usize;
-                        (n, self.sm_write(sm, a, &data[i..i + n]))
-                    }
-                    hit => {
-                        let plain_end = hit.map_or(to, |(_, s, _)| s);
-                        let n = (plain_end - a) as usize;
-                        let r = a as usize - REGISTER_SPACE;
-                        self.ram[r..r + n].copy_from_slice(&data[i..i + n]);
-                        (n, true)
-                    }
+                Segment::Sm(sm) => self.sm_write(sm, a, data),
+                Segment::Ram => {
+                    let r = a as usize - REGISTER_SPACE;
+                    self.ram[r..r + n].copy_from_slice(data);
+                    true
                 }
             };
-            ok |= seg_ok;
             i += n.max(1);
         }
         ok
@@ -587,11 +581,8 @@ impl Esc {
         if !self.begin(n, a, c.start) {
             return false;
         }
-        let r = a as usize - REGISTER_SPACE;
-        for (k, o) in out.iter_mut().enumerate() {
-            let v = self.ram[r + k];
-            *o = if or { *o | v } else { v };
-        }
+        let (r, len) = (a as usize - REGISTER_SPACE, out.len());
+        out.iter_mut().zip(&self.ram[r..r + len]).for_each(|(o, &v)| put(o, v, or));
         if a + out.len() as u32 == c.end() {
             self.sm[n].open = false;
             if c.mode() == SmMode::Mailbox {
@@ -721,6 +712,22 @@ impl Esc {
 
 mod config;
 pub use config::{FmmuConfig, SmConfig, SmDirection, SmMode};
+
+/// What lies at an address of the ESC's memory (see `Esc::segment`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Segment {
+    /// The register space, 0x0000..0x1000.
+    Registers,
+    /// The buffer of SyncManager n.
+    Sm(usize),
+    /// Process RAM outside every buffer.
+    Ram,
+}
+
+/// A byte the master reads: ORed into what the frame carries for a broadcast read, set otherwise.
+fn put(o: &mut u8, v: u8, or: bool) {
+    *o = if or { *o | v } else { v };
+}
 
 #[cfg(test)]
 mod tests;
