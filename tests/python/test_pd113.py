@@ -173,11 +173,12 @@ def test_cli_status_and_parameters_in_its_units(tmcl_bin, pd113):
         assert proc.returncode == 0, proc.stderr
         return json.loads(proc.stdout.strip().splitlines()[-1])
 
-    assert tmcl("status") == {"mode": 0, "mode_text": "stopped"}
+    assert tmcl("status") == {"mode": 0, "mode_text": "stopped", "pc": 0}
     tmcl("download", str(pathlib.Path(__file__).parents[1] / "programs" / "pd113_first_program.tmc"))
     tmcl("start")
     assert tmcl("status")["mode_text"] == "running"
     tmcl("stop")
-    assert tmcl("status")["mode_text"] == "stopped"
+    stopped = tmcl("status")
+    assert stopped["mode_text"] == "stopped" and 1 <= stopped["pc"] <= 7, stopped  # GP 130, in the program
     speed = tmcl("get", "ap", "MaxPositioningSpeed")
     assert (speed["type"], speed["value"], speed["unit"]) == (4, 1000, "TMC428 v units"), speed

@@ -175,21 +175,23 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
         ProgramCommand::Status { conn } => {
             let mut client = conn.open()?;
             // A model whose 135 answers the state alone, whatever the type (the PDx-113, its manual §5.5),
-            // has no program counter, accumulator or X register to show: asking types 1 and 2 would print
-            // the state three times. Which form a module has follows from its version string.
-            let plain = client
-                .version_string()
-                .ok()
-                .and_then(|text| crate::names::model_by_version(&text))
-                .is_some_and(|m| m.app_status == tmcl_core::model::AppStatusReply::Plain);
-            if plain {
+            // has no accumulator or X register to ask for, and its program counter is GP 130 (asking 135
+            // types 1 to 3 would print the state three times). Which form a module has follows from its
+            // version string.
+            let model = client.version_string().ok().and_then(|text| crate::names::model_by_version(&text));
+            if let Some(model) = model.filter(|m| m.app_status == tmcl_core::model::AppStatusReply::Plain) {
                 let request = tmcl_wire::Command::GetStatus { kind: tmcl_wire::StatusKind::MemoryPointer };
-                let mode = client.request(request.encode())?.value;
-                let s = tmcl_host::ApplicationStatus { mode: mode as u8, waiting: false, pc: 0, accumulator: 0, x: 0 };
-                if json {
-                    writeln!(out, "{}", json!({"mode": s.mode, "mode_text": s.mode_name()}))?;
-                } else {
-                    writeln!(out, "{}", s.mode_name())?;
+                let mode = client.request(request.encode())?.value as u8;
+                let text = tmcl_host::ApplicationStatus::name_of(mode);
+                let pc = match model.global.role(tmcl_core::model::Role::ProgramCounter) {
+                    Some(i) => Some(client.get_global_parameter(model.global.params[i].number, 0)?),
+                    None => None,
+                };
+                match (json, pc) {
+                    (true, Some(pc)) => writeln!(out, "{}", json!({"mode": mode, "mode_text": text, "pc": pc}))?,
+                    (true, None) => writeln!(out, "{}", json!({"mode": mode, "mode_text": text}))?,
+                    (false, Some(pc)) => writeln!(out, "{text}, pc {pc}")?,
+                    (false, None) => writeln!(out, "{text}")?,
                 }
                 return Ok(());
             }

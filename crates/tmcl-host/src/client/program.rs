@@ -25,7 +25,12 @@ pub struct ApplicationStatus {
 impl ApplicationStatus {
     /// The mode in words.
     pub fn mode_name(&self) -> &'static str {
-        match self.mode {
+        Self::name_of(self.mode)
+    }
+
+    /// A mode (0 stop, 1 run, 2 step, 3 reset: 135's mode byte, GP 128) in words.
+    pub fn name_of(mode: u8) -> &'static str {
+        match mode {
             0 => "stopped",
             1 => "running",
             2 => "stepped",
