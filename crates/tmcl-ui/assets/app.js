@@ -502,7 +502,7 @@
   on("debug", (ev) => {
     if (ev.error) { say("pg-progress", ev.error, false); return; }
     showProgram(ev);
-    $("dbg-acc").textContent = ev.acc; $("dbg-x").textContent = ev.x;
+    $("dbg-acc").textContent = ev.acc ?? "–"; $("dbg-x").textContent = ev.x ?? "–";
     const why = { breakpoint: `stopped at the breakpoint on line ${ev.line}`, stopped: "stopped", step: "stepped",
       reset: "reset", running: "running", continuing: "running to the next breakpoint (single steps)" }[ev.reason] || ev.reason;
     say("pg-progress", why, true);

@@ -38,14 +38,14 @@ impl Status {
     }
 
     fn mode_name(&self) -> &'static str {
-        match self.mode {
-            0 => "stopped",
-            1 => "running",
-            2 => "stepped",
-            3 => "reset",
-            _ => "unknown",
-        }
+        tmcl_host::ApplicationStatus::name_of(self.mode)
     }
+}
+
+/// Whether the module's 135 answers its state alone, whatever the type (the PDx-113, its manual §5.5):
+/// then the program counter is GP 130 and there is no accumulator or X register to read.
+pub(crate) fn plain_status(link: &Link) -> bool {
+    link.model.is_some_and(|m| m.app_status == tmcl_model::AppStatusReply::Plain)
 }
 
 /// A run by single steps towards the next breakpoint.
@@ -223,7 +223,20 @@ pub(crate) fn continue_step(link: &mut Link) {
     }
 }
 
-fn read_status(link: &mut Link) -> Result<Status, HostError> {
+/// Mode, wait flag and program counter: 135 type 1, or on a module whose 135 answers the state alone,
+/// 135 and GP 130 (its wait flag is not reported: false).
+pub(crate) fn read_status(link: &mut Link) -> Result<Status, HostError> {
+    if plain_status(link) {
+        let mode = link.request(Command::GetStatus { kind: StatusKind::MemoryPointer }.encode())?.value as u8;
+        let pc = match link
+            .model
+            .and_then(|m| m.global.role(tmcl_model::Role::ProgramCounter).map(|i| m.global.params[i].number))
+        {
+            Some(number) => link.request(Command::Ggp { param: number, bank: 0 }.encode())?.value as u16,
+            None => 0,
+        };
+        return Ok(Status { mode, waiting: false, pc });
+    }
     let reply = link.request(Command::GetStatus { kind: StatusKind::ProgramCounter }.encode())?;
     Ok(Status::from_packed(reply.value))
 }
@@ -232,8 +245,12 @@ fn read_status(link: &mut Link) -> Result<Status, HostError> {
 fn report(link: &mut Link, reason: &str) -> Result<Value, HostError> {
     let status = read_status(link)?;
     link.debug.last = Some(status);
-    let a = link.request(Command::GetStatus { kind: StatusKind::Accumulator }.encode())?.value;
-    let x = link.request(Command::GetStatus { kind: StatusKind::XRegister }.encode())?.value;
+    let (a, x) = if plain_status(link) {
+        (None, None) // no registers to read on this module
+    } else {
+        let a = link.request(Command::GetStatus { kind: StatusKind::Accumulator }.encode())?.value;
+        (Some(a), Some(link.request(Command::GetStatus { kind: StatusKind::XRegister }.encode())?.value))
+    };
     let mut event = link.debug.status_event(&status, now_ms());
     event["e"] = json!("debug");
     event["reason"] = json!(reason);

@@ -333,8 +333,10 @@ impl Link {
             let program = w.views.contains("program");
             polls.push((Poll::ProgramCounter, if program { PROGRAM_PERIOD } else { PROGRAM_IDLE_PERIOD }));
             if program {
-                polls.push((Poll::Accumulator, REGISTER_PERIOD));
-                polls.push((Poll::XRegister, REGISTER_PERIOD));
+                if !crate::debug::plain_status(self) {
+                    polls.push((Poll::Accumulator, REGISTER_PERIOD));
+                    polls.push((Poll::XRegister, REGISTER_PERIOD));
+                }
                 let (first, count) = w.vars;
                 let limit = model.map_or(256, |m| usize::from(m.user_variables));
                 for n in usize::from(first)..(usize::from(first) + usize::from(count)).min(limit) {
@@ -403,13 +405,12 @@ impl Link {
             }
             Poll::ProgramCounter => {
                 let timeout = self.set_timeout(POLL_TIMEOUT.min(self.client.timeout));
-                let reply = self.request(Command::GetStatus { kind: StatusKind::ProgramCounter }.encode());
+                let status = crate::debug::read_status(self);
                 self.client.timeout = timeout;
                 if self.link_error.is_some() {
                     self.backoff = Some(Instant::now() + BACKOFF);
                 }
-                if let Ok(reply) = reply {
-                    let status = crate::debug::Status::from_packed(reply.value);
+                if let Ok(status) = status {
                     self.debug.observe(&status);
                     self.emit(self.debug.status_event(&status, t));
                 }

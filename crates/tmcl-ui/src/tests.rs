@@ -24,7 +24,11 @@ struct InProcess {
 
 impl InProcess {
     fn client() -> HostClient {
-        let module = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
+        Self::client_for(&SPEC)
+    }
+
+    fn client_for(spec: &'static tmcl_core::model::ModelSpec) -> HostClient {
+        let module = Module::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO);
         let transport = InProcess { module, now: Instant::ZERO, rx: VecDeque::new() };
         Client::new(Box::new(transport) as Box<dyn Transport + Send>).with_timeout(Duration::from_millis(50))
     }
@@ -174,6 +178,34 @@ fn the_debugger_stops_at_breakpoints_by_single_steps() {
     assert_eq!(running["mode"], 1);
     let stopped = op(&mut link, json!({"op": "program", "action": "stop"})).unwrap();
     assert_eq!(stopped["mode"], 0);
+}
+
+/// On a PDx-113 (135 answers the state alone, PDx-113 manual §5.5) the debugger reads the program
+/// counter from GP 130 and shows no accumulator or X register; breakpoints work as elsewhere.
+#[test]
+fn the_debugger_on_a_module_whose_135_answers_the_state_alone() {
+    let (events_tx, mut events) = tokio::sync::broadcast::channel(4096);
+    let client = InProcess::client_for(&tmcl_core::model::pd_113::SPEC);
+    let mut link = Link::new(client, 100_000.0, None, "in process".into(), events_tx);
+    link.identify();
+    assert_eq!(link.model.map(|m| m.id), Some("pd-113"));
+    let source = "    SGP 0, 2, 0\nLoop:\n    GGP 0, 2\n    CALC ADD, 1\n    AGP 0, 2\n    JA Loop\n";
+    op(&mut link, json!({"op": "download", "source": source})).unwrap();
+    // Line 5 (the label takes no cell): address 3.
+    let set = op(&mut link, json!({"op": "breakpoints", "lines": [5]})).unwrap();
+    assert_eq!(set["lines"], json!([5]));
+    op(&mut link, json!({"op": "program", "action": "start"})).unwrap();
+    let stop = run_to_stop(&mut link, &mut events);
+    assert_eq!(
+        (stop["reason"].as_str(), stop["line"].as_u64(), stop["pc"].as_u64()),
+        (Some("breakpoint"), Some(5), Some(3))
+    );
+    assert!(stop["acc"].is_null() && stop["x"].is_null(), "{stop}");
+    debug::act(&mut link, Action::Continue).unwrap();
+    let stop = run_to_stop(&mut link, &mut events);
+    assert_eq!((stop["line"].as_u64(), stop["pc"].as_u64()), (Some(5), Some(3)));
+    let var = op(&mut link, json!({"op": "get", "param": {"kind": "gp", "number": 0, "index": 2}})).unwrap();
+    assert_eq!(var["value"], 1, "one turn of the loop between the two stops");
 }
 
 #[test]
