@@ -712,7 +712,7 @@ impl SimBoard {
     ///   update (the most one update counts).
     ///
     /// It ends at the next timeline entry (inputs, loads, faults, encoder slip).
-    fn quiet_window(&mut self, state: &DriveState) -> Option<Quiet> {
+    fn quiet_window(&mut self, now: Instant, state: &DriveState) -> Option<Quiet> {
         let measuring = state.enabled && self.profile.measures_load();
         if measuring && self.driver.stall_seen() {
             return None;
@@ -784,7 +784,13 @@ impl SimBoard {
             };
             load = driver::load_value(ratio, self.driver.settings.stall_threshold);
         }
-        let until = [self.timeline_event(), self.next_bounce()].into_iter().flatten().min();
+        // A standing motor's driver raises its standstill flag (AP 208 bit 7) by itself, 2^20 driver clocks
+        // after the last step: a reading that changes without a move ends the window. (While the motor
+        // moves, every update brings that flag's state with it, and a span ends at every instruction that
+        // could read it; ending spans there would cut them into 65 ms pieces for nothing.)
+        // (`now`, the module's clock, not the board's: a standing motor's board hears of nothing for long.)
+        let standstill = if dir == 0 { self.driver.standstill_at(now.max(self.now)) } else { None };
+        let until = [self.timeline_event(), self.next_bounce(), standstill].into_iter().flatten().min();
         Some(Quiet { until, forward, backward, min_speed, max_speed, load })
     }
 
@@ -942,9 +948,9 @@ impl StepDriver for SimBoard {
         self.power();
     }
 
-    fn quiet(&mut self, _now: Instant, state: &DriveState) -> Option<Quiet> {
+    fn quiet(&mut self, now: Instant, state: &DriveState) -> Option<Quiet> {
         self.sync();
-        self.quiet_window(state)
+        self.quiet_window(now, state)
     }
 }
 

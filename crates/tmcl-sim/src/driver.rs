@@ -136,6 +136,13 @@ impl Driver {
         self.stall_seen
     }
 
+    /// When the standstill flag (AP 208 bit 7) comes up by itself if no step is made after `now`: the
+    /// next change of the flags that no update brings. `None` once it is up.
+    pub fn standstill_at(&self, now: Instant) -> Option<Instant> {
+        let at = self.last_step + STANDSTILL_AFTER;
+        (now < at).then_some(at)
+    }
+
     /// A step was made at `now`.
     pub fn stepped(&mut self, now: Instant) {
         self.last_step = now;

@@ -73,6 +73,29 @@ fn the_aap_loop_runs_as_tick_by_tick() {
     s.check().unwrap();
 }
 
+/// A loop that waits for the driver's standstill flag (AP 208 bit 7, up 2^20 driver clocks after the last
+/// step) after a short move: the flag comes up by itself, with no move and no instruction to say so, so
+/// the skip must end where it does and the program leave the loop at the instruction it leaves it tick by
+/// tick. (Found by the equivalence property test.)
+#[test]
+fn a_loop_that_waits_for_the_standstill_flag_runs_as_tick_by_tick() {
+    use tmcl_wire::{Condition, MoveTarget, WaitCondition};
+    let program = vec![
+        Command::Mvp { motor: 0, target: MoveTarget::Rel(2000) },
+        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
+        Command::Gap { param: 208, motor: 0 },
+        Command::Calc { op: CalcOp::And, operand: 0x80 },
+        Command::Jc { condition: Condition::Zero, address: 2 },
+        Command::Sio { port: 0, bank: 2, value: 1 },
+        Command::Mvp { motor: 0, target: MoveTarget::Rel(-2000) },
+        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
+        Command::Sio { port: 0, bank: 2, value: 0 },
+        Command::Ja { address: 2 },
+    ];
+    let s = scenario(program, WORLD, reads_at(&[500_000, 1_000_013, 2_500_000]), Instant::from_secs(5));
+    s.check().unwrap();
+}
+
 /// The copy loop with the timer interrupt of the VECT example switched on (every 700 ms the handler sets
 /// OUT0, the loop copies the inputs over it again): the skips end before each timer.
 #[test]
