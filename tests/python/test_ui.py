@@ -356,3 +356,33 @@ def test_a_module_is_picked_on_a_bus_after_a_scan(browser, tmcl_bin, tmp_path, b
         wait_until(lambda: "value 2 (SerialAddress)" in by_css(browser, "#console-log").text, what="module 2's answer")
     finally:
         assert u.stop() == 0
+
+
+def test_the_debugger_on_a_pdx_113(browser, tmcl_bin, tmp_path, serve):
+    """A PDx-113's 135 answers its state alone (PDx-113 manual §5.5): the program view reads the program
+    counter from GP 130, stops at a breakpoint by it, and shows "–" for the accumulator and X register,
+    which that module cannot report."""
+    server = serve("pty", modules=["pd-113"])
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(server.link)]).start()
+    try:
+        open_page(browser, u, "program")
+        wait_until(lambda: by_css(browser, "#model").text.startswith("PDx-113"), what="the model")
+        set_program(browser, "    SGP 0, 2, 0\nLoop:\n    GGP 0, 2\n    CALC ADD, 1\n    AGP 0, 2\n    JA Loop\n")
+        by_name(browser, "button", "Download").click()
+        diags = by_css(browser, "#diagnostics")
+        wait_until(lambda: "Downloaded: 5 instructions" in diags.text, what="the download")
+        by_name(browser, "button", "Breakpoint at line 5").click()
+        by_name(browser, "button", "Start").click()
+        wait_until(lambda: (wb(browser, "debug") or {}).get("reason") == "breakpoint", timeout=15,
+                   what="the stop at the breakpoint")
+        assert wb(browser, "debug.line") == 5 and wb(browser, "debug.pc") == 3
+        assert "line 5" in by_css(browser, "#dbg-pc").text
+        assert by_css(browser, "#dbg-acc").text == "–" and by_css(browser, "#dbg-x").text == "–"
+        by_name(browser, "button", "Continue").click()
+        wait_until(lambda: by_css(browser, "#vars [data-key='gp.2.0']").text == "1", timeout=15,
+                   what="one turn of the loop")
+        shot(browser, "program-debug-pd113")
+        by_name(browser, "button", "Breakpoint at line 5").click()
+        by_name(browser, "button", "Stop").click()
+    finally:
+        assert u.stop() == 0
