@@ -21,12 +21,13 @@
 //! generated afresh at every start.
 
 use crate::esc::Esc;
-use crate::layout::{self, SYNC_MANAGERS};
-use crate::pdo::{self, INPUT_FIELDS, OUTPUT_FIELDS};
+use crate::layout;
+use crate::pdo;
 use crate::register as reg;
 use crate::wire::le;
 use crate::wire::sii::{self, fmmu_usage, word, CategoryType, General, Pdo, PdoEntry, SyncManager};
-use tmcl_core::model::ModelSpec;
+use tmcl_core::model::ethercat::DataType;
+use tmcl_core::model::{EtherCatDesc, ModelSpec};
 
 /// Size of the image: 2 KiB, 16 Kbit.
 pub const SII_BYTES: usize = 2048;
@@ -76,11 +77,10 @@ impl Writer<'_> {
 }
 
 /// The strings of the STRINGS category, in order (index = position + 1).
-fn strings(spec: &ModelSpec) -> impl Iterator<Item = &'static str> + '_ {
-    [spec.name, "Drives", "Outputs", "Inputs"]
+fn strings(spec: &ModelSpec, map: &EtherCatDesc) -> impl Iterator<Item = &'static str> {
+    [spec.name, map.group, "Outputs", "Inputs", map.mode_name, map.value_name]
         .into_iter()
-        .chain(OUTPUT_FIELDS.iter().map(|f| f.name))
-        .chain(INPUT_FIELDS.iter().map(|f| f.name))
+        .chain(map.inputs.iter().map(|f| f.name))
 }
 
 /// String index of the name, the group, the PDO names and the first entry names.
@@ -89,21 +89,26 @@ const GROUP: u8 = 2;
 const RX_PDO_NAME: u8 = 3;
 const TX_PDO_NAME: u8 = 4;
 const FIRST_OUTPUT_NAME: u8 = 5;
-const FIRST_INPUT_NAME: u8 = FIRST_OUTPUT_NAME + OUTPUT_FIELDS.len() as u8;
+const FIRST_INPUT_NAME: u8 = FIRST_OUTPUT_NAME + 2;
+
+/// One PDO entry as the SII lists it: its CoE type and bit length.
+#[derive(Clone, Copy)]
+struct Entry {
+    data_type: u8,
+    bits: u8,
+}
 
 impl Eeprom {
-    /// The image for `spec`: identity from the model (product code = the module number of its binary
-    /// version, 1310; revision = its firmware version), buffers and process data from [`layout`] and
-    /// [`pdo`].
-    pub fn for_model(spec: &ModelSpec) -> Eeprom {
+    /// The image for `spec` with its EtherCAT description `map`: identity and process data from the
+    /// map, buffers from [`layout`].
+    pub fn for_model(spec: &ModelSpec, map: &EtherCatDesc) -> Eeprom {
         // Erased (0xFF) beyond the fixed words, as an EEPROM past its last category.
         let mut e = Eeprom { image: [0xFF; SII_BYTES] };
         e.image[..2 * usize::from(word::FIRST_CATEGORY)].fill(0);
-        let version = spec.version_binary as u32;
         e.set_word(word::PDI_CONTROL, u16::from(PDI_SPI));
-        e.set_word32(word::VENDOR_ID, layout::VENDOR_ID);
-        e.set_word32(word::PRODUCT_CODE, version >> 16);
-        e.set_word32(word::REVISION, ((version >> 8) & 0xFF) << 16 | (version & 0xFF));
+        e.set_word32(word::VENDOR_ID, map.vendor_id);
+        e.set_word32(word::PRODUCT_CODE, map.product_code);
+        e.set_word32(word::REVISION, map.revision);
         e.set_word32(word::SERIAL, 0);
         for at in [word::BOOT_RX_MAILBOX, word::STD_RX_MAILBOX] {
             e.set_word(at, layout::MAILBOX_OUT.start);
@@ -122,7 +127,7 @@ impl Eeprom {
         w.category(CategoryType::Strings, |out| {
             let mut at = 1;
             let mut count = 0u8;
-            for s in strings(spec) {
+            for s in strings(spec, map) {
                 let b = s.as_bytes();
                 if let Some(dst) = out.get_mut(at..at + 1 + b.len()) {
                     dst[0] = b.len() as u8;
@@ -172,7 +177,7 @@ impl Eeprom {
         });
         w.category(CategoryType::SyncManager, |out| {
             let mut at = 0;
-            for s in SYNC_MANAGERS {
+            for s in layout::sync_managers(map) {
                 let sm = SyncManager {
                     start: s.start,
                     length: s.length,
@@ -188,45 +193,49 @@ impl Eeprom {
             }
             at
         });
-        let pdo =
-            |out: &mut [u8], index: u16, sm: usize, name: u8, object: u16, first_name: u8, fields: &[pdo::Field]| {
-                let head = Pdo {
-                    index,
-                    entries: fields.len() as u8,
-                    sync_manager: sm as u8,
-                    dc_sync: 0,
-                    name,
-                    // Fixed content: the mapping cannot change.
-                    flags: 0x0010,
-                };
-                let Some(dst) = out.get_mut(..Pdo::LEN + fields.len() * PdoEntry::LEN) else { return 0 };
-                head.emit(dst);
-                for (k, (f, slot)) in fields.iter().zip(dst[Pdo::LEN..].chunks_exact_mut(PdoEntry::LEN)).enumerate() {
-                    PdoEntry {
-                        index: object,
-                        subindex: k as u8 + 1,
-                        name: first_name + k as u8,
-                        data_type: f.data_type,
-                        bit_length: 32,
-                        flags: 0,
-                    }
-                    .emit(slot);
-                }
-                Pdo::LEN + fields.len() * PdoEntry::LEN
+        let pdo = |out: &mut [u8],
+                   index: u16,
+                   sm: usize,
+                   name: u8,
+                   object: u16,
+                   first_name: u8,
+                   fields: &mut dyn ExactSizeIterator<Item = Entry>| {
+            let head = Pdo {
+                index,
+                entries: fields.len() as u8,
+                sync_manager: sm as u8,
+                dc_sync: 0,
+                name,
+                // Fixed content: the mapping cannot change.
+                flags: 0x0010,
             };
+            let Some(dst) = out.get_mut(..Pdo::LEN + fields.len() * PdoEntry::LEN) else { return 0 };
+            head.emit(dst);
+            let count = fields.len();
+            for (k, (f, slot)) in fields.zip(dst[Pdo::LEN..].chunks_exact_mut(PdoEntry::LEN)).enumerate() {
+                PdoEntry {
+                    index: object,
+                    subindex: k as u8 + 1,
+                    name: first_name + k as u8,
+                    data_type: f.data_type,
+                    bit_length: f.bits,
+                    flags: 0,
+                }
+                .emit(slot);
+            }
+            Pdo::LEN + count * PdoEntry::LEN
+        };
+        let mut inputs = map.inputs.iter().map(|f| Entry { data_type: f.data_type.code(), bits: f.data_type.bits() });
         w.category(CategoryType::TxPdo, |out| {
-            pdo(out, pdo::TX_PDO, layout::INPUTS.index, TX_PDO_NAME, pdo::INPUT_OBJECT, FIRST_INPUT_NAME, &INPUT_FIELDS)
+            let sm = layout::inputs(map).index;
+            pdo(out, pdo::TX_PDO, sm, TX_PDO_NAME, pdo::INPUT_OBJECT, FIRST_INPUT_NAME, &mut inputs)
         });
+        let mut outputs = [DataType::Unsigned32, DataType::Integer32]
+            .into_iter()
+            .map(|t| Entry { data_type: t.code(), bits: t.bits() });
         w.category(CategoryType::RxPdo, |out| {
-            pdo(
-                out,
-                pdo::RX_PDO,
-                layout::OUTPUTS.index,
-                RX_PDO_NAME,
-                pdo::OUTPUT_OBJECT,
-                FIRST_OUTPUT_NAME,
-                &OUTPUT_FIELDS,
-            )
+            let sm = layout::OUTPUTS.index;
+            pdo(out, pdo::RX_PDO, sm, RX_PDO_NAME, pdo::OUTPUT_OBJECT, FIRST_OUTPUT_NAME, &mut outputs)
         });
         w.end();
         e
@@ -318,7 +327,7 @@ impl Eeprom {
 mod tests {
     use super::*;
     use crate::wire::sii::{categories, string};
-    use tmcl_core::model::tmcm_1310::SPEC;
+    use tmcl_core::model::tmcm_1310::{ETHERCAT, SPEC};
 
     fn find(e: &Eeprom, kind: CategoryType) -> Vec<u8> {
         categories(e.image()).find(|c| c.category_type() == kind).map(|c| c.data().to_vec()).unwrap()
@@ -326,7 +335,7 @@ mod tests {
 
     #[test]
     fn identity() {
-        let e = Eeprom::for_model(&SPEC);
+        let e = Eeprom::for_model(&SPEC, &ETHERCAT);
         assert_eq!(e.word32(word::VENDOR_ID), 0x286);
         assert_eq!(e.word32(word::PRODUCT_CODE), 1310);
         assert_eq!(e.word32(word::REVISION), 0x0001_000E);
@@ -337,7 +346,7 @@ mod tests {
 
     #[test]
     fn categories_a_master_maps_from() {
-        let e = Eeprom::for_model(&SPEC);
+        let e = Eeprom::for_model(&SPEC, &ETHERCAT);
         let kinds: Vec<CategoryType> = categories(e.image()).map(|c| c.category_type()).collect();
         use CategoryType as C;
         assert_eq!(kinds, [C::Strings, C::General, C::Fmmu, C::SyncManager, C::TxPdo, C::RxPdo]);
@@ -364,7 +373,7 @@ mod tests {
 
     #[test]
     fn interface_reads_writes_and_refuses() {
-        let mut e = Eeprom::for_model(&SPEC);
+        let mut e = Eeprom::for_model(&SPEC, &ETHERCAT);
         let mut esc = Esc::new();
         // Read words 8..12 (vendor and product).
         esc.ecat_write(reg::SII_CONTROL, &[0x00, 0x01, 0x08, 0, 0, 0]);

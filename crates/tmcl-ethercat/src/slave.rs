@@ -16,15 +16,15 @@ use crate::al::{self, AlState, AlStatus, AlStatusCode, Decision, Step};
 use crate::eeprom::Eeprom;
 use crate::esc::{Esc, SmDirection, SmMode};
 use crate::foe::{FileStore, Foe};
-use crate::layout::{SmLayout, FOE_DATA, INPUTS, MAILBOX_IN, MAILBOX_OUT, OUTPUTS};
-use crate::pdo::{self, Outputs, INPUTS_LEN, OUTPUTS_LEN};
+use crate::layout::{self, SmLayout, FOE_DATA, MAILBOX_IN, MAILBOX_OUT, OUTPUTS};
+use crate::pdo::{self, Outputs, MAX_INPUTS_LEN, OUTPUTS_LEN};
 use crate::register as reg;
 use crate::wire::datagram::{Command, Datagram};
 use crate::wire::ethernet::{self, ETHERTYPE_ETHERCAT};
 use crate::wire::frame::{self, FrameType};
 use crate::wire::{foe as foe_wire, mailbox};
 use tmcl_core::hal::Board;
-use tmcl_core::model::{InterfaceKind, ModelSpec};
+use tmcl_core::model::{EtherCatDesc, InterfaceKind, ModelSpec};
 use tmcl_core::module::MAILBOX_LEN;
 use tmcl_core::{Duration, Instant, Module};
 
@@ -118,7 +118,7 @@ impl Replies {
     }
 }
 
-/// The model has no EtherCAT mailbox interface.
+/// The model has no EtherCAT mailbox interface, or no EtherCAT description.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct NoEtherCat;
 
@@ -135,6 +135,10 @@ impl core::error::Error for NoEtherCat {}
 pub struct Slave {
     esc: Esc,
     eeprom: Eeprom,
+    /// The model's identity and process-data map.
+    map: &'static EtherCatDesc,
+    /// SM3, the inputs, as long as the map's.
+    inputs: SmLayout,
     status: AlStatus,
     /// The module's EtherCAT mailbox interface.
     port: usize,
@@ -169,9 +173,12 @@ impl Slave {
     /// model and loaded.
     pub fn new(spec: &'static ModelSpec) -> Result<Slave, NoEtherCat> {
         let port = spec.interfaces.iter().position(|i| i.kind == InterfaceKind::EtherCatMailbox).ok_or(NoEtherCat)?;
+        let map = spec.ethercat.ok_or(NoEtherCat)?;
         let mut slave = Slave {
             esc: Esc::new(),
-            eeprom: Eeprom::for_model(spec),
+            eeprom: Eeprom::for_model(spec, map),
+            map,
+            inputs: layout::inputs(map),
             status: AlStatus::INIT,
             port,
             replies: Replies::EMPTY,
@@ -204,6 +211,16 @@ impl Slave {
     /// The SII EEPROM.
     pub fn eeprom(&self) -> &Eeprom {
         &self.eeprom
+    }
+
+    /// The SyncManagers the slave expects: the mailboxes, the outputs and the inputs of its map.
+    pub fn sync_managers(&self) -> [SmLayout; 4] {
+        layout::sync_managers(self.map)
+    }
+
+    /// The model's identity and process-data map.
+    pub fn map(&self) -> &'static EtherCatDesc {
+        self.map
     }
 
     /// The module interface the mailbox serves.
@@ -298,7 +315,7 @@ impl Slave {
             return false;
         }
         let region = ecat.datagrams();
-        let inputs = u32::from(INPUTS.start)..u32::from(INPUTS.start) + u32::from(INPUTS.length);
+        let inputs = u32::from(self.inputs.start)..u32::from(self.inputs.start) + u32::from(self.inputs.length);
         ecat.spans().any(|span| {
             let d = Datagram::new_unchecked(&region[span]);
             let c = d.command();
@@ -311,9 +328,9 @@ impl Slave {
     }
 
     fn refresh_inputs<B: Board>(&mut self, module: &mut Module<B>) {
-        let mut inputs = [0u8; INPUTS_LEN];
-        pdo::read_inputs(module, &mut inputs);
-        self.esc.put_inputs(INPUTS.index, &inputs);
+        let mut inputs = [0u8; MAX_INPUTS_LEN];
+        let n = pdo::read_inputs(module, self.map, &mut inputs);
+        self.esc.put_inputs(self.inputs.index, &inputs[..n]);
     }
 
     /// What the register writes of one datagram set off.
@@ -466,10 +483,10 @@ impl Slave {
             return;
         }
         self.applied = Some(outputs);
-        if outputs.commands_motor() {
+        if outputs.action(self.map).is_some() {
             self.commanded = true;
             // A refusal (torque without closed loop) shows in the status word.
-            let _ = outputs.apply(module, now);
+            let _ = outputs.apply(module, self.map, now);
         }
     }
 
@@ -532,7 +549,7 @@ impl Slave {
                 if !self.sm_as(OUTPUTS, SmMode::Buffered, SmDirection::MasterWrites) {
                     return Err(AlStatusCode::InvalidOutputs);
                 }
-                if !self.sm_as(INPUTS, SmMode::Buffered, SmDirection::MasterReads) {
+                if !self.sm_as(self.inputs, SmMode::Buffered, SmDirection::MasterReads) {
                     return Err(AlStatusCode::InvalidInputs);
                 }
                 Ok(())
@@ -575,7 +592,7 @@ impl Slave {
         for sm in [MAILBOX_OUT, MAILBOX_IN] {
             self.esc.set_sm_enabled(sm.index, mailbox);
         }
-        for sm in [OUTPUTS, INPUTS] {
+        for sm in [OUTPUTS, self.inputs] {
             self.esc.set_sm_enabled(sm.index, process_data);
         }
         match to {

@@ -6,7 +6,9 @@ use crate::foe::FileStore;
 use crate::fuzzing::{answers, bring_up, build_frame, MAX_FRAME};
 use crate::wire::datagram::Repr as D;
 use crate::wire::foe::ErrorCode;
-use tmcl_core::model::tmcm_1310::SPEC;
+use tmcl_core::model::tmcm_1310::{ETHERCAT, SPEC};
+
+const INPUTS: SmLayout = layout::inputs(&ETHERCAT);
 use tmcl_sim::SimBoard;
 
 #[derive(Default)]
@@ -235,7 +237,7 @@ fn the_mailbox_handshake_and_repeat() {
 #[test]
 fn safe_op_holds_op_drives_leaving_op_stops() {
     let mut r = Rig::up(AlState::SafeOp);
-    let velocity = Outputs { mode: pdo::ControllerMode::Velocity, value: 51200 };
+    let velocity = Outputs { mode: 2, value: 51200 };
     for _ in 0..100 {
         r.cycle(velocity, 1);
     }
@@ -250,7 +252,7 @@ fn safe_op_holds_op_drives_leaving_op_stops() {
     assert_eq!(field(&inputs, 5), 51200, "actual velocity");
     assert!(field(&inputs, 1) > 10_000);
     // Position mode: the target in the inputs is the output value.
-    let target = Outputs { mode: pdo::ControllerMode::Position, value: -3000 };
+    let target = Outputs { mode: 1, value: -3000 };
     r.cycle(target, 1);
     assert_eq!(field(&r.inputs(), 0), -3000);
     // Back to SAFE-OP: the motor stops (velocity 0 requested at once).
@@ -260,7 +262,7 @@ fn safe_op_holds_op_drives_leaving_op_stops() {
     assert_eq!(r.module.ramp().target_velocity, 0);
     // Mode 0 leaves the motor to TMCL: in OP, a mailbox ROR is not undone by the process data.
     assert_eq!(r.al(0x0008), (0x08, 0));
-    let idle = Outputs { mode: pdo::ControllerMode::None, value: 0 };
+    let idle = Outputs { mode: 0, value: 0 };
     r.cycle(idle, 1);
     assert_eq!(r.tmcl(1, 0, 1000).0, 100);
     r.cycle(idle, 1);
