@@ -265,7 +265,6 @@ impl Slave {
                 break;
             }
         }
-        self.esc.end_frame();
         self.firmware(now, module, files);
         eth.mark_processed();
         Some(len)

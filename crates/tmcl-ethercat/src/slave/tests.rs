@@ -357,3 +357,30 @@ fn several_datagrams_in_one_frame_as_soem_polls() {
     assert_eq!(out[1], (1, vec![2, 0, 0, 0, 0, 0]));
     assert_eq!(out[2].0, 0, "another station");
 }
+
+#[test]
+fn a_mailbox_written_in_two_frames_is_taken_as_the_esc_does() {
+    let mut r = Rig::up(AlState::PreOp);
+    // GAP 4 (maximum positioning speed): the first 100 bytes of SM0 in one frame, the other 168 later.
+    let mut request = [0u8; MAILBOX_OUT.length as usize];
+    request[..8].copy_from_slice(&[1, 6, 4, 0, 0, 0, 0, 0]);
+    assert_eq!(r.fpwr(MAILBOX_OUT.start, &request[..100]), 1, "the first part opens SM0");
+    assert_eq!(r.fprd(reg::SM + 8 + 5, 1).1[0] & 0x08, 0, "no reply yet: SM0 is not complete");
+    assert_eq!(r.fpwr(MAILBOX_OUT.start + 100, &request[100..]), 1, "the rest completes it");
+    let (wkc, reply) = r.fprd(MAILBOX_IN.start, MAILBOX_IN.length as usize);
+    assert_eq!(wkc, 1, "SM1 holds the reply");
+    assert_eq!(reply[..4], [2, 1, 100, 6]);
+    // A part that does not begin at the start address still opens nothing.
+    assert_eq!(r.fpwr(MAILBOX_OUT.start + 8, &request[8..]), 0);
+}
+
+#[test]
+fn broadcasts_increment_the_position() {
+    let mut r = Rig::up(AlState::Init);
+    // SOEM's first frame: a BRD of the ESC type; the position comes back incremented (ETG.1000.4).
+    let mut buf = [0u8; MAX_FRAME];
+    let n = build_frame(&mut buf, &[(Command::Brd, D::physical(0, 0x0000), &[0, 0])]).unwrap();
+    r.slave.process(r.now, &mut buf[..n], &mut r.module, &mut r.files).unwrap();
+    let d = crate::wire::datagram::Datagram::new_checked(&buf[16..n]).unwrap();
+    assert_eq!((d.adp(), d.wkc(), d.data()), (1, 1, &[0x11, 0x00][..]));
+}
