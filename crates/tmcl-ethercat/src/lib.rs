@@ -40,5 +40,6 @@ pub mod slave;
 pub mod wire;
 
 pub use al::{AlState, AlStatus, AlStatusCode};
+pub use eeprom::{Volatile, SII_STORE_LEN};
 pub use foe::{FileStore, NoFiles};
-pub use slave::{NoEtherCat, Slave};
+pub use slave::{NoEtherCat, Slave, StoreError};

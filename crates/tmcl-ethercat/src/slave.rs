@@ -13,7 +13,7 @@
 //! `tmcl` command line does exactly that). Nothing here reads a clock or allocates.
 
 use crate::al::{self, AlState, AlStatus, AlStatusCode, Decision, Step};
-use crate::eeprom::Eeprom;
+use crate::eeprom::{Eeprom, RestoreError, Volatile};
 use crate::esc::{Esc, SmDirection, SmMode};
 use crate::foe::{FileStore, Foe};
 use crate::layout::{self, SmLayout, FOE_DATA, MAILBOX_IN, MAILBOX_OUT, OUTPUTS};
@@ -23,7 +23,7 @@ use crate::wire::datagram::{Command, Datagram};
 use crate::wire::ethernet::{self, ETHERTYPE_ETHERCAT};
 use crate::wire::frame::{self, FrameType};
 use crate::wire::{foe as foe_wire, mailbox};
-use tmcl_core::hal::Board;
+use tmcl_core::hal::{Board, Nvm};
 use tmcl_core::model::{EtherCatDesc, InterfaceKind, ModelSpec};
 use tmcl_core::module::MAILBOX_LEN;
 use tmcl_core::{Duration, Instant, Module};
@@ -130,11 +130,36 @@ impl core::fmt::Display for NoEtherCat {
 
 impl core::error::Error for NoEtherCat {}
 
-/// The EtherCAT slave of one module.
+/// Why a slave with a store could not be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StoreError<E> {
+    /// The model has no EtherCAT interface.
+    NoEtherCat,
+    /// The SII store could not be read back.
+    Restore(RestoreError<E>),
+}
+
+impl<E: core::fmt::Debug> core::fmt::Display for StoreError<E> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            StoreError::NoEtherCat => NoEtherCat.fmt(f),
+            StoreError::Restore(e) => e.fmt(f),
+        }
+    }
+}
+
+impl<E: core::fmt::Debug> core::error::Error for StoreError<E> {}
+
+/// The EtherCAT slave of one module; `S` keeps the words a master writes into the SII EEPROM (see
+/// [`crate::eeprom`]: [`Volatile`] keeps nothing).
 #[derive(Clone, PartialEq, Eq)]
-pub struct Slave {
+pub struct Slave<S = Volatile> {
     esc: Esc,
     eeprom: Eeprom,
+    /// Where SII writes go before they count.
+    store: S,
+    /// SII words restored from the store at power-on.
+    restored: usize,
     /// The model's identity and process-data map.
     map: &'static EtherCatDesc,
     /// SM3, the inputs, as long as the map's.
@@ -162,7 +187,7 @@ pub struct Slave {
     watchdog_due: Option<Instant>,
 }
 
-impl core::fmt::Debug for Slave {
+impl<S> core::fmt::Debug for Slave<S> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Slave").field("status", &self.status).field("esc", &self.esc).finish_non_exhaustive()
     }
@@ -170,13 +195,30 @@ impl core::fmt::Debug for Slave {
 
 impl Slave {
     /// The slave of a module of model `spec`, as after power-on: INIT, its EEPROM generated from the
-    /// model and loaded.
+    /// model and loaded; what a master writes into the EEPROM lasts as long as the slave.
     pub fn new(spec: &'static ModelSpec) -> Result<Slave, NoEtherCat> {
-        let port = spec.interfaces.iter().position(|i| i.kind == InterfaceKind::EtherCatMailbox).ok_or(NoEtherCat)?;
-        let map = spec.ethercat.ok_or(NoEtherCat)?;
+        Slave::with_store(spec, Volatile).map_err(|_| NoEtherCat)
+    }
+}
+
+impl<S: Nvm> Slave<S> {
+    /// The slave of a module of model `spec`, as after power-on, whose SII writes go to `store` (at
+    /// least [`crate::eeprom::SII_STORE_LEN`] bytes): the EEPROM generated from the model with the words
+    /// kept in `store` laid over it, then loaded (the station alias among them).
+    pub fn with_store(spec: &'static ModelSpec, mut store: S) -> Result<Slave<S>, StoreError<S::Error>> {
+        let port = spec
+            .interfaces
+            .iter()
+            .position(|i| i.kind == InterfaceKind::EtherCatMailbox)
+            .ok_or(StoreError::NoEtherCat)?;
+        let map = spec.ethercat.ok_or(StoreError::NoEtherCat)?;
+        let mut eeprom = Eeprom::for_model(spec, map);
+        let restored = eeprom.restore(&mut store).map_err(StoreError::Restore)?;
         let mut slave = Slave {
             esc: Esc::new(),
-            eeprom: Eeprom::for_model(spec, map),
+            eeprom,
+            store,
+            restored,
             map,
             inputs: layout::inputs(map),
             status: AlStatus::INIT,
@@ -193,7 +235,7 @@ impl Slave {
             await_outputs: None,
             watchdog_due: None,
         };
-        slave.eeprom.load_into(&mut slave.esc);
+        slave.eeprom.load_into(&mut slave.esc, true);
         slave.write_status();
         Ok(slave)
     }
@@ -211,6 +253,21 @@ impl Slave {
     /// The SII EEPROM.
     pub fn eeprom(&self) -> &Eeprom {
         &self.eeprom
+    }
+
+    /// How many SII words a master had written before, restored from the store at power-on.
+    pub fn restored_words(&self) -> usize {
+        self.restored
+    }
+
+    /// The store of SII writes.
+    pub fn store(&self) -> &S {
+        &self.store
+    }
+
+    /// The store of SII writes, to sync it (a file store's `sync`).
+    pub fn store_mut(&mut self) -> &mut S {
+        &mut self.store
     }
 
     /// The SyncManagers the slave expects: the mailboxes, the outputs and the inputs of its map.
@@ -336,7 +393,7 @@ impl Slave {
     fn after_datagram<B: Board>(&mut self, now: Instant, module: &mut Module<B>, files: &mut impl FileStore) {
         let events = self.esc.take_events();
         if events.sii_command {
-            self.eeprom.command(&mut self.esc);
+            self.eeprom.command(&mut self.esc, &mut self.store);
         }
         if events.al_control {
             self.al_control(now, module, files);

@@ -384,3 +384,29 @@ fn broadcasts_increment_the_position() {
     let d = crate::wire::datagram::Datagram::new_checked(&buf[16..n]).unwrap();
     assert_eq!((d.adp(), d.wkc(), d.data()), (1, 1, &[0x11, 0x00][..]));
 }
+
+#[test]
+fn the_alias_a_master_writes_survives_a_restart_with_a_store() {
+    use crate::eeprom::SII_STORE_LEN;
+    use tmcl_sim::MemNvm;
+    let mut store = MemNvm::new(SII_STORE_LEN);
+    {
+        let mut r = Rig::up(AlState::Init);
+        let mut slave = Slave::with_store(&SPEC, &mut store).unwrap();
+        // eepromtool -walias 0x0BAD: SII to the master, write word 4 with write enable.
+        let mut frame = |command, register, data: &[u8]| {
+            let mut buf = [0u8; MAX_FRAME];
+            let n = build_frame(&mut buf, &[(command, D::physical(0, register), data)]).unwrap();
+            slave.process(r.now, &mut buf[..n], &mut r.module, &mut r.files).unwrap();
+        };
+        frame(Command::Apwr, reg::SII_CONFIGURATION, &[2]);
+        frame(Command::Apwr, reg::SII_DATA, &[0xAD, 0x0B]);
+        frame(Command::Apwr, reg::SII_CONTROL, &[0x01, 0x02, 0x04, 0, 0, 0]);
+        assert_eq!(slave.eeprom().word(4), 0x0BAD);
+        assert_eq!(slave.esc().reg16(reg::STATION_ALIAS), 0, "the alias register waits for power-on");
+    }
+    // Power-on again with the same store: the alias is loaded; without it, it is gone.
+    let slave = Slave::with_store(&SPEC, &mut store).unwrap();
+    assert_eq!((slave.esc().reg16(reg::STATION_ALIAS), slave.restored_words()), (0x0BAD, 1));
+    assert_eq!(Slave::new(&SPEC).unwrap().esc().reg16(reg::STATION_ALIAS), 0);
+}
