@@ -455,10 +455,20 @@ def ecat_frame(*datagrams: bytes) -> bytes:
     return b"\xff" * 6 + b"\x01" * 6 + struct.pack(">H", ETHERTYPE) + struct.pack("<H", len(body) | 0x1000) + body
 
 
+def packet_sockets() -> list[tuple[int, int]]:
+    """(protocol, interface index) of every packet socket in this namespace (/proc/net/packet: 0 = not
+    bound to an interface)."""
+    rows = Path("/proc/net/packet").read_text().splitlines()[1:]
+    return [(int(r.split()[3], 16), int(r.split()[4])) for r in rows]
+
+
 def scenario_broadcast(args) -> None:
     serve = Serve(args.tmcl, Path(args.dir))
+    # The server's socket is bound to its interface (ecs0), not open on all of them.
+    ecs0 = socket.if_nametoindex(SLAVE_IF)
+    sockets = packet_sockets()
     s = raw_socket()
-    result = {}
+    result = {"server_socket_bound_to": [iface for proto, iface in sockets if proto == ETHERTYPE], "ecs0": ecs0}
     for name, cmd, adp, ado, data in [("brd", 7, 0, 0x0000, bytes(4)), ("bwr", 8, 0xFFFE, 0x0F80, b"\x00"),
                                       ("brw", 9, 0x0005, 0x0F80, b"\x00")]:
         s.send(ecat_frame(datagram(cmd, adp, ado, data)))
