@@ -1,15 +1,12 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
 mod asm;
-mod bus;
 mod debug;
 mod error;
 mod esi;
-mod ethercat;
 mod host;
 mod names;
 mod program;
-mod pty;
 mod run;
 mod serve;
 mod sim;
