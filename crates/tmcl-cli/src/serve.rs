@@ -104,7 +104,10 @@ impl From<ServeError> for CliError {
 
 /// Runs the server until SIGINT or SIGTERM.
 pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
-    let server = Server::new(options(&args)?)?;
+    let mut server = Server::new(options(&args)?)?;
+    // A signal ends the server at once, under any load: every EEPROM write is already in its file
+    // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
+    server.set_flush_on_stop(false);
     for note in server.notes() {
         eprintln!("tmcl serve: {note}");
     }
@@ -171,6 +174,11 @@ fn options(args: &ServeArgs) -> Result<Options, CliError> {
         foe: match (&args.eeprom, &args.eeprom_dir, modules.first()) {
             (Some(file), _, _) => Some(with_suffix(file, ".foe")),
             (None, Some(dir), Some(m)) => Some(dir.join(format!("{}@{}.foe", m.spec.id, m.address.unwrap_or(1)))),
+            _ => None,
+        },
+        sii: match (&args.eeprom, &args.eeprom_dir, modules.first()) {
+            (Some(file), _, _) => Some(with_suffix(file, ".sii")),
+            (None, Some(dir), Some(m)) => Some(dir.join(format!("{}@{}.sii", m.spec.id, m.address.unwrap_or(1)))),
             _ => None,
         },
     });

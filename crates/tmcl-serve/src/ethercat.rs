@@ -3,9 +3,12 @@
 //! The OS shim is a packet socket (`AF_PACKET`, `SOCK_RAW`) for EtherType 0x88A4 and nothing else, made
 //! from safe calls only: `rustix` opens it (it takes any protocol number), `nix` receives with the
 //! sender's link address (`recvfrom` into a `LinkAddr`: interface index and packet type) and sends the
-//! answer back to that same link address (`sendto`). The socket is not bound to the interface (neither
-//! crate builds a `sockaddr_ll` without `unsafe`): frames of other interfaces are dropped by index, and
-//! since it asks for 0x88A4 only, the kernel hands it neither other traffic nor its own outgoing frames.
+//! answer back to that same link address (`sendto`). The socket is bound to its interface: `bind` to the
+//! interface's own link address, which `getifaddrs` gives (its `AF_PACKET` entry carries the index; the
+//! protocol 0 in it keeps the socket's, packet(7)), so neither crate has to build a `sockaddr_ll` with
+//! `unsafe`. The kernel then hands the socket that interface's EtherCAT frames only; a frame of another
+//! interface that arrived before the bind is still dropped by its index. Since the socket asks for
+//! 0x88A4 only, it gets neither other traffic nor its own outgoing frames.
 //!
 //! The slave is `tmcl_ethercat::Slave` around the module the pty or TCP link also serves; FoE files
 //! written in BOOT go to [`FoeFiles`].
@@ -24,7 +27,7 @@ pub use unsupported::RawSocket;
 #[cfg(target_os = "linux")]
 mod packet {
     use crate::ServeError;
-    use nix::sys::socket::{recvfrom, sendto, LinkAddr, MsgFlags};
+    use nix::sys::socket::{bind, recvfrom, sendto, LinkAddr, MsgFlags};
     use std::io;
     use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
 
@@ -68,6 +71,11 @@ mod packet {
                 };
                 ServeError::Io(format!("--ethercat {name}: cannot open a packet socket: {e}{why}"))
             })?;
+            let link = interface_link_address(name, ifindex as usize).ok_or_else(|| {
+                ServeError::Io(format!("--ethercat {name}: the interface has no link-layer address to bind to"))
+            })?;
+            bind(fd.as_raw_fd(), &link)
+                .map_err(|e| ServeError::Io(format!("--ethercat {name}: cannot bind the packet socket: {e}")))?;
             Ok(RawSocket { fd, ifindex: ifindex as usize, name: name.to_string() })
         }
 
@@ -101,6 +109,15 @@ mod packet {
         fn as_fd(&self) -> BorrowedFd<'_> {
             self.fd.as_fd()
         }
+    }
+
+    /// The link address of interface `name` (index `ifindex`), from its `AF_PACKET` entry in `getifaddrs`.
+    fn interface_link_address(name: &str, ifindex: usize) -> Option<LinkAddr> {
+        nix::ifaddrs::getifaddrs()
+            .ok()?
+            .filter(|a| a.interface_name == name)
+            .find_map(|a| a.address.and_then(|s| s.as_link_addr().copied()))
+            .filter(|l| l.ifindex() == ifindex)
     }
 }
 

@@ -119,6 +119,9 @@ pub struct EtherCatOptions {
     pub interface: String,
     /// Where files a master writes by FoE are kept; `None` counts and reports them only.
     pub foe: Option<PathBuf>,
+    /// Where the words a master writes into the SII EEPROM are kept (a crash-safe file like the module's
+    /// EEPROM, and its `.journal`); `None` keeps them in memory until the server stops.
+    pub sii: Option<PathBuf>,
 }
 
 /// Everything a server serves.

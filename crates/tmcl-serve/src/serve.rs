@@ -38,12 +38,17 @@ pub(crate) enum Link {
     Tcp { listener: TcpListener, peer: Option<TcpStream> },
 }
 
-/// The EtherCAT side of `--ethercat`: the socket, the slave, and where FoE files go.
+/// The EtherCAT side of `--ethercat`: the socket, the slave (its SII writes kept in a file or in
+/// memory), and where FoE files go.
 struct EtherCat {
     socket: RawSocket,
-    slave: Slave,
+    slave: Slave<Eeprom>,
     files: FoeFiles,
 }
+
+/// Most frames answered in one go before the loop looks at the stop flag, the links and the time again:
+/// a master that floods the slave neither starves the USB port nor delays a stop.
+const FRAMES_PER_TURN: usize = 64;
 
 /// Tells a server to stop, from any thread (or a signal handler, through [`Stopper::flag`]).
 #[derive(Debug, Clone)]
@@ -78,6 +83,8 @@ pub struct Server {
     ecat: Option<EtherCat>,
     start: std::time::Instant,
     verbose: bool,
+    /// fsync the EEPROM files when the loop ends (see [`Server::set_flush_on_stop`]).
+    flush_on_stop: bool,
     notes: Vec<String>,
     stopper: Stopper,
     /// The loop's end of the waker pair.
@@ -165,7 +172,25 @@ impl Server {
         let ecat = match ethercat {
             Some(options) => {
                 let socket = RawSocket::open(&options.interface)?;
-                let slave = Slave::new(bus.nodes[0].module.spec()).map_err(|e| ServeError::Config(e.to_string()))?;
+                let store = match &options.sii {
+                    Some(path) => Eeprom::File(
+                        FileNvm::open(path, tmcl_ethercat::SII_STORE_LEN)
+                            .map_err(|e| ServeError::Io(format!("EtherCAT SII: {e}")))?,
+                    ),
+                    None => Eeprom::Memory(MemNvm::new(tmcl_ethercat::SII_STORE_LEN)),
+                };
+                let slave = Slave::with_store(bus.nodes[0].module.spec(), store).map_err(|e| match e {
+                    tmcl_ethercat::StoreError::NoEtherCat => ServeError::Config(e.to_string()),
+                    tmcl_ethercat::StoreError::Restore(_) => ServeError::Io(format!("EtherCAT SII: {e}")),
+                })?;
+                if slave.restored_words() > 0 {
+                    let place = options.sii.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
+                    notes.push(format!(
+                        "EtherCAT: SII: {} words a master wrote, restored from {place} (alias {:#06x})",
+                        slave.restored_words(),
+                        slave.eeprom().word(4)
+                    ));
+                }
                 Some(EtherCat { socket, slave, files: FoeFiles::new(options.foe) })
             }
             None => None,
@@ -186,7 +211,7 @@ impl Server {
         wake.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         waker.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         let stopper = Stopper { flag: Arc::new(AtomicBool::new(false)), waker: Arc::new(waker) };
-        Ok(Server { bus, link, ecat, start, verbose, notes, stopper, wake })
+        Ok(Server { bus, link, ecat, start, verbose, flush_on_stop: true, notes, stopper, wake })
     }
 
     /// The modules, in line order, with the addresses they answer at.
@@ -216,6 +241,16 @@ impl Server {
     /// The network interface of the EtherCAT slave, if one is served.
     pub fn ethercat_interface(&self) -> Option<&str> {
         self.ecat.as_ref().map(|e| e.socket.name.as_str())
+    }
+
+    /// Whether the loop's end fsyncs the EEPROM files (the module's and the EtherCAT SII's); on by default.
+    ///
+    /// Every EEPROM write is in its file as it happens, whole or not at all, which survives a `kill -9`;
+    /// the fsync only guards the last writes against a power loss, and under disk load it takes from
+    /// tens of milliseconds to seconds. `tmcl serve` turns it off so that SIGTERM ends it within 100 ms
+    /// whatever the machine is doing.
+    pub fn set_flush_on_stop(&mut self, flush: bool) {
+        self.flush_on_stop = flush;
     }
 
     /// What the server noticed while starting that the user should hear (a start address not taken
@@ -257,8 +292,13 @@ impl Server {
         let mut flushed = Ok(());
         if let Some(e) = self.ecat.as_mut() {
             e.files.write_pending();
+            if let (true, Eeprom::File(f)) = (self.flush_on_stop, e.slave.store_mut()) {
+                if let Err(err) = f.sync() {
+                    flushed = Err(ServeError::Io(format!("EtherCAT SII not flushed: {err}")));
+                }
+            }
         }
-        for node in &mut self.bus.nodes {
+        for node in self.bus.nodes.iter_mut().filter(|_| self.flush_on_stop) {
             if let Err(e) = node.module.board_mut().eeprom().sync() {
                 flushed = Err(ServeError::Io(format!("{}: EEPROM not flushed: {e}", node.name)));
             }
@@ -315,7 +355,7 @@ impl Server {
             }
             if let Some(e) = ecat.as_mut() {
                 if ready.ethercat {
-                    serve_frames(e, &mut bus.nodes[0].module, &clock, verbose)?;
+                    serve_frames(e, &mut bus.nodes[0].module, &clock, verbose, &self.stopper)?;
                 } else {
                     // No frame waits: the time to write a file a master sent by FoE.
                     e.files.write_pending();
@@ -412,15 +452,21 @@ impl Drop for RunningServer {
     }
 }
 
-/// Answers every EtherCAT frame waiting on the socket, each as it comes, with the time it is taken.
+/// Answers the EtherCAT frames waiting on the socket, each as it comes, with the time it is taken: at
+/// most [`FRAMES_PER_TURN`], and none after a stop was asked for, so that a flood of frames delays
+/// neither a stop nor the links (the frames left are answered in the next turn of the loop).
 fn serve_frames(
     e: &mut EtherCat,
     module: &mut Module<SimBoard>,
     clock: &impl Fn() -> Instant,
     verbose: bool,
+    stopper: &Stopper,
 ) -> Result<(), ServeError> {
     let mut frame = [0u8; 2048];
-    loop {
+    for _ in 0..FRAMES_PER_TURN {
+        if stopper.is_stopped() {
+            return Ok(());
+        }
         let received =
             e.socket.recv(&mut frame).map_err(|err| ServeError::Io(format!("--ethercat {}: {err}", e.socket.name)))?;
         let Some((n, from)) = received else { return Ok(()) };
@@ -435,6 +481,7 @@ fn serve_frames(
         }
         log_al(verbose, now, before, e.slave.status());
     }
+    Ok(())
 }
 
 fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
