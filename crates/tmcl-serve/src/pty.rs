@@ -237,6 +237,7 @@ fn replace_link(target: &Path, link: &Path) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write;
 
     #[test]
     fn link_points_at_a_raw_pty_and_goes_away() {
