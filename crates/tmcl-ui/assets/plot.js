@@ -134,7 +134,8 @@
     // Layout in CSS pixels: the plot area inside the axes.
     layout(w, h) {
       const right = Math.max(0, this.units().length - 1);
-      return { x0: 58, y0: 16, x1: w - (right ? right * AXIS_W : 10), y1: h - 22 };
+      // One line above the plot for each unit label on the right beyond the first.
+      return { x0: 58, y0: 16 + Math.max(0, right - 1) * 12, x1: w - (right ? right * AXIS_W : 10), y1: h - 22 };
     }
 
     // How old the newest value is at the right edge, if it is stale (ms), else 0.
@@ -170,9 +171,9 @@
           if (n === 0) { g.beginPath(); g.moveTo(L.x0, py); g.lineTo(L.x1, py); g.stroke(); }
           if (!a.empty) g.fillText(fmt(y), x, py);
         }
-        // The axis's unit above it.
-        g.textBaseline = "bottom"; g.textAlign = n === 0 ? "left" : "left";
-        if (a.unit) g.fillText(a.unit, n === 0 ? 4 : x, L.y0 - 3);
+        // The axis's unit above it: the left one from the left edge, the right ones ending at the right edge.
+        g.textBaseline = "bottom"; g.textAlign = n === 0 ? "left" : "right";
+        if (a.unit) g.fillText(a.unit, n === 0 ? 4 : n === 1 ? w - 4 : x + AXIS_W - 4, n < 2 ? L.y0 - 3 : L.y0 - 3 - 12 * (n - 1));
       });
       g.fillStyle = "#5b6475";
       // Time grid: seconds before now.
