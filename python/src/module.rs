@@ -28,6 +28,8 @@ pub(crate) struct Shared {
     pub module: Core<SimBoard>,
     /// When the module's time 0 was.
     pub start: std::time::Instant,
+    /// Set by `close`: the clock thread ends.
+    pub stopped: bool,
 }
 
 impl Shared {
@@ -38,11 +40,49 @@ impl Shared {
 
     /// Brings the module and its world to now.
     pub fn catch_up(&mut self) -> Instant {
-        let now = self.now();
-        self.module.poll_port(NO_PORT, now, &mut |_: &[u8]| {});
-        self.module.board_timeline().advance(now);
-        now
+        self.step().0
     }
+
+    /// Brings the module and its world to now; returns now and when either needs to run next (the
+    /// module's deadline or the world's next change, whichever comes first).
+    fn step(&mut self) -> (Instant, Option<Instant>) {
+        let now = self.now();
+        let deadline = self.module.poll_port(NO_PORT, now, &mut |_: &[u8]| {});
+        self.module.board_timeline().advance(now);
+        let next = [deadline, self.module.board().next_event()].into_iter().flatten().min();
+        (now, next)
+    }
+}
+
+/// Longest sleep of the clock thread without a deadline.
+const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// The module's clock: a thread that brings the module to each of its deadlines and to each change of
+/// its world (a fault window, a scripted load, an input), as `tmcl serve` does, so that a motor moving
+/// while nobody asks meets its world at the right instants. It ends when the module is closed or gone.
+fn keep_time(handle: std::sync::Weak<Mutex<Shared>>) {
+    loop {
+        let Some(handle) = handle.upgrade() else { return };
+        let wait = {
+            let Ok(mut shared) = handle.lock() else { return };
+            if shared.stopped {
+                return;
+            }
+            let (now, next) = shared.step();
+            next.map_or(MAX_SLEEP, |n| std::time::Duration::from_micros((n - now).micros()).min(MAX_SLEEP))
+        };
+        drop(handle);
+        std::thread::park_timeout(wait);
+    }
+}
+
+/// Starts the clock thread of `handle`.
+pub(crate) fn start_clock(handle: &Handle) -> PyResult<std::thread::JoinHandle<()>> {
+    let weak = Arc::downgrade(handle);
+    std::thread::Builder::new()
+        .name("opentmcl-clock".into())
+        .spawn(move || keep_time(weak))
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start the module's clock: {e}")))
 }
 
 /// The shared module.
@@ -97,7 +137,7 @@ pub(crate) fn build(
             .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
             .map_err(|s| PyValueError::new_err(format!("address {address}: {s}")))?;
     }
-    Ok(Arc::new(Mutex::new(Shared { module, start })))
+    Ok(Arc::new(Mutex::new(Shared { module, start, stopped: false })))
 }
 
 /// A reply: status (100 = ok, PD28-1021 manual §3.2.1), value, and the nine bytes a host would read.
@@ -178,6 +218,7 @@ pub struct Module {
     pub(crate) spec: &'static ModelSpec,
     eeprom: Option<PathBuf>,
     closed: bool,
+    clock: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Module {
@@ -186,6 +227,20 @@ impl Module {
             return Err(PyRuntimeError::new_err("the module is closed"));
         }
         lock(&self.handle)
+    }
+
+    /// Wakes the clock thread: a request may have brought a deadline closer.
+    fn wake(&self) {
+        if let Some(clock) = &self.clock {
+            clock.thread().unpark();
+        }
+    }
+
+    /// A request, and the clock woken after it.
+    fn ask(&self, instruction: Instruction) -> PyResult<Reply> {
+        let reply = reply_of(&mut *self.shared()?, instruction);
+        self.wake();
+        Ok(reply)
     }
 
     fn param(&self, name: &str) -> PyResult<Param> {
@@ -222,7 +277,8 @@ impl Module {
         let spec = crate::model_by_id(model)?;
         let world = load_world(world)?;
         let handle = build(spec, world, eeprom.as_deref(), address)?;
-        Ok(Module { handle, spec, eeprom, closed: false })
+        let clock = Some(start_clock(&handle)?);
+        Ok(Module { handle, spec, eeprom, closed: false, clock })
     }
 
     /// The model's id (`pd28-1021`).
@@ -267,8 +323,9 @@ impl Module {
             .or_else(|_| u32::try_from(value).map(|v| v as i32))
             .map_err(|_| PyValueError::new_err(format!("{value} is not a 32-bit value")))?;
         let instruction = Instruction::new(opcode, r#type, motor, value);
-        let mut shared = self.shared()?;
-        Ok(reply_of(&mut shared, instruction))
+        let reply = reply_of(&mut *self.shared()?, instruction);
+        self.wake();
+        Ok(reply)
     }
 
     /// Reads a parameter by name (`"MaxPositioningSpeed"`, `"APActualPosition"`, `"Maximum
@@ -282,7 +339,7 @@ impl Module {
         } else {
             Instruction::new(Opcode::Ggp, p.number, p.bank, 0)
         };
-        Module::checked(reply_of(&mut *self.shared()?, i))
+        Module::checked(self.ask(i)?)
     }
 
     /// Writes a parameter by name (SAP or SGP). A refusal (read-only, out of range) is `TmclError`.
@@ -294,7 +351,7 @@ impl Module {
         } else {
             Instruction::new(Opcode::Sgp, p.number, p.bank, value)
         };
-        Module::checked(reply_of(&mut *self.shared()?, i)).map(drop)
+        Module::checked(self.ask(i)?).map(drop)
     }
 
     /// Stores a parameter's value in the EEPROM by name (STAP or STGP).
@@ -306,7 +363,7 @@ impl Module {
         } else {
             Instruction::new(Opcode::Stgp, p.number, p.bank, 0)
         };
-        Module::checked(reply_of(&mut *self.shared()?, i)).map(drop)
+        Module::checked(self.ask(i)?).map(drop)
     }
 
     /// Puts a program into the module's program memory (as a host's download, 132…133), not started:
@@ -332,6 +389,8 @@ impl Module {
                 .execute_instruction(now, Instruction::new(Opcode::RunApplication, 1, 0, 0))
                 .map_err(|s| tmcl_error(s.into(), Opcode::RunApplication.code()))?;
         }
+        drop(shared);
+        self.wake();
         Ok(())
     }
 
@@ -354,7 +413,13 @@ impl Module {
         let spec = self.spec;
         let old = std::mem::replace(&mut shared.module, Core::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO));
         drop(old);
+        shared.stopped = true;
+        drop(shared);
         self.closed = true;
+        if let Some(clock) = self.clock.take() {
+            clock.thread().unpark();
+            let _ = clock.join();
+        }
         synced.map_err(|e| PyRuntimeError::new_err(format!("EEPROM: {e}")))
     }
 
