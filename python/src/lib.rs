@@ -4,6 +4,8 @@
 //! - [`module`]: `Module`, a virtual module on its simulated board, running in real time, with direct
 //!   access (`request`, `get`, `set`) and its world (`World`).
 //! - [`asm`]: `assemble` and `disassemble`, with the assembler's diagnostics as `AssemblyError`.
+//! - [`run`]: `run`, a program on a simulated module far faster than real time (`tmcl-run`), its trace
+//!   as columns and the refusals.
 //! - [`names`]: parameters by name, as the firmware tables and the assembler's include file spell them.
 //!
 //! The Python side (`opentmcl/__init__.py`) re-exports these and adds the pytest plugin; the type hints
@@ -14,6 +16,7 @@ use pyo3::prelude::*;
 mod asm;
 mod module;
 mod names;
+mod run;
 
 pyo3::create_exception!(
     _native,
@@ -44,6 +47,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(asm::assemble, m)?)?;
     m.add_function(wrap_pyfunction!(asm::disassemble, m)?)?;
     m.add_function(wrap_pyfunction!(models, m)?)?;
+    m.add_function(wrap_pyfunction!(run::run, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

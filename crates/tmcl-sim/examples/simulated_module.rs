@@ -7,9 +7,9 @@
 //! Run with `cargo run -p tmcl-sim --example simulated_module`.
 
 use tmcl_core::model::pd28_1021;
+use tmcl_core::Outcome;
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_sim::{SimBoard, World};
-use tmcl_core::Outcome;
 use tmcl_wire::{Command, MoveTarget};
 
 const WORLD: &str = r#"
@@ -47,7 +47,11 @@ fn main() {
         panic!("GAP 1 answers a value")
     };
     let board = module.board();
-    println!("firmware position {counter}, axis at {:.2} mm, {} full steps lost", board.axis_position(), board.lost_full_steps());
+    println!(
+        "firmware position {counter}, axis at {:.2} mm, {} full steps lost",
+        board.axis_position(),
+        board.lost_full_steps()
+    );
     assert!(board.axis_position() < 12.5, "the jam holds the axis");
     assert!(board.lost_full_steps() > 0);
 }

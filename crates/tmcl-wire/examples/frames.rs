@@ -24,6 +24,12 @@ fn main() {
     // The reply to `GIO 0, 1` with the value 302, as printed in the manual.
     let reply_bytes = [0x02, 0x01, 0x64, 0x0F, 0x00, 0x00, 0x01, 0x2E, 0xA5];
     let reply = Reply::parse(&ReplyFrame::new_checked(&reply_bytes[..]).expect("nine bytes")).expect("checksum");
-    println!("reply: module {} status {} ({}) value {}", reply.module, u8::from(reply.status), reply.status.description(), reply.value);
+    println!(
+        "reply: module {} status {} ({}) value {}",
+        reply.module,
+        u8::from(reply.status),
+        reply.status.description(),
+        reply.value
+    );
     assert_eq!((reply.status, reply.value), (Status::Ok, 302));
 }
