@@ -17,6 +17,7 @@
 //!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.5) and work on the
 //!   module's registers.
 
+use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::{AppStatusReply, Driver, PortKind, Setting};
 use crate::module::{flags, Module, Origin, Outcome, Registers, RNG_SEED};
@@ -54,8 +55,9 @@ impl<B: Board> Module<B> {
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
         if origin == Origin::Host {
-            // A running program that spins in a fixed point may do otherwise now (`module/spin.rs`).
-            self.spin.unrest();
+            // A host input: a change (`module/seam.rs`); a program spinning in a fixed point may do
+            // otherwise now.
+            self.board.input();
         }
         // A parameter write may change what the driver sees (a current, the chopper, the resolution), and a
         // stop (MST, RFS) stops the motor at once: the board is brought up to date at this instant, not at
@@ -125,7 +127,7 @@ impl<B: Board> Module<B> {
             // §3.7.5 SAP: RAM only.
             C::Sap { param, motor, value: v } => {
                 self.motor(motor)?;
-                self.set_axis(param, v, now)?;
+                self.write_axis(param, v, now)?;
                 value(v)
             }
             // §3.7.6 GAP.
@@ -138,7 +140,6 @@ impl<B: Board> Module<B> {
                 self.motor(motor)?;
                 let (i, _) = self.axis_desc(param, |d| d.access.store)?;
                 self.unlocked_for(&self.spec.axis.params[i])?;
-                self.spin.touch(); // an EEPROM write
                 persist::store_axis(&mut self.board, self.spec, i, self.st.axis[i])?;
                 value(0)
             }
@@ -152,11 +153,11 @@ impl<B: Board> Module<B> {
             }
             // §3.7.9 SGP.
             C::Sgp { param, bank, value: v } => {
-                self.set_global(param, bank, v, now)?;
+                self.write_global(param, bank, v, now)?;
                 value(v)
             }
             // §3.7.10 GGP.
-            C::Ggp { param, bank } => value(self.get_global(param, bank, now)?),
+            C::Ggp { param, bank } => value(self.read_global(param, bank, now)?),
             // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
             // and a STGP rewrites them (the manual does not say what STGP does on bank 0).
             C::Stgp { param, bank } => {
@@ -165,12 +166,10 @@ impl<B: Board> Module<B> {
                     0 => {
                         let (i, _) = self.global_desc(param, |d| d.access.auto)?;
                         self.unlocked_for(&self.spec.global.params[i])?;
-                        self.spin.touch(); // an EEPROM write
                         persist::store_global(&mut self.board, self.spec, i, self.st.global[i])?;
                     }
                     2 => {
                         let v = self.st.user[self.user_index(param)?];
-                        self.spin.touch(); // an EEPROM write
                         persist::store_user(&mut self.board, self.spec, param, v)?
                     }
                     // A bank 1 with no parameter the sources name (PDx-113 manual §5.7.9).
@@ -226,9 +225,6 @@ impl<B: Board> Module<B> {
                     _ => return Err(Status::WrongType),
                 };
                 let bits = bits & (((1u16 << self.spec.outputs) - 1) as u8); // outputs ≤ 8
-                if bits != self.st.outputs {
-                    self.spin.touch();
-                }
                 self.st.outputs = bits;
                 self.board.set_outputs(self.st.outputs);
                 value(v)
@@ -301,13 +297,13 @@ impl<B: Board> Module<B> {
             C::Aap { param, motor } => {
                 self.motor(motor)?;
                 let a = self.regs(origin).accumulator;
-                self.set_axis(param, a, now)?;
+                self.write_axis(param, a, now)?;
                 value(a)
             }
             // §3.7.30 AGP: global parameter ← A.
             C::Agp { param, bank } => {
                 let a = self.regs(origin).accumulator;
-                self.set_global(param, bank, a, now)?;
+                self.write_global(param, bank, a, now)?;
                 value(a)
             }
             // §3.7.24 SCO; motor 255 copies RAM → EEPROM (coordinate 0 = all of 1..20).
@@ -440,7 +436,6 @@ impl<B: Board> Module<B> {
             // §3.7.38 137 (value 1234, checked by decode): factory defaults into the EEPROM, no reply; the
             // module then restarts on them (the program memory is kept: it is not a setting).
             C::FactoryDefault => {
-                self.spin.touch(); // an EEPROM write
                 persist::format(&mut self.board, self.spec, false).map_err(Status::from)?;
                 Ok(Outcome::Silent)
             }
@@ -557,9 +552,33 @@ impl<B: Board> Module<B> {
         permitted(&self.spec.global, number, allowed)
     }
 
-    /// GAP: an axis parameter's value (chapter 4, Table 15).
+    /// GAP: an axis parameter's value (chapter 4, Table 15). A library call from outside, as a host's
+    /// GAP is: a read may change state (AP 207 clears on read), so it counts as an input
+    /// (`module/seam.rs`).
     pub fn get_axis(&mut self, number: u8) -> Result<i32, Status> {
+        self.board.input();
         self.read_axis(number, None)
+    }
+
+    /// SAP without the frame: writes an axis parameter (RAM only) at `now`, as a library call from outside
+    /// (an input, `module/seam.rs`).
+    pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+        self.board.input();
+        self.write_axis(number, v, now)
+    }
+
+    /// GGP without the frame: a global parameter, as a library call from outside (an input: GP 133 draws
+    /// a new number at every read).
+    pub fn get_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
+        self.board.input();
+        self.read_global(number, bank, now)
+    }
+
+    /// SGP without the frame: writes a global parameter at `now`, as a library call from outside (an
+    /// input, `module/seam.rs`).
+    pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
+        self.board.input();
+        self.write_global(number, bank, v, now)
     }
 
     /// GAP at `now` (`None`: whenever the board was last brought up to date). A parameter that reads
@@ -621,7 +640,7 @@ impl<B: Board> Module<B> {
     }
 
     /// SAP/AAP: writes an axis parameter (RAM only).
-    pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+    pub(crate) fn write_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.write)?;
         if !d.range.contains(v) {
             return Err(ParamError::OutOfRange.into());
@@ -701,7 +720,7 @@ impl<B: Board> Module<B> {
     }
 
     /// GGP: a global parameter (chapter 5).
-    pub fn get_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
+    pub(crate) fn read_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
         self.bank(bank)?;
         match bank {
             0 => {
@@ -741,7 +760,7 @@ impl<B: Board> Module<B> {
     }
 
     /// SGP/AGP: writes a global parameter; bank 0 A parameters go to the EEPROM at once (§5.1).
-    pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
+    pub(crate) fn write_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
         self.bank(bank)?;
         match bank {
             0 => {
@@ -752,7 +771,6 @@ impl<B: Board> Module<B> {
                 self.unlocked_for(d)?;
                 if d.access.auto {
                     // Stored first: if the EEPROM refuses, nothing changes.
-                    self.spin.touch(); // an EEPROM write
                     persist::store_global(&mut self.board, self.spec, i, v)?;
                 }
                 if d.setting == Some(Setting::CodeProtection) {
@@ -813,7 +831,6 @@ impl<B: Board> Module<B> {
     fn write_coordinate(&mut self, coord: u8, v: i32) -> Result<(), Status> {
         let n = self.coord_index(coord)?;
         if n > 0 && self.gp_flag(Setting::CoordinateStorage) {
-            self.spin.touch(); // an EEPROM write
             persist::store_coordinate(&mut self.board, self.spec, coord, v)?;
         }
         self.st.coords[n] = v;
@@ -826,7 +843,6 @@ impl<B: Board> Module<B> {
         let range = if n == 0 { 1..=self.spec.coordinates } else { n..=n };
         for c in range {
             if to_eeprom {
-                self.spin.touch(); // an EEPROM write
                 persist::store_coordinate(&mut self.board, self.spec, c, self.st.coords[usize::from(c)])?;
             } else {
                 self.st.coords[usize::from(c)] = persist::load_coordinate(&mut self.board, self.spec, c)?;

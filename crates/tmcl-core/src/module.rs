@@ -27,6 +27,7 @@
 
 use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
+use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
 use crate::model::{Kinematics, ModelSpec, Setting};
@@ -42,8 +43,11 @@ use tmcl_wire::{EventMode, Status, FRAME_LEN};
 pub use crate::iface::host::MAILBOX_LEN;
 
 mod advance;
+mod seam;
 mod spans;
 mod spin;
+
+use seam::Seam;
 
 /// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
 pub mod flags {
@@ -255,7 +259,8 @@ pub(crate) type ReplyOf = Result<(Status, i32, u8), [u8; FRAME_LEN]>;
 
 /// A TMCL module: firmware state on a board.
 pub struct Module<B: Board> {
-    pub(crate) board: B,
+    /// The board, behind the seam that counts every change (`module/seam.rs`).
+    pub(crate) board: Seam<B>,
     pub(crate) spec: &'static ModelSpec,
     pub(crate) st: State,
     pub(crate) vm: Vm,
@@ -284,7 +289,7 @@ impl<B: Board> Module<B> {
     /// must be given [`Module::power_up`] before anything else.
     pub fn unpowered(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
         Module {
-            board,
+            board: Seam::new(board),
             spec,
             st: State::new(now),
             vm: Vm::default(),
@@ -297,6 +302,7 @@ impl<B: Board> Module<B> {
 
     /// Powers an [`Module::unpowered`] module up at `now`, as [`Module::new`] does.
     pub fn power_up(&mut self, now: Instant) {
+        self.board.input();
         self.start(now);
     }
 
@@ -307,7 +313,7 @@ impl<B: Board> Module<B> {
 
     /// The board.
     pub fn board(&self) -> &B {
-        &self.board
+        self.board.get()
     }
 
     /// The board, mutably (the simulator changes its world through this). The module takes it that the
@@ -315,15 +321,14 @@ impl<B: Board> Module<B> {
     /// `module/spin.rs`); to move the board's world on along its own timeline, or to read it, use
     /// [`Module::board_timeline`].
     pub fn board_mut(&mut self) -> &mut B {
-        self.spin.touch();
-        &mut self.board
+        self.board.changed()
     }
 
     /// The board, mutably, only to move its world on along its own timeline — the changes the board
     /// announces as the end of its quiet windows ([`crate::hal::StepDriver::quiet`]), as a simulator does
     /// at its polls — or to take readings. Any other change goes through [`Module::board_mut`].
     pub fn board_timeline(&mut self) -> &mut B {
-        &mut self.board
+        self.board.timeline()
     }
 
     /// The firmware's RAM state.
@@ -593,7 +598,6 @@ impl<B: Board> Module<B> {
         self.st.unreported_steps = 0;
         self.st.last_drive = Some(unchanged);
         self.st.board_time = now;
-        self.spin.touch();
         self.board.update(now, &state);
     }
 
@@ -609,7 +613,8 @@ impl<B: Board> Module<B> {
         if self.st.board_time < now {
             if let Some(state) = self.st.last_drive {
                 self.st.board_time = now;
-                self.board.update(now, &state);
+                // The same state again, only to bring the board's clock on: no change (`module/seam.rs`).
+                self.board.timeline().update(now, &state);
             }
         }
     }

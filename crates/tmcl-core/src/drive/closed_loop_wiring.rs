@@ -2,6 +2,7 @@
 //! closed-loop parameters read (TMCM-1310 manual §3.4; the TMCM-1311 sibling's AP 14–29, 111–138, 230–237).
 
 use super::closed_loop::{self, status, FieldCommand, Init, LoopInput, LoopParams, ScaleParams, INIT_PHASE};
+use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
 use crate::module::{error_flags, flags, Module};

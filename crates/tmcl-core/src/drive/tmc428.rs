@@ -181,14 +181,14 @@ impl<B: Board> Module<B> {
 
     fn read_ap(&mut self, setting: Option<Setting>, role: Option<Role>) -> u32 {
         match self.ap_number(setting, role) {
-            Some(n) => self.get_axis(n).unwrap_or(0) as u32,
+            Some(n) => self.read_axis(n, None).unwrap_or(0) as u32,
             None => 0,
         }
     }
 
     fn write_ap(&mut self, setting: Option<Setting>, role: Option<Role>, v: i32) -> Result<(), Status> {
         match self.ap_number(setting, role) {
-            Some(n) => self.set_axis(n, v, self.st.now),
+            Some(n) => self.write_axis(n, v, self.st.now),
             None => Ok(()),
         }
     }

@@ -4,6 +4,7 @@
 
 use super::coolstep::{CoolStepParams, Regime};
 use super::{encoder, stall};
+use crate::hal::prelude::*;
 use crate::hal::{Board, DriverSettings};
 use crate::model::{Role, Setting};
 use crate::module::{error_flags, flags, EncoderBase, Module};
@@ -18,7 +19,6 @@ impl<B: Board> Module<B> {
             high_range: self.ap(Setting::CurrentRange) == Some(0),
             ssi_encoder: self.ssi_selected(),
         };
-        self.spin.touch();
         self.board.configure(&settings);
     }
 

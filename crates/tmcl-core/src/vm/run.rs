@@ -1,6 +1,7 @@
 //! Running programs: the step, the waits, the interrupts, and the control commands 128–135.
 
 use super::{Context, RunState, Wait, INSTRUCTION_TIME, MAX_VECTORS, NO_VECTOR, STACK_DEPTH, WAIT_TICK};
+use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::{Setting, Source};
 use crate::module::{flags, Module, Origin, Registers};
@@ -394,6 +395,7 @@ impl<B: Board> Module<B> {
     /// download of it would (for tools: `tmcl run`, the debugger). Refused like command 132 when the
     /// program is protected against overwriting.
     pub fn load_program(&mut self, instructions: &[Instruction]) -> Result<(), Status> {
+        self.board.input(); // a library call from outside (`module/seam.rs`)
         if self.protection() & 2 != 0 {
             return Err(Status::EepromLocked);
         }
@@ -406,7 +408,6 @@ impl<B: Board> Module<B> {
         for address in 0..memory {
             let i = instructions.get(address).copied().unwrap_or(super::EMPTY);
             if self.program.cells[address] != i {
-                self.spin.touch(); // an EEPROM write
                 persist::store_program_cell(&mut self.board, self.spec, address, &i)?;
                 self.program.set(address, i, self.knows(i));
             }
@@ -416,7 +417,7 @@ impl<B: Board> Module<B> {
 
     /// Mutable access to the program machine (debuggers: breakpoints).
     pub fn vm_mut(&mut self) -> &mut super::Vm {
-        self.spin.touch(); // (a spinning program is looked at afresh, see `module/spin.rs`)
+        self.board.input(); // a change from outside (`module/seam.rs`)
         &mut self.vm
     }
 
@@ -486,7 +487,6 @@ impl<B: Board> Module<B> {
         }
         // Only what a program of this model can execute is stored; anything else is refused and not stored.
         self.decode(instruction)?;
-        self.spin.touch(); // an EEPROM write
         persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
         self.program.set(usize::from(address), instruction, true); // decoded for this model above
         self.vm.download = Some(address + 1); // at most program_memory ≤ 2048
@@ -523,7 +523,6 @@ impl<B: Board> Module<B> {
     /// (§5.1).
     pub(crate) fn protection_changed(&mut self, old: i32, new: i32) -> Result<(), Status> {
         if old & 1 != 0 && new & 1 == 0 {
-            self.spin.touch(); // an EEPROM write
             persist::erase_program(&mut self.board, self.spec)?;
             self.program.clear();
             self.reset_application();
