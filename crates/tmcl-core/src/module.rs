@@ -1,5 +1,5 @@
 //! The module: a board, a model and the firmware state, fed with bytes and time (the entry points for
-//! bytes and time are in [`crate::iface::host`]).
+//! bytes and time are in `module/host.rs`).
 //!
 //! [`Module::receive_on`] takes bytes from one of the model's host interfaces with the time they arrived
 //! ([`Module::receive`] is the primary interface), [`Module::request`] takes a whole mailbox message;
@@ -40,53 +40,23 @@ use tmcl_model::capacity::{
 };
 use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
-pub use crate::iface::host::MAILBOX_LEN;
+pub use crate::drive::error_flags;
+pub use crate::iface::MAILBOX_LEN;
+pub use crate::vm::{flags, Registers};
 
 mod advance;
+mod ascii;
+mod closed_loop;
+mod drive;
+mod exec;
+mod host;
+mod program;
+mod sac;
 mod seam;
 mod spans;
 mod spin;
 
 use seam::Seam;
-
-/// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
-pub mod flags {
-    /// Result of the last comparison or accumulator load was zero / equal.
-    pub const ZERO: u16 = 1 << 0;
-    /// Greater.
-    pub const GREATER: u16 = 1 << 1;
-    /// Lower.
-    pub const LOWER: u16 = 1 << 2;
-    /// ETO: timeout.
-    pub const TIMEOUT: u16 = 1 << 8;
-    /// EAL: external alarm.
-    pub const ALARM: u16 = 1 << 9;
-    /// EDV: deviation.
-    pub const DEVIATION: u16 = 1 << 10;
-    /// EPO: position error.
-    pub const POSITION: u16 = 1 << 11;
-    /// ESD: shutdown.
-    pub const SHUTDOWN: u16 = 1 << 12;
-}
-
-/// The TMCL machine's registers (manual §3.6: accumulator, X register, flags).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Registers {
-    /// The accumulator.
-    pub accumulator: i32,
-    /// The X register.
-    pub x: i32,
-    /// Flags, see [`flags`].
-    pub flags: u16,
-}
-
-/// AP 207 bits (Table 15): 1 = stallGuard error, 2 = deviation error.
-pub mod error_flags {
-    /// stallGuard2 stopped the motor.
-    pub const STALL: u8 = 1;
-    /// The encoder deviation check stopped the motor.
-    pub const DEVIATION: u8 = 2;
-}
 
 /// Command 138's request (§3.7.37).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

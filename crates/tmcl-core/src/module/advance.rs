@@ -40,8 +40,7 @@ use crate::model::Setting;
 use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Mode, RampParams, TICK};
 use crate::time::{Duration, Instant};
-use crate::vm::run::BUDGET;
-use crate::vm::RunState;
+use crate::vm::{RunState, BUDGET};
 use tmcl_wire::{Opcode, Status};
 
 /// One microsecond.

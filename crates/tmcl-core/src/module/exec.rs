@@ -17,14 +17,15 @@
 //!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.5) and work on the
 //!   module's registers.
 
+use super::{Module, Origin, Outcome, RNG_SEED};
 use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::{AppStatusReply, Driver, PortKind, Setting};
-use crate::module::{flags, Module, Origin, Outcome, Registers, RNG_SEED};
 use crate::motion::reference::Action;
 use crate::motion::{Mode, SearchMode};
 use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
+use crate::vm::{flags, Registers};
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
     CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
@@ -533,7 +534,7 @@ impl<B: Board> Module<B> {
     pub(crate) fn load_accumulator(&mut self, origin: Origin, v: i32) {
         let regs = self.regs(origin);
         regs.accumulator = v;
-        crate::vm::run::set_compare(regs, v.cmp(&0));
+        regs.set_compare(v.cmp(&0));
     }
 
     fn axis_desc(

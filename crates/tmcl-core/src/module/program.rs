@@ -1,25 +1,26 @@
-//! Running programs: the step, the waits, the interrupts, and the control commands 128–135.
+//! Running programs on the module: the step, the waits, the interrupts, and the control commands 128–135
+//! (the program machine's state is [`crate::vm`]'s).
 
-use super::{Context, RunState, Wait, INSTRUCTION_TIME, MAX_VECTORS, NO_VECTOR, STACK_DEPTH, WAIT_TICK};
+use super::{Module, Origin};
 use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::{Setting, Source};
-use crate::module::{flags, Module, Origin, Registers};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
+use crate::vm::{
+    flags, Context, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM, MAX_VECTORS,
+    NO_VECTOR, STACK_DEPTH, WAIT_TICK,
+};
 use tmcl_wire::{Command, Condition, Instruction, Status, WaitCondition, FRAME_LEN};
-
-/// How many instructions one call may run at most, so that a poll always returns.
-pub const BUDGET: u32 = 1 << 20;
 
 impl<B: Board> Module<B> {
     /// The program machine.
-    pub fn vm(&self) -> &super::Vm {
+    pub fn vm(&self) -> &Vm {
         &self.vm
     }
 
     /// Program memory.
-    pub fn program(&self) -> &super::Program {
+    pub fn program(&self) -> &Program {
         &self.program
     }
 
@@ -27,10 +28,10 @@ impl<B: Board> Module<B> {
     pub(crate) fn read_program(&mut self) {
         let (spec, program) = (self.spec, &mut self.program);
         persist::load_program(&mut self.board, spec, program.end(), |address, i| {
-            if i == super::EMPTY && program.get(address) == Some(&super::EMPTY) {
+            if i == EMPTY && program.get(address) == Some(&EMPTY) {
                 return; // already so (a fresh module, or an empty cell before and after a restart)
             }
-            let known = i != super::EMPTY && spec.commands.contains(i.opcode);
+            let known = i != EMPTY && spec.commands.contains(i.opcode);
             program.set(address, i, known);
         });
     }
@@ -106,7 +107,7 @@ impl<B: Board> Module<B> {
             // §3.7.17 COMP: flags from A − operand.
             Command::Comp { operand } => {
                 let a = self.st.regs.accumulator;
-                set_compare(&mut self.st.regs, a.cmp(&operand));
+                self.st.regs.set_compare(a.cmp(&operand));
             }
             // §3.7.18 JC.
             Command::Jc { condition, address } => {
@@ -182,7 +183,7 @@ impl<B: Board> Module<B> {
                 return;
             }
             other => {
-                if let Ok(crate::module::Outcome::Value(v)) = self.exec(other, now, Origin::Program) {
+                if let Ok(super::Outcome::Value(v)) = self.exec(other, now, Origin::Program) {
                     // §3.6.5: in standalone mode a command that reads a value loads the accumulator
                     // (FW V1.35: RFS STATUS too, setting the flags).
                     if other.reads_value() {
@@ -404,9 +405,9 @@ impl<B: Board> Module<B> {
         }
         self.reset_application();
         self.vm.state = RunState::Stopped;
-        let memory = usize::from(self.spec.program_memory).min(super::MAX_PROGRAM);
+        let memory = usize::from(self.spec.program_memory).min(MAX_PROGRAM);
         for address in 0..memory {
-            let i = instructions.get(address).copied().unwrap_or(super::EMPTY);
+            let i = instructions.get(address).copied().unwrap_or(EMPTY);
             if self.program.cells[address] != i {
                 persist::store_program_cell(&mut self.board, self.spec, address, &i)?;
                 self.program.set(address, i, self.knows(i));
@@ -416,7 +417,7 @@ impl<B: Board> Module<B> {
     }
 
     /// Mutable access to the program machine (debuggers: breakpoints).
-    pub fn vm_mut(&mut self) -> &mut super::Vm {
+    pub fn vm_mut(&mut self) -> &mut Vm {
         self.board.input(); // a change from outside (`module/seam.rs`)
         &mut self.vm
     }
@@ -544,14 +545,4 @@ impl<B: Board> Module<B> {
 /// A jump target from a value: out-of-range targets land past memory, which stops the program.
 fn jump(address: i32) -> u16 {
     u16::try_from(address).unwrap_or(u16::MAX)
-}
-
-/// Sets zero/greater/lower from a comparison.
-pub(crate) fn set_compare(regs: &mut Registers, ord: core::cmp::Ordering) {
-    regs.flags &= !(flags::ZERO | flags::GREATER | flags::LOWER);
-    regs.flags |= match ord {
-        core::cmp::Ordering::Equal => flags::ZERO,
-        core::cmp::Ordering::Greater => flags::GREATER,
-        core::cmp::Ordering::Less => flags::LOWER,
-    };
 }
