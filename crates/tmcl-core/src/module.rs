@@ -50,6 +50,7 @@ mod closed_loop;
 mod drive;
 mod exec;
 mod host;
+mod params;
 mod program;
 mod sac;
 mod seam;
@@ -330,6 +331,18 @@ impl<B: Board> Module<B> {
     /// The module (primary) address: GP 66, or 1 for a model without one.
     pub fn address(&self) -> u8 {
         self.gp(Setting::SerialAddress).map_or(1, |a| a as u8)
+    }
+
+    /// Sets the module (primary) address by its meaning, the model's serial address setting (GP 66 on the
+    /// PD28-1021, §5.1), as SGP of it would: stored in the EEPROM at once, in force for the next frame. A
+    /// model without one is always module 1: 1 is accepted, another address is status 6 (not available);
+    /// an address outside the setting's range is status 4.
+    pub fn set_address(&mut self, address: u8, now: Instant) -> Result<(), Status> {
+        let Some(i) = self.spec.global.setting(Setting::SerialAddress) else {
+            return if address == 1 { Ok(()) } else { Err(Status::NotAvailable) };
+        };
+        let number = self.spec.global.params[i].number;
+        self.set_global(number, 0, i32::from(address), now)
     }
 
     /// The host address replies go to: GP 76, or 2 for a model without one (manual §3.2's examples).

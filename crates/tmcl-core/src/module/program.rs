@@ -68,7 +68,7 @@ impl<B: Board> Module<B> {
             }
             if self.vm.has_breakpoint(self.vm.pc) && !core::mem::take(&mut self.vm.at_breakpoint) {
                 // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
-                self.vm.state = RunState::Stopped;
+                self.vm.set_state(RunState::Stopped);
                 self.vm.at_breakpoint = true;
                 return false;
             }
@@ -92,14 +92,14 @@ impl<B: Board> Module<B> {
     fn step_instruction(&mut self, now: Instant) {
         let pc = self.vm.pc;
         let Some(&instruction) = self.program.get(usize::from(pc)) else {
-            self.vm.state = RunState::Stopped; // ran off the end of memory
+            self.vm.set_state(RunState::Stopped); // ran off the end of memory
             return;
         };
         // A command the model lacks ends the program like garbage (checked when the cell was written).
         let decoded = if self.program.is_known(usize::from(pc)) { Command::decode(instruction).ok() } else { None };
         let Some(command) = decoded else {
             // Opcode 0 (empty memory), garbage, or a command the model lacks: the program ends.
-            self.vm.state = RunState::Stopped;
+            self.vm.set_state(RunState::Stopped);
             return;
         };
         let mut next = pc.wrapping_add(1);
@@ -159,7 +159,7 @@ impl<B: Board> Module<B> {
             }
             // §3.7.23 STOP.
             Command::Stop => {
-                self.vm.state = RunState::Stopped;
+                self.vm.set_state(RunState::Stopped);
                 return;
             }
             // §3.7.34 VECT.
@@ -179,7 +179,7 @@ impl<B: Board> Module<B> {
             // Control commands and 242 are direct-mode only: in memory they end the program.
             c if instruction.opcode.is_control() => {
                 let _ = c;
-                self.vm.state = RunState::Stopped;
+                self.vm.set_state(RunState::Stopped);
                 return;
             }
             other => {
@@ -376,7 +376,7 @@ impl<B: Board> Module<B> {
     /// 128: stop the program.
     pub(crate) fn stop_application(&mut self) {
         if self.vm.state == RunState::Running {
-            self.vm.state = RunState::Stopped;
+            self.vm.set_state(RunState::Stopped);
         }
     }
 
@@ -387,7 +387,7 @@ impl<B: Board> Module<B> {
             self.vm.pc = a;
             self.vm.wait = None;
         }
-        self.vm.state = RunState::Running;
+        self.vm.set_state(RunState::Running);
         self.vm.time = self.vm.time.max(now);
         Ok(())
     }
@@ -404,7 +404,7 @@ impl<B: Board> Module<B> {
             return Err(Status::InvalidValue);
         }
         self.reset_application();
-        self.vm.state = RunState::Stopped;
+        self.vm.set_state(RunState::Stopped);
         let memory = usize::from(self.spec.program_memory).min(MAX_PROGRAM);
         for address in 0..memory {
             let i = instructions.get(address).copied().unwrap_or(EMPTY);
@@ -424,7 +424,7 @@ impl<B: Board> Module<B> {
 
     /// 130: execute one instruction.
     pub(crate) fn step_application(&mut self, now: Instant) {
-        self.vm.state = RunState::Running;
+        self.vm.set_state(RunState::Running);
         self.vm.time = self.vm.time.max(now);
         let mut budget = 1;
         let limit = self.vm.time + INSTRUCTION_TIME;
@@ -441,13 +441,13 @@ impl<B: Board> Module<B> {
             self.run_program(limit, &mut budget);
         }
         if self.vm.state == RunState::Running {
-            self.vm.state = RunState::Stepped;
+            self.vm.set_state(RunState::Stepped);
         }
     }
 
     /// 131: stop, PC = 0, stack empty, A = X = 0, flags cleared.
     pub(crate) fn reset_application(&mut self) {
-        self.vm.state = RunState::Reset;
+        self.vm.set_state(RunState::Reset);
         self.vm.pc = 0;
         self.vm.sp = 0;
         self.vm.wait = None;
@@ -527,7 +527,7 @@ impl<B: Board> Module<B> {
             persist::erase_program(&mut self.board, self.spec)?;
             self.program.clear();
             self.reset_application();
-            self.vm.state = RunState::Stopped;
+            self.vm.set_state(RunState::Stopped);
         }
         Ok(())
     }
@@ -536,7 +536,7 @@ impl<B: Board> Module<B> {
     pub(crate) fn auto_start(&mut self, now: Instant) {
         if self.gp_flag(Setting::AutoStart) && !self.program.is_empty() {
             self.vm.pc = 0;
-            self.vm.state = RunState::Running;
+            self.vm.set_state(RunState::Running);
             self.vm.time = now;
         }
     }

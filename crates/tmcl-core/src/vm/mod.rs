@@ -219,7 +219,7 @@ pub struct Context {
 /// The program machine's state.
 #[derive(Debug, Clone)]
 pub struct Vm {
-    /// Run state.
+    /// Run state: read it here, change it only through [`Vm::set_state`].
     pub state: RunState,
     /// Program counter: the address of the next instruction (GP 130).
     pub pc: u16,
@@ -280,6 +280,13 @@ impl Default for Vm {
 }
 
 impl Vm {
+    /// The one place the run state changes (GP 128; command 128–131, STOP, an instruction that does not
+    /// decode, a breakpoint, auto start): every transition of the program machine passes here.
+    #[inline]
+    pub(crate) fn set_state(&mut self, to: RunState) {
+        self.state = to;
+    }
+
     /// Whether instructions execute (running, not waiting).
     pub fn is_running(&self) -> bool {
         self.state == RunState::Running
