@@ -26,7 +26,7 @@ use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
 use tmcl_ethercat::{AlStatus, Slave};
 use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
-use tmcl_wire::{Command, Frame, Instruction, Reply, ReplyFrame, Request};
+use tmcl_wire::{Frame, Instruction, Reply, ReplyFrame, Request};
 
 /// Longest sleep without a deadline or a byte. A signal ends a sleep at once (`ppoll` returns EINTR and
 /// the shutdown flag is looked at), so this only paces the pty's exclusive-mode check; a moving module
@@ -208,9 +208,7 @@ fn serve(args: ServeArgs, json: bool) -> Result<(), CliError> {
         module.set_exact_ticks(args.exact_ticks);
         if let Some(address) = address {
             if fresh && module.address() != address {
-                module
-                    .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
-                    .map_err(|s| CliError::Usage(format!("address {address}: {s}")))?;
+                module.set_address(address, clock()).map_err(|s| CliError::Usage(format!("address {address}: {s}")))?;
             } else if module.address() != address {
                 eprintln!(
                     "tmcl serve: {name}: keeping the address {} stored in its EEPROM (a start address applies to a new EEPROM)",
