@@ -1,14 +1,11 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
 mod asm;
-mod bus;
 mod debug;
 mod error;
-mod ethercat;
 mod host;
 mod names;
 mod program;
-mod pty;
 mod run;
 mod serve;
 mod sim;
