@@ -208,7 +208,7 @@ fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, progress: &mut 
     let end = Instant::ZERO + duration;
     let mut t = Instant::ZERO;
     loop {
-        // One poll runs at most `tmcl_core::vm::run::BUDGET` instructions (so that a poll always returns);
+        // One poll runs at most `tmcl_core::vm::BUDGET` instructions (so that a poll always returns);
         // a program that runs without waiting gets further in each poll at the same time until it has
         // caught up, which its deadline says (it is then still `t` or before).
         // (A poll that executed nothing is the last: whatever its deadline says, no further poll at `t`
