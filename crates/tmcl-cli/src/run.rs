@@ -1,46 +1,18 @@
 //! `tmcl run`: assemble a program, load it into a simulated module and run it in simulated time.
 //!
-//! The module never reads a clock: [`Module::poll`] is told the time and answers with its
-//! next deadline, so the run jumps from deadline to deadline and finishes far faster than real time, with
-//! the same result every time.
-//!
-//! With a trace or a plot, the run polls at every deadline (each motion tick while the motor moves, each
-//! instruction while the program computes, the next timer or wait otherwise) and at every sample time,
-//! so every event is seen at the instruction that causes it. When no instruction can run before the next
-//! sample (the program is stopped or in a WAIT TICKS, and no interrupt can be entered), it skips the
-//! motion ticks in between. It records a row at each sample and at each event:
-//! - **interrupt N**: the program enters the handler of interrupt N. Every address a VECT names gets a
-//!   breakpoint, so the run stops exactly there, notes the event and goes on at once;
-//! - **stop** / **end**: the program stopped at a STOP, or at a cell it cannot execute;
-//! - **outN=V**: output N changed;
-//! - **target=N**: a new target position (MVP, SAP 0): the row still shows where the motor stands,
-//!   so a program that waits for each position shows each arrival.
-//!
-//! Without a trace or a plot, it polls only where the simulated world changes by itself and at the end
-//! (every second with a progress bar): the core catches up on everything in between, with the same
-//! result however often it is polled.
-//!
-//! Between events the module takes the motion ticks in closed form (`tmcl_core::module`'s spans): an
-//! hour of the manual's programs runs in milliseconds. `--exact-ticks` ticks them one by one instead,
-//! the reference the spans are checked against; both give byte-identical traces.
+//! The argument parsing and the printing; the run itself, the trace and the plot are the `tmcl-run`
+//! library's ([`tmcl_run::Simulation`], [`tmcl_run::Csv`], `tmcl_run::plot`), which documents how a run
+//! steps through simulated time and when it records a row.
 
 use crate::error::{CliError, EXIT_CODES};
-use crate::sim::plot;
-use crate::sim::trace::Trace;
-use crate::sim::{SimOptions, Source};
+use crate::sim::SimOptions;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::collections::BTreeSet;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
-use std::time::Instant as WallInstant;
-use tmcl_core::model::GLOBAL_INTERRUPTS;
-use tmcl_core::motion::{Mode, TICK};
-use tmcl_core::vm::{RunState, MAX_VECTORS};
-use tmcl_core::{Duration, Instant, Module};
-use tmcl_sim::SimBoard;
-use tmcl_wire::{Command, WaitCondition};
+use tmcl_core::{Duration, Instant};
+use tmcl_run::{Csv, Options, RunError, Simulation, Sink, Tee, Trace};
 
 /// The trace columns with their units, for `tmcl run --help`: one line per column (continuation lines
 /// indented further), in the order of the CSV header; `--drive:` marks the columns of `--drive`, and
@@ -79,9 +51,6 @@ for each input and output that changes (IN0.., OUT0..) and one for each kind of 
 --drive also the load value, the current scale (closed loop: the current scaler and the position error),
 the encoder minus the step position, and the coil energy, each on its own axis with its unit.
 The run is deterministic: the same program and options give byte-identical traces.";
-
-/// Without a trace, how far one poll may jump at most while a progress bar is shown.
-const COARSE_STEP: Duration = Duration::from_millis(1000);
 
 /// Options of `tmcl run`.
 #[derive(Debug, Args)]
@@ -147,60 +116,54 @@ struct Summary {
     wall: std::time::Duration,
     executed: u64,
     pc: u16,
-    state: RunState,
+    state: &'static str,
     rows: u64,
 }
 
 fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
-    let source = Source::load(&args.file)?;
-    let mut module = args.sim.build(&source)?;
-    module.set_exact_ticks(args.exact_ticks);
-    let bar = progress_bar(args.duration);
-    let started = WallInstant::now();
-    module
-        .execute(Command::RunApplication { from: Some(0) }, Instant::ZERO)
-        .map_err(|status| CliError::Usage(format!("the module refused to start the program: status {status}")))?;
-    let rows = if args.trace.is_none() && args.plot.is_none() {
-        run_coarse(&mut module, args.duration, &bar);
-        0
-    } else {
-        let csv = match &args.trace {
-            Some(path) => Some(BufWriter::new(
-                File::create(path).map_err(|e| CliError::Io(format!("cannot create {}: {e}", path.display())))?,
-            )),
-            None => None,
-        };
-        let mut variables: BTreeSet<u8> = source.user_variables();
-        variables.extend(args.sim.set.iter().filter_map(|s| match *s {
-            crate::sim::Setting::Global { number, bank: crate::sim::USER_BANK, .. } => Some(number),
-            _ => None,
-        }));
-        let mut trace = Trace::new(
-            csv,
-            args.plot.is_some(),
-            variables.into_iter().collect(),
-            args.drive,
-            module.spec().axis.has(tmcl_core::model::Setting::ClosedLoop),
-            module.spec().kinematics != tmcl_core::model::Kinematics::Pps,
-        )?;
-        let run = Traced { every: Duration::from_millis(args.every), end: Instant::ZERO + args.duration };
-        run.run(&mut module, &source, &mut trace, &bar)?;
-        trace.finish()?;
-        if let Some(path) = &args.plot {
-            let title = format!("{} on a simulated {}", args.file.display(), module.spec().name);
-            plot::draw(path, &title, &trace.samples, &trace.events, &trace.levels, args.drive)
-                .map_err(|e| CliError::Io(format!("cannot draw {}: {e}", path.display())))?;
-        }
-        trace.rows
+    let source = tmcl_run::Source::load(&args.file)?;
+    let setup = args.sim.setup()?;
+    let mut simulation = Simulation::new(&source, &setup).map_err(crate::sim::setup_error)?;
+    let options = Options {
+        duration: args.duration,
+        every: Duration::from_millis(args.every),
+        drive: args.drive,
+        exact_ticks: args.exact_ticks,
     };
+    let bar = progress_bar(args.duration);
+    let mut report = |t: Instant| show_progress(&bar, t);
+    let progress: Option<&mut dyn FnMut(Instant)> = if bar.is_hidden() { None } else { Some(&mut report) };
+    let csv = match &args.trace {
+        Some(path) => Some(Csv::new(BufWriter::new(
+            File::create(path).map_err(|e| CliError::Io(format!("cannot create {}: {e}", path.display())))?,
+        ))),
+        None => None,
+    };
+    let mut trace = args.plot.as_ref().map(|_| Trace::new());
+    let result = match (csv, trace.as_mut()) {
+        (None, None) => simulation.run(&options, None, progress),
+        (Some(mut csv), None) => simulation.run(&options, Some(&mut csv as &mut dyn Sink), progress),
+        (None, Some(trace)) => simulation.run(&options, Some(trace as &mut dyn Sink), progress),
+        (Some(csv), Some(trace)) => simulation.run(&options, Some(&mut Tee(csv, trace) as &mut dyn Sink), progress),
+    };
+    let done = result.map_err(|e| match e {
+        RunError::Setup(e) => crate::sim::setup_error(e),
+        RunError::Sink(e) => CliError::Output(e),
+        other => CliError::Usage(other.to_string()),
+    })?;
+    if let (Some(path), Some(trace)) = (&args.plot, &trace) {
+        let title = format!("{} on a simulated {}", args.file.display(), setup.model.name);
+        tmcl_run::plot::write(trace, &title, path)
+            .map_err(|e| CliError::Io(format!("cannot draw {}: {e}", path.display())))?;
+    }
     bar.finish_and_clear();
     let summary = Summary {
         simulated: args.duration,
-        wall: started.elapsed(),
-        executed: module.vm().executed(),
-        pc: module.vm().pc,
-        state: module.vm().state,
-        rows,
+        wall: std::time::Duration::from_secs_f64(done.wall_s),
+        executed: done.executed,
+        pc: done.pc,
+        state: done.state,
+        rows: done.rows,
     };
     use std::io::Write;
     writeln!(std::io::stdout(), "{}", summary.line(json))?;
@@ -212,7 +175,7 @@ impl Summary {
         let simulated = self.simulated.micros() as f64 / 1e6;
         let wall = self.wall.as_secs_f64();
         let ratio = simulated / wall.max(1e-9);
-        let state = state_name(self.state);
+        let state = self.state;
         if json {
             format!(
                 "{{\"simulated_s\":{simulated},\"wall_s\":{wall:.6},\"ratio\":{ratio:.0},\"executed\":{},\"pc\":{},\
@@ -229,15 +192,7 @@ impl Summary {
     }
 }
 
-/// The program's run state in words.
-pub(crate) fn state_name(state: RunState) -> &'static str {
-    match state {
-        RunState::Stopped => "stopped",
-        RunState::Running => "running",
-        RunState::Stepped => "stepped",
-        RunState::Reset => "reset",
-    }
-}
+pub(crate) use tmcl_run::state_name;
 
 /// A progress bar on stderr if it is a terminal, hidden otherwise (tests, pipes).
 fn progress_bar(duration: Duration) -> ProgressBar {
@@ -255,177 +210,6 @@ fn progress_bar(duration: Duration) -> ProgressBar {
 fn show_progress(bar: &ProgressBar, now: Instant) {
     bar.set_position(now.millis());
     bar.set_message(format!("{} s", now.millis() / 1000));
-}
-
-/// Runs without recording: polls only where the world changes by itself (an input timeline, a fault
-/// window) and at the end, and every [`COARSE_STEP`] when a progress bar is shown. The module catches up
-/// on every tick and instruction up to the time it is polled at, with the same result however often
-/// that is; the board's world moves on by itself only when polled, so its changes are stepped on exactly.
-fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, bar: &ProgressBar) {
-    let end = Instant::ZERO + duration;
-    let mut t = Instant::ZERO;
-    let progress = !bar.is_hidden();
-    loop {
-        // One poll runs at most `tmcl_core::vm::run::BUDGET` instructions (so that a poll always returns);
-        // a program that runs without waiting gets further in each poll at the same time until it has
-        // caught up, which its deadline says (it is then still `t` or before).
-        // (A poll that executed nothing is the last: whatever its deadline says, no further poll at `t`
-        // would get further.)
-        loop {
-            let executed = module.vm().executed();
-            let behind = crate::sim::poll(module, t).is_some_and(|d| d <= t);
-            if !behind || module.vm().executed() == executed {
-                break;
-            }
-        }
-        if progress {
-            show_progress(bar, t);
-        }
-        if t >= end {
-            break;
-        }
-        let world = module.board().next_event().filter(|e| *e > t).unwrap_or(end);
-        t = if progress { (t + COARSE_STEP).min(end).min(world) } else { end.min(world) };
-    }
-}
-
-/// Whether the program can execute no instruction before `until`, so that the module may be polled
-/// straight at `until` without missing or delaying an event: no interrupt can be entered (interrupts
-/// off, or none enabled with a vector), and the program is stopped or in a WAIT TICKS that lasts.
-fn quiet_until(module: &Module<SimBoard>, until: Instant) -> bool {
-    let vm = module.vm();
-    if vm.interrupt_enabled(GLOBAL_INTERRUPTS)
-        && (0..MAX_VECTORS as u8).any(|n| vm.interrupt_enabled(n) && vm.vector(n).is_some())
-    {
-        return false;
-    }
-    match vm.wait {
-        _ if vm.state != RunState::Running => true,
-        Some(w) if w.condition == WaitCondition::Ticks => w.until.is_some_and(|u| u >= until),
-        _ => false,
-    }
-}
-
-/// The first motion tick after `t` (ticks are [`TICK`] apart from time 0).
-fn next_tick(t: Instant) -> Instant {
-    Instant::from_micros((t.micros() / TICK.micros() + 1) * TICK.micros())
-}
-
-/// A recorded run.
-struct Traced {
-    every: Duration,
-    end: Instant,
-}
-
-/// What the last poll left behind, to see what changed.
-#[derive(Clone, Copy)]
-struct Watch {
-    outputs: u8,
-    running: bool,
-    target: i32,
-}
-
-impl Watch {
-    fn of(module: &Module<SimBoard>) -> Watch {
-        Watch {
-            outputs: module.board().outputs(),
-            running: module.vm().is_running(),
-            target: module.ramp().target_position,
-        }
-    }
-}
-
-impl Traced {
-    fn run(
-        &self,
-        module: &mut Module<SimBoard>,
-        source: &Source,
-        trace: &mut Trace<BufWriter<File>>,
-        bar: &ProgressBar,
-    ) -> Result<(), CliError> {
-        let handlers = source.handler_addresses();
-        for &address in &handlers {
-            module.vm_mut().set_breakpoint(address, true);
-        }
-        let mut watch = Watch::of(module);
-        let mut events: Vec<String> = Vec::new();
-        let mut t = Instant::ZERO;
-        let mut next_sample = Instant::ZERO;
-        let mut stuck = 0u32;
-        let mut last_executed = module.vm().executed();
-        loop {
-            let deadline = crate::sim::poll(module, t);
-            trace.watch_io(module, t);
-            events.clear();
-            if module.vm().at_breakpoint() && module.vm().state == RunState::Stopped {
-                // A handler's first instruction: name the interrupt(s) whose vector points here, go on.
-                let pc = module.vm().pc;
-                if module.vm().in_handler() {
-                    let vm = module.vm();
-                    events.extend(
-                        (0..MAX_VECTORS as u8).filter(|&n| vm.vector(n) == Some(pc)).map(|n| format!("interrupt {n}")),
-                    );
-                }
-                module
-                    .execute(Command::RunApplication { from: None }, t)
-                    .map_err(|status| CliError::Usage(format!("cannot resume the program: status {status}")))?;
-                watch.running = true;
-                if !events.is_empty() {
-                    trace.record(module, t, &events)?;
-                }
-                continue; // the program goes on at the same time
-            }
-            self.changes(module, &mut watch, &mut events);
-            let sample = t == next_sample;
-            if sample || !events.is_empty() {
-                trace.record(module, t, &events)?;
-            }
-            if sample {
-                next_sample += self.every;
-                if next_sample.millis() % 1000 < self.every.millis() {
-                    show_progress(bar, t);
-                }
-            }
-            if t >= self.end {
-                return Ok(());
-            }
-            let mut next = deadline.unwrap_or(self.end).max(t).min(next_sample).min(self.end);
-            if next < next_sample && quiet_until(module, next_sample) {
-                next = next_sample.min(self.end); // nothing can happen but motion: skip its ticks
-            }
-            // The world's next change (an input timeline, in `deadline` too): stepped on exactly, even
-            // when the skip above would pass it.
-            if let Some(e) = module.board().next_event().filter(|e| *e > t) {
-                next = next.min(e);
-            }
-            // A deadline that is already due and brings nothing new (a timer that falls between motion
-            // ticks is only sampled at the next tick): go on at the next tick.
-            let executed = module.vm().executed();
-            stuck = if next == t && executed == last_executed { stuck + 1 } else { 0 };
-            last_executed = executed;
-            t = if stuck > 1 { next_tick(t).min(next_sample).min(self.end) } else { next };
-        }
-    }
-
-    /// Events since the last poll: a new target position, output changes, the end of the program.
-    fn changes(&self, module: &Module<SimBoard>, watch: &mut Watch, events: &mut Vec<String>) {
-        let now = Watch::of(module);
-        if now.target != watch.target && module.ramp().mode == Mode::Position {
-            events.push(format!("target={}", now.target));
-        }
-        let changed = now.outputs ^ watch.outputs;
-        for n in 0..8 {
-            if changed >> n & 1 == 1 {
-                events.push(format!("out{n}={}", now.outputs >> n & 1));
-            }
-        }
-        if watch.running && !now.running {
-            let vm = module.vm();
-            let at_stop = module.program().get(usize::from(vm.pc)).is_some_and(|i| i.opcode == tmcl_wire::Opcode::Stop);
-            events.push(if at_stop { "stop" } else { "end" }.to_string());
-        }
-        *watch = now;
-    }
 }
 
 #[cfg(test)]

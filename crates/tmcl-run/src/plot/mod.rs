@@ -24,7 +24,7 @@
 mod axis;
 mod lanes;
 
-use super::trace::{Event, Levels, Sample};
+use crate::trace::{Levels, Quantity, Trace};
 use axis::{text_width, Scale};
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
 use plotters::coord::types::RangedCoordf64;
@@ -65,7 +65,7 @@ const SLIP: RGBColor = RGBColor(60, 60, 60);
 const ENERGY: RGBColor = RGBColor(190, 120, 0);
 
 /// What went wrong drawing the plot.
-pub(crate) type PlotError = Box<dyn std::error::Error>;
+pub type PlotError = Box<dyn std::error::Error>;
 
 /// A coordinate over a [`Scale`]: its range, mapped as plotters maps an `f64` range, with exactly its
 /// ticks as the key points (grid lines and labels), whatever plotters would have chosen.
@@ -154,16 +154,83 @@ fn max_ticks(height: u32) -> usize {
     (height.saturating_sub(KEY + X_LABELS + 4) / 28).clamp(axis::MIN_TICKS as u32, 10) as usize
 }
 
-/// Draws the recorded run into an SVG file at `path`: `samples`, `events`, and the inputs and outputs
-/// (`levels`); the drive panels if `drive`.
-pub(crate) fn draw(
-    path: &std::path::Path,
-    title: &str,
-    samples: &[Sample],
-    events: &[Event],
-    levels: &[Levels],
-    drive: bool,
-) -> Result<(), PlotError> {
+/// The SVG of a trace, titled `title`: the panels of the columns it has (the drive's if it was recorded
+/// with them), the lanes of its inputs, outputs and events.
+pub fn svg(trace: &Trace, title: &str) -> Result<String, PlotError> {
+    let mut out = String::new();
+    draw(&mut out, title, trace)?;
+    Ok(out)
+}
+
+/// Writes the SVG of a trace ([`svg`]) to `path`.
+pub fn write(trace: &Trace, title: &str, path: &std::path::Path) -> Result<(), PlotError> {
+    std::fs::write(path, svg(trace, title)?)?;
+    Ok(())
+}
+
+/// The samples the panels draw, taken from the trace's columns.
+fn samples(trace: &Trace) -> Vec<Sample> {
+    let column = |q: Quantity| trace.column(q);
+    let at = |c: Option<&[Option<i64>]>, r: usize| c.and_then(|c| c[r]).unwrap_or(0) as i32;
+    let (target, actual, velocity) =
+        (column(Quantity::TargetPosition), column(Quantity::ActualPosition), column(Quantity::Velocity));
+    let drive = column(Quantity::Energy).is_some();
+    let closed_loop = column(Quantity::PositionError).is_some();
+    let (load, scale, encoder, energy) =
+        (column(Quantity::Load), column(Quantity::CurrentScale), column(Quantity::Encoder), column(Quantity::Energy));
+    let cl = Quantity::CLOSED_LOOP.map(column);
+    (0..trace.len())
+        .map(|r| Sample {
+            micros: trace.times[r],
+            target: at(target, r),
+            actual: at(actual, r),
+            velocity: at(velocity, r),
+            drive: drive.then(|| Drive {
+                load: at(load, r),
+                current_scale: at(scale, r),
+                encoder: at(encoder, r),
+                energy: energy.and_then(|e| e[r]).unwrap_or(0) as u64,
+            }),
+            closed_loop: closed_loop.then(|| cl.map(|c| at(c, r))),
+        })
+        .collect()
+}
+
+/// What the drive reports at a sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Drive {
+    load: i32,
+    current_scale: i32,
+    encoder: i32,
+    /// µA²·s.
+    energy: u64,
+}
+
+/// One sample of the panels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Sample {
+    micros: u64,
+    target: i32,
+    actual: i32,
+    velocity: i32,
+    drive: Option<Drive>,
+    /// Virtual position, position error, scaler, status word.
+    closed_loop: Option<[i32; 4]>,
+}
+
+/// One program event of the plot.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct Event {
+    micros: u64,
+    text: String,
+}
+
+fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<(), PlotError> {
+    let samples = &samples(trace)[..];
+    let events: &[Event] =
+        &trace.events.iter().map(|e| Event { micros: e.micros, text: e.event.to_string() }).collect::<Vec<_>>();
+    let levels: &[Levels] = &trace.levels;
+    let drive = trace.column(Quantity::Energy).is_some();
     let end = samples.last().map_or(1, |s| s.micros).max(events.last().map_or(0, |e| e.micros)).max(1);
     let time = Scale::fixed(0.0, seconds(end), false, 12);
     let mut panels = vec![position_panel(samples), velocity_panel(samples)];
@@ -172,7 +239,7 @@ pub(crate) fn draw(
     }
     let lanes = lanes::Lanes::new(events, levels, seconds(end));
     let height = TITLE + panels.iter().map(|p| p.height).sum::<u32>() + lanes.height();
-    let root = SVGBackend::new(path, (WIDTH, height)).into_drawing_area();
+    let root = SVGBackend::with_string(out, (WIDTH, height)).into_drawing_area();
     root.fill(&WHITE)?;
     let (head, mut rest) = root.split_vertically(TITLE);
     let style = TextStyle::from((FONT, 24).into_font()).pos(Pos::new(HPos::Center, VPos::Center));
@@ -204,7 +271,7 @@ fn velocity_panel(samples: &[Sample]) -> Panel {
 
 /// The `--drive` panels: load value, current scale or scaler, encoder − steps or position error, energy.
 fn drive_panels(samples: &[Sample], end: f64) -> Vec<Panel> {
-    let drive = |f: fn(&super::trace::Drive) -> i32| move |s: &Sample| s.drive.as_ref().map_or(0, f);
+    let drive = |f: fn(&Drive) -> i32| move |s: &Sample| s.drive.as_ref().map_or(0, f);
     let closed_loop = samples.iter().any(|s| s.closed_loop.is_some());
     let load = line(
         samples,

@@ -7,8 +7,9 @@
 //! mark are left out ([`super::axis::spread`]).
 
 use super::axis::{spread, text_width, Label, Scale};
+use super::Event;
 use super::{coordinate, seconds, FONT, MARGIN_LEFT, MARGIN_RIGHT, X_DESC, X_LABELS, Y_LABELS};
-use crate::sim::trace::{Event, Levels};
+use crate::trace::Levels;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -238,9 +239,9 @@ mod tests {
                 .map(|&(t, e)| event(t, e))
                 .collect();
         let levels = [
-            Levels { micros: 0, inputs: 0b10, outputs: 0 },
-            Levels { micros: 500, inputs: 0b00, outputs: 0 },
-            Levels { micros: 1000, inputs: 0b00, outputs: 1 },
+            Levels { micros: 0, inputs: 0b10, outputs: 0, switches: 0 },
+            Levels { micros: 500, inputs: 0b00, outputs: 0, switches: 0 },
+            Levels { micros: 1000, inputs: 0b00, outputs: 1, switches: 0 },
         ];
         let lanes = Lanes::new(&events, &levels, 0.004);
         assert_eq!(lanes.names(), ["IN1", "OUT0", "target", "interrupt 0", "stop"]);
@@ -253,8 +254,10 @@ mod tests {
 
     #[test]
     fn a_signal_that_never_changes_gets_no_lane() {
-        let levels =
-            [Levels { micros: 0, inputs: 0b1, outputs: 0b1 }, Levels { micros: 9, inputs: 0b1, outputs: 0b11 }];
+        let levels = [
+            Levels { micros: 0, inputs: 0b1, outputs: 0b1, switches: 0 },
+            Levels { micros: 9, inputs: 0b1, outputs: 0b11, switches: 0 },
+        ];
         let lanes = Lanes::new(&[], &levels, 1.0);
         assert_eq!(lanes.names(), ["OUT1"]);
         assert!(Lanes::new(&[], &levels[..1], 1.0).is_empty());

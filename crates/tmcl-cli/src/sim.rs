@@ -1,0 +1,71 @@
+//! What `tmcl run` and `tmcl debug` share: the options that say which simulated module to build, on top
+//! of the `tmcl-run` library (which builds it, runs it and records the trace).
+
+pub(crate) use tmcl_run::trace;
+pub(crate) use tmcl_run::{parse_number, poll, Setting, Source, USER_BANK};
+
+use crate::error::CliError;
+use clap::Args;
+use std::path::PathBuf;
+use tmcl_core::Module;
+use tmcl_run::{Setup, SetupError, SourceError};
+use tmcl_sim::SimBoard;
+
+/// Options shared by `tmcl run` and `tmcl debug`: which module, its settings, its world.
+#[derive(Debug, Clone, Args)]
+pub struct SimOptions {
+    /// The module to simulate.
+    #[arg(long, value_name = "MODEL", default_value = "pd28-1021")]
+    pub module: String,
+    /// Set a parameter before the program starts: apN=V (axis parameter N of motor 0), gpN=V (global
+    /// parameter N, bank 0) or gpN.B=V (bank B; bank 2 holds the user variables). Repeatable.
+    #[arg(long = "set", value_name = "apN=V|gpN=V|gpN.B=V")]
+    pub set: Vec<Setting>,
+    /// The world around the motor: a TOML world file (motor, axis, switches, loads, inputs over time,
+    /// faults; see docs/world.md). Without it, a free axis.
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
+}
+
+impl SimOptions {
+    /// The module, its settings and its world as the library takes them.
+    pub fn setup(&self) -> Result<Setup, CliError> {
+        let mut setup = Setup::new(&self.module).map_err(setup_error)?;
+        setup.settings = self.set.clone();
+        if let Some(path) = &self.world {
+            let world = tmcl_sim::World::load(path).map_err(|e| CliError::Usage(e.to_string()))?;
+            // Checked against the model here, so that the error names the file.
+            SimBoard::in_memory_for(setup.model)
+                .with_world(world.clone())
+                .map_err(|e| CliError::Usage(format!("{}: {e}", path.display())))?;
+            setup.world = Some(world);
+        }
+        Ok(setup)
+    }
+
+    /// A fresh module at time 0 with the settings applied and the program loaded (not started).
+    pub fn build(&self, source: &Source) -> Result<Module<SimBoard>, CliError> {
+        self.setup()?.build(source, &mut crate::asm::source_line).map_err(setup_error)
+    }
+}
+
+/// A program that cannot be read: assembly errors with their places, or an input error.
+impl From<SourceError> for CliError {
+    fn from(e: SourceError) -> CliError {
+        match e {
+            SourceError::Assembly { name, diagnostics } => CliError::Assembly { file: name, diagnostics },
+            other => CliError::Input(other.to_string()),
+        }
+    }
+}
+
+/// A setup error as the CLI reports it: the diagnostics of commands the model lacks on stderr, each at
+/// its line.
+pub(crate) fn setup_error(e: SetupError) -> CliError {
+    if let SetupError::Commands { diagnostics, .. } = &e {
+        for d in diagnostics {
+            eprintln!("{d}");
+        }
+    }
+    CliError::Usage(e.to_string())
+}

@@ -1,0 +1,811 @@
+//! The trace of a run: one row per sample and per program event, each value in a typed column with its
+//! unit, plus the program's events and every change of the digital inputs, outputs and switches.
+//!
+//! A run hands its rows to a [`Sink`]: [`Csv`] writes them as they come (an hour sampled every
+//! millisecond never sits in memory), [`Trace`] keeps them as columns for a program (the Python package,
+//! the plot), [`Tee`] does both.
+//!
+//! # Columns by meaning
+//! Which columns a run has is decided from the model's parameter tables, by the role a parameter plays,
+//! never by its number: the stallGuard2 load value is the parameter with [`Role::LoadValue`] (AP 206 on
+//! the PD28-1021), the closed loop's position error the one with [`Role::PositionError`] (AP 237 on the
+//! TMCM-1310). A column whose parameter the model does not have is absent from the trace, never a column
+//! of made-up zeros; a value the module refuses to give is an empty cell (`None`).
+//!
+//! The columns, in order (the CSV header; `tmcl run --help` lists them with their units and a test checks
+//! the two agree): `time_s`, [`Quantity::FIXED`], a `varN` per user variable, [`Quantity::DRIVE`] and
+//! [`Quantity::CLOSED_LOOP`] with `drive`, [`Quantity::VelocityUnits`] on a model with velocity units of
+//! its own, and `event`.
+//!
+//! Every value is an integer, except two with six decimals that are formatted from integers: the time
+//! (from integer microseconds) and the coil energy (from integer µA²·s). The same run gives byte-identical
+//! files everywhere.
+
+use serde::{Deserialize, Serialize};
+use std::fmt::{self, Write as _};
+use std::io::{self, Write};
+use tmcl_core::hal::{Inputs as _, SwitchInputs as _};
+use tmcl_core::model::{Kinematics, ModelSpec, Role, Setting};
+use tmcl_core::{Instant, Module};
+use tmcl_sim::world::AxisKind;
+use tmcl_sim::SimBoard;
+
+/// What a column holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    /// The ramp's target position (AP 0), µsteps.
+    TargetPosition,
+    /// The actual position (AP 1): the step counter, or the encoder while a closed loop is closed; µsteps.
+    ActualPosition,
+    /// The ramp's actual velocity (AP 3) in pps, signed, whatever the model's own unit.
+    Velocity,
+    /// The program's accumulator.
+    Accumulator,
+    /// The program's X register.
+    X,
+    /// The program counter: the address of the next instruction.
+    Pc,
+    /// The digital outputs, bit n = OUTn.
+    Outputs,
+    /// User variable N (bank 2).
+    Variable(u8),
+    /// `drive`: the stallGuard2 load value ([`Role::LoadValue`], AP 206), 0..1023.
+    Load,
+    /// `drive`: the coolStep current scale ([`Role::ActualCurrent`], AP 180), 0..31.
+    CurrentScale,
+    /// `drive`: the encoder position ([`Role::EncoderPosition`], AP 209), µsteps.
+    Encoder,
+    /// `drive`: the coils' ∫ I_peak² dt since power-up, in µA²·s (shown as A²·s with six decimals).
+    Energy,
+    /// `drive`, closed loop: the virtual position ([`Role::VirtualPosition`], AP 233), µsteps.
+    VirtualPosition,
+    /// `drive`, closed loop: virtual − actual position ([`Role::PositionError`], AP 237), µsteps.
+    PositionError,
+    /// `drive`, closed loop: the current scaler ([`Role::CurrentScale`], AP 123), /255.
+    Scaler,
+    /// `drive`, closed loop: the status word ([`Role::StatusWord`], AP 18), a bit field.
+    StatusWord,
+    /// On a model with velocity units of its own (the TMC428 generation): AP 3 ([`Role::ActualSpeed`]) in
+    /// them.
+    VelocityUnits,
+}
+
+impl Quantity {
+    /// The columns every trace has, before the user variables.
+    pub const FIXED: [Quantity; 7] = [
+        Quantity::TargetPosition,
+        Quantity::ActualPosition,
+        Quantity::Velocity,
+        Quantity::Accumulator,
+        Quantity::X,
+        Quantity::Pc,
+        Quantity::Outputs,
+    ];
+    /// The columns `drive` adds after the user variables (those the model has).
+    pub const DRIVE: [Quantity; 4] = [Quantity::Load, Quantity::CurrentScale, Quantity::Encoder, Quantity::Energy];
+    /// The columns `drive` adds after [`Quantity::DRIVE`] on a closed-loop model (those it has).
+    pub const CLOSED_LOOP: [Quantity; 4] =
+        [Quantity::VirtualPosition, Quantity::PositionError, Quantity::Scaler, Quantity::StatusWord];
+
+    /// The column's name in the CSV header.
+    pub fn name(self) -> String {
+        match self {
+            Quantity::TargetPosition => "target_position".into(),
+            Quantity::ActualPosition => "actual_position".into(),
+            Quantity::Velocity => "velocity".into(),
+            Quantity::Accumulator => "accumulator".into(),
+            Quantity::X => "x".into(),
+            Quantity::Pc => "pc".into(),
+            Quantity::Outputs => "outputs".into(),
+            Quantity::Variable(n) => format!("var{n}"),
+            Quantity::Load => "load".into(),
+            Quantity::CurrentScale => "current_scale".into(),
+            Quantity::Encoder => "encoder".into(),
+            Quantity::Energy => "energy_a2s".into(),
+            Quantity::VirtualPosition => "virtual_position".into(),
+            Quantity::PositionError => "position_error".into(),
+            Quantity::Scaler => "scaler".into(),
+            Quantity::StatusWord => "status_word".into(),
+            Quantity::VelocityUnits => "velocity_units".into(),
+        }
+    }
+
+    /// The unit of its values (after [`Column::scale`]).
+    pub fn unit(self) -> Unit {
+        match self {
+            Quantity::TargetPosition
+            | Quantity::ActualPosition
+            | Quantity::Encoder
+            | Quantity::VirtualPosition
+            | Quantity::PositionError => Unit::Microsteps,
+            Quantity::Velocity => Unit::Pps,
+            Quantity::Energy => Unit::AmpereSquaredSeconds,
+            Quantity::VelocityUnits => Unit::ModelVelocity,
+            Quantity::Accumulator
+            | Quantity::X
+            | Quantity::Pc
+            | Quantity::Outputs
+            | Quantity::Variable(_)
+            | Quantity::Load
+            | Quantity::CurrentScale
+            | Quantity::Scaler
+            | Quantity::StatusWord => Unit::None,
+        }
+    }
+
+    /// The parameter role it is read from, if it is a parameter.
+    pub fn role(self) -> Option<Role> {
+        Some(match self {
+            Quantity::Load => Role::LoadValue,
+            Quantity::CurrentScale => Role::ActualCurrent,
+            Quantity::Encoder => Role::EncoderPosition,
+            Quantity::VirtualPosition => Role::VirtualPosition,
+            Quantity::PositionError => Role::PositionError,
+            Quantity::Scaler => Role::CurrentScale,
+            Quantity::StatusWord => Role::StatusWord,
+            Quantity::VelocityUnits => Role::ActualSpeed,
+            _ => return None,
+        })
+    }
+}
+
+/// The unit of a column's values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Unit {
+    /// A number without unit: a register, a count, a bit field, a scale.
+    None,
+    /// Microsteps.
+    Microsteps,
+    /// Microsteps per second.
+    Pps,
+    /// A²·s (the coil energy).
+    AmpereSquaredSeconds,
+    /// The model's own velocity unit (a TMC428 velocity, −2047..2047).
+    ModelVelocity,
+}
+
+impl Unit {
+    /// The unit as written after a value (empty for [`Unit::None`]).
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Unit::None => "",
+            Unit::Microsteps => "µsteps",
+            Unit::Pps => "pps",
+            Unit::AmpereSquaredSeconds => "A²·s",
+            Unit::ModelVelocity => "TMC428 units",
+        }
+    }
+}
+
+/// One column of a trace.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Column {
+    /// Its name in the CSV header.
+    pub name: String,
+    /// What it holds.
+    pub quantity: Quantity,
+    /// The unit of `value × scale`.
+    pub unit: Unit,
+    /// Decimals: a stored integer `v` means `v / 10^decimals` in `unit` (6 for the energy, else 0).
+    pub decimals: u8,
+}
+
+impl Column {
+    fn of(quantity: Quantity) -> Column {
+        let decimals = if quantity == Quantity::Energy { 6 } else { 0 };
+        Column { name: quantity.name(), quantity, unit: quantity.unit(), decimals }
+    }
+
+    /// A stored integer in the column's unit.
+    pub fn scale(&self, value: i64) -> f64 {
+        value as f64 / 10f64.powi(i32::from(self.decimals))
+    }
+}
+
+/// A program event, at the row it happened.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Event {
+    /// The program entered the handler of interrupt N.
+    Interrupt(u8),
+    /// The program stopped at a STOP.
+    Stop,
+    /// The program stopped at a cell it cannot execute.
+    End,
+    /// Output N changed to the level.
+    Output {
+        /// The output.
+        number: u8,
+        /// Its new level.
+        level: bool,
+    },
+    /// A new target position (MVP, SAP 0); the row still shows where the motor stands.
+    Target(i32),
+}
+
+impl Event {
+    /// The kind of event: its lane in a plot (`interrupt 0`, `stop`, `end`, `out0`, `target`).
+    pub fn kind(&self) -> String {
+        match self {
+            Event::Output { number, .. } => format!("out{number}"),
+            Event::Target(_) => "target".into(),
+            other => other.to_string(),
+        }
+    }
+
+    /// The value it carries, if any (the new level, the target).
+    pub fn value(&self) -> Option<String> {
+        match self {
+            Event::Output { level, .. } => Some(u8::from(*level).to_string()),
+            Event::Target(t) => Some(t.to_string()),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Event {
+    /// As in the trace's `event` column: `interrupt 0`, `stop`, `end`, `out0=1`, `target=512000`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Event::Interrupt(n) => write!(f, "interrupt {n}"),
+            Event::Stop => f.write_str("stop"),
+            Event::End => f.write_str("end"),
+            Event::Output { number, level } => write!(f, "out{number}={}", u8::from(*level)),
+            Event::Target(t) => write!(f, "target={t}"),
+        }
+    }
+}
+
+/// An event with the time it happened.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Stamped {
+    /// Simulated time in µs.
+    pub micros: u64,
+    /// The row it is recorded in.
+    pub row: usize,
+    /// What happened.
+    pub event: Event,
+}
+
+/// The digital inputs, outputs and reference switches from a time on (kept at every change).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Levels {
+    /// Simulated time in µs.
+    pub micros: u64,
+    /// Bit n = INn.
+    pub inputs: u8,
+    /// Bit n = OUTn.
+    pub outputs: u8,
+    /// The reference switches as the board sees them (pressed = true, before any polarity setting):
+    /// bit 0 home, bit 1 left, bit 2 right ([`SWITCHES`]).
+    pub switches: u8,
+}
+
+/// The reference switches' names, by bit of [`Levels::switches`].
+pub const SWITCHES: [&str; 3] = ["HOME", "LEFT", "RIGHT"];
+
+/// The position axis in the world's own unit, when a world file defines the axis: a position of `p`
+/// µsteps is `offset + p × per_microstep` (per row: the microstep resolution may change in a run).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorldUnit {
+    /// `mm` (linear axis) or `°` (rotary axis).
+    pub name: String,
+    /// Where the step counter's 0 is (the world's `axis.start`), in the unit.
+    pub offset: f64,
+}
+
+/// What a trace is about: its columns, the model, and the world's unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// The value columns, in order (without the time and the events).
+    pub columns: Vec<Column>,
+    /// The model's product name.
+    pub model: String,
+    /// With a world file: the position axis in its unit.
+    pub world_unit: Option<WorldUnit>,
+}
+
+/// One row as a run records it.
+#[derive(Debug, Clone, Copy)]
+pub struct Row<'a> {
+    /// Simulated time in µs.
+    pub micros: u64,
+    /// One value per column of the [`Header`] (`None`: the module refused to give it).
+    pub values: &'a [Option<i64>],
+    /// The events that happened at this row (empty for a plain sample).
+    pub events: &'a [Event],
+    /// With a [`WorldUnit`]: world units per µstep at this row.
+    pub per_microstep: Option<f64>,
+}
+
+/// Where a run's rows go.
+pub trait Sink {
+    /// Called once, before the first row.
+    fn start(&mut self, header: &Header) -> io::Result<()>;
+    /// One row.
+    fn row(&mut self, row: Row<'_>) -> io::Result<()>;
+    /// The inputs, outputs and switches after a change (and at the start). Between samples too: a change
+    /// is kept at the time it happened.
+    fn levels(&mut self, _levels: Levels) {}
+    /// Called once, after the last row.
+    fn finish(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+    /// Whether it takes [`Sink::levels`] (watching them costs a little at every poll).
+    fn wants_levels(&self) -> bool {
+        false
+    }
+}
+
+impl<S: Sink + ?Sized> Sink for &mut S {
+    fn start(&mut self, header: &Header) -> io::Result<()> {
+        (**self).start(header)
+    }
+    fn row(&mut self, row: Row<'_>) -> io::Result<()> {
+        (**self).row(row)
+    }
+    fn levels(&mut self, levels: Levels) {
+        (**self).levels(levels)
+    }
+    fn finish(&mut self) -> io::Result<()> {
+        (**self).finish()
+    }
+    fn wants_levels(&self) -> bool {
+        (**self).wants_levels()
+    }
+}
+
+/// Two sinks at once (a CSV file and a trace in memory for the plot).
+#[derive(Debug)]
+pub struct Tee<A, B>(pub A, pub B);
+
+impl<A: Sink, B: Sink> Sink for Tee<A, B> {
+    fn start(&mut self, header: &Header) -> io::Result<()> {
+        self.0.start(header)?;
+        self.1.start(header)
+    }
+    fn row(&mut self, row: Row<'_>) -> io::Result<()> {
+        self.0.row(row)?;
+        self.1.row(row)
+    }
+    fn levels(&mut self, levels: Levels) {
+        self.0.levels(levels);
+        self.1.levels(levels);
+    }
+    fn finish(&mut self) -> io::Result<()> {
+        self.0.finish()?;
+        self.1.finish()
+    }
+    fn wants_levels(&self) -> bool {
+        self.0.wants_levels() || self.1.wants_levels()
+    }
+}
+
+/// Writes the rows as CSV: a header line, then one line per row (values as integers, the time and the
+/// energy with six decimals, an empty cell for a refused value, the events joined with `;`).
+#[derive(Debug)]
+pub struct Csv<W: Write> {
+    out: W,
+    decimals: Vec<u8>,
+    line: String,
+}
+
+impl<W: Write> Csv<W> {
+    /// CSV to `out` (give it a buffered writer).
+    pub fn new(out: W) -> Csv<W> {
+        Csv { out, decimals: Vec::new(), line: String::new() }
+    }
+
+    /// The writer back.
+    pub fn into_inner(self) -> W {
+        self.out
+    }
+}
+
+impl<W: Write> Sink for Csv<W> {
+    fn start(&mut self, header: &Header) -> io::Result<()> {
+        self.decimals = header.columns.iter().map(|c| c.decimals).collect();
+        let mut line = String::from("time_s");
+        for c in &header.columns {
+            line.push(',');
+            line.push_str(&c.name);
+        }
+        line.push_str(",event\n");
+        self.out.write_all(line.as_bytes())
+    }
+
+    fn row(&mut self, row: Row<'_>) -> io::Result<()> {
+        let line = &mut self.line;
+        line.clear();
+        line.push_str(&seconds(row.micros));
+        for (value, &decimals) in row.values.iter().zip(&self.decimals) {
+            line.push(',');
+            match value {
+                Some(v) if decimals == 6 && *v >= 0 => line.push_str(&seconds(*v as u64)),
+                Some(v) => {
+                    let _ = write!(line, "{v}");
+                }
+                None => {}
+            }
+        }
+        line.push(',');
+        for (i, e) in row.events.iter().enumerate() {
+            if i > 0 {
+                line.push(';');
+            }
+            let _ = write!(line, "{e}");
+        }
+        line.push('\n');
+        self.out.write_all(line.as_bytes())
+    }
+
+    fn finish(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// A trace in memory, as columns: the times, one vector of values per column, the events, and the
+/// inputs, outputs and switches at every change.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Trace {
+    /// The columns and what the trace is about (empty until the run starts).
+    pub header: Option<Header>,
+    /// Each row's time in µs.
+    pub times: Vec<u64>,
+    /// `values[c][r]`: column `c` at row `r`.
+    pub values: Vec<Vec<Option<i64>>>,
+    /// The events, in order.
+    pub events: Vec<Stamped>,
+    /// The inputs, outputs and switches at the start and after each change.
+    pub levels: Vec<Levels>,
+    /// With a world unit: world units per µstep at each row.
+    pub per_microstep: Vec<f64>,
+}
+
+impl Trace {
+    /// An empty trace, to run into.
+    pub fn new() -> Trace {
+        Trace::default()
+    }
+
+    /// The columns (none before the run).
+    pub fn columns(&self) -> &[Column] {
+        self.header.as_ref().map_or(&[], |h| &h.columns)
+    }
+
+    /// Rows recorded.
+    pub fn len(&self) -> usize {
+        self.times.len()
+    }
+
+    /// Whether no row was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.times.is_empty()
+    }
+
+    /// The index of the column holding `quantity`, if the trace has it.
+    pub fn position(&self, quantity: Quantity) -> Option<usize> {
+        self.columns().iter().position(|c| c.quantity == quantity)
+    }
+
+    /// The values of the column holding `quantity`, if the trace has it.
+    pub fn column(&self, quantity: Quantity) -> Option<&[Option<i64>]> {
+        self.position(quantity).map(|i| self.values[i].as_slice())
+    }
+
+    /// The values of column `index` in its unit (the energy in A²·s, the rest as they are), `None` where
+    /// the module refused to give one.
+    pub fn scaled(&self, index: usize) -> Vec<Option<f64>> {
+        let column = &self.columns()[index];
+        self.values[index].iter().map(|v| v.map(|v| column.scale(v))).collect()
+    }
+
+    /// Each row's time in seconds.
+    pub fn seconds(&self) -> Vec<f64> {
+        self.times.iter().map(|&t| t as f64 / 1e6).collect()
+    }
+
+    /// Writes the trace as CSV, byte for byte what [`Csv`] writes during the run.
+    pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
+        let mut csv = Csv::new(out);
+        let Some(header) = &self.header else { return Ok(()) };
+        csv.start(header)?;
+        let mut values = vec![None; self.values.len()];
+        let mut next_event = 0;
+        for (r, &micros) in self.times.iter().enumerate() {
+            for (c, column) in self.values.iter().enumerate() {
+                values[c] = column[r];
+            }
+            let first = next_event;
+            while self.events.get(next_event).is_some_and(|e| e.row == r) {
+                next_event += 1;
+            }
+            let events: Vec<Event> = self.events[first..next_event].iter().map(|e| e.event.clone()).collect();
+            csv.row(Row { micros, values: &values, events: &events, per_microstep: None })?;
+        }
+        csv.finish()
+    }
+}
+
+impl Sink for Trace {
+    fn start(&mut self, header: &Header) -> io::Result<()> {
+        self.values = vec![Vec::new(); header.columns.len()];
+        self.header = Some(header.clone());
+        Ok(())
+    }
+
+    fn row(&mut self, row: Row<'_>) -> io::Result<()> {
+        let r = self.times.len();
+        self.times.push(row.micros);
+        for (column, value) in self.values.iter_mut().zip(row.values) {
+            column.push(*value);
+        }
+        self.events.extend(row.events.iter().map(|e| Stamped { micros: row.micros, row: r, event: e.clone() }));
+        if let Some(p) = row.per_microstep {
+            self.per_microstep.push(p);
+        }
+        Ok(())
+    }
+
+    fn levels(&mut self, levels: Levels) {
+        self.levels.push(levels);
+    }
+
+    fn wants_levels(&self) -> bool {
+        true
+    }
+}
+
+/// Reads the rows off a module: the columns decided from the model's tables once, at the start.
+pub(crate) struct Recorder {
+    header: Header,
+    /// Per column: where its value comes from.
+    sources: Vec<Read>,
+    /// AP 1 by role, read while a closed loop is closed (else the step counter).
+    actual: Option<u8>,
+    closed_loop: bool,
+    /// With a world unit: (AP 140 by role, µsteps of the world per motor revolution / units per revolution,
+    /// reverse shaft GP by setting).
+    world: Option<WorldScale>,
+    values: Vec<Option<i64>>,
+    last_levels: Option<(u8, u8, u8)>,
+    /// Rows recorded.
+    pub rows: u64,
+}
+
+/// How a column's value is read.
+#[derive(Debug, Clone, Copy)]
+enum Read {
+    Target,
+    Actual,
+    Velocity,
+    Accumulator,
+    X,
+    Pc,
+    Outputs,
+    Variable(u8),
+    Energy,
+    Axis(u8),
+}
+
+#[derive(Debug, Clone, Copy)]
+struct WorldScale {
+    resolution: u8,
+    full_steps: f64,
+    units_per_rev: f64,
+    reverse: Option<u8>,
+}
+
+/// The number of the axis parameter with `role` on the model, if it has one.
+fn axis_number(spec: &ModelSpec, role: Role) -> Option<u8> {
+    spec.axis.role(role).map(|i| spec.axis.params[i].number)
+}
+
+impl Recorder {
+    /// The columns of a run of `spec` with these user variables (ascending), with or without the drive's
+    /// columns; `world`: the world file's axis, if one was given.
+    pub fn new(spec: &'static ModelSpec, variables: &[u8], drive: bool, world: Option<&tmcl_sim::World>) -> Recorder {
+        let mut columns: Vec<(Quantity, Read)> = vec![
+            (Quantity::TargetPosition, Read::Target),
+            (Quantity::ActualPosition, Read::Actual),
+            (Quantity::Velocity, Read::Velocity),
+            (Quantity::Accumulator, Read::Accumulator),
+            (Quantity::X, Read::X),
+            (Quantity::Pc, Read::Pc),
+            (Quantity::Outputs, Read::Outputs),
+        ];
+        columns.extend(
+            variables
+                .iter()
+                .filter(|&&n| u16::from(n) < spec.user_variables)
+                .map(|&n| (Quantity::Variable(n), Read::Variable(n))),
+        );
+        let closed_loop = drive && spec.axis.setting(Setting::ClosedLoop).is_some();
+        let by_role = |q: Quantity| q.role().and_then(|r| axis_number(spec, r)).map(|n| (q, Read::Axis(n)));
+        if drive {
+            for q in Quantity::DRIVE {
+                columns.extend(if q == Quantity::Energy { Some((q, Read::Energy)) } else { by_role(q) });
+            }
+        }
+        if closed_loop {
+            columns.extend(Quantity::CLOSED_LOOP.into_iter().filter_map(by_role));
+        }
+        if spec.kinematics != Kinematics::Pps {
+            columns.extend(by_role(Quantity::VelocityUnits));
+        }
+        let world_scale = world.and_then(|w| {
+            let units_per_rev = match w.axis.kind {
+                AxisKind::Linear => *w.axis.lead.get_ref(),
+                AxisKind::Rotary => 360.0,
+            };
+            Some(WorldScale {
+                resolution: axis_number(spec, Role::MicrostepResolution)?,
+                full_steps: f64::from(*w.motor.full_steps.get_ref()),
+                units_per_rev,
+                reverse: spec.global.setting(Setting::ReverseShaft).map(|i| spec.global.params[i].number),
+            })
+        });
+        let world_unit = world_scale.zip(world).map(|(s, w)| WorldUnit {
+            name: match w.axis.kind {
+                AxisKind::Linear => "mm".into(),
+                AxisKind::Rotary => "°".into(),
+            },
+            offset: start_in_units(w, s),
+        });
+        let header = Header {
+            columns: columns.iter().map(|&(q, _)| Column::of(q)).collect(),
+            model: spec.name.to_string(),
+            world_unit,
+        };
+        Recorder {
+            sources: columns.iter().map(|&(_, r)| r).collect(),
+            values: vec![None; columns.len()],
+            header,
+            actual: axis_number(spec, Role::ActualPosition),
+            closed_loop,
+            world: world_scale,
+            last_levels: None,
+            rows: 0,
+        }
+    }
+
+    /// The trace's header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// Records the module's state at `now`, with the events that happened (empty for a plain sample).
+    pub fn record(
+        &mut self,
+        module: &mut Module<SimBoard>,
+        now: Instant,
+        events: &[Event],
+        sink: &mut dyn Sink,
+    ) -> io::Result<()> {
+        let ramp = *module.ramp();
+        // AP 1: the step counter, or the encoder while a closed loop is closed.
+        let actual = match self.actual {
+            Some(n) if self.closed_loop || module.state().closed_loop().active => {
+                module.get_axis(n).unwrap_or(ramp.position)
+            }
+            _ => ramp.position,
+        };
+        for (value, source) in self.values.iter_mut().zip(&self.sources) {
+            *value = match *source {
+                Read::Target => Some(i64::from(ramp.target_position)),
+                Read::Actual => Some(i64::from(actual)),
+                Read::Velocity => Some(i64::from(ramp.velocity())),
+                Read::Accumulator => Some(i64::from(module.registers().accumulator)),
+                Read::X => Some(i64::from(module.registers().x)),
+                Read::Pc => Some(i64::from(module.vm().pc)),
+                Read::Outputs => Some(i64::from(module.board().outputs())),
+                Read::Variable(n) => module.get_global(n, crate::USER_BANK, now).ok().map(i64::from),
+                // Rounded to an integer number of µA²·s, so traces stay byte-identical everywhere.
+                Read::Energy => Some((module.board().energy() * 1e6).round() as i64),
+                Read::Axis(n) => module.get_axis(n).ok().map(i64::from),
+            };
+        }
+        let per_microstep = self.world.map(|w| {
+            let resolution = module.get_axis(w.resolution).unwrap_or(0).clamp(0, 8);
+            let reverse = w.reverse.is_some_and(|n| module.get_global(n, 0, now).unwrap_or(0) != 0);
+            let sign = if reverse { -1.0 } else { 1.0 };
+            sign * w.units_per_rev / (w.full_steps * f64::from(1u32 << resolution))
+        });
+        self.rows += 1;
+        sink.row(Row { micros: now.micros(), values: &self.values, events, per_microstep })
+    }
+
+    /// Hands the digital inputs, outputs and reference switches at `now` to the sink if they changed
+    /// since the last call (or if this is the first). Called after every poll, so a change is kept at the
+    /// time it happened, between samples too. Nothing is written to a CSV file.
+    pub fn watch_levels(&mut self, module: &mut Module<SimBoard>, now: Instant, sink: &mut dyn Sink) {
+        if !sink.wants_levels() {
+            return;
+        }
+        let outputs = module.board().outputs();
+        let inputs = module.board_timeline().digital_inputs();
+        let s = module.board_timeline().switches();
+        let switches = u8::from(s.home) | u8::from(s.left) << 1 | u8::from(s.right) << 2;
+        if self.last_levels != Some((inputs, outputs, switches)) {
+            self.last_levels = Some((inputs, outputs, switches));
+            sink.levels(Levels { micros: now.micros(), inputs, outputs, switches });
+        }
+    }
+}
+
+/// Where the step counter's 0 is in world units: the world's `axis.start`.
+fn start_in_units(world: &tmcl_sim::World, scale: WorldScale) -> f64 {
+    use tmcl_sim::world::Pos;
+    let per_rev = scale.units_per_rev;
+    match *world.axis.start.get_ref() {
+        Pos::Axis(v) | Pos::Mm(v) | Pos::Deg(v) => v,
+        Pos::Rev(v) => v * per_rev,
+        Pos::FullSteps(v) => v / scale.full_steps * per_rev,
+        Pos::Usteps(v) => v / (scale.full_steps * 256.0) * per_rev,
+    }
+}
+
+/// Integer millionths as a decimal number with six decimals (no floating point: the same everywhere):
+/// microseconds as seconds, µA²·s as A²·s.
+pub fn seconds(micros: u64) -> String {
+    format!("{}.{:06}", micros / 1_000_000, micros % 1_000_000)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seconds_are_exact() {
+        assert_eq!(seconds(0), "0.000000");
+        assert_eq!(seconds(1_000_020), "1.000020");
+        assert_eq!(seconds(3_600_000_000), "3600.000000");
+    }
+
+    #[test]
+    fn events_read_as_in_the_event_column() {
+        let events = [Event::Interrupt(0), Event::Stop, Event::End, Event::Output { number: 2, level: true }];
+        let text: Vec<String> = events.iter().map(|e| e.to_string()).collect();
+        assert_eq!(text, ["interrupt 0", "stop", "end", "out2=1"]);
+        assert_eq!(Event::Target(-512_000).to_string(), "target=-512000");
+        assert_eq!((Event::Target(5).kind(), Event::Target(5).value()), ("target".into(), Some("5".into())));
+    }
+
+    #[test]
+    fn columns_come_from_the_models_roles() {
+        let pd28 = tmcl_core::model::by_id("pd28-1021").unwrap();
+        let names = |r: &Recorder| r.header().columns.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
+        let plain = Recorder::new(pd28, &[3], false, None);
+        assert_eq!(
+            names(&plain),
+            ["target_position", "actual_position", "velocity", "accumulator", "x", "pc", "outputs", "var3"]
+        );
+        let drive = Recorder::new(pd28, &[], true, None);
+        assert!(names(&drive).ends_with(&[
+            "load".into(),
+            "current_scale".into(),
+            "encoder".into(),
+            "energy_a2s".into()
+        ]));
+        let tmcm = tmcl_core::model::by_id("tmcm-1310").unwrap();
+        let closed = Recorder::new(tmcm, &[], true, None);
+        assert!(names(&closed).ends_with(&[
+            "virtual_position".into(),
+            "position_error".into(),
+            "scaler".into(),
+            "status_word".into()
+        ]));
+        // Every drive column of every model is read from a parameter the model has, by role.
+        for spec in tmcl_core::model::MODELS {
+            let r = Recorder::new(spec, &[], true, None);
+            for (column, source) in r.header().columns.iter().zip(&r.sources) {
+                if let Read::Axis(n) = source {
+                    let role = column.quantity.role().unwrap();
+                    assert_eq!(spec.axis.find(*n).unwrap().1.role, role, "{} {}", spec.id, column.name);
+                }
+            }
+        }
+    }
+}
