@@ -38,7 +38,7 @@ pub fn why_refused(instruction: Instruction, model: &ModelSpec) -> Option<Findin
         (motor >= model.motors).then(|| Finding {
             operand,
             status: Status::InvalidValue,
-            message: format!("motor {motor}: the {m} has {} (0..{})", plural(model.motors), model.motors - 1),
+            message: format!("motor {motor}: the {m} has {}", plural(model.motors)),
         })
     };
     use Command as C;
@@ -125,9 +125,9 @@ pub fn why_refused(instruction: Instruction, model: &ModelSpec) -> Option<Findin
 
 fn plural(motors: u8) -> String {
     if motors == 1 {
-        "one motor".into()
+        "one motor, 0".into()
     } else {
-        format!("{motors} motors")
+        format!("{motors} motors, 0..{}", motors.saturating_sub(1))
     }
 }
 
