@@ -61,7 +61,7 @@ pub struct DebugArgs {
 
 /// What `tmcl debug --help` prints after the options: the debugger's commands and the exit codes.
 pub fn after_help() -> String {
-    format!("{COMMANDS_HELP}\n\nWith --json, each command's answer is one JSON object: the command, its output lines, and\nthe program's pc, state and simulated time after it.\n\n{EXIT_CODES}")
+    format!("{COMMANDS_HELP}\n\nWith --json, each command's answer is one JSON object: the command, its output lines, and\nthe program's pc, state and simulated time after it, and `refused`: the instructions the module\nrefused while it ran (status, pc, source line, reason; the program skipped them). Each step prints\nthe status the module gave the instruction: `status 100`, or a `refused:` line.\n\n{EXIT_CODES}")
 }
 
 /// Runs `tmcl debug`.

@@ -52,7 +52,14 @@ The plot (--plot OUT.svg) draws, over time: target and actual position; velocity
 for each input and output that changes (IN0.., OUT0..) and one for each kind of program event. With
 --drive also the load value, the current scale (closed loop: the current scaler and the position error),
 the encoder minus the step position, and the coil energy, each on its own axis with its unit.
-The run is deterministic: the same program and options give byte-identical traces.";
+The run is deterministic: the same program and options give byte-identical traces.
+
+Refused instructions: a program gets no status, so the module skips an instruction it refuses (status 3
+wrong type, 4 invalid value, ...) and goes on. The run says so: a `refused:` line for each (source line,
+instruction, pc, time, status and why: the model's parameter table, e.g. the allowed range), their
+count on the summary line, a `refused pc=N status=S` event in the trace, and with --json the list
+(`refusals`: number, time_us, pc, instruction, opcode, kind, motor, value, status, file, line, reason).
+`tmcl asm --module M` warns of the same where the tables decide it, before the program runs.";
 
 /// Options of `tmcl run`.
 #[derive(Debug, Args)]
