@@ -44,7 +44,7 @@ Trace columns (--trace OUT.csv), in this order, one row every --every ms and one
                     (--module pd-113; `velocity` is the same in pps)
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
                     execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
-                    MVP; the row shows where the motor was then), `refused pc=N status=S` (the
+                    MVP; the row shows where the motor was then), `refused=pc N status S` (the
                     module refused the instruction at N and the program went on without it);
                     several are joined with `;`
 
@@ -57,7 +57,7 @@ The run is deterministic: the same program and options give byte-identical trace
 Refused instructions: a program gets no status, so the module skips an instruction it refuses (status 3
 wrong type, 4 invalid value, ...) and goes on. The run says so: a `refused:` line for each (source line,
 instruction, pc, time, status and why: the model's parameter table, e.g. the allowed range), their
-count on the summary line, a `refused pc=N status=S` event in the trace, and with --json the list
+count on the summary line, a `refused=pc N status S` event in the trace, and with --json the list
 (`refusals`: number, time_us, pc, instruction, opcode, kind, motor, value, status, file, line, reason).
 `tmcl asm --module M` warns of the same where the tables decide it, before the program runs.";
 

@@ -73,7 +73,7 @@ fn run_lists_each_refusal() {
     assert!(out.status.success());
     let trace = std::fs::read_to_string(&csv).unwrap();
     for (pc, status) in [(0, 4), (1, 4), (2, 3), (3, 3)] {
-        assert!(trace.contains(&format!("refused pc={pc} status={status}")), "{trace}");
+        assert!(trace.contains(&format!("refused=pc {pc} status {status}")), "{trace}");
     }
 }
 

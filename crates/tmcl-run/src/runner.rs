@@ -15,7 +15,7 @@
 //! - **outN=V**: output N changed;
 //! - **target=N**: a new target position (MVP, SAP 0): the row still shows where the motor stands,
 //!   so a program that waits for each position shows each arrival;
-//! - **refused pc=N status=S**: the module refused the instruction at N with status S and the program
+//! - **refused=pc N status S**: the module refused the instruction at N with status S and the program
 //!   went on without it (see [`crate::refusals`]; [`Simulation::refusals`] lists them with the reason).
 //!
 //! Without a sink, it polls only where the simulated world changes by itself and at the end (every

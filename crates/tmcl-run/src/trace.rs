@@ -263,7 +263,7 @@ impl fmt::Display for Event {
             Event::End => f.write_str("end"),
             Event::Output { number, level } => write!(f, "out{number}={}", u8::from(*level)),
             Event::Target(t) => write!(f, "target={t}"),
-            Event::Refused { pc, status } => write!(f, "refused pc={pc} status={status}"),
+            Event::Refused { pc, status } => write!(f, "refused=pc {pc} status {status}"),
         }
     }
 }
