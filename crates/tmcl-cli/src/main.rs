@@ -1,14 +1,12 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
 mod asm;
-mod bus;
 mod debug;
 mod error;
-mod ethercat;
+mod esi;
 mod host;
 mod names;
 mod program;
-mod pty;
 mod run;
 mod serve;
 mod sim;
@@ -53,6 +51,10 @@ enum Command {
     /// editor and debugger (open the printed address in a browser).
     #[command(after_help = EXIT_CODES)]
     Ui(ui::UiArgs),
+    /// Write the ESI file (EtherCAT Slave Information XML) of a module with EtherCAT, as TwinCAT,
+    /// CODESYS or the IgH master read it; it says what the virtual module's SII EEPROM says.
+    #[command(after_help = EXIT_CODES)]
+    Esi(esi::EsiArgs),
     #[command(flatten)]
     Host(host::HostCommand),
     #[command(flatten)]
@@ -69,6 +71,7 @@ impl Command {
             Command::Run(_) => "run",
             Command::Debug(_) => "debug",
             Command::Ui(_) => "ui",
+            Command::Esi(_) => "esi",
             Command::Host(c) => c.name(),
             Command::Program(c) => c.name(),
         }
@@ -140,6 +143,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(args, json),
         Command::Debug(args) => debug::run(args, json),
         Command::Ui(args) => ui::run(args, json),
+        Command::Esi(args) => esi::run(args, json),
         Command::Host(command) => host::run(command, json),
         Command::Program(command) => program::run(command, json),
     };
