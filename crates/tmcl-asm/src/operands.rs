@@ -185,6 +185,8 @@ fn global(
     match bank {
         0 => param_in(model, &model.global, "GP", param, value, allowed),
         3 => param_in(model, &model.interrupt, "bank 3 parameter", param, value, allowed),
+        // The PDx-113's bank 1 (its manual §5.7.9): no source names a parameter in it.
+        1 => finding(0, Status::WrongType, format!("the {} has no parameter {param} in bank 1", model.name)),
         2 if u16::from(param) >= model.user_variables => finding(
             0,
             Status::WrongType,
@@ -295,6 +297,11 @@ mod tests {
         assert_eq!(f(Opcode::Sgp, 0, 1, 0), Some((1, Status::InvalidValue)), "no bank 1");
         assert_eq!(f(Opcode::Ggp, 0, 2, 0), None);
         assert!(why_refused(Instruction::new(Opcode::Sap, 4, 0, 0), &tmcm_1310::SPEC).is_some());
+        let pdx =
+            |op, t, m, v| why_refused(Instruction::new(op, t, m, v), &pd_113::SPEC).map(|f| (f.operand, f.status));
+        assert_eq!(pdx(Opcode::Ggp, 0, 1, 0), Some((0, Status::WrongType)), "bank 1 names nothing");
+        assert_eq!(pdx(Opcode::Mvp, 0, 0, 1 << 23), Some((2, Status::InvalidValue)), "24-bit positions");
+        assert_eq!(pdx(Opcode::Ror, 0, 0, 2047), None);
     }
 
     #[test]
