@@ -410,6 +410,11 @@ def wait_until(predicate, timeout_s: float, interval_s: float = 0.02, what: str 
         time.sleep(interval_s)
 
 
+# The silence after which `tmcl serve` (without --wire-timing) drops a partial frame, with a margin: the
+# serial line's 5 ms are meaningless on a pty or a TCP socket (docs/decisions.md, "No frame lost").
+RESYNC_S = 0.07
+
+
 # -- raw frames ------------------------------------------------------------------------------------
 
 def checksum(data: bytes) -> int:
