@@ -68,6 +68,8 @@ class Server:
         self._stderr_path: Path | None = None
         # The environment of the process (None: this one's).
         self.env: dict[str, str] | None = None
+        # Start it in a session of its own, without a controlling terminal (as services and tools do).
+        self.new_session = False
         self.ready_timeout_s = READY_TIMEOUT_S
 
     # -- lifecycle ---------------------------------------------------------------------------------
@@ -95,7 +97,8 @@ class Server:
         stderr = open(self._stderr_path, "wb")
         try:
             self.proc = subprocess.Popen(self.args(), cwd=self.workdir, stdin=subprocess.DEVNULL,
-                                         stdout=subprocess.PIPE, stderr=stderr, env=self.env)
+                                         stdout=subprocess.PIPE, stderr=stderr, env=self.env,
+                                         start_new_session=self.new_session)
         finally:
             stderr.close()
         self._lines = queue.Queue()
