@@ -242,6 +242,9 @@ pub struct Module<B: Board> {
     pub(crate) memos: spans::Memos,
     /// Watches a program spinning in a fixed point (see `module/spin.rs`).
     pub(crate) spin: spin::Spin,
+    /// The gap after which a partial binary frame is dropped (`None`: never), see
+    /// [`Module::set_inter_byte_timeout`].
+    pub(crate) inter_byte_timeout: Option<Duration>,
 }
 
 impl<B: Board> Module<B> {
@@ -268,6 +271,7 @@ impl<B: Board> Module<B> {
             exact: false,
             memos: Default::default(),
             spin: Default::default(),
+            inter_byte_timeout: Some(crate::iface::INTER_BYTE_TIMEOUT),
         }
     }
 
