@@ -262,3 +262,67 @@ def test_commands_that_may_get_no_reply_show_what_came(browser, tmcl_bin, tmp_pa
         console(browser, "GAP 6, 0", "value 128")
     finally:
         assert u.stop() == 0
+
+
+SEIZURE_WORLD = """
+# The closed-loop-seizure example's motor and encoder; the shaft seizes for good when it reaches 150
+# degrees (the encoder initialisation moves it less than one electrical period from 0).
+[motor]
+holding_torque = 0.45
+rated_current = 2.0
+
+[encoder]
+kind = "abn"
+counts_per_rev = 4096
+
+[[faults.stall]]
+at = 150.0
+from = 0.0
+until = 100000.0
+"""
+
+
+def test_the_tmcm1310_closed_loop_panel(browser, tmcl_bin, tmp_path, serve):
+    """The TMCM-1310's closed loop on screen: encoder initialisation with its result, the loop closed,
+    the status word's bits as lamps, the settings beside the plots, and the position error plotted while
+    the shaft seizes (and AP 131 beside AP 3 in the velocity panel)."""
+    world = tmp_path / "seizure.toml"
+    world.write_text(SEIZURE_WORLD)
+    server = serve("pty", modules=["tmcm-1310"], extra=["--world", str(world)])
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(server.link)]).start()
+    try:
+        open_page(browser, u, "motion")
+        wait_until(lambda: wb(browser, "hello.model.id") == "tmcm-1310", what="the model")
+        card = by_css(browser, "#cl-card")
+        assert card.is_displayed()
+        assert len(all_css(browser, "#cl-bits .lamp")) == 14
+        wait_until(lambda: by_css(browser, "#cl-settings input[aria-label='MaxFollowingError']").get_attribute("value")
+                   == "0", what="the following-error setting read")
+        by_css(browser, "#cl-init").click()
+        wait_until(lambda: by_css(browser, "#cl-init-state").text.startswith("initialised"), timeout=15,
+                   what="the encoder initialised")
+        by_css(browser, "#cl-close").click()
+        wait_until(lambda: by_css(browser, "#cl-loop-state").text.startswith("closed"), timeout=15,
+                   what="the loop closed")
+        wait_until(lambda: "on" in by_css(browser, "#cl-bits .lamp[data-bit='2']").get_attribute("class"),
+                   what="the status word's closed-loop bit")
+        by_css(browser, "#ror").click()
+        # The seizure holds the shaft: the position error grows while the field runs on, and is plotted.
+        wait_until(lambda: browser.execute_script(
+            "const s = window.workbench.panels.find(p => p.id === 'closed').plot.get('ap.0.237');"
+            "return s && s.v.some(v => v !== null && Math.abs(v) > 200)"), timeout=20,
+            what="the position error during the seizure")
+        legend = by_css(browser, "#legend-velocity").text
+        assert "measured velocity [pps]" in legend and "actual speed [pps]" in legend
+        assert "position error [µsteps]" in by_css(browser, "#legend-closed").text
+        size = browser.get_window_size()
+        browser.set_window_size(1440, 1500)
+        try:
+            shot(browser, "motion-tmcm1310-closed-loop")
+        finally:
+            browser.set_window_size(size["width"], size["height"])
+        by_css(browser, "#mst").click()
+        by_css(browser, "#cl-open").click()
+        wait_until(lambda: by_css(browser, "#cl-loop-state").text.startswith("open"), timeout=15, what="the loop open")
+    finally:
+        assert u.stop() == 0
