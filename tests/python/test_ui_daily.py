@@ -326,3 +326,51 @@ def test_the_tmcm1310_closed_loop_panel(browser, tmcl_bin, tmp_path, serve):
         wait_until(lambda: by_css(browser, "#cl-loop-state").text.startswith("open"), timeout=15, what="the loop open")
     finally:
         assert u.stop() == 0
+
+
+def test_parameter_sets_in_the_workbench(browser, tmcl_bin, tmp_path, serve):
+    """Save, Load and Store all in the Parameters view; a set of another model is refused until asked to
+    load what matches, and then the speed in pps is not put into the PDx-113's TMC428 units."""
+    pd28 = serve("pty", modules=["pd28-1021"])
+    pd113 = serve("pty", modules=["pd-113"])
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(pd28.link)]).start()
+    try:
+        open_page(browser, u, "params")
+        wait_until(lambda: wb(browser, "hello.model.id") == "pd28-1021", what="the model")
+        # Through the workbench: a second host on the same pty would take some of its replies (issue 20).
+        set_ap4 = ("return window.workbench.call('set', {param: {kind: 'ap', number: 4, index: 0}, value: arguments[0]})"
+                   ".then(ok => ok.value)")
+        assert browser.execute_script(set_ap4, 30000) == 30000
+        by_css(browser, "#set-save").click()
+        wait_until(lambda: wb(browser, "lastSaved"), timeout=20, what="the saved set")
+        text = wb(browser, "lastSaved.toml")
+        assert 'model = "pd28-1021"' in text and "MaxPositioningSpeed" in text
+        assert wb(browser, "lastSaved.file_name") == "pd28-1021-1-params.toml"
+        assert browser.execute_script(set_ap4, 1000) == 1000
+        browser.execute_script("window.workbench.loadSet(arguments[0], false)", text)
+        wait_until(lambda: wb(browser, "lastSet"), timeout=20, what="the loaded set")
+        assert wb(browser, "lastSet.refused") == 0 and wb(browser, "lastSet.written") >= 1
+        got = browser.execute_script(
+            "return window.workbench.call('get', {param: {kind: 'ap', number: 4, index: 0}}).then(ok => ok.value)")
+        assert got == 30000
+        browser.execute_script("window.workbench.lastSet = null")
+        by_css(browser, "#set-store-all").click()
+        wait_until(lambda: wb(browser, "lastSet"), timeout=20, what="store all")
+        assert wb(browser, "lastSet.stored") >= 10 and wb(browser, "lastSet.refused") == 0
+        assert "stored" in by_css(browser, "#param-status").text
+    finally:
+        assert u.stop() == 0
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(pd113.link)]).start()
+    try:
+        open_page(browser, u, "params")
+        wait_until(lambda: wb(browser, "hello.model.id") == "pd-113", what="the PDx-113")
+        browser.execute_script("window.workbench.lastSet = null; window.workbench.loadSet(arguments[0], false)", text)
+        status = by_css(browser, "#param-status")
+        wait_until(lambda: "the set is of a PD28-1021" in status.text, what="the refusal of another model's set")
+        by_css(browser, "#param-status button").click()
+        wait_until(lambda: wb(browser, "lastSet"), timeout=20, what="the matching part loaded")
+        report = by_css(browser, "#set-report").text
+        assert "ap 4 MaxPositioningSpeed = 30000 pps: skipped, the unit differs" in report
+        shot(browser, "params-set-another-model")
+    finally:
+        assert u.stop() == 0

@@ -288,6 +288,54 @@
       body.hidden = !any;
     }
   }
+  // Parameter sets: save, load (and store), store all; what was skipped or refused is listed.
+  function setReport(ok, verb) {
+    const list = $("set-report");
+    // Refusals first, then what a load could not carry (another unit), then the rest of the skips.
+    const rank = (o) => (o.result === "refused" ? 0 : /unit differs/.test(o.why || "") ? 1 : 2);
+    const sorted = [...ok.outcomes].sort((a, b) => rank(a) - rank(b));
+    list.replaceChildren(...sorted.map((o) => el("li", { class: o.result, text: `${o.param} ${o.name} = ${o.value}${o.unit ? " " + o.unit : ""}: ${o.result}${o.why ? ", " + o.why : ""}` })));
+    list.hidden = !ok.outcomes.length;
+    const parts = [`${ok.written + ok.stored} ${verb}`];
+    if (ok.stored && verb !== "stored") parts.push(`${ok.stored} stored in the EEPROM`);
+    if (ok.unchanged) parts.push(`${ok.unchanged} unchanged`);
+    if (ok.skipped) parts.push(`${ok.skipped} skipped`);
+    if (ok.refused) parts.push(`${ok.refused} refused`);
+    say("param-status", parts.join(", "), ok.refused === 0);
+    wb.lastSet = ok;
+  }
+  $("set-save").addEventListener("click", async () => {
+    say("param-status", "reading every parameter…");
+    try {
+      const ok = await call("save_params");
+      save(ok.file_name, ok.toml, "application/toml");
+      wb.lastSaved = ok;
+      say("param-status", `saved ${ok.count} parameters to ${ok.file_name}${ok.notes.length ? ` (${ok.notes.length} not readable)` : ""}`, true);
+    } catch (err) { say("param-status", `save: ${refusal(err)}`, false); }
+  });
+  async function loadSet(text, anyModel) {
+    say("param-status", "writing the set…");
+    $("set-report").hidden = true;
+    try {
+      setReport(await call("load_params", { text, store: $("set-store").checked, any_model: anyModel }), "written");
+    } catch (err) {
+      say("param-status", `load: ${refusal(err)}`, false);
+      if (!anyModel && /the set is of a/.test(err.error || "")) {
+        $("param-status").append(" ", el("button", { type: "button", text: "Load what matches by number and unit",
+          onclick: () => loadSet(text, true) }));
+      }
+    }
+  }
+  wb.loadSet = loadSet;
+  $("set-load").addEventListener("change", async (e) => {
+    const f = e.target.files[0]; if (!f) return;
+    const text = await f.text(); e.target.value = "";
+    loadSet(text, false);
+  });
+  $("set-store-all").addEventListener("click", async () => {
+    say("param-status", "storing every parameter…");
+    try { setReport(await call("store_all"), "stored"); } catch (err) { say("param-status", `store all: ${refusal(err)}`, false); }
+  });
   $("param-filter").addEventListener("input", filterParams);
   $("param-which").addEventListener("change", filterParams);
   on("value", (ev) => { if ("v" in ev) showParam(ev.k, ev.v); });

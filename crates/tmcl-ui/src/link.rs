@@ -490,6 +490,14 @@ impl Link {
         result
     }
 
+    /// Runs a whole series of requests (a parameter set) on the client as one turn of the line.
+    pub(crate) fn with_client<R>(
+        &mut self,
+        f: impl FnOnce(&mut HostClient) -> Result<R, HostError>,
+    ) -> Result<R, HostError> {
+        self.on_line(f)
+    }
+
     /// One request and its reply (PD28-1021 TMCL manual §3.1).
     pub(crate) fn request(&mut self, instruction: Instruction) -> Result<Reply, HostError> {
         self.on_line(|c| c.request(instruction))
