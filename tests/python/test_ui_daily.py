@@ -95,6 +95,7 @@ def test_the_pdx_113_speaks_tmc428_units(browser, tmcl_bin, tmp_path, serve):
                    what="the PDx-113's sample program")
         by_css(browser, "#pg-assemble").click()
         wait_until(lambda: "no errors" in by_css(browser, "#diagnostics").text, what="the sample assembles")
+        shot(browser, "program-pd113-sample")
     finally:
         assert u.stop() == 0
 
