@@ -375,3 +375,23 @@ def test_parameter_sets_in_the_workbench(browser, tmcl_bin, tmp_path, serve):
         shot(browser, "params-set-another-model")
     finally:
         assert u.stop() == 0
+
+
+def test_a_restarted_tcp_server_is_reconnected(browser, tmcl_bin, tmp_path, serve):
+    server = serve("tcp")
+    # The same port after the restart, as a service would have it.
+    server.listen = f"127.0.0.1:{server.port}"
+    u = Ui(tmcl_bin, tmp_path, ["--tcp", f"127.0.0.1:{server.port}"]).start()
+    try:
+        open_page(browser, u, "motion")
+        wait_until(lambda: wb(browser, "line.state") == "answering", what="the line answering")
+        epoch = wb(browser, "epoch")
+        server.kill()
+        wait_until(lambda: wb(browser, "line.state") == "down", timeout=10, what="the connection gone")
+        server.start()
+        wait_until(lambda: wb(browser, "line.state") == "answering", timeout=15, what="the connection back")
+        assert wb(browser, "epoch") > epoch
+        wait_until(lambda: wb(browser, "counts['ap.0.1']") and browser.execute_script(
+            "return window.workbench.plots[0].series[0].v.filter(v => v !== null).length > 3"), what="new samples")
+    finally:
+        assert u.stop() == 0
