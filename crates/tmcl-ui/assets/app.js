@@ -730,6 +730,14 @@
     if (programModel === id) return;
     programModel = id;
     const sample = model ? model.sample_program : "// Give --module MODEL to get the model's sample program.\n";
+    // A program kept by an earlier version (one for all models) becomes this model's, unless it is that
+    // version's PD28-1021 sample, which other models refuse.
+    const legacy = localStorage.getItem("tmcl-program");
+    if (legacy !== null && localStorage.getItem(programStore()) === null && model &&
+        !legacy.startsWith("// A first program: back and forth between two positions.")) {
+      localStorage.setItem(programStore(), legacy);
+    }
+    localStorage.removeItem("tmcl-program");
     editor.value = localStorage.getItem(programStore()) ?? sample;
     downloaded = null;
   }
