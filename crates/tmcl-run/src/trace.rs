@@ -286,14 +286,30 @@ pub struct Levels {
 /// The reference switches' names, by bit of [`Levels::switches`].
 pub const SWITCHES: [&str; 3] = ["HOME", "LEFT", "RIGHT"];
 
-/// The position axis in the world's own unit, when a world file defines the axis: a position of `p`
-/// µsteps is `offset + p × per_microstep` (per row: the microstep resolution may change in a run).
+/// The position axis in the world's own unit, when the run has a world file: mm on a linear axis, degrees
+/// on a rotary one. Each row carries its [`Placement`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WorldUnit {
     /// `mm` (linear axis) or `°` (rotary axis).
     pub name: String,
-    /// Where the step counter's 0 is (the world's `axis.start`), in the unit.
+}
+
+/// Where positions of a row are in the world: `p` µsteps (AP 0, AP 1) are at `offset + p × per_microstep`
+/// in the [`WorldUnit`]. Per row, because the microstep resolution may change and a reference search or
+/// `SAP 1` moves the step counter's 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Placement {
+    /// World units per µstep (negative with the shaft reversed).
+    pub per_microstep: f64,
+    /// Where the step counter's 0 is, in world units.
     pub offset: f64,
+}
+
+impl Placement {
+    /// A position in µsteps in world units.
+    pub fn place(&self, microsteps: i64) -> f64 {
+        self.offset + microsteps as f64 * self.per_microstep
+    }
 }
 
 /// What a trace is about: its columns, the model, and the world's unit.
@@ -316,8 +332,8 @@ pub struct Row<'a> {
     pub values: &'a [Option<i64>],
     /// The events that happened at this row (empty for a plain sample).
     pub events: &'a [Event],
-    /// With a [`WorldUnit`]: world units per µstep at this row.
-    pub per_microstep: Option<f64>,
+    /// With a [`WorldUnit`]: where the row's positions are in the world.
+    pub placement: Option<Placement>,
 }
 
 /// Where a run's rows go.
@@ -460,8 +476,8 @@ pub struct Trace {
     pub events: Vec<Stamped>,
     /// The inputs, outputs and switches at the start and after each change.
     pub levels: Vec<Levels>,
-    /// With a world unit: world units per µstep at each row.
-    pub per_microstep: Vec<f64>,
+    /// With a world unit: where each row's positions are in the world.
+    pub placements: Vec<Placement>,
 }
 
 impl Trace {
@@ -523,7 +539,7 @@ impl Trace {
                 next_event += 1;
             }
             let events: Vec<Event> = self.events[first..next_event].iter().map(|e| e.event.clone()).collect();
-            csv.row(Row { micros, values: &values, events: &events, per_microstep: None })?;
+            csv.row(Row { micros, values: &values, events: &events, placement: None })?;
         }
         csv.finish()
     }
@@ -543,8 +559,8 @@ impl Sink for Trace {
             column.push(*value);
         }
         self.events.extend(row.events.iter().map(|e| Stamped { micros: row.micros, row: r, event: e.clone() }));
-        if let Some(p) = row.per_microstep {
-            self.per_microstep.push(p);
+        if let Some(p) = row.placement {
+            self.placements.push(p);
         }
         Ok(())
     }
@@ -566,9 +582,10 @@ pub(crate) struct Recorder {
     /// AP 1 by role, read while a closed loop is closed (else the step counter).
     actual: Option<u8>,
     closed_loop: bool,
-    /// With a world unit: (AP 140 by role, µsteps of the world per motor revolution / units per revolution,
-    /// reverse shaft GP by setting).
+    /// With a world unit: how to place positions in it.
     world: Option<WorldScale>,
+    /// The last placement (kept while a closed loop is closed: the field does not follow the step counter).
+    placement: Option<Placement>,
     values: Vec<Option<i64>>,
     last_levels: Option<(u8, u8, u8)>,
     /// Rows recorded.
@@ -590,12 +607,18 @@ enum Read {
     Axis(u8),
 }
 
+/// What it takes to place the step counter in the world.
 #[derive(Debug, Clone, Copy)]
 struct WorldScale {
+    /// The microstep resolution's parameter (AP 140, by role).
     resolution: u8,
     full_steps: f64,
+    /// mm or degrees per motor revolution.
     units_per_rev: f64,
+    /// The reverse-shaft global parameter (GP 90, by setting), if the model has it.
     reverse: Option<u8>,
+    /// Where the axis is at power-up (the world's `axis.start`), in its unit.
+    start: f64,
 }
 
 /// The number of the axis parameter with `role` on the model, if it has one.
@@ -645,14 +668,14 @@ impl Recorder {
                 full_steps: f64::from(*w.motor.full_steps.get_ref()),
                 units_per_rev,
                 reverse: spec.global.setting(Setting::ReverseShaft).map(|i| spec.global.params[i].number),
+                start: start_in_units(w, f64::from(*w.motor.full_steps.get_ref()), units_per_rev),
             })
         });
-        let world_unit = world_scale.zip(world).map(|(s, w)| WorldUnit {
+        let world_unit = world_scale.zip(world).map(|(_, w)| WorldUnit {
             name: match w.axis.kind {
                 AxisKind::Linear => "mm".into(),
                 AxisKind::Rotary => "°".into(),
             },
-            offset: start_in_units(w, s),
         });
         let header = Header {
             columns: columns.iter().map(|&(q, _)| Column::of(q)).collect(),
@@ -666,6 +689,7 @@ impl Recorder {
             actual: axis_number(spec, Role::ActualPosition),
             closed_loop,
             world: world_scale,
+            placement: None,
             last_levels: None,
             rows: 0,
         }
@@ -707,14 +731,22 @@ impl Recorder {
                 Read::Axis(n) => module.get_axis(n).ok().map(i64::from),
             };
         }
-        let per_microstep = self.world.map(|w| {
-            let resolution = module.get_axis(w.resolution).unwrap_or(0).clamp(0, 8);
-            let reverse = w.reverse.is_some_and(|n| module.get_global(n, 0, now).unwrap_or(0) != 0);
-            let sign = if reverse { -1.0 } else { 1.0 };
-            sign * w.units_per_rev / (w.full_steps * f64::from(1u32 << resolution))
-        });
+        if let Some(w) = self.world {
+            // The step counter's 0 in the world: where the driver's field is (it follows the step counter
+            // exactly in open loop) minus the step counter. A closed loop drives the field itself: the
+            // last placement stays.
+            if self.placement.is_none() || !module.state().closed_loop().active {
+                let resolution = module.get_axis(w.resolution).unwrap_or(0).clamp(0, 8);
+                let reverse = w.reverse.is_some_and(|n| module.get_global(n, 0, now).unwrap_or(0) != 0);
+                let sign = if reverse { -1.0 } else { 1.0 };
+                let per_microstep = sign * w.units_per_rev / (w.full_steps * f64::from(1u32 << resolution));
+                let field = w.start + module.board().commanded() as f64 * w.units_per_rev / (w.full_steps * 256.0);
+                let offset = field - f64::from(ramp.position) * per_microstep;
+                self.placement = Some(Placement { per_microstep, offset });
+            }
+        }
         self.rows += 1;
-        sink.row(Row { micros: now.micros(), values: &self.values, events, per_microstep })
+        sink.row(Row { micros: now.micros(), values: &self.values, events, placement: self.placement })
     }
 
     /// Hands the digital inputs, outputs and reference switches at `now` to the sink if they changed
@@ -735,15 +767,14 @@ impl Recorder {
     }
 }
 
-/// Where the step counter's 0 is in world units: the world's `axis.start`.
-fn start_in_units(world: &tmcl_sim::World, scale: WorldScale) -> f64 {
+/// Where the axis is at power-up (the world's `axis.start`), in its unit.
+fn start_in_units(world: &tmcl_sim::World, full_steps: f64, per_rev: f64) -> f64 {
     use tmcl_sim::world::Pos;
-    let per_rev = scale.units_per_rev;
     match *world.axis.start.get_ref() {
         Pos::Axis(v) | Pos::Mm(v) | Pos::Deg(v) => v,
         Pos::Rev(v) => v * per_rev,
-        Pos::FullSteps(v) => v / scale.full_steps * per_rev,
-        Pos::Usteps(v) => v / (scale.full_steps * 256.0) * per_rev,
+        Pos::FullSteps(v) => v / full_steps * per_rev,
+        Pos::Usteps(v) => v / (full_steps * 256.0) * per_rev,
     }
 }
 
