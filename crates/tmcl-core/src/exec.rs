@@ -583,6 +583,10 @@ impl<B: Board> Module<B> {
             Role::TargetPosition => ramp.target_position,
             Role::ActualPosition if self.st.cl.active => self.encoder_position(),
             Role::ActualPosition => ramp.position,
+            // TMC428: in position mode the ramp sets v_target itself (see `hardware_target_speed`).
+            Role::TargetSpeed if ramp.mode == Mode::Position && self.spec.driver == Driver::Tmc428Tmc24x => {
+                self.hardware_target_speed()
+            }
             Role::TargetSpeed => self.pps_to_units(ramp.target_velocity),
             Role::ActualSpeed => self.pps_to_units(ramp.velocity()),
             Role::PositionReached => i32::from(self.target_reached()),
@@ -634,6 +638,9 @@ impl<B: Board> Module<B> {
                 || d.role == Role::MicrostepResolution)
                 && self.has_closed_loop();
         let encoder_before = if rescales { self.encoder_position() } else { 0 };
+        // The pulse divisor (AP 154) scales the TMC428's clock: the velocity registers keep their values
+        // in units, so AP 2 and AP 3 read the same and the speed in microsteps per second follows.
+        let velocities = (d.setting == Some(Setting::PulseDivisor)).then(|| self.velocity_units());
         match d.role {
             // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
             // result to target position" relies on it).
@@ -695,6 +702,9 @@ impl<B: Board> Module<B> {
         }
         if rescales {
             self.encoder_rescaled(encoder_before, d.setting == Some(Setting::EncoderMode));
+        }
+        if let Some(units) = velocities {
+            self.set_velocity_units(units);
         }
 
         Ok(())

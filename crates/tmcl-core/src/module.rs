@@ -475,7 +475,7 @@ impl<B: Board> Module<B> {
         }
     }
 
-    fn ramp_params(&self) -> RampParams {
+    pub(crate) fn ramp_params(&self) -> RampParams {
         // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
         let (v, a) =
             (self.ap(Setting::MaxPositioningSpeed).unwrap_or(1), self.ap(Setting::MaxAcceleration).unwrap_or(1));

@@ -488,3 +488,73 @@ fn a_manual_program_runs() {
     assert_eq!(r.gap(1), 150_000);
     assert_eq!(r.ok(Opcode::GetStatus, 0, 0, 0), 1);
 }
+
+/// The pulse divisor changed while the motor turns (SAP 154 3 → 6 during ROR 1000): on the TMC428 the
+/// velocity registers hold their values in units and the divisor only scales the clock they count in
+/// (TMC428 datasheet's velocity formula; PDx-113 manual §6), so AP 2 and AP 3 still read 1000, SAC's
+/// read of v_actual agrees with AP 3, and the motor turns at 16 MHz · 1000 / (2^6 · 2^16) = 3814.7
+/// µsteps/s. Before, the ramp kept 30 518 µsteps/s and AP 2/AP 3 read 8000, outside ±2047.
+#[test]
+fn the_pulse_divisor_scales_the_clock_under_a_turning_motor() {
+    let mut r = Rig::new();
+    r.sap(154, 3);
+    r.ok(Opcode::Ror, 0, 0, 1000);
+    r.run(Duration::from_secs(3));
+    assert_eq!((r.gap(2), r.gap(3)), (1000, 1000));
+    r.sap(154, 6);
+    assert_eq!((r.gap(2), r.gap(3)), (1000, 1000), "AP 2, AP 3 in units after the change");
+    assert_eq!(r.sac(read(0, 4)).data, 1000, "v_target");
+    assert_eq!(r.sac(read(0, 5)).data, 1000, "v_actual agrees with AP 3");
+    let from = r.module.board().steps(4);
+    r.run(Duration::from_secs(2));
+    let measured = (r.module.board().steps(4) - from) as f64 / 2.0;
+    let formula = 16e6 * 1000.0 / f64::from(1u32 << (6 + 16));
+    assert!((measured - formula).abs() <= 1.5, "{measured} µsteps/s, the TMC428 formula {formula}");
+    assert_eq!((r.gap(2), r.gap(3)), (1000, 1000));
+    // Back to 3: the same 1000 units, eight times as fast again; MST stops from there.
+    r.sap(154, 3);
+    assert_eq!(r.gap(3), 1000);
+    r.ok(Opcode::Mst, 0, 0, 0);
+    r.run(Duration::from_secs(3));
+    assert_eq!((r.gap(2), r.gap(3)), (0, 0));
+}
+
+/// AP 2 during a positioning move (PDx-113 manual V1.10 p. 25: in position mode the hardware sets the
+/// target speed, v_max while accelerating, 0 when decelerating or at rest): 1000 (AP 4) from the start
+/// until the ramp begins to brake, then 0; −1000 on the way back. Before, it read 0 all along.
+#[test]
+fn ap_2_follows_the_ramp_in_position_mode() {
+    let mut r = Rig::new();
+    r.sap(154, 3);
+    r.sap(153, 7);
+    r.sap(4, 1000);
+    r.sap(5, 500);
+    for (target, sign) in [(150_000, 1), (0, -1)] {
+        r.ok(Opcode::Mvp, 0, 0, target);
+        let (mut peak, mut braking, mut accelerating) = (0, false, 0);
+        while r.gap(8) == 0 {
+            r.run(Duration::from_millis(5));
+            let (v2, v3) = (r.gap(2), r.gap(3));
+            if r.gap(8) == 1 {
+                break;
+            }
+            if v3.abs() < peak {
+                braking = true;
+            }
+            peak = peak.max(v3.abs());
+            if braking {
+                assert_eq!(v2, 0, "decelerating at {v3}");
+            } else {
+                assert_eq!(v2, sign * 1000, "accelerating or at top speed at {v3}");
+                accelerating += 1;
+            }
+        }
+        assert!(braking && accelerating > 10, "both phases seen");
+        assert_eq!(peak, 1000);
+        assert_eq!((r.gap(2), r.gap(3)), (0, 0), "at rest");
+        assert_eq!(r.sac(read(0, 4)).data, 0, "v_target at rest");
+    }
+    // Velocity mode reads the velocity written again.
+    r.ok(Opcode::Ror, 0, 0, 300);
+    assert_eq!(r.gap(2), 300);
+}

@@ -281,3 +281,46 @@ fn changing_the_encoder_scale_opens_the_loop() {
     run_to(&mut m, t + Duration::from_millis(500));
     assert_eq!(m.board().shaft(), shaft, "nothing moved");
 }
+
+/// AP 129 := 1 during the encoder initialisation (AP 132 reads 1) is accepted and kept, and the loop
+/// closes by itself when the initialisation ends (AP 133 reads 1, status word bit 2), without another
+/// command — our decision (docs/decisions.md): AP 129 is the closed-loop mode, a setting the host may
+/// write before the initialisation as well as after it (pytrinamic's TMCM-1311 demo writes it after);
+/// it takes effect as soon as the loop can be closed. A failed initialisation leaves the loop open with
+/// AP 129 still 1. Before, the loop stayed open until the next MVP closed it as a side effect.
+#[test]
+fn ap_129_during_the_initialisation_closes_the_loop_when_it_ends() {
+    let mut m = module(&tmcm_1310::SPEC, "");
+    let t = Instant::ZERO;
+    sap(&mut m, 132, 1, t);
+    let t = t + Duration::from_millis(50);
+    run_to(&mut m, t);
+    assert_eq!(gap(&mut m, 132, t), 1, "initialising");
+    sap(&mut m, 129, 1, t);
+    assert_eq!((gap(&mut m, 129, t), gap(&mut m, 133, t)), (1, 0), "kept, the loop not closed yet");
+    // The next deadlines only, as a server polls: 400 ms later the initialisation (300 ms) is over.
+    let mut now = t;
+    let end = t + Duration::from_millis(400);
+    while let Some(due) = m.poll(now, &mut |_: &[u8]| {}) {
+        if due > end {
+            break;
+        }
+        now = due.max(now + Duration::from_micros(1));
+    }
+    run_to(&mut m, end);
+    assert_eq!(gap(&mut m, 132, end), 2, "initialisation done");
+    assert_eq!(gap(&mut m, 133, end), 1, "the loop closed when it ended");
+    assert_eq!(gap(&mut m, 18, end) & 4, 4, "status word: closed loop");
+    let shaft = m.board().shaft();
+    run_to(&mut m, end + Duration::from_millis(200));
+    assert_eq!(m.board().shaft(), shaft, "closing moved nothing");
+
+    // With the wrong encoder resolution the initialisation fails: AP 129 stays 1, the loop open.
+    let mut m = module(&tmcm_1310::SPEC, "[encoder]\nkind = \"abn\"\ncounts_per_rev = 2000\n");
+    sap(&mut m, 132, 1, Instant::ZERO);
+    sap(&mut m, 129, 1, Instant::ZERO);
+    let end = Instant::ZERO + Duration::from_millis(400);
+    run_to(&mut m, end);
+    assert_eq!((gap(&mut m, 132, end), gap(&mut m, 129, end), gap(&mut m, 133, end)), (3, 1, 0));
+    assert_eq!(gap(&mut m, 18, end) & 4, 0, "open loop");
+}

@@ -305,7 +305,13 @@ impl<B: Board> Module<B> {
         } else {
             self.st.cl.init = Init::Running { elapsed_us: t, start_counts: start, start_offset, ok };
         }
-        self.st.cl.field_offset - before
+        let moved = self.st.cl.field_offset - before;
+        if self.st.cl.init == Init::Done {
+            // AP 129 written during the initialisation closes the loop now that it is done (our decision,
+            // docs/decisions.md); the field stays where it is.
+            self.sync_loop(self.st.cl.actual);
+        }
+        moved
     }
 
     /// AP 132 := 1: starts the encoder initialisation (at rest, with the loop open; status 4 otherwise —

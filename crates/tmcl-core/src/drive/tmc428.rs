@@ -91,6 +91,32 @@ const MASK11: u32 = 0x7FF;
 const MASK12: u32 = 0xFFF;
 
 impl<B: Board> Module<B> {
+    /// AP 2 (the TMC428's v_target) in position mode: the ramp sets it itself, to ±v_max (AP 4) while it
+    /// accelerates or runs at its top speed and to 0 while it decelerates or stands (PDx-113 manual,
+    /// revision V1.10 p. 25, AP 2 "target (next) speed"; the manual V1.04 in hand lists AP 2 without
+    /// saying so). The sign is the direction of travel, as the register is signed (±2047). A velocity
+    /// written in position mode is kept for the next velocity mode (ROR/ROL) and read there again.
+    pub(crate) fn hardware_target_speed(&self) -> i32 {
+        let p = self.ramp_params();
+        let v_max = self.ap(Setting::MaxPositioningSpeed).unwrap_or(0);
+        self.st.ramp.driving(&p) * v_max
+    }
+
+    /// The velocity registers in units (AP 2 as stored for velocity mode, AP 3), before the pulse divisor
+    /// changes.
+    pub(crate) fn velocity_units(&self) -> (i32, i32) {
+        (self.pps_to_units(self.st.ramp.target_velocity), self.pps_to_units(self.st.ramp.velocity()))
+    }
+
+    /// After the pulse divisor changed: the velocity registers keep `units`, so the speed in microsteps
+    /// per second follows the new divisor (TMC428 datasheet: µstep rate = f_CLK · v / (2^pulse_div ·
+    /// 2048 · 32); the divisor scales the clock the velocity counts in).
+    pub(crate) fn set_velocity_units(&mut self, (target, actual): (i32, i32)) {
+        self.st.ramp.target_velocity = self.units_to_pps(target);
+        let actual = self.units_to_pps(actual);
+        self.st.ramp.set_velocity(actual);
+    }
+
     /// SAC `bus`, `bytes`, `data`: one datagram to the motion controller; the 32-bit answer.
     pub(crate) fn sac(&mut self, bus: u8, bytes: u8, data: i32) -> Result<i32, Status> {
         if bus != 0 {

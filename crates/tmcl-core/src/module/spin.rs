@@ -179,6 +179,9 @@ fn turned(a: &Snapshot, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         at_breakpoint,
         // Moves with time: the turns' instructions.
         executed,
+        // Equal: a turn that refuses an instruction is no fixed point (each refusal is noted with its
+        // time), so such a loop runs instruction by instruction.
+        refusals,
     } = &a.vm;
     let shift = vm.time.saturating_duration_since(*time);
     let n = vm.executed.checked_sub(*executed).filter(|n| *n > 0)?;
@@ -198,7 +201,8 @@ fn turned(a: &Snapshot, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         && *last_levels == vm.last_levels
         && *was_reached == vm.was_reached
         && *breakpoints == vm.breakpoints
-        && *at_breakpoint == vm.at_breakpoint;
+        && *at_breakpoint == vm.at_breakpoint
+        && *refusals == vm.refusals;
     if !same_vm {
         return None;
     }

@@ -157,6 +157,35 @@ impl Ramp {
         self.fraction = 0;
     }
 
+    /// Sets the present velocity (pps, signed) without a ramp. Only for a change of scale under a running
+    /// motor: on the TMC428 the velocity registers hold their value in units while the pulse divisor
+    /// changes the clock, so the speed in microsteps per second jumps with it (TMC428 datasheet, the
+    /// velocity formula; PDx-113 manual §6).
+    pub fn set_velocity(&mut self, pps: i32) {
+        self.velocity = i64::from(pps) * MICRO;
+        if pps == 0 {
+            self.fraction = 0;
+        }
+    }
+
+    /// In position mode, the direction (±1) in which the ramp accelerates or runs at its top speed in
+    /// the coming tick; 0 when it decelerates, stands or is in velocity mode. The TMC428 shows this in
+    /// its v_target register, which its ramp sets itself in position mode (PDx-113 manual V1.10 p. 25,
+    /// AP 2: v_max while accelerating, 0 when decelerating or at rest).
+    pub fn driving(&self, p: &RampParams) -> i32 {
+        if self.mode != Mode::Position || self.is_idle() {
+            return 0;
+        }
+        let accel = i64::from(p.max_accel.max(1)) * TICK.micros() as i64;
+        let next = self.position_velocity(p, accel, i64::from(p.min_speed.max(0)) * MICRO);
+        let same_way = self.velocity == 0 || next.signum() == self.velocity.signum();
+        if next != 0 && same_way && next.abs() >= self.velocity.abs() {
+            next.signum() as i32
+        } else {
+            0
+        }
+    }
+
     /// Stops at once, without a ramp (limit switches, emergency stops, reset).
     pub fn hard_stop(&mut self) {
         self.velocity = 0;

@@ -530,3 +530,40 @@ fn a_current_set_at_rest_reaches_the_driver_at_once() {
     b.module.poll(now, &mut |_: &[u8]| {});
     assert_eq!(b.module.board().drive.current, 64);
 }
+
+/// An instruction the module refuses is skipped and the program goes on (our decision for §3.6: a
+/// program gets no status); the program machine notes each refusal — its address, the instruction and
+/// the status a host would have got — for a simulator to report, without changing what the program does.
+#[test]
+fn refused_instructions_are_skipped_and_noted() {
+    let mut b = Bench::new();
+    let program = [
+        C::Gap { param: 99, motor: 0 },                    // 0: no AP 99: status 3
+        C::Mvp { motor: 5, target: MoveTarget::Abs(100) }, // 1: no motor 5: status 4
+        C::Sap { param: 4, motor: 0, value: 100 },         // 2: fine
+        C::Sap { param: 140, motor: 0, value: 99 },        // 3: out of range: status 4
+        C::Stop,                                           // 4
+    ];
+    download(&mut b, &program);
+    run_from(&mut b, 0);
+    b.run(Duration::from_millis(10));
+    assert_eq!(b.ggp(128, 0), 0, "the program ran to its STOP");
+    assert_eq!(b.gap(4), 100, "the instruction between the refused ones ran");
+    let r = b.module.vm().refusals();
+    assert_eq!(r.count(), 3);
+    let seen: Vec<(u16, Opcode, Status)> = r.since(0).map(|r| (r.pc, r.instruction.opcode, r.status)).collect();
+    assert_eq!(
+        seen,
+        [
+            (0, Opcode::Gap, Status::WrongType),
+            (1, Opcode::Mvp, Status::InvalidValue),
+            (3, Opcode::Sap, Status::InvalidValue)
+        ]
+    );
+    let numbers: Vec<u64> = r.since(0).map(|r| r.number).collect();
+    assert_eq!(numbers, [1, 2, 3]);
+    assert_eq!(r.since(2).count(), 1);
+    // The instructions ran 20 µs apart (INSTRUCTION_TIME).
+    let at: Vec<Instant> = r.since(0).map(|r| r.at).collect();
+    assert_eq!(at[1] - at[0], crate::vm::INSTRUCTION_TIME);
+}

@@ -27,7 +27,10 @@
 //!   ms) from the moment its period is set; period 0 = off. Which vectors exist and what raises each is
 //!   the model's table ([`tmcl_model::Interrupts`]).
 
+pub mod refusal;
 pub(crate) mod run;
+
+pub use refusal::{Refusal, Refusals};
 
 use crate::time::Instant;
 use tmcl_wire::{Instruction, Opcode, WaitCondition};
@@ -208,6 +211,8 @@ pub struct Vm {
     pub(crate) at_breakpoint: bool,
     /// Instructions executed since power-up (for traces and benchmarks).
     pub(crate) executed: u64,
+    /// Instructions the module refused and skipped (for simulators; the firmware ignores it).
+    pub(crate) refusals: Refusals,
 }
 
 impl Default for Vm {
@@ -231,6 +236,7 @@ impl Default for Vm {
             breakpoints: [0; MAX_PROGRAM / 64],
             at_breakpoint: false,
             executed: 0,
+            refusals: Refusals::default(),
         }
     }
 }
@@ -299,6 +305,11 @@ impl Vm {
     /// Instructions executed since power-up.
     pub fn executed(&self) -> u64 {
         self.executed
+    }
+
+    /// Instructions the module refused and skipped since power-up (see [`refusal`]).
+    pub fn refusals(&self) -> &Refusals {
+        &self.refusals
     }
 
     /// The flags of the program (see [`crate::module::flags`]).

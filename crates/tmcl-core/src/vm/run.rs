@@ -180,15 +180,16 @@ impl<B: Board> Module<B> {
                 self.vm.state = RunState::Stopped;
                 return;
             }
-            other => {
-                if let Ok(crate::module::Outcome::Value(v)) = self.exec(other, now, Origin::Program) {
-                    // §3.6.5: in standalone mode a command that reads a value loads the accumulator
-                    // (FW V1.35: RFS STATUS too, setting the flags).
-                    if other.reads_value() {
-                        self.load_accumulator(Origin::Program, v);
-                    }
+            other => match self.exec(other, now, Origin::Program) {
+                // §3.6.5: in standalone mode a command that reads a value loads the accumulator
+                // (FW V1.35: RFS STATUS too, setting the flags).
+                Ok(crate::module::Outcome::Value(v)) if other.reads_value() => {
+                    self.load_accumulator(Origin::Program, v);
                 }
-            }
+                Ok(_) => {}
+                // Refused: skipped, the program goes on; noted for a simulator (`vm/refusal.rs`).
+                Err(status) => self.vm.refusals.note(now, pc, instruction, status),
+            },
         }
         self.vm.pc = next;
     }
