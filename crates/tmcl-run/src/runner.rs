@@ -94,6 +94,9 @@ pub enum RunError {
     /// The sink failed (a CSV file that cannot be written).
     #[error("cannot write the trace: {0}")]
     Sink(#[from] io::Error),
+    /// [`Simulation::run`] was called a second time: a run starts at time 0.
+    #[error("the simulation has run already; set up a new one")]
+    AlreadyRun,
 }
 
 /// The program's run state in words.
@@ -131,6 +134,7 @@ pub struct Simulation {
     module: Module<SimBoard>,
     source: Source,
     setup: Setup,
+    ran: bool,
 }
 
 impl Simulation {
@@ -139,7 +143,7 @@ impl Simulation {
     pub fn new(source: &Source, setup: &Setup) -> Result<Simulation, SetupError> {
         let mut lines = |file: &str, line: u32| source_line(file, line);
         let module = setup.build(source, &mut lines)?;
-        Ok(Simulation { module, source: source.clone(), setup: setup.clone() })
+        Ok(Simulation { module, source: source.clone(), setup: setup.clone(), ran: false })
     }
 
     /// The module (after a run: its state at the end).
@@ -152,8 +156,8 @@ impl Simulation {
         &mut self.module
     }
 
-    /// Starts the program at 0 and runs it for `options.duration`. With a `sink`, records a row every
-    /// `options.every` and at each event into it; without one, runs as fast as it can and records
+    /// Starts the program at 0 and runs it for `options.duration`, once. With a `sink`, records a row
+    /// every `options.every` and at each event into it; without one, runs as fast as it can and records
     /// nothing. `progress` is told the simulated time now and then (about every simulated second).
     pub fn run(
         &mut self,
@@ -161,6 +165,9 @@ impl Simulation {
         sink: Option<&mut dyn Sink>,
         mut progress: Option<&mut dyn FnMut(Instant)>,
     ) -> Result<Summary, RunError> {
+        if std::mem::replace(&mut self.ran, true) {
+            return Err(RunError::AlreadyRun);
+        }
         let module = &mut self.module;
         module.set_exact_ticks(options.exact_ticks);
         let started = WallInstant::now();

@@ -207,6 +207,7 @@ impl Column {
 /// A program event, at the row it happened.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Event {
     /// The program entered the handler of interrupt N.
     Interrupt(u8),
@@ -438,12 +439,8 @@ impl<W: Write> Sink for Csv<W> {
         line.push_str(&seconds(row.micros));
         for (value, &decimals) in row.values.iter().zip(&self.decimals) {
             line.push(',');
-            match value {
-                Some(v) if decimals == 6 && *v >= 0 => line.push_str(&seconds(*v as u64)),
-                Some(v) => {
-                    let _ = write!(line, "{v}");
-                }
-                None => {}
+            if let Some(v) = value {
+                write_fixed(line, *v, decimals);
             }
         }
         line.push(',');
@@ -778,6 +775,19 @@ fn start_in_units(world: &tmcl_sim::World, full_steps: f64, per_rev: f64) -> f64
     }
 }
 
+/// `value / 10^decimals` with exactly `decimals` decimals, from the integer (no floating point).
+fn write_fixed(line: &mut String, value: i64, decimals: u8) {
+    if decimals == 0 {
+        let _ = write!(line, "{value}");
+        return;
+    }
+    let unit = 10u64.pow(u32::from(decimals));
+    let sign = if value < 0 { "-" } else { "" };
+    let magnitude = value.unsigned_abs();
+    let width = usize::from(decimals);
+    let _ = write!(line, "{sign}{}.{:0width$}", magnitude / unit, magnitude % unit);
+}
+
 /// Integer millionths as a decimal number with six decimals (no floating point: the same everywhere):
 /// microseconds as seconds, µA²·s as A²·s.
 pub fn seconds(micros: u64) -> String {
@@ -793,6 +803,19 @@ mod tests {
         assert_eq!(seconds(0), "0.000000");
         assert_eq!(seconds(1_000_020), "1.000020");
         assert_eq!(seconds(3_600_000_000), "3600.000000");
+    }
+
+    #[test]
+    fn fixed_point_values_are_exact() {
+        let text = |v, d| {
+            let mut line = String::new();
+            write_fixed(&mut line, v, d);
+            line
+        };
+        assert_eq!(text(1_250_000, 6), "1.250000");
+        assert_eq!(text(-5, 6), "-0.000005");
+        assert_eq!(text(-42, 0), "-42");
+        assert_eq!(text(i64::MIN, 6), "-9223372036854.775808");
     }
 
     #[test]
