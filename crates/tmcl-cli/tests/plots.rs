@@ -305,6 +305,8 @@ fn switch_lanes_and_positions_in_world_units() {
     assert!(texts.iter().any(|t| t == "position [mm]"), "{texts:?}");
     assert!(texts.iter().any(|t| t == "HOME") && texts.iter().any(|t| t == "LEFT"), "{texts:?}");
     assert!(!texts.iter().any(|t| t == "RIGHT"), "the right switch is never reached: no lane");
+    // The targets in the lane are in mm too.
+    assert!(texts.iter().any(|t| t == "50 mm"), "{texts:?}");
     // The position axis is in mm: 0 (after the search) to 50 (1 280 000 µsteps of 2/51200 mm) and the
     // start at 25; its ticks stay within that.
     for tick in ["0", "10", "20", "30", "40", "50"] {

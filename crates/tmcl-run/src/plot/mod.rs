@@ -31,7 +31,7 @@
 mod axis;
 mod lanes;
 
-use crate::trace::{Levels, Quantity, Trace};
+use crate::trace::{Levels, Quantity, Stamped, Trace};
 use axis::{format_number, text_width, Scale};
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
 use plotters::coord::types::RangedCoordf64;
@@ -277,11 +277,26 @@ pub(crate) struct Event {
     text: String,
 }
 
+/// An event as its lane shows it: as in the trace, but a new target in the world's unit when the
+/// position axis is in it (`target=50 mm` where the trace says `target=1280000`).
+fn event_text(trace: &Trace, stamped: &Stamped) -> String {
+    let unit = trace.header.as_ref().and_then(|h| h.world_unit.as_ref());
+    match (&stamped.event, unit, trace.placements.get(stamped.row)) {
+        (crate::Event::Target(t), Some(unit), Some(placement)) => {
+            let v = placement.place(i64::from(*t));
+            let text = format_number(v, 2);
+            let text = text.trim_end_matches('0').trim_end_matches('.');
+            format!("target={text} {unit}", unit = unit.name)
+        }
+        (event, ..) => event.to_string(),
+    }
+}
+
 /// Draws the plot into `out` with plotters, and returns the curves as SVG elements to add at its end.
 fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotError> {
     let samples = &samples(trace)[..];
     let events: &[Event] =
-        &trace.events.iter().map(|e| Event { micros: e.micros, text: e.event.to_string() }).collect::<Vec<_>>();
+        &trace.events.iter().map(|e| Event { micros: e.micros, text: event_text(trace, e) }).collect::<Vec<_>>();
     let levels: &[Levels] = &trace.levels;
     let end = samples.last().map_or(1, |s| s.micros).max(events.last().map_or(0, |e| e.micros)).max(1);
     let time = Scale::fixed(0.0, seconds(end), false, 12);
