@@ -35,6 +35,7 @@
 
 #[cfg(feature = "plot")]
 pub mod plot;
+mod record;
 pub mod runner;
 pub mod setup;
 pub mod trace;

@@ -24,8 +24,9 @@
 //! hour of the manual's programs runs in milliseconds. [`Options::exact_ticks`] ticks them one by one
 //! instead, the reference the spans are checked against; both give byte-identical traces.
 
+use crate::record::Recorder;
 use crate::setup::{poll, Setup, SetupError, Source};
-use crate::trace::{Event, Recorder, Sink, Trace};
+use crate::trace::{Event, Sink, Trace};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::io;
