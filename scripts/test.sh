@@ -53,6 +53,23 @@ echo "rust: ${passed} passed, 0 failed"
 step "Python host-compatibility suite (pytrinamic, pyserial, tmcl CLI against tmcl serve; test_qemu.py against the image)"
 scripts/python-tests.sh
 
+step "the opentmcl Python package (wheel built, installed in a fresh venv, its own pytest suite)"
+scripts/python-package-tests.sh
+
+step "library crates packaged (cargo package: metadata, READMEs, versioned path dependencies)"
+# --no-verify: every crate is built and tested above; a verifying run rebuilds each from its .crate
+# (about 10 minutes on 2 cores; run it by hand before a release).
+cargo package --workspace --exclude opentmcl-python --no-verify --allow-dirty --quiet
+ls "${CARGO_TARGET_DIR:-target}"/package/*.crate | sed 's|.*/|packaged |'
+
+step "the crates' examples (built by cargo test above), run"
+for example in "tmcl-wire frames" "tmcl-model parameters" "tmcl-core own_board" "tmcl-sim simulated_module" \
+    "tmcl-host read_parameter" "tmcl-asm assemble" "tmcl-mcu uart_and_ring" "tmcl-run manual_program"; do
+    set -- $example
+    cargo run --quiet -p "$1" --example "$2" > "$logs/example-$2.log" || { cat "$logs/example-$2.log"; exit 1; }
+    echo "example $1/$2 ran"
+done
+
 step "the same suite against the firmware image under QEMU (scripts/qemu-serve.sh)"
 if [[ "$image_ok" == 1 ]] && command -v qemu-system-arm >/dev/null; then
     scripts/python-tests.sh --target qemu --ignore=tests/python/test_qemu.py

@@ -17,13 +17,13 @@ use tmcl_ethercat::wire::foe::ErrorCode;
 use tmcl_ethercat::FileStore;
 
 #[cfg(target_os = "linux")]
-pub(crate) use packet::RawSocket;
+pub use packet::RawSocket;
 #[cfg(not(target_os = "linux"))]
-pub(crate) use unsupported::RawSocket;
+pub use unsupported::RawSocket;
 
 #[cfg(target_os = "linux")]
 mod packet {
-    use crate::error::CliError;
+    use crate::ServeError;
     use nix::sys::socket::{recvfrom, sendto, LinkAddr, MsgFlags};
     use std::io;
     use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
@@ -36,21 +36,21 @@ mod packet {
     const PACKET_OUTGOING: u8 = 4;
 
     /// Where a frame came from: its interface (and the master's address), to answer to.
-    pub(crate) type Peer = LinkAddr;
+    pub type Peer = LinkAddr;
 
     /// A packet socket for EtherCAT frames on one interface.
-    pub(crate) struct RawSocket {
+    pub struct RawSocket {
         fd: OwnedFd,
         ifindex: usize,
         /// The interface's name, for messages.
-        pub(crate) name: String,
+        pub name: String,
     }
 
     impl RawSocket {
         /// Opens the socket for interface `name`.
-        pub(crate) fn open(name: &str) -> Result<RawSocket, CliError> {
+        pub fn open(name: &str) -> Result<RawSocket, ServeError> {
             let ifindex = nix::net::if_::if_nametoindex(name).map_err(|e| {
-                CliError::Io(format!("--ethercat {name}: no such network interface ({e}); `ip link` lists them"))
+                ServeError::Io(format!("--ethercat {name}: no such network interface ({e}); `ip link` lists them"))
             })?;
             let protocol = rustix::net::RawProtocol::new(u32::from(ETHERTYPE.to_be())).expect("0x88A4 is not 0");
             let fd = rustix::net::socket_with(
@@ -66,14 +66,14 @@ mod packet {
                 } else {
                     ""
                 };
-                CliError::Io(format!("--ethercat {name}: cannot open a packet socket: {e}{why}"))
+                ServeError::Io(format!("--ethercat {name}: cannot open a packet socket: {e}{why}"))
             })?;
             Ok(RawSocket { fd, ifindex: ifindex as usize, name: name.to_string() })
         }
 
         /// The next EtherCAT frame that arrived on the interface, with the address to answer to; `None`
         /// when nothing is waiting.
-        pub(crate) fn recv(&self, buf: &mut [u8]) -> io::Result<Option<(usize, Peer)>> {
+        pub fn recv(&self, buf: &mut [u8]) -> io::Result<Option<(usize, Peer)>> {
             loop {
                 match recvfrom::<LinkAddr>(self.fd.as_raw_fd(), buf) {
                     Ok((n, Some(from))) => {
@@ -90,7 +90,7 @@ mod packet {
         }
 
         /// Sends an answer to where a frame came from (its interface).
-        pub(crate) fn send(&self, bytes: &[u8], to: &Peer) -> io::Result<()> {
+        pub fn send(&self, bytes: &[u8], to: &Peer) -> io::Result<()> {
             sendto(self.fd.as_raw_fd(), bytes, to, MsgFlags::empty())
                 .map(|_| ())
                 .map_err(|e| io::Error::from_raw_os_error(e as i32))
@@ -107,29 +107,29 @@ mod packet {
 /// Elsewhere there is no `AF_PACKET`: `--ethercat` fails with a message, the rest of `tmcl` builds.
 #[cfg(not(target_os = "linux"))]
 mod unsupported {
-    use crate::error::CliError;
+    use crate::ServeError;
     use std::io;
     use std::os::fd::{AsFd, BorrowedFd};
 
     /// No peer can exist.
-    pub(crate) enum Peer {}
+    pub enum Peer {}
 
     /// No socket can exist.
-    pub(crate) struct RawSocket {
+    pub struct RawSocket {
         never: Peer,
-        pub(crate) name: String,
+        pub name: String,
     }
 
     impl RawSocket {
-        pub(crate) fn open(name: &str) -> Result<RawSocket, CliError> {
-            Err(CliError::Io(format!("--ethercat {name}: raw Ethernet (AF_PACKET) needs Linux")))
+        pub fn open(name: &str) -> Result<RawSocket, ServeError> {
+            Err(ServeError::Io(format!("--ethercat {name}: raw Ethernet (AF_PACKET) needs Linux")))
         }
 
-        pub(crate) fn recv(&self, _: &mut [u8]) -> io::Result<Option<(usize, Peer)>> {
+        pub fn recv(&self, _: &mut [u8]) -> io::Result<Option<(usize, Peer)>> {
             match self.never {}
         }
 
-        pub(crate) fn send(&self, _: &[u8], to: &Peer) -> io::Result<()> {
+        pub fn send(&self, _: &[u8], to: &Peer) -> io::Result<()> {
             match *to {}
         }
     }
@@ -145,19 +145,20 @@ mod unsupported {
 /// master sends them and written out (a temporary file, renamed) by [`FoeFiles::write_pending`] when
 /// no frame is waiting, so that no disk write delays an answer (SOEM gives a frame 2 ms). Each file is
 /// reported on stderr; without a path the bytes are counted and reported, not kept.
-pub(crate) struct FoeFiles {
+pub struct FoeFiles {
     path: Option<PathBuf>,
     current: Option<(String, Vec<u8>)>,
     complete: Option<(String, Vec<u8>)>,
 }
 
 impl FoeFiles {
-    pub(crate) fn new(path: Option<PathBuf>) -> FoeFiles {
+    /// Files kept at `path` (none: counted and reported only).
+    pub fn new(path: Option<PathBuf>) -> FoeFiles {
         FoeFiles { path, current: None, complete: None }
     }
 
     /// Writes a completed file out and reports it (call while no frame is waiting).
-    pub(crate) fn write_pending(&mut self) {
+    pub fn write_pending(&mut self) {
         let Some((name, data)) = self.complete.take() else { return };
         let place = match &self.path {
             Some(path) => {
