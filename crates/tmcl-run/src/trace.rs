@@ -455,6 +455,76 @@ impl<W: Write> Sink for Csv<W> {
     }
 }
 
+/// One column of a [`Trace`] in memory, compactly: 32-bit integers for the quantities that are 32-bit in
+/// the module (all but the energy), 64-bit for the energy, and the rows without a value (the module
+/// refused to give one) listed apart. An hour sampled every millisecond is 3.6 million values a column.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Values {
+    data: Data,
+    /// The rows without a value, ascending.
+    missing: Vec<usize>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+enum Data {
+    Narrow(Vec<i32>),
+    Wide(Vec<i64>),
+}
+
+impl Values {
+    fn for_quantity(quantity: Quantity) -> Values {
+        let data = if quantity == Quantity::Energy { Data::Wide(Vec::new()) } else { Data::Narrow(Vec::new()) };
+        Values { data, missing: Vec::new() }
+    }
+
+    /// Appends the value of row `row` (the next one).
+    fn push(&mut self, value: Option<i64>, row: usize) {
+        if value.is_none() {
+            self.missing.push(row);
+        }
+        let v = value.unwrap_or(0);
+        match &mut self.data {
+            // A narrow quantity is an i32 in the module; saturating keeps a wrong caller from wrapping.
+            Data::Narrow(d) => d.push(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32),
+            Data::Wide(d) => d.push(v),
+        }
+    }
+
+    /// Rows.
+    pub fn len(&self) -> usize {
+        match &self.data {
+            Data::Narrow(d) => d.len(),
+            Data::Wide(d) => d.len(),
+        }
+    }
+
+    /// Whether there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The value at row `row` (`None`: no such row, or the module gave no value there).
+    pub fn get(&self, row: usize) -> Option<i64> {
+        if !self.missing.is_empty() && self.missing.binary_search(&row).is_ok() {
+            return None;
+        }
+        match &self.data {
+            Data::Narrow(d) => d.get(row).map(|&v| i64::from(v)),
+            Data::Wide(d) => d.get(row).copied(),
+        }
+    }
+
+    /// The last row's value (`None` if there are no rows).
+    pub fn last(&self) -> Option<Option<i64>> {
+        self.len().checked_sub(1).map(|r| self.get(r))
+    }
+
+    /// Every row's value, in order.
+    pub fn iter(&self) -> impl Iterator<Item = Option<i64>> + '_ {
+        (0..self.len()).map(|r| self.get(r))
+    }
+}
+
 /// A trace in memory, as columns: the times, one vector of values per column, the events, and the
 /// inputs, outputs and switches at every change.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -463,8 +533,8 @@ pub struct Trace {
     pub header: Option<Header>,
     /// Each row's time in µs.
     pub times: Vec<u64>,
-    /// `values[c][r]`: column `c` at row `r`.
-    pub values: Vec<Vec<Option<i64>>>,
+    /// `values[c]`: column `c`, a value per row.
+    pub values: Vec<Values>,
     /// The events, in order.
     pub events: Vec<Stamped>,
     /// The inputs, outputs and switches at the start and after each change.
@@ -500,8 +570,8 @@ impl Trace {
     }
 
     /// The values of the column holding `quantity`, if the trace has it.
-    pub fn column(&self, quantity: Quantity) -> Option<&[Option<i64>]> {
-        self.position(quantity).map(|i| self.values[i].as_slice())
+    pub fn column(&self, quantity: Quantity) -> Option<&Values> {
+        self.position(quantity).map(|i| &self.values[i])
     }
 
     /// The values of column `index` in its unit (the energy in A²·s, the rest as they are), `None` where
@@ -525,7 +595,7 @@ impl Trace {
         let mut next_event = 0;
         for (r, &micros) in self.times.iter().enumerate() {
             for (c, column) in self.values.iter().enumerate() {
-                values[c] = column[r];
+                values[c] = column.get(r);
             }
             let first = next_event;
             while self.events.get(next_event).is_some_and(|e| e.row == r) {
@@ -540,7 +610,7 @@ impl Trace {
 
 impl Sink for Trace {
     fn start(&mut self, header: &Header) -> io::Result<()> {
-        self.values = vec![Vec::new(); header.columns.len()];
+        self.values = header.columns.iter().map(|c| Values::for_quantity(c.quantity)).collect();
         self.header = Some(header.clone());
         Ok(())
     }
@@ -549,7 +619,7 @@ impl Sink for Trace {
         let r = self.times.len();
         self.times.push(row.micros);
         for (column, value) in self.values.iter_mut().zip(row.values) {
-            column.push(*value);
+            column.push(*value, r);
         }
         self.events.extend(row.events.iter().map(|e| Stamped { micros: row.micros, row: r, event: e.clone() }));
         if let Some(p) = row.placement {
@@ -595,6 +665,22 @@ mod tests {
         assert_eq!(seconds(0), "0.000000");
         assert_eq!(seconds(1_000_020), "1.000020");
         assert_eq!(seconds(3_600_000_000), "3600.000000");
+    }
+
+    #[test]
+    fn columns_in_memory_keep_every_value_and_the_missing_ones() {
+        let mut narrow = Values::for_quantity(Quantity::Accumulator);
+        for (r, v) in [Some(i64::from(i32::MIN)), None, Some(7), Some(i64::from(i32::MAX))].into_iter().enumerate() {
+            narrow.push(v, r);
+        }
+        assert_eq!(
+            narrow.iter().collect::<Vec<_>>(),
+            [Some(i64::from(i32::MIN)), None, Some(7), Some(i64::from(i32::MAX))]
+        );
+        assert_eq!((narrow.len(), narrow.last(), narrow.get(9)), (4, Some(Some(i64::from(i32::MAX))), None));
+        let mut wide = Values::for_quantity(Quantity::Energy);
+        wide.push(Some(1 << 40), 0);
+        assert_eq!(wide.get(0), Some(1 << 40));
     }
 
     #[test]

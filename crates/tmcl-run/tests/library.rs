@@ -60,7 +60,7 @@ fn a_streamed_csv_and_the_trace_in_memory_agree() {
     // Typed columns with their units.
     let var7 = trace.position(Quantity::Variable(7)).expect("the --set variable has a column");
     assert_eq!(trace.columns()[var7].name, "var7");
-    assert!(trace.values[var7].iter().all(|v| *v == Some(5)));
+    assert!(trace.values[var7].iter().all(|v| v == Some(5)));
     let energy = trace.position(Quantity::Energy).unwrap();
     assert_eq!(trace.columns()[energy].unit, Unit::AmpereSquaredSeconds);
     let joules = trace.scaled(energy);
@@ -109,7 +109,7 @@ fn positions_are_placed_in_the_world_also_after_a_reference_search() {
     assert!((first.per_microstep - 2.0 / 51200.0).abs() < 1e-15);
     let actual = trace.column(Quantity::ActualPosition).unwrap();
     let last = trace.len() - 1;
-    let at_end = trace.placements[last].place(actual[last].unwrap());
+    let at_end = trace.placements[last].place(actual.get(last).unwrap());
     assert!((at_end - 50.0).abs() < 0.01, "50 mm from the left switch: {at_end}");
     // The left switch was pressed and released during the search, the home flag at 50 mm is pressed at the
     // end.

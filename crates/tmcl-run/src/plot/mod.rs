@@ -31,7 +31,7 @@
 mod axis;
 mod lanes;
 
-use crate::trace::{Levels, Quantity, Stamped, Trace};
+use crate::trace::{Levels, Quantity, Stamped, Trace, Values};
 use axis::{format_number, text_width, Scale};
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
 use plotters::coord::types::RangedCoordf64;
@@ -235,39 +235,92 @@ struct Sample {
     scaler: Option<i32>,
 }
 
-/// The samples the panels draw.
-fn samples(trace: &Trace) -> Vec<Sample> {
-    let column = |q: Quantity| trace.column(q);
-    let at = |c: Option<&[Option<i64>]>, r: usize| c.and_then(|c| c[r]).map(|v| v as i32);
-    let (target, actual, velocity) =
-        (column(Quantity::TargetPosition), column(Quantity::ActualPosition), column(Quantity::Velocity));
-    let (load, scale, encoder, energy, error, scaler) = (
-        column(Quantity::Load),
-        column(Quantity::CurrentScale),
-        column(Quantity::Encoder),
-        column(Quantity::Energy),
-        column(Quantity::PositionError),
-        column(Quantity::Scaler),
-    );
-    (0..trace.len())
-        .map(|r| {
-            let (t, a) = (at(target, r).unwrap_or(0), at(actual, r).unwrap_or(0));
-            let world = trace.placements.get(r).map(|p| (p.place(t.into()), p.place(a.into())));
-            Sample {
-                micros: trace.times[r],
-                target: t,
-                actual: a,
-                velocity: at(velocity, r).unwrap_or(0),
-                world,
-                load: at(load, r),
-                current_scale: at(scale, r),
-                encoder: at(encoder, r),
-                energy: energy.and_then(|e| e[r]).map(|v| v as u64),
-                position_error: at(error, r),
-                scaler: at(scaler, r),
-            }
-        })
-        .collect()
+/// Where the panels' samples come from: the trace's columns, read one row at a time (a trace an hour
+/// long at 1 ms is 3.6 million rows: the plot never copies them), or a list (the tests).
+trait Samples {
+    fn len(&self) -> usize;
+    fn at(&self, row: usize) -> Sample;
+    fn micros(&self, row: usize) -> u64 {
+        self.at(row).micros
+    }
+}
+
+impl Samples for [Sample] {
+    fn len(&self) -> usize {
+        <[Sample]>::len(self)
+    }
+    fn at(&self, row: usize) -> Sample {
+        self[row]
+    }
+}
+
+impl Samples for Vec<Sample> {
+    fn len(&self) -> usize {
+        Vec::len(self)
+    }
+    fn at(&self, row: usize) -> Sample {
+        self[row]
+    }
+}
+
+/// The panels' columns of a trace, found by meaning.
+struct Columns<'a> {
+    trace: &'a Trace,
+    target: Option<&'a Values>,
+    actual: Option<&'a Values>,
+    velocity: Option<&'a Values>,
+    load: Option<&'a Values>,
+    scale: Option<&'a Values>,
+    encoder: Option<&'a Values>,
+    energy: Option<&'a Values>,
+    error: Option<&'a Values>,
+    scaler: Option<&'a Values>,
+}
+
+impl<'a> Columns<'a> {
+    fn of(trace: &'a Trace) -> Columns<'a> {
+        let column = |q: Quantity| trace.column(q);
+        Columns {
+            trace,
+            target: column(Quantity::TargetPosition),
+            actual: column(Quantity::ActualPosition),
+            velocity: column(Quantity::Velocity),
+            load: column(Quantity::Load),
+            scale: column(Quantity::CurrentScale),
+            encoder: column(Quantity::Encoder),
+            energy: column(Quantity::Energy),
+            error: column(Quantity::PositionError),
+            scaler: column(Quantity::Scaler),
+        }
+    }
+}
+
+impl Samples for Columns<'_> {
+    fn len(&self) -> usize {
+        self.trace.len()
+    }
+
+    fn micros(&self, row: usize) -> u64 {
+        self.trace.times[row]
+    }
+
+    fn at(&self, r: usize) -> Sample {
+        let at = |c: Option<&Values>| c.and_then(|c| c.get(r)).map(|v| v as i32);
+        let (t, a) = (at(self.target).unwrap_or(0), at(self.actual).unwrap_or(0));
+        Sample {
+            micros: self.trace.times[r],
+            target: t,
+            actual: a,
+            velocity: at(self.velocity).unwrap_or(0),
+            world: self.trace.placements.get(r).map(|p| (p.place(t.into()), p.place(a.into()))),
+            load: at(self.load),
+            current_scale: at(self.scale),
+            encoder: at(self.encoder),
+            energy: self.energy.and_then(|e| e.get(r)).map(|v| v as u64),
+            position_error: at(self.error),
+            scaler: at(self.scaler),
+        }
+    }
 }
 
 /// One program event of the plot.
@@ -294,11 +347,12 @@ fn event_text(trace: &Trace, stamped: &Stamped) -> String {
 
 /// Draws the plot into `out` with plotters, and returns the curves as SVG elements to add at its end.
 fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotError> {
-    let samples = &samples(trace)[..];
+    let samples = &Columns::of(trace);
     let events: &[Event] =
         &trace.events.iter().map(|e| Event { micros: e.micros, text: event_text(trace, e) }).collect::<Vec<_>>();
     let levels: &[Levels] = &trace.levels;
-    let end = samples.last().map_or(1, |s| s.micros).max(events.last().map_or(0, |e| e.micros)).max(1);
+    let last = samples.len().checked_sub(1).map_or(1, |r| samples.micros(r));
+    let end = last.max(events.last().map_or(0, |e| e.micros)).max(1);
     let time = Scale::fixed(0.0, seconds(end), false, 12);
     let unit = trace.header.as_ref().and_then(|h| h.world_unit.as_ref()).map(|u| u.name.as_str());
     let mut candidates = vec![position_panel(samples, unit), velocity_panel(samples)];
@@ -363,7 +417,7 @@ fn wrap_notes(notes: &[String]) -> Vec<String> {
     lines
 }
 
-fn position_panel(samples: &[Sample], unit: Option<&str>) -> Panel {
+fn position_panel(samples: &impl Samples, unit: Option<&str>) -> Panel {
     match unit {
         Some(unit) => {
             let world = |f: fn((f64, f64)) -> f64| move |s: &Sample| s.world.map_or(0.0, f);
@@ -395,15 +449,15 @@ fn position_panel(samples: &[Sample], unit: Option<&str>) -> Panel {
     }
 }
 
-fn velocity_panel(samples: &[Sample]) -> Panel {
+fn velocity_panel(samples: &impl Samples) -> Panel {
     let series = vec![line(samples, |s| s.velocity, SPEED, 1, "actual velocity (AP 3)")];
     Panel::new(220, "velocity [pps]", true, None, series)
 }
 
 /// The drive's panels, for the columns the trace has: load value, current scale or scaler, encoder −
 /// steps or position error, energy.
-fn drive_panels(samples: &[Sample], end: f64) -> Vec<Panel> {
-    let has = |f: fn(&Sample) -> bool| samples.first().is_some_and(f);
+fn drive_panels(samples: &impl Samples, end: f64) -> Vec<Panel> {
+    let has = |f: fn(&Sample) -> bool| samples.len() > 0 && f(&samples.at(0));
     let mut panels = Vec::new();
     if has(|s| s.load.is_some()) {
         let load = line(
@@ -467,7 +521,7 @@ fn drive_panels(samples: &[Sample], end: f64) -> Vec<Panel> {
 }
 
 /// A line series of an integer quantity.
-fn line(samples: &[Sample], value: impl Fn(&Sample) -> i32, color: RGBColor, width: u32, name: &str) -> Series {
+fn line(samples: &impl Samples, value: impl Fn(&Sample) -> i32, color: RGBColor, width: u32, name: &str) -> Series {
     Series { points: thin(samples, |s| f64::from(value(s))), color, style: Style::Line(width), name: name.into() }
 }
 
@@ -625,19 +679,30 @@ fn seconds(micros: u64) -> f64 {
 
 /// `(seconds, value)` points of one series, at most two per pixel column: each column's minimum and
 /// maximum, in time order (all samples if there are no more than that).
-fn thin(samples: &[Sample], value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
-    if samples.len() <= 2 * COLUMNS {
-        return samples.iter().map(|s| (seconds(s.micros), value(s))).collect();
+fn thin<S: Samples + ?Sized>(samples: &S, value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
+    let n = samples.len();
+    if n <= 2 * COLUMNS {
+        return (0..n).map(|r| samples.at(r)).map(|s| (seconds(s.micros), value(&s))).collect();
     }
-    let bucket = samples.len().div_ceil(COLUMNS);
+    let bucket = n.div_ceil(COLUMNS);
     let mut points = Vec::with_capacity(2 * COLUMNS + 2);
-    for chunk in samples.chunks(bucket) {
-        let lo = chunk.iter().min_by(|a, b| value(a).total_cmp(&value(b)));
-        let hi = chunk.iter().max_by(|a, b| value(a).total_cmp(&value(b)));
+    for start in (0..n).step_by(bucket) {
+        let mut lo: Option<(u64, f64)> = None;
+        let mut hi: Option<(u64, f64)> = None;
+        for s in (start..(start + bucket).min(n)).map(|r| samples.at(r)) {
+            let v = value(&s);
+            // The first of equal minima and the last of equal maxima, as `min_by`/`max_by` pick them.
+            if lo.is_none_or(|(_, l)| v.total_cmp(&l).is_lt()) {
+                lo = Some((s.micros, v));
+            }
+            if hi.is_none_or(|(_, h)| v.total_cmp(&h).is_ge()) {
+                hi = Some((s.micros, v));
+            }
+        }
         if let (Some(lo), Some(hi)) = (lo, hi) {
-            let (first, second) = if lo.micros <= hi.micros { (lo, hi) } else { (hi, lo) };
-            points.push((seconds(first.micros), value(first)));
-            points.push((seconds(second.micros), value(second)));
+            let (first, second) = if lo.0 <= hi.0 { (lo, hi) } else { (hi, lo) };
+            points.push((seconds(first.0), first.1));
+            points.push((seconds(second.0), second.1));
         }
     }
     points
@@ -646,9 +711,9 @@ fn thin(samples: &[Sample], value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
 /// A difference of two positions (encoder − steps, the position error) as a line, or as a band if it
 /// [`jitters`]: then it is mostly the encoder's resolution, which a line would draw as a solid block of
 /// zigzags.
-fn difference(samples: &[Sample], end: f64, value: impl Fn(&Sample) -> f64, name: &str) -> Series {
-    let values: Vec<f64> = samples.iter().map(&value).collect();
-    if jitters(&values) {
+fn difference<S: Samples + ?Sized>(samples: &S, end: f64, value: impl Fn(&Sample) -> f64, name: &str) -> Series {
+    let values: Vec<f64> = (0..samples.len()).map(|r| value(&samples.at(r))).collect();
+    if jitters(&values) || fills_columns(samples, end, &values) {
         let name = format!("{name} (band: minimum to maximum over ±{ENVELOPE_REACH} pixels)");
         Series { points: envelope(samples, end, value), color: SLIP, style: Style::Envelope, name }
     } else {
@@ -668,16 +733,38 @@ fn jitters(values: &[f64]) -> bool {
     turns * 5 > values.len() && mean_move * 20.0 >= hi - lo
 }
 
+/// Whether a series fills its pixel columns: in more than half of the columns that hold samples, the
+/// samples span at least half of the series' whole range. A sawtooth finer than a pixel (encoder − steps
+/// sampled every millisecond for an hour: the encoder's counts alias with the step rate) has few turns
+/// per sample but would still draw a solid block as a line.
+fn fills_columns<S: Samples + ?Sized>(samples: &S, end: f64, values: &[f64]) -> bool {
+    let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    if hi <= lo {
+        return false;
+    }
+    let mut columns: Vec<Option<(f64, f64)>> = vec![None; COLUMNS + 1];
+    for (r, &v) in values.iter().enumerate() {
+        let t = seconds(samples.micros(r));
+        let c = (((t / end.max(1e-9)) * COLUMNS as f64) as usize).min(COLUMNS);
+        let column = columns[c].get_or_insert((v, v));
+        column.0 = column.0.min(v);
+        column.1 = column.1.max(v);
+    }
+    let used = columns.iter().flatten().count();
+    let full = columns.iter().flatten().filter(|(l, h)| h - l >= (hi - lo) / 2.0).count();
+    full * 2 > used
+}
+
 /// The band around `value` over the time axis `0..end`: for each pixel column that has samples, the
 /// minimum and the maximum over it and [`ENVELOPE_REACH`] columns either side, as pairs of points
 /// `(time, minimum), (time, maximum)` at the column's first sample. The reach smooths the edges of a
 /// band whose samples alias with the encoder's steps; a real jump widens the band by a few pixels.
-fn envelope(samples: &[Sample], end: f64, value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
+fn envelope<S: Samples + ?Sized>(samples: &S, end: f64, value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
     let mut columns: Vec<Option<(f64, f64, f64)>> = vec![None; COLUMNS + 1];
-    for s in samples {
+    for s in (0..samples.len()).map(|r| samples.at(r)) {
         let t = seconds(s.micros);
         let c = (((t / end.max(1e-9)) * COLUMNS as f64) as usize).min(COLUMNS);
-        let v = value(s);
+        let v = value(&s);
         let column = columns[c].get_or_insert((t, v, v));
         column.1 = column.1.min(v);
         column.2 = column.2.max(v);
@@ -738,6 +825,10 @@ mod tests {
         assert_eq!(line.points.len(), 300);
         let steps: Vec<Sample> = (0..3000u64).map(|i| sample(i * 1000, -((i / 500) as i32) * 800)).collect();
         assert!(!jitters(&steps.iter().map(|s| f64::from(s.actual)).collect::<Vec<_>>()));
+        // A sawtooth finer than a pixel with few turns per sample (an hour at 1 ms): a band.
+        let saw: Vec<Sample> = (0..200_000u64).map(|i| sample(i * 1000, -((i % 40) as i32) * 5 / 4)).collect();
+        let band = difference(&saw, seconds(199_999_000), |s| f64::from(s.actual), "saw");
+        assert!(matches!(band.style, Style::Envelope));
         // A hold that wobbles by a few µsteps under a peak of 9000: the wobble is not what the panel shows.
         let wobble: Vec<f64> =
             (0..300).map(|i| if (140..160).contains(&i) { 9000.0 } else { f64::from(i % 7) }).collect();
