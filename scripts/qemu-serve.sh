@@ -8,13 +8,14 @@
 #   --monitor SOCKET  QEMU's human monitor on a Unix socket (for memory dumps: scripts/qemu-budgets.sh)
 #   --icount          deterministic time: one instruction = one nanosecond of virtual time
 #   Stops QEMU and removes LINK on SIGINT or SIGTERM (exit code 0). QEMU_IMAGE=ELF runs that image instead;
-#   QEMU_SYSTEM_ARM names the emulator (default qemu-system-arm).
+#   QEMU_SYSTEM_ARM names the emulator (default qemu-system-arm). Works with or without a controlling
+#   terminal (from a shell, under setsid, as a service, from Popen(..., start_new_session=True)).
 # Needs qemu-system-arm (Debian: apt-get install qemu-system-arm) and, to build, the thumbv7m-none-eabi
 # target (rustup target add thumbv7m-none-eabi).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
-usage() { sed -n '2,13p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,15p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 [[ $# -ge 1 && "$1" != -* ]] || usage
 link="$1"
 shift
@@ -64,13 +65,18 @@ fi
 
 work=$(mktemp -d)
 qemu_pid=""
+holder_pid=""
 pts=""
 cleanup() {
+    if [[ -n "$holder_pid" ]]; then
+        kill -TERM "$holder_pid" 2>/dev/null || true
+        wait "$holder_pid" 2>/dev/null || true
+    fi
     if [[ -n "$qemu_pid" ]] && kill -0 "$qemu_pid" 2>/dev/null; then
         kill -TERM "$qemu_pid" 2>/dev/null || true
         wait "$qemu_pid" 2>/dev/null || true
     fi
-    exec 3>&- 4>&- 2>/dev/null || true
+    exec 4>&- 2>/dev/null || true
     if [[ -n "$pts" && -L "$link" && "$(readlink "$link")" == "$pts" ]]; then
         rm -f "$link"
     fi
@@ -113,7 +119,15 @@ echo "sendkey up-down-left-right-ctrl 10" >"$work/ctl.in"
 sleep 0.2
 # Hold the pty open for the whole run: QEMU stops reading a pty that no one has open and looks again only
 # once a second, so a host that opens LINK would wait for its first reply; held open, it never does.
-exec 3<>"$pts"
+#
+# No terminal is opened by this shell itself: started without a controlling terminal as a session leader
+# (setsid, a service, Python's Popen(start_new_session=True)), a shell that opens a tty makes it its
+# controlling terminal, and then the `timeout dd` reads below, which run in a process group of their own,
+# are stopped by SIGTTIN. A child that is no session leader never acquires one: a holder process keeps the
+# pty open, and every read and write opens it in a child (a redirection of an external command or a
+# subshell).
+sleep infinity 3<>"$pts" &
+holder_pid=$!
 # QEMU reads a pty only once it has noticed that someone opened it, which it checks once a second; until
 # then a host's bytes pile up and reach the UART together, as one burst without the gaps that end a
 # partial frame. So ask the module something through our own descriptor (136 type 1, the version, which
@@ -123,8 +137,8 @@ exec 3<>"$pts"
 version_reply=02016488
 answers=""
 for _ in $(seq 1 12); do
-    printf '\x01\x88\x01\x00\x00\x00\x00\x00\x8a' >&3
-    answers+=$(timeout 2.5 dd bs=64 count=1 status=none <&3 2>/dev/null | od -An -tx1 | tr -d ' \n' || true)
+    (printf '\x01\x88\x01\x00\x00\x00\x00\x00\x8a' >"$pts")
+    answers+=$(timeout 2.5 dd bs=64 count=1 status=none <"$pts" 2>/dev/null | od -An -tx1 | tr -d ' \n' || true)
     [[ "$answers" == *"$version_reply"* ]] && break
     kill -0 "$qemu_pid" 2>/dev/null || break
 done
@@ -132,7 +146,7 @@ if [[ "$answers" != *"$version_reply"* ]]; then
     echo "qemu-serve: the firmware did not answer on $pts (got '$answers'): $(cat "$work/err")" >&2
     exit 1
 fi
-while [[ -n "$(timeout 0.3 dd bs=64 count=1 status=none <&3 2>/dev/null | od -An -tx1 || true)" ]]; do :; done
+while [[ -n "$(timeout 0.3 dd bs=64 count=1 status=none <"$pts" 2>/dev/null | od -An -tx1 || true)" ]]; do :; done
 ln -sfn "$pts" "$link.tmp.$$"
 mv -Tf "$link.tmp.$$" "$link"
 echo "serving $name at address 1 on $link"

@@ -5,8 +5,9 @@ module in ASCII mode on a line shared with binary modules.
 
 How a line with mixed modes behaves (a real RS485 line would do the same; bus.rs, iface/ascii.rs):
 - The binary modules read ASCII text as 9-byte frames; those frames carry a foreign address ('A' = 65 …)
-  and are ignored without a reply. The bytes of an incomplete frame are dropped after a 5 ms pause, so a
-  host must pause > 5 ms after an ASCII line before its next binary frame (else that frame is lost).
+  and are ignored without a reply. The bytes of an incomplete frame are dropped after a pause (5 ms on a
+  serial line and with --wire-timing, 50 ms on a pty or TCP link without it), so a host must pause that long
+  after an ASCII line before its next binary frame (else that frame is lost).
 - The ASCII module reads binary frames as text. A control byte (other than CR, LF, BS, TAB) or a byte
   from 0x80 up discards the line being typed, so a frame's 0x01/0x03 address byte, its zero bytes and
   most checksums leave no partial line: an ASCII line typed after binary traffic is answered. Only the
@@ -28,7 +29,7 @@ import time
 import pytest
 from pytrinamic.connections import SerialTmclInterface
 
-from tmcltest import BUS_MODULES, LinePort, frame, pytrinamic_connection, wait_until
+from tmcltest import BUS_MODULES, RESYNC_S, LinePort, frame, pytrinamic_connection, wait_until
 
 HOST = 2
 SAP, GAP, SGP, GGP, ENTER_ASCII = 5, 6, 9, 10, 139
@@ -205,17 +206,17 @@ def test_start_up_in_ascii_mode_after_a_software_reset_on_the_bus(serve, tmp_pat
         assert (reply.module, reply.status, reply.opcode) == (2, 100, 255), reply
         term.silence(0.05)
         assert term.type(b"\rBGAP 4, 0\r", 2) == b"BGAP 4, 0\rBB 100 51200\r"
-        time.sleep(0.02)  # > 5 ms: the binary modules drop the text's leftover bytes
+        time.sleep(RESYNC_S)  # > the resync pause: the binary modules drop the text's leftover bytes
         assert term.ok(1, GAP, 4, 0, 0).value == 51200
         assert term.ok(3, GAP, 4, 0, 0).value == 51200
     server.restart()
     with AsciiLinePort(server.link) as term:
         assert term.type(b"BGGP 67, 0\r", 2) == b"BGGP 67, 0\rBB 100 17\r"
-        time.sleep(0.02)
+        time.sleep(RESYNC_S)
         assert term.ok(1, GGP, 67, 0, 0).value == 0
         term.write(b"\rBBIN\r")
         assert term.read_until(b"\r") == b"BBIN\r" and term.read_until(b"\r") == b"BB 100 0\r"
-        time.sleep(0.02)
+        time.sleep(RESYNC_S)
     with pytrinamic_connection(server, module_id=2) as conn:
         assert conn.get_global_parameter(67, 0) == 0x11
         assert conn.get_axis_parameter(4, 0) == 51200
@@ -442,14 +443,14 @@ def test_ascii_module_on_a_shared_line(bus_server):
         # an ASCII line typed now is answered. Echo mode 00: the line, then the reply with module
         # character B. (A frame that ends in printable bytes would leave them in the way: CR first.)
         assert term.type(b"BGAP 4, 0\r", 2) == b"BGAP 4, 0\rBB 100 51200\r"
-        time.sleep(0.02)  # > 5 ms: modules 1 and 3 drop the text's incomplete frame
+        time.sleep(RESYNC_S)  # > the resync pause: modules 1 and 3 drop the text's incomplete frame
         assert term.ok(1, GAP, 4, 0, 0).value == 1191
         assert term.ok(3, GAP, 4, 0, 0).value == 1193
         # An ASCII line and a binary frame in one write: module 2 answers its line; the binary modules
         # read the text plus the frame as misaligned 9-byte frames for foreign addresses and stay silent.
         term.write(b"\rBGGP 66, 0\r" + frame(1, GAP, 4, 0, 0))
         assert term.read_quiet(0.2) == b"BGGP 66, 0\rBB 100 2\r"
-        time.sleep(0.02)
+        time.sleep(RESYNC_S)
         assert term.ok(1, GAP, 4, 0, 0).value == 1191
         # A binary frame whose value holds CR 'B' 'G' 'A' starts a line for module 2: it echoes 'B',
         # 'G', 'A' (stray bytes for a binary host) ...
@@ -465,7 +466,7 @@ def test_ascii_module_on_a_shared_line(bus_server):
         term.silence(0.2)
         # Back to binary: all three answer pytrinamic again.
         assert term.type(b"BBIN\r", 2) == b"BBIN\rBB 100 0\r"
-        time.sleep(0.02)
+        time.sleep(RESYNC_S)
     with pytrinamic_connection(bus_server) as conn:
         for a in (1, 2, 3):
             assert conn.get_global_parameter(66, 0, module_id=a) == a
@@ -487,6 +488,6 @@ def test_two_modules_in_ascii_mode(bus_server):
         assert term.reply_line("CGGP 66, 0", module="C") == (100, 3)
         for c in "AC":
             assert term.reply_line(f"{c}BIN", module=c) == (100, 0)
-        time.sleep(0.02)
+        time.sleep(RESYNC_S)
         for a in (1, 2, 3):
             assert term.request(a, GGP, 66, 0, 0).value == a

@@ -15,7 +15,7 @@ import pytest
 from pytrinamic.connections import SerialTmclInterface
 from pytrinamic.tmcl import TMCLCommand
 
-from tmcltest import BUS_MODULES, LinePort, RawReply, frame, pytrinamic_connection, wait_until
+from tmcltest import BUS_MODULES, RESYNC_S, LinePort, RawReply, frame, pytrinamic_connection, wait_until
 
 HOST = 2
 ROR, MST, MVP, SAP, GAP, SGP, GGP = 1, 3, 4, 5, 6, 9, 10
@@ -318,26 +318,26 @@ def test_wrong_checksum_to_one_module(line):
 
 def test_garbage_then_a_pause_resynchronises(line):
     values = set_distinct_values(line)
-    # Partial frames for each module (the first bytes of a request), each followed by a pause > 5 ms.
+    # Partial frames for each module (the first bytes of a request), each followed by a pause longer than the resync time.
     for junk in (frame(1, GAP, 4, 0, 0)[:4], frame(2, SAP, 4, 0, 1)[:8], b"\x03", b"\xff\x00\x13\x37\x42"):
         line.write(junk)
-        time.sleep(0.02)
+        time.sleep(RESYNC_S)
         line.silence(0.05)
         for a in ADDRESSES:
             assert line.ok(a, GAP, 4, 0, 0).value == values[a]
 
 
 def test_garbage_without_a_pause_shifts_the_frames(line):
-    """Without the 5 ms pause a stray byte joins the next frame, as on a real line: the frame is read
+    """Without the resync pause a stray byte joins the next frame, as on a real line: the frame is read
     from the stray byte on. Documented here; a host must pause after an error before it resends."""
     line.write(b"\x02" + frame(1, GAP, 4, 0, 0))  # 0x02 starts a 9-byte frame for address 2
     got = line.read_quiet(0.3)
     # Module 2 sees 02 01 06 04 00 00 00 00 00 (bad checksum): status 1 from module 2; the last byte of
-    # the real frame is left over and dropped after 5 ms.
+    # the real frame is left over and dropped after the pause.
     assert len(got) == 9, got.hex(" ")
     reply = RawReply(got)
     assert (reply.module, reply.status) == (2, 1), reply
-    time.sleep(0.02)
+    time.sleep(RESYNC_S)
     assert line.ok(1, GAP, 4, 0, 0).value == 51200
 
 

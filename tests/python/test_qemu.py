@@ -15,7 +15,7 @@ from pytrinamic.tmcl import TMCLReplyStatusError
 
 from test_ascii import ECHO_NONE, AsciiLinePort
 from test_program import PROGRAM, RUN, download
-from tmcltest import LinePort, elf_symbols, frame, pytrinamic_connection, wait_until
+from tmcltest import LinePort, QemuServer, elf_symbols, frame, pytrinamic_connection, wait_until
 
 STATUS_INVALID_COMMAND, STATUS_WRONG_TYPE, STATUS_INVALID_VALUE = 2, 3, 4
 # GPIO port F's data register seen through the mask of PF0 and PF2 (OUT0, OUT1; data sheet §8.2.1.2).
@@ -178,3 +178,26 @@ def test_the_stack_keeps_a_margin(qemu_server, bus, tmp_path):
     used = (top - bottom) - untouched
     print(f"stack: {used} of {top - bottom} bytes used, {untouched} never touched")
     assert untouched >= 8 * 1024, f"only {untouched} bytes of stack never used ({used} used)"
+
+
+@pytest.mark.parametrize("how", ["setsid", "start_new_session"])
+def test_qemu_serve_without_a_controlling_terminal(qemu_image, tmp_path, tmcl_bin, how):
+    """scripts/qemu-serve.sh as a service starts it: in a session of its own, without a controlling
+    terminal (under `setsid`, or from Popen(..., start_new_session=True)). The pty it serves must not become
+    its controlling terminal, or its reads of the pty are stopped (SIGTTIN) and the firmware never answers."""
+    server = QemuServer(qemu_image, tmp_path, link_name=f"link-{how}")
+    if how == "setsid":
+        plain = server.args
+        server.args = lambda: ["setsid", *plain()]
+    else:
+        server.new_session = True
+    server.start()
+    try:
+        r = subprocess.run([str(tmcl_bin), "version", "--port", str(server.link), "--timeout", "5"],
+                           capture_output=True, text=True, timeout=30)
+        assert r.returncode == 0 and r.stdout.startswith("1021V"), r
+        with pytrinamic_connection(server) as conn:
+            conn.set_axis_parameter(4, 0, 1234)
+            assert conn.get_axis_parameter(4, 0) == 1234
+    finally:
+        server.terminate_checked()

@@ -68,6 +68,8 @@ class Server:
         self._stderr_path: Path | None = None
         # The environment of the process (None: this one's).
         self.env: dict[str, str] | None = None
+        # Start it in a session of its own, without a controlling terminal (as services and tools do).
+        self.new_session = False
         self.ready_timeout_s = READY_TIMEOUT_S
 
     # -- lifecycle ---------------------------------------------------------------------------------
@@ -95,7 +97,8 @@ class Server:
         stderr = open(self._stderr_path, "wb")
         try:
             self.proc = subprocess.Popen(self.args(), cwd=self.workdir, stdin=subprocess.DEVNULL,
-                                         stdout=subprocess.PIPE, stderr=stderr, env=self.env)
+                                         stdout=subprocess.PIPE, stderr=stderr, env=self.env,
+                                         start_new_session=self.new_session)
         finally:
             stderr.close()
         self._lines = queue.Queue()
@@ -408,6 +411,11 @@ def wait_until(predicate, timeout_s: float, interval_s: float = 0.02, what: str 
         if time.monotonic() >= deadline:
             raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
         time.sleep(interval_s)
+
+
+# The silence after which `tmcl serve` (without --wire-timing) drops a partial frame, with a margin: the
+# serial line's 5 ms are meaningless on a pty or a TCP socket (docs/decisions.md, "No frame lost").
+RESYNC_S = 0.07
 
 
 # -- raw frames ------------------------------------------------------------------------------------

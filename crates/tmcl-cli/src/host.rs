@@ -94,7 +94,9 @@ pub enum HostCommand {
     ///
     /// OPCODE is a number (0-255) or a mnemonic (MVP, SAP, ...); TYPE is a number or the command's type word
     /// (ABS, REL, COORD for MVP; START, STOP, STATUS for RFS; ADD, SUB, ... for CALC; ...). Commands 137 and 242
-    /// get no reply, 255 may not; for them `tmcl` only sends. 136 type 0 prints the version string.
+    /// get no reply when carried out, 255 may not: for them `tmcl` shows a reply that comes within --timeout (a
+    /// refusal, such as a wrong key, exits 1) and says "no reply" only when none came. 136 type 0 prints the
+    /// version string.
     #[command(after_help = EXIT_CODES, allow_negative_numbers = true)]
     Send {
         #[command(flatten)]
@@ -293,21 +295,28 @@ fn execute(cmd: HostCommand, json: bool, out: &mut dyn Write) -> Result<(), CliE
             let mut models = names::Models::new(&model)?;
             let (param, value) = param.parts();
             let target = models.resolve(param, &mut client)?;
-            let reply = client
-                .request(target.instruction(target.write_opcode(), value))
-                .map_err(|e| explain(&mut models, &mut client, target, e, Some(value)))?;
+            let instruction = target.instruction(target.write_opcode(), value);
+            if instruction.opcode == Opcode::Sgp && instruction.kind == 255 && value != 0 {
+                return replies_off(&mut client, instruction, json, out);
+            }
+            let reply =
+                client.request(instruction).map_err(|e| explain(&mut models, &mut client, target, e, Some(value)))?;
             ok(&target, reply, json, out)
         }
         HostCommand::Store { conn, model, param } => {
             let mut client = conn.open()?;
             let target = names::Models::new(&model)?.resolve(param.parts(), &mut client)?;
-            let reply = client.request(target.instruction(target.store_opcode(Opcode::Stap, Opcode::Stgp), 0))?;
+            let reply = client
+                .request(target.instruction(target.store_opcode(Opcode::Stap, Opcode::Stgp), 0))
+                .map_err(|e| why_silent(&mut client, e))?;
             ok(&target, reply, json, out)
         }
         HostCommand::Restore { conn, model, param } => {
             let mut client = conn.open()?;
             let target = names::Models::new(&model)?.resolve(param.parts(), &mut client)?;
-            let reply = client.request(target.instruction(target.store_opcode(Opcode::Rsap, Opcode::Rsgp), 0))?;
+            let reply = client
+                .request(target.instruction(target.store_opcode(Opcode::Rsap, Opcode::Rsgp), 0))
+                .map_err(|e| why_silent(&mut client, e))?;
             ok(&target, reply, json, out)
         }
         HostCommand::Send { conn, opcode, kind, motor, value } => {
@@ -327,6 +336,9 @@ fn explain(
     err: HostError,
     value: Option<i32>,
 ) -> CliError {
+    if matches!(err, HostError::Timeout { received: 0, .. }) {
+        return why_silent(client, err);
+    }
     if matches!(err, HostError::Status { .. }) && target.model.is_none() {
         if let Ok(model) = models.get(client) {
             target = names::lookup_number(model, target);
@@ -555,15 +567,24 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
             }
         }
         (Opcode::FactoryDefault | Opcode::Boot | Opcode::SoftwareReset, _) => {
-            client.request_no_reply(instruction)?;
-            if json {
-                writeln!(out, "{}", json!({ "sent": true, "opcode": u8::from(instruction.opcode) }))?;
-            } else {
-                writeln!(out, "sent (this command gets no reply)")?;
+            // Documented to get no reply when carried out (§3.7.38), but a refusal (a wrong key: status 4)
+            // is answered: show what comes within the timeout, and "no reply" only when nothing did.
+            match client.request_optional(instruction)? {
+                Some(reply) if json => writeln!(out, "{}", reply_json(&reply))?,
+                Some(reply) => writeln!(out, "status {}, value {}", reply.status, reply.value)?,
+                None if json => {
+                    let sent = Sent { sent: true, opcode: u8::from(instruction.opcode), reply: None };
+                    writeln!(out, "{}", serde_json::to_string(&sent).map_err(|e| CliError::Io(e.to_string()))?)?
+                }
+                None => writeln!(
+                    out,
+                    "sent; no reply within {} s (this command gets none when it is carried out)",
+                    client.timeout.as_secs_f64()
+                )?,
             }
         }
         _ => {
-            let reply = client.request(instruction)?;
+            let reply = client.request(instruction).map_err(|e| why_silent(client, e))?;
             if json {
                 writeln!(out, "{}", reply_json(&reply))?;
             } else {
@@ -572,6 +593,80 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
         }
     }
     Ok(())
+}
+
+/// `tmcl send` of a command that got no reply, with --json.
+#[derive(Debug, serde::Serialize)]
+struct Sent {
+    /// Always true: the request went out.
+    sent: bool,
+    /// The command number.
+    opcode: u8,
+    /// Always null: nothing came within the timeout.
+    reply: Option<()>,
+}
+
+/// `tmcl set gp 255 N` with N other than 0, with --json.
+#[derive(Debug, serde::Serialize)]
+struct RepliesOff {
+    /// The value set.
+    value: i32,
+    /// "off".
+    replies: &'static str,
+    /// The command that turns them on again.
+    turn_on: &'static str,
+}
+
+/// `set gp 255 N` (N not 0): replies off (§5.1 GP 255). The module suppresses the reply to this very
+/// command, so silence is success; a refusal still comes (a module without GP 255) and fails.
+fn replies_off(
+    client: &mut HostClient,
+    instruction: Instruction,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<(), CliError> {
+    client.request_optional(instruction)?;
+    // Silence is expected, but check that it is the module's choice: GGP is always answered.
+    let value = client.get_global_parameter(255, 0)?;
+    if value == 0 {
+        return Err(CliError::Io("the module answered but kept its replies on (GP 255 reads 0)".into()));
+    }
+    if json {
+        let off = RepliesOff { value, replies: "off", turn_on: "tmcl set gp 255 0" };
+        writeln!(out, "{}", serde_json::to_string(&off).map_err(|e| CliError::Io(e.to_string()))?)?;
+    } else {
+        writeln!(
+            out,
+            "ok: replies are now off (GP 255 = {value}): the module answers only GAP, GGP and GIO, so other \
+             commands get no reply and time out; `tmcl set gp 255 0` turns them on again (a restart does too: \
+             GP 255 is not stored)"
+        )?;
+    }
+    Ok(())
+}
+
+/// A request that got no reply at all: if the module's replies are off (GP 255, asked with GGP, which is
+/// always answered), says so and how to turn them on, instead of a hint about the port.
+fn why_silent(client: &mut HostClient, err: HostError) -> CliError {
+    if matches!(err, HostError::Timeout { received: 0, .. }) {
+        // A module answers within milliseconds; a dead line should not cost a second full timeout.
+        let timeout = client.timeout;
+        client.timeout = timeout.min(std::time::Duration::from_millis(500));
+        let probe = client.get_global_parameter(255, 0);
+        client.timeout = timeout;
+        if let Ok(value) = probe {
+            if value != 0 {
+                return CliError::Explained {
+                    source: err,
+                    explanation: format!(
+                        "the module's replies are off (GP 255 = {value}): it answers only GAP, GGP and GIO; \
+                         `tmcl set gp 255 0` turns them on again"
+                    ),
+                };
+            }
+        }
+    }
+    err.into()
 }
 
 /// Builds the instruction of `tmcl send` from its words.
@@ -858,8 +953,17 @@ mod tests {
         assert_eq!((code, out.as_str()), (0, "status 100 (successfully executed, no error), value -1000\n"));
         assert_eq!(requests[0].instruction, Instruction::new(Opcode::Mvp, 0, 0, -1000));
         let (code, out, requests) = run_against(&["send", "137", "0", "0", "1234"], vec![None]);
-        assert_eq!((code, out.as_str()), (0, "sent (this command gets no reply)\n"));
+        assert_eq!(
+            (code, out.as_str()),
+            (0, "sent; no reply within 0.3 s (this command gets none when it is carried out)\n")
+        );
         assert_eq!(requests[0].instruction, Instruction::new(Opcode::FactoryDefault, 0, 0, 1234));
+        // A refusal of a command that gets no reply when carried out is shown, and exits 1.
+        for op in ["137", "255"] {
+            let (code, _, _) =
+                run_against(&["send", op, "0", "0", "0"], vec![reply(Status::InvalidValue, op.parse().unwrap(), 0)]);
+            assert_eq!(code, EXIT_STATUS, "send {op} refused");
+        }
     }
 
     #[test]

@@ -99,8 +99,26 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
             let program = load(&args.file)?;
             let mut client = args.conn.open()?;
             let bar = progress(program.len() as u64, "download");
-            client.download_program(&program, args.at, |n| bar.set_position(n as u64))?;
+            let mut stored = 0;
+            let downloaded = client.download_program(&program, args.at, |n| {
+                stored = n;
+                bar.set_position(n as u64)
+            });
             bar.finish_and_clear();
+            if let Err(source) = downloaded {
+                // Say how far it got: the module holds the first `stored` instructions, the rest is whatever
+                // was there before.
+                let end = usize::from(args.at) + stored;
+                return Err(CliError::Explained {
+                    source,
+                    explanation: format!(
+                        "download interrupted: {stored} of {} instructions stored (addresses {}..{end}); the \
+                         program in the module is incomplete, download it again",
+                        program.len(),
+                        args.at
+                    ),
+                });
+            }
             if args.verify {
                 for (n, expected) in program.iter().enumerate() {
                     let got = client.read_program_memory(args.at + n as u16)?;

@@ -381,3 +381,12 @@ fn a_model_without_an_interface_drops_its_bytes() {
     assert!(out.is_empty(), "no interface 2; port 1 takes whole messages; port 0 takes a byte stream");
     assert_eq!(r.cmd(Opcode::Gap, 4, 0, 0), (Status::Ok, 1000));
 }
+
+#[test]
+fn a_model_without_an_address_setting_is_module_1() {
+    let mut r = Rig::new();
+    assert_eq!(r.module.set_address(1, r.now), Ok(()));
+    assert_eq!(r.module.set_address(2, r.now), Err(Status::NotAvailable));
+    assert_eq!(r.module.address(), 1);
+    assert_eq!(r.cmd(Opcode::Gap, 1, 0, 0).0, Status::Ok);
+}

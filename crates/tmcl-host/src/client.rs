@@ -212,6 +212,26 @@ impl<T: Transport> Client<T> {
         }
     }
 
+    /// Sends one request that may get no reply (command 137 carried out, 242, 255 on a module that does
+    /// not answer it, anything while GP 255 suppresses replies) and returns the reply that answers it within
+    /// the timeout, or `None` when none came. A refusal (status below 100) is [`HostError::Status`], as for
+    /// [`Client::request`]: the module did not do what was asked.
+    ///
+    /// # Errors
+    ///
+    /// As [`Client::request`], except that silence is `Ok(None)`.
+    pub fn request_optional(&mut self, instruction: Instruction) -> Result<Option<Reply>, HostError> {
+        match self.request(instruction) {
+            Ok(reply) => Ok(Some(reply)),
+            Err(HostError::Timeout { received: 0, .. }) => {
+                // Nothing came, so nothing is left on the line to drain.
+                self.resync = false;
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
     /// Sends one request without reading a reply: for command 137 (factory defaults, no reply, §3.7.38), 242
     /// (boot) and any command while global parameter 255 suppresses replies.
     pub fn request_no_reply(&mut self, instruction: Instruction) -> Result<(), HostError> {

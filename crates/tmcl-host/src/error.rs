@@ -37,6 +37,22 @@ pub enum HostError {
         /// Who holds it and what to do, in words.
         detail: String,
     },
+    /// The port is the link of a `tmcl serve` that has exited (its `LINK.lock` names a process that is gone):
+    /// the link may point at a pseudo-terminal another program has since opened, so nothing was written.
+    #[error(
+        "{} is left from a `tmcl serve` that has exited: the server that made this link (PID {pid}) has \
+         exited; nothing was written to it (it may point at another program's terminal now). Start the \
+         server again, or remove {} and {}",
+        link.display(), link.display(), lock.display()
+    )]
+    StaleLink {
+        /// The link.
+        link: std::path::PathBuf,
+        /// Its lock file.
+        lock: std::path::PathBuf,
+        /// The PID the lock file names.
+        pid: u32,
+    },
     /// Reading or writing failed, or the other side closed the connection.
     #[error("I/O error: {0}")]
     Io(#[from] io::Error),

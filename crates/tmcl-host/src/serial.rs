@@ -41,9 +41,11 @@ impl SerialTransport {
     ///
     /// # Errors
     ///
-    /// [`HostError::InUse`] when another program holds the port, [`HostError::Open`] naming the path for
-    /// anything else.
+    /// [`HostError::InUse`] when another program holds the port, [`HostError::StaleLink`] when `path` is the
+    /// link of a `tmcl serve` that has exited (nothing is written to it), [`HostError::Open`] naming the path
+    /// for anything else.
     pub fn open(path: &str, baud: u32) -> Result<SerialTransport, HostError> {
+        check_link(std::path::Path::new(path))?;
         let builder = serialport::new(path, baud)
             .data_bits(serialport::DataBits::Eight)
             .parity(serialport::Parity::None)
@@ -81,6 +83,27 @@ impl SerialTransport {
     pub fn name(&self) -> Option<String> {
         self.port.name()
     }
+}
+
+/// Refuses the link of a `tmcl serve` that has exited. The server writes its PID into `LINK.lock` beside
+/// LINK and holds the file's `flock` while it runs; after a `kill -9` the link stays and may point at a
+/// pseudo-terminal that another program (a terminal, an editor) has opened since. Whether the server lives
+/// is asked of the process table (`/proc`), so that this check never takes the lock a starting server is
+/// about to take. Without a lock file, or off Linux, nothing is checked.
+fn check_link(path: &std::path::Path) -> Result<(), HostError> {
+    if !std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        return Ok(());
+    }
+    let Some(name) = path.file_name() else { return Ok(()) };
+    let mut lock_name = name.to_os_string();
+    lock_name.push(".lock");
+    let lock = path.with_file_name(lock_name);
+    let Ok(text) = std::fs::read_to_string(&lock) else { return Ok(()) };
+    let Ok(pid) = text.trim().parse::<u32>() else { return Ok(()) };
+    if cfg!(target_os = "linux") && !std::path::Path::new("/proc").join(pid.to_string()).exists() {
+        return Err(HostError::StaleLink { link: path.to_path_buf(), lock, pid });
+    }
+    Ok(())
 }
 
 impl Transport for SerialTransport {

@@ -36,10 +36,12 @@
 #[cfg(feature = "plot")]
 pub mod plot;
 mod record;
+pub mod refusals;
 pub mod runner;
 pub mod setup;
 pub mod trace;
 
+pub use refusals::{Refusals, Refused};
 pub use runner::{run, state_name, Options, RunError, Simulation, Summary};
 pub use setup::{parse_number, poll, Setting, Setup, SetupError, Source, SourceError, USER_BANK};
 pub use trace::{

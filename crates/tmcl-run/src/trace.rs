@@ -220,6 +220,13 @@ pub enum Event {
     },
     /// A new target position (MVP, SAP 0); the row still shows where the motor stands.
     Target(i32),
+    /// The module refused the instruction at `pc` with `status`; the program went on without it.
+    Refused {
+        /// Its address.
+        pc: u16,
+        /// The status (PD28-1021 manual §3.2.1, Table 4).
+        status: u8,
+    },
 }
 
 impl Event {
@@ -228,6 +235,7 @@ impl Event {
         match self {
             Event::Output { number, .. } => format!("out{number}"),
             Event::Target(_) => "target".into(),
+            Event::Refused { .. } => "refused".into(),
             other => other.to_string(),
         }
     }
@@ -237,6 +245,7 @@ impl Event {
         match self {
             Event::Output { level, .. } => Some(u8::from(*level).to_string()),
             Event::Target(t) => Some(t.to_string()),
+            Event::Refused { pc, status } => Some(format!("pc {pc} status {status}")),
             _ => None,
         }
     }
@@ -251,6 +260,7 @@ impl fmt::Display for Event {
             Event::End => f.write_str("end"),
             Event::Output { number, level } => write!(f, "out{number}={}", u8::from(*level)),
             Event::Target(t) => write!(f, "target={t}"),
+            Event::Refused { pc, status } => write!(f, "refused=pc {pc} status {status}"),
         }
     }
 }

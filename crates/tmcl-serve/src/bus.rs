@@ -9,6 +9,13 @@
 //! 9 byte times, and a reply that is ready while the line is busy waits for it. Without wire timing the
 //! line is as fast as the pty.
 //!
+//! **No frame lost.** Without wire timing the host's bytes come through a buffer (a pty, a TCP socket), in
+//! any number per read: each module keeps the bytes it has not taken yet (its backlog) and takes the next
+//! frame only when the reply to the one before has gone out ([`Module::receive_in_turn`]), so a backlog of
+//! any length is answered in order, one reply per frame, telegram pause or not. The inter-byte timeout of a
+//! serial line (5 ms, [`tmcl_core::iface::INTER_BYTE_TIMEOUT`]) applies with wire timing only; without it a
+//! partial frame is dropped after [`STREAM_RESYNC`] of silence (see docs/decisions.md, "No frame lost").
+//!
 //! **Decisions.** Two modules answering at once (a shared secondary address) would garble each other on
 //! a real bus; here the line sends the replies one after the other, whole, in the order they became due.
 //! A module in ASCII mode on the line reads binary frames for others as text: their control bytes and
@@ -20,6 +27,13 @@ use std::collections::VecDeque;
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_sim::SimBoard;
 
+/// Without wire timing, the silence after which a partial frame is dropped: ten times the serial line's
+/// 5 ms, so that a frame a host writes in pieces (byte by byte from a script, or delayed by a loaded
+/// machine) is still one frame, and short enough that a stray byte (a text line for a module in ASCII
+/// mode, what a killed host left behind) is forgotten before a host's next request, as a host that pauses
+/// after an error expects.
+pub const STREAM_RESYNC: Duration = Duration::from_millis(50);
+
 /// One module on the line.
 pub struct Node {
     /// The module.
@@ -28,12 +42,15 @@ pub struct Node {
     pub name: String,
     /// Bytes on their way to this module (due time, byte), with wire timing.
     inbound: VecDeque<(Instant, u8)>,
+    /// Bytes the module has not taken yet (without wire timing): it takes a frame when the reply to the
+    /// one before has gone out.
+    backlog: VecDeque<u8>,
 }
 
 impl Node {
     /// A module on the line.
     pub fn new(module: Module<SimBoard>, name: String) -> Node {
-        Node { module, name, inbound: VecDeque::new() }
+        Node { module, name, inbound: VecDeque::new(), backlog: VecDeque::new() }
     }
 
     /// Time of one byte (10 bits) at the module's baud rate.
@@ -56,7 +73,11 @@ pub struct Bus {
 
 impl Bus {
     /// A line with these modules.
-    pub fn new(nodes: Vec<Node>, wire_timing: bool) -> Bus {
+    pub fn new(mut nodes: Vec<Node>, wire_timing: bool) -> Bus {
+        for node in &mut nodes {
+            let timeout = if wire_timing { tmcl_core::iface::INTER_BYTE_TIMEOUT } else { STREAM_RESYNC };
+            node.module.set_inter_byte_timeout(Some(timeout));
+        }
         Bus { nodes, wire_timing, outbound: VecDeque::new(), line_free: Instant::ZERO }
     }
 
@@ -71,9 +92,8 @@ impl Bus {
                     node.inbound.push_back((start + Duration::from_micros(byte.micros() * (k as u64 + 1)), b));
                 }
             } else {
-                let mut out = Vec::new();
-                self.nodes[i].module.receive(now, bytes, &mut |b: &[u8]| out.extend_from_slice(b));
-                self.emit(i, now, &out, sink);
+                self.nodes[i].backlog.extend(bytes);
+                self.pump(i, now, sink);
             }
         }
         self.poll(now, sink);
@@ -84,6 +104,7 @@ impl Bus {
         for node in &mut self.nodes {
             node.module.reset_link();
             node.inbound.clear();
+            node.backlog.clear();
         }
     }
 
@@ -107,13 +128,35 @@ impl Bus {
                 self.emit(i, t, &out, sink);
             }
             let mut out = Vec::new();
-            let deadline = self.nodes[i].module.poll(now, &mut |x: &[u8]| out.extend_from_slice(x));
+            let mut deadline = self.nodes[i].module.poll(now, &mut |x: &[u8]| out.extend_from_slice(x));
             self.emit(i, now, &out, sink);
+            if !self.nodes[i].backlog.is_empty() && self.pump(i, now, sink) {
+                let mut out = Vec::new();
+                deadline = self.nodes[i].module.poll(now, &mut |x: &[u8]| out.extend_from_slice(x));
+                self.emit(i, now, &out, sink);
+            }
             consider(deadline);
             consider(self.nodes[i].inbound.front().map(|(t, _)| *t));
         }
         consider(self.drain(now, sink));
         next
+    }
+
+    /// Offers module `i` its backlog; returns whether it took anything.
+    fn pump(&mut self, i: usize, now: Instant, sink: &mut dyn FnMut(&[u8])) -> bool {
+        let node = &mut self.nodes[i];
+        let mut out = Vec::new();
+        let taken = node
+            .module
+            .receive_in_turn(0, now, node.backlog.make_contiguous(), &mut |b: &[u8]| out.extend_from_slice(b));
+        node.backlog.drain(..taken);
+        self.emit(i, now, &out, sink);
+        taken > 0
+    }
+
+    /// Bytes not yet taken by the modules (without wire timing), the most any one module holds.
+    pub fn backlog(&self) -> usize {
+        self.nodes.iter().map(|n| n.backlog.len()).max().unwrap_or(0)
     }
 
     /// What module `i` sent at `at`: straight to the host, or onto the timed line.

@@ -22,12 +22,15 @@ use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
 use tmcl_ethercat::Slave;
 use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
-use tmcl_wire::Command;
 
 /// Longest sleep without a deadline or a byte. A signal or a [`Stopper::stop`] ends a sleep at once, so
 /// this only paces the pty's exclusive-mode check; a moving module has its next event as deadline (the end
 /// of a ramp, an arrival), not its next motion tick, and costs next to nothing between events.
 const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// The most reply bytes held for a host that does not read them (a pty's or socket's buffer is full);
+/// beyond it the oldest are dropped, with a word on stderr.
+const MAX_PENDING: usize = 16 << 20;
 
 /// How often the pty's exclusive mode is checked for a host that died holding it.
 const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
@@ -75,6 +78,8 @@ impl Stopper {
 pub struct Server {
     bus: Bus,
     link: Option<Link>,
+    /// Reply bytes the link did not take yet (its buffer was full): written when it can take them.
+    pending: Vec<u8>,
     ecat: Option<EtherCat>,
     start: std::time::Instant,
     verbose: bool,
@@ -122,10 +127,26 @@ impl Server {
         if links.is_empty() && ethercat.is_none() {
             return Err(ServeError::Config("give exactly one of --pty LINK or --tcp HOST:PORT".into()));
         }
+        // The start addresses first, before any EEPROM file is opened (or given an address).
+        let starts: Vec<u8> =
+            modules.iter().enumerate().map(|(n, m)| m.address.unwrap_or(if n > 0 { n as u8 + 1 } else { 1 })).collect();
+        for (k, a) in starts.iter().enumerate() {
+            if let Some(first) = starts[..k].iter().position(|b| b == a) {
+                return Err(ServeError::Config(format!(
+                    "two modules at address {a}: {}@{a} and {}@{a} (modules {} and {} on the line); give each \
+                     module its own address (MODEL@ADDR)",
+                    modules[first].spec.id,
+                    modules[k].spec.id,
+                    first + 1,
+                    k + 1
+                )));
+            }
+        }
         let start = std::time::Instant::now();
         let clock = move || Instant::from_micros(start.elapsed().as_micros() as u64);
         let mut notes = Vec::new();
         let mut nodes = Vec::new();
+        let options_have_eeprom = modules.iter().any(|m| m.eeprom.is_some());
         for (n, options) in modules.into_iter().enumerate() {
             let spec = options.spec;
             // The address a module is started with: its option or (on a bus without one) its position on the
@@ -149,7 +170,7 @@ impl Server {
             if let Some(address) = address {
                 if fresh && module.address() != address {
                     module
-                        .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
+                        .set_address(address, clock())
                         .map_err(|s| ServeError::Config(format!("address {address}: {s}")))?;
                 } else if module.address() != address {
                     notes.push(format!(
@@ -159,6 +180,23 @@ impl Server {
                 }
             }
             nodes.push(Node::new(module, name));
+        }
+        // Two modules at one address would both answer every request to it: the host reads their replies
+        // run together (a checksum error on a real line), never the answer of the one it meant.
+        for (k, node) in nodes.iter().enumerate() {
+            if let Some(first) = nodes[..k].iter().find(|n| n.module.address() == node.module.address()) {
+                return Err(ServeError::Config(format!(
+                    "two modules at address {}: {} and {}; give each module its own address (MODEL@ADDR){}",
+                    node.module.address(),
+                    first.name,
+                    node.name,
+                    if options_have_eeprom {
+                        ", or another EEPROM: a module keeps the address stored in its EEPROM"
+                    } else {
+                        ""
+                    }
+                )));
+            }
         }
         let bus = Bus::new(nodes, wire_timing);
         // The raw socket first: without the privilege for it, no pty link is made at all.
@@ -186,7 +224,7 @@ impl Server {
         wake.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         waker.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         let stopper = Stopper { flag: Arc::new(AtomicBool::new(false)), waker: Arc::new(waker) };
-        Ok(Server { bus, link, ecat, start, verbose, notes, stopper, wake })
+        Ok(Server { bus, link, pending: Vec::new(), ecat, start, verbose, notes, stopper, wake })
     }
 
     /// The modules, in line order, with the addresses they answer at.
@@ -282,15 +320,18 @@ impl Server {
                 eprintln!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
             }
         }
-        let (bus, link, ecat) = (&mut self.bus, &mut self.link, &mut self.ecat);
+        let (bus, link, ecat, pending) = (&mut self.bus, &mut self.link, &mut self.ecat, &mut self.pending);
         let mut buf = [0u8; 4096];
         let mut exclusive_checked = std::time::Instant::now();
         while !self.stopper.is_stopped() {
             let now = clock();
             let mut deadline = {
-                let mut sink = Sender { link: link.as_mut(), verbose, now };
+                let mut sink = Sender { pending: &mut *pending, verbose, now };
                 bus.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
             };
+            if let Some(link) = link.as_mut() {
+                write_pending(link, pending, verbose, now);
+            }
             if let Some(e) = ecat.as_mut() {
                 let before = e.slave.status();
                 let next = e.slave.poll(now, &mut bus.nodes[0].module, &mut e.files);
@@ -307,7 +348,7 @@ impl Server {
                 .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
                 .unwrap_or(MAX_SLEEP)
                 .min(MAX_SLEEP);
-            let ready = wait(link.as_ref(), ecat.as_ref().map(|e| &e.socket), &self.wake, sleep)
+            let ready = wait(link.as_ref(), !pending.is_empty(), ecat.as_ref().map(|e| &e.socket), &self.wake, sleep)
                 .map_err(|e| ServeError::Io(format!("poll: {e}")))?;
             if ready.waker {
                 let mut drain = [0u8; 16];
@@ -336,6 +377,7 @@ impl Server {
                             }
                             *peer = None;
                             bus.reset_link();
+                            pending.clear();
                             0
                         }
                     },
@@ -346,11 +388,16 @@ impl Server {
                 if verbose {
                     log_request(now, &buf[..received]);
                 }
-                let mut sink = Sender { link: Some(&mut *link), verbose, now };
+                let mut sink = Sender { pending: &mut *pending, verbose, now };
                 bus.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
+                write_pending(link, pending, verbose, now);
             }
             if let Link::Tcp { listener, peer } = link {
+                let had = peer.is_some();
                 accept_clients(listener, peer, bus, verbose, clock());
+                if had && peer.is_none() {
+                    pending.clear();
+                }
             }
         }
         Ok(())
@@ -457,15 +504,18 @@ struct Ready {
 /// times at high baud rates are far below a millisecond).
 fn wait(
     link: Option<&Link>,
+    writing: bool,
     ethercat: Option<&RawSocket>,
     waker: &UnixStream,
     timeout: std::time::Duration,
 ) -> io::Result<Ready> {
+    // With replies waiting for room, the link's writability wakes the loop too.
+    let flags = if writing { PollFlags::POLLIN | PollFlags::POLLOUT } else { PollFlags::POLLIN };
     let mut fds = match link {
-        Some(Link::Pty(pty)) => vec![PollFd::new(pty.master.as_fd(), PollFlags::POLLIN)],
+        Some(Link::Pty(pty)) => vec![PollFd::new(pty.master.as_fd(), flags)],
         Some(Link::Tcp { listener, peer }) => {
             let mut fds = vec![PollFd::new(listener.as_fd(), PollFlags::POLLIN)];
-            fds.extend(peer.iter().map(|stream| PollFd::new(stream.as_fd(), PollFlags::POLLIN)));
+            fds.extend(peer.iter().map(|stream| PollFd::new(stream.as_fd(), flags)));
             fds
         }
         None => Vec::new(),
@@ -491,9 +541,9 @@ fn wait(
     }
 }
 
-/// Writes what the module sends; a host that is not listening loses it, as on a real line.
+/// Collects what the modules send, for [`write_pending`].
 struct Sender<'a> {
-    link: Option<&'a mut Link>,
+    pending: &'a mut Vec<u8>,
     verbose: bool,
     now: Instant,
 }
@@ -503,10 +553,33 @@ impl Sender<'_> {
         if self.verbose {
             log_reply(self.now, bytes);
         }
-        let _ = match &mut self.link {
-            Some(Link::Pty(pty)) => pty.master.write_all(bytes),
-            Some(Link::Tcp { peer: Some(stream), .. }) => stream.write_all(bytes),
-            Some(Link::Tcp { peer: None, .. }) | None => Ok(()),
+        self.pending.extend_from_slice(bytes);
+    }
+}
+
+/// Writes as much of `pending` as the link takes now; the rest waits for the link to take it (the host
+/// reads). No TCP client: a host that is not listening loses it, as on a real line.
+fn write_pending(link: &mut Link, pending: &mut Vec<u8>, verbose: bool, now: Instant) {
+    while !pending.is_empty() {
+        let written = match link {
+            Link::Pty(pty) => pty.master.write(pending),
+            Link::Tcp { peer: Some(stream), .. } => stream.write(pending),
+            Link::Tcp { peer: None, .. } => Ok(pending.len()),
         };
+        match written {
+            Ok(0) => break,
+            Ok(n) => {
+                pending.drain(..n);
+            }
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(_) => break,
+        }
+    }
+    if pending.len() > MAX_PENDING {
+        let drop = pending.len() - MAX_PENDING;
+        pending.drain(..drop);
+        if verbose {
+            eprintln!("[{now}] the host does not read its replies: {drop} bytes dropped");
+        }
     }
 }

@@ -631,19 +631,23 @@
   }
   editor.onChange = () => { localStorage.setItem(programStore(), editor.value); downloaded = null; };
   let downloaded = null; // the source last downloaded
-  function diagnostics(list, okText) {
+  // Errors keep a program from assembling; warnings (the model would refuse the instruction, status 3
+  // or 4, and the program would skip it) are marked at their line and do not.
+  function diagnostics(list, okText, warnings = []) {
     const ul = $("diagnostics");
-    ul.replaceChildren(...list.map((d) => el("li", {}, el("button", {
-      type: "button", text: d.line ? `line ${d.line}, column ${d.column}: ${d.message}` : d.message,
+    const marked = [...list, ...warnings.map((w) => ({ ...w, warning: true }))];
+    ul.replaceChildren(...marked.map((d) => el("li", { class: d.warning ? "warn" : "" }, el("button", {
+      type: "button",
+      text: (d.warning ? "warning: " : "") + (d.line ? `line ${d.line}, column ${d.column}: ${d.message}` : d.message),
       onclick: () => d.line && editor.goTo(d.line, d.column),
     }))));
     if (!list.length && okText) ul.append(el("li", { class: "ok", text: okText }));
-    editor.setDiagnostics(list);
+    editor.setDiagnostics(marked);
   }
   async function assemble() {
     try {
       const ok = await call("assemble", { source: editor.value });
-      diagnostics(ok.diagnostics, ok.instructions !== null ? `Assembled: ${ok.instructions} instructions, no errors.` : "");
+      diagnostics(ok.diagnostics, ok.instructions !== null ? `Assembled: ${ok.instructions} instructions, no errors.` : "", ok.warnings || []);
       return ok.diagnostics.length === 0;
     } catch (err) { diagnostics([{ line: 0, message: refusal(err) }]); return false; }
   }
@@ -652,7 +656,7 @@
     try {
       const ok = await call("download", { source: editor.value });
       if (ok.diagnostics.length) { diagnostics(ok.diagnostics); say("pg-progress", "not downloaded: the program has errors", false); return false; }
-      diagnostics([], `Downloaded: ${ok.stored} instructions at addresses 0–${ok.stored - 1}.`);
+      diagnostics([], `Downloaded: ${ok.stored} instructions at addresses 0–${ok.stored - 1}.`, ok.warnings || []);
       downloaded = editor.value; wb.lastDownload = ok;
       say("pg-progress", `${ok.stored} instructions stored`, true);
       await sendBreakpoints([...editor.breakpoints]);

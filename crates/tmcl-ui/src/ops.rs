@@ -198,7 +198,9 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
         }
         Op::Assemble { source } => {
             let (program, diagnostics) = assemble(link, &source)?;
-            Ok(json!({"diagnostics": diagnostics, "instructions": program.map(|p| p.instructions.len())}))
+            let warnings = warnings(link, program.as_ref(), &source);
+            Ok(json!({"diagnostics": diagnostics, "warnings": warnings,
+                      "instructions": program.map(|p| p.instructions.len())}))
         }
         Op::Download { source } => download(link, &source),
         Op::Program { action } => Ok(debug::act(link, action)?),
@@ -477,6 +479,22 @@ fn diagnostic_json(d: &Diagnostic) -> Value {
     json!({"file": d.file, "line": d.line, "column": d.column, "width": d.width, "message": d.message})
 }
 
+/// What the model's tables refuse in an assembled program (`tmcl asm --module`'s warnings): a constant
+/// operand outside a parameter's range, a parameter, bank, port or motor the model lacks. The module
+/// would skip such an instruction (a program gets no status), so the page marks its line; it does not
+/// keep the program from being downloaded.
+fn warnings(link: &Link, program: Option<&tmcl_asm::Program>, source: &str) -> Vec<Value> {
+    let (Some(program), Some(model)) = (program, link.model) else { return Vec::new() };
+    let mut text = |file: &str, line: u32| {
+        (file == SOURCE_NAME).then(|| source.lines().nth(line as usize - 1).map(String::from)).flatten()
+    };
+    tmcl_asm::check_operands(program, model, &mut text)
+        .into_iter()
+        .filter(|d| d.file == SOURCE_NAME)
+        .map(|d| diagnostic_json(&d))
+        .collect()
+}
+
 /// Assembles the editor's text with the model's built-in include files.
 fn assemble(link: &Link, source: &str) -> Result<(Option<tmcl_asm::Program>, Vec<Value>), Failure> {
     if source.len() > MAX_SOURCE {
@@ -507,6 +525,7 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     let Some(program) = program else {
         return Ok(json!({"diagnostics": diagnostics}));
     };
+    let warnings = warnings(link, Some(&program), source);
     let total = program.instructions.len();
     debug::download(link, &program.instructions, |link, n| {
         if n % 8 == 0 || n == total {
@@ -516,7 +535,7 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     let lines: Vec<Option<u32>> =
         program.source_lines.iter().map(|s| (&*s.file == SOURCE_NAME).then_some(s.line)).collect();
     link.debug.set_program(program);
-    Ok(json!({"stored": total, "lines": lines, "diagnostics": []}))
+    Ok(json!({"stored": total, "lines": lines, "diagnostics": [], "warnings": warnings}))
 }
 
 /// Asks each address for its binary version (136 type 1) with a short wait, as `tmcl scan` does, then

@@ -350,3 +350,29 @@ fn the_server_refuses_foreign_hosts_and_origins_and_survives_bad_messages() {
     stop.send(()).unwrap();
     thread.join().unwrap();
 }
+
+/// The program view marks at their line what the model's tables refuse (the module would skip the
+/// instruction): PD28-1021 manual §2.4's `SAP 4, 0, 51200` on a PDx-113 (0..2047), a warning that does
+/// not keep the program from being downloaded.
+#[test]
+fn the_program_view_warns_where_the_model_would_refuse() {
+    let (events, _rx) = tokio::sync::broadcast::channel(4096);
+    let client = InProcess::client_for(&tmcl_core::model::pd_113::SPEC);
+    let mut link = Link::new(client, 100_000.0, None, "in process".into(), events);
+    link.identify();
+    let source = "SAP 5, 0, 100\nSAP 4, 0, 51200 // §2.4\nSTOP\n";
+    let ok = op(&mut link, json!({"op": "assemble", "source": source})).unwrap();
+    assert_eq!(ok["diagnostics"], json!([]));
+    assert_eq!(ok["instructions"], 3);
+    let w = &ok["warnings"];
+    assert_eq!(w.as_array().map(Vec::len), Some(1), "{w}");
+    assert_eq!((w[0]["line"].as_u64(), w[0]["column"].as_u64(), w[0]["width"].as_u64()), (Some(2), Some(11), Some(5)));
+    assert!(w[0]["message"].as_str().unwrap().contains("takes 0..2047"), "{w}");
+    let ok = op(&mut link, json!({"op": "download", "source": source})).unwrap();
+    assert_eq!(ok["stored"], 3);
+    assert_eq!(ok["warnings"][0]["line"], 2);
+    // On the PD28-1021, 51200 is fine.
+    let (mut pd28, _) = self::link();
+    let ok = op(&mut pd28, json!({"op": "assemble", "source": source})).unwrap();
+    assert_eq!(ok["warnings"], json!([]));
+}

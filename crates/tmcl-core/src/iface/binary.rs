@@ -1,8 +1,11 @@
 //! The binary TMCL interface on a byte stream (PD28-1021 manual §3.1, RS485).
 //!
-//! [`Framer`] collects bytes into 9-byte frames. Bytes may arrive split across reads. A partial frame is
-//! dropped when the gap before the next byte exceeds [`INTER_BYTE_TIMEOUT`], so that after garbage or a
-//! lost byte the stream resynchronises at the next request, as Trinamic's RS485 firmware does.
+//! [`Framer`] collects bytes into 9-byte frames. Bytes may arrive split across reads. On a serial line a
+//! partial frame is dropped when the gap before the next byte exceeds [`INTER_BYTE_TIMEOUT`], so that after
+//! garbage or a lost byte the stream resynchronises at the next request, as Trinamic's RS485 firmware does.
+//! The timeout is the caller's to choose ([`Framer::push_within`]): a pty or a TCP socket is a buffer, not a
+//! wire, and a host's bytes may sit in it or arrive in pieces far more than 5 ms apart (see
+//! `Module::set_inter_byte_timeout` and docs/decisions.md).
 //!
 //! [`Outbox`] holds frames waiting to be sent: replies delayed by the telegram pause time (GP 75) and the
 //! unsolicited target-reached events of command 138. It is a small fixed ring: no heap.
@@ -39,9 +42,15 @@ impl Framer {
         Framer { buf: [0; FRAME_LEN], len: 0, last: Instant::ZERO }
     }
 
-    /// Feeds one byte received at `now`; returns a complete frame when this byte completes one.
+    /// Feeds one byte received at `now`; returns a complete frame when this byte completes one. A partial
+    /// frame older than [`INTER_BYTE_TIMEOUT`] is dropped first.
     pub fn push(&mut self, byte: u8, now: Instant) -> Option<[u8; FRAME_LEN]> {
-        if self.len > 0 && now - self.last > INTER_BYTE_TIMEOUT {
+        self.push_within(byte, now, Some(INTER_BYTE_TIMEOUT))
+    }
+
+    /// As [`Framer::push`], with the gap after which a partial frame is dropped (`None`: it never is).
+    pub fn push_within(&mut self, byte: u8, now: Instant, timeout: Option<Duration>) -> Option<[u8; FRAME_LEN]> {
+        if self.len > 0 && timeout.is_some_and(|t| now - self.last > t) {
             self.len = 0;
         }
         self.last = now;

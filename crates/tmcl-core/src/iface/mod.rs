@@ -4,9 +4,11 @@
 
 pub mod ascii;
 pub mod binary;
-pub mod host;
 
 pub use binary::{Framer, Outbox, Sink, INTER_BYTE_TIMEOUT};
+
+/// The length of a mailbox message (TMCM-1310 manual §3.6: an 8-byte command, an 8-byte reply).
+pub const MAILBOX_LEN: usize = 8;
 
 /// The state of one host interface.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]

@@ -5,15 +5,12 @@
 //! line ([`crate::iface::Port`]); what it filters (addresses), delays (telegram pause) and suppresses
 //! (GP 255) is the interface's data.
 
+use super::{Module, Origin, Outcome, ReplyOf};
 use crate::hal::Board;
-use crate::iface::Sink;
+use crate::iface::{Sink, MAILBOX_LEN};
 use crate::model::{AppStatusReply, Framing, InterfaceDesc, Setting};
-use crate::module::{Module, Origin, Outcome, ReplyOf};
 use crate::time::{Duration, Instant};
 use tmcl_wire::{Command, CommandSet, Frame, Instruction, Opcode, Reply, Request, Status, StatusKind, FRAME_LEN};
-
-/// The length of a mailbox message (TMCM-1310 manual §3.6: an 8-byte command, an 8-byte reply).
-pub const MAILBOX_LEN: usize = 8;
 
 impl<B: Board> Module<B> {
     /// The interface `port` of the model, if it has one.
@@ -28,20 +25,49 @@ impl<B: Board> Module<B> {
     }
 
     /// Feeds bytes that arrived at `now` on host interface `port` (an index into the model's interfaces).
-    /// Complete frames are executed; replies and what is due on that interface go to `sink` (at once, or
-    /// after the telegram pause GP 75). Bytes for an interface the model does not have, or for a mailbox
-    /// interface (which takes whole messages, [`Module::request`]), are dropped.
+    /// Complete frames are executed in order; each one's reply, and what else is due on that interface, goes
+    /// to `sink` before the next frame is taken (at once, or after the telegram pause GP 75: a reply still
+    /// waiting for its time stays in the outbox, which drops its oldest messages when a flood overfills it).
+    /// Bytes for an interface the model does not have, or for a mailbox interface (which takes whole
+    /// messages, [`Module::request`]), are dropped. A caller that holds a backlog (a pty, a TCP socket)
+    /// and wants one reply per frame whatever the pause uses [`Module::receive_in_turn`].
     pub fn receive_on(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink) {
-        let Some(iface) = self.open_port(port, Framing::Binary, now, sink) else { return };
+        self.take_bytes(port, now, bytes, sink, false);
+    }
+
+    /// As [`Module::receive_on`], but takes no byte after a frame (or ASCII line) whose reply is still
+    /// waiting for its time (the telegram pause, GP 75): returns how many bytes were taken, and the caller
+    /// offers the rest again once the reply has gone out (after a [`Module::poll_port`] at or after the
+    /// deadline it returns). So a backlog of any length is answered in order, one reply per frame, and the
+    /// outbox never overflows.
+    pub fn receive_in_turn(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink) -> usize {
+        self.take_bytes(port, now, bytes, sink, true)
+    }
+
+    /// Sets the gap after which a partial binary frame is dropped on every interface: the UART's receive
+    /// timeout of a real serial line ([`crate::iface::INTER_BYTE_TIMEOUT`], the default), or `None` where
+    /// the bytes come through a buffer that spaces them by chance (a pty, a TCP socket), so that a frame
+    /// is never dropped because the host wrote it in pieces. See docs/decisions.md, "No frame lost".
+    pub fn set_inter_byte_timeout(&mut self, timeout: Option<Duration>) {
+        self.inter_byte_timeout = timeout;
+    }
+
+    fn take_bytes(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink, in_turn: bool) -> usize {
+        let Some(iface) = self.open_port(port, Framing::Binary, now, sink) else { return bytes.len() };
         let mut rest = bytes;
         while let Some((&b, tail)) = rest.split_first() {
+            if in_turn && !self.st.ports[port].outbox.is_empty() {
+                break;
+            }
             if self.st.ports[port].ascii.active {
                 self.ascii_byte(port, b, now);
                 rest = tail;
+                self.st.ports[port].outbox.flush(now, sink);
                 continue;
             }
             // A whole frame at once (the usual case: hosts write 9 bytes in one go) skips the byte-wise
             // framer; it is exactly what pushing its bytes one by one at `now` would give.
+            let timeout = self.inter_byte_timeout;
             let framer = &mut self.st.ports[port].framer;
             let frame = match rest.first_chunk::<FRAME_LEN>() {
                 Some(whole) if framer.pending() == 0 => {
@@ -51,7 +77,7 @@ impl<B: Board> Module<B> {
                 }
                 _ => {
                     rest = tail;
-                    framer.push(b, now)
+                    framer.push_within(b, now, timeout)
                 }
             };
             if let Some(frame) = frame {
@@ -60,9 +86,11 @@ impl<B: Board> Module<B> {
                 if !CommandSet::READ_ONLY.contains_code(frame[1]) {
                     self.update_board(now);
                 }
+                self.st.ports[port].outbox.flush(now, sink);
             }
         }
         self.st.ports[port].outbox.flush(now, sink);
+        bytes.len() - rest.len()
     }
 
     /// Takes one mailbox message (an 8-byte request without checksum, TMCM-1310 manual §3.6) that
