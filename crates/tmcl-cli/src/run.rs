@@ -48,10 +48,16 @@ Trace columns (--trace OUT.csv), in this order, one row every --every ms and one
                     module refused the instruction at N and the program went on without it);
                     several are joined with `;`
 
-The plot (--plot OUT.svg) draws, over time: target and actual position; velocity; a logic-analyser lane
-for each input and output that changes (IN0.., OUT0..) and one for each kind of program event. With
---drive also the load value, the current scale (closed loop: the current scaler and the position error),
-the encoder minus the step position, and the coil energy, each on its own axis with its unit.
+A column is read from the model's parameter table by meaning (the parameter with that role, whatever its
+number); a column whose parameter the model lacks is left out (the PDx-113 with --drive has energy_a2s
+only), never filled with zeros, and a value the module refuses to give is an empty cell.
+
+The plot (--plot OUT.svg) draws, over time: target and actual position (in mm or degrees with --world,
+in µsteps without); velocity; a logic-analyser lane for each reference switch (HOME, LEFT, RIGHT), input
+(IN0..) and output (OUT0..) that changes and one for each kind of program event. With --drive also the
+load value, the current scale (closed loop: the current scaler and the position error), the encoder
+minus the step position, and the coil energy, each on its own axis with its unit. A signal that never
+moves gets no panel but a line under the title with its value.
 The run is deterministic: the same program and options give byte-identical traces.
 
 Refused instructions: a program gets no status, so the module skips an instruction it refuses (status 3
@@ -74,7 +80,8 @@ pub struct RunArgs {
     /// Write the trace to this CSV file (columns below).
     #[arg(long, value_name = "OUT.csv")]
     pub trace: Option<PathBuf>,
-    /// Draw position, velocity, inputs, outputs and events over time into this SVG file (panels below).
+    /// Draw position, velocity, switches, inputs, outputs and events over time into this SVG file (panels
+    /// below).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<PathBuf>,
     /// Sample the trace every MS milliseconds of simulated time.

@@ -35,6 +35,7 @@
 
 #[cfg(feature = "plot")]
 pub mod plot;
+mod record;
 pub mod refusals;
 pub mod runner;
 pub mod setup;
@@ -43,4 +44,6 @@ pub mod trace;
 pub use refusals::{Refusals, Refused};
 pub use runner::{run, state_name, Options, RunError, Simulation, Summary};
 pub use setup::{parse_number, poll, Setting, Setup, SetupError, Source, SourceError, USER_BANK};
-pub use trace::{Column, Csv, Event, Header, Levels, Quantity, Row, Sink, Stamped, Tee, Trace, Unit, WorldUnit};
+pub use trace::{
+    Column, Csv, Event, Header, Levels, Placement, Quantity, Row, Sink, Stamped, Tee, Trace, Unit, Values, WorldUnit,
+};

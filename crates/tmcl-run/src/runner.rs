@@ -26,9 +26,10 @@
 //! hour of the manual's programs runs in milliseconds. [`Options::exact_ticks`] ticks them one by one
 //! instead, the reference the spans are checked against; both give byte-identical traces.
 
+use crate::record::Recorder;
 use crate::refusals::{Collector, Refusals};
 use crate::setup::{poll, Setup, SetupError, Source};
-use crate::trace::{Event, Recorder, Sink, Trace};
+use crate::trace::{Event, Sink, Trace};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::io;
@@ -99,6 +100,9 @@ pub enum RunError {
     /// The sink failed (a CSV file that cannot be written).
     #[error("cannot write the trace: {0}")]
     Sink(#[from] io::Error),
+    /// [`Simulation::run`] was called a second time: a run starts at time 0.
+    #[error("the simulation has run already; set up a new one")]
+    AlreadyRun,
 }
 
 /// The program's run state in words.
@@ -119,7 +123,7 @@ pub fn state_name(state: RunState) -> &'static str {
 /// let source = Source::assemble("demo.tmc", "MVP ABS, 0, 5000\nWAIT POS, 0, 0\nSTOP\n")?;
 /// let (trace, summary) = run(&source, &Setup::new("pd28-1021")?, &Options::new(tmcl_core::Duration::from_secs(2)))?;
 /// let position = trace.column(Quantity::ActualPosition).unwrap();
-/// assert_eq!(position.last(), Some(&Some(5000)));
+/// assert_eq!(position.last(), Some(Some(5000)));
 /// assert_eq!(summary.state, "stopped");
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
@@ -136,6 +140,7 @@ pub struct Simulation {
     module: Module<SimBoard>,
     source: Source,
     setup: Setup,
+    ran: bool,
     refusals: Collector,
 }
 
@@ -145,7 +150,13 @@ impl Simulation {
     pub fn new(source: &Source, setup: &Setup) -> Result<Simulation, SetupError> {
         let mut lines = |file: &str, line: u32| source_line(file, line);
         let module = setup.build(source, &mut lines)?;
-        Ok(Simulation { module, source: source.clone(), setup: setup.clone(), refusals: Collector::default() })
+        Ok(Simulation {
+            module,
+            source: source.clone(),
+            setup: setup.clone(),
+            ran: false,
+            refusals: Collector::default(),
+        })
     }
 
     /// The module (after a run: its state at the end).
@@ -163,8 +174,8 @@ impl Simulation {
         &mut self.module
     }
 
-    /// Starts the program at 0 and runs it for `options.duration`. With a `sink`, records a row every
-    /// `options.every` and at each event into it; without one, runs as fast as it can and records
+    /// Starts the program at 0 and runs it for `options.duration`, once. With a `sink`, records a row
+    /// every `options.every` and at each event into it; without one, runs as fast as it can and records
     /// nothing. `progress` is told the simulated time now and then (about every simulated second).
     pub fn run(
         &mut self,
@@ -172,6 +183,9 @@ impl Simulation {
         sink: Option<&mut dyn Sink>,
         mut progress: Option<&mut dyn FnMut(Instant)>,
     ) -> Result<Summary, RunError> {
+        if std::mem::replace(&mut self.ran, true) {
+            return Err(RunError::AlreadyRun);
+        }
         let module = &mut self.module;
         module.set_exact_ticks(options.exact_ticks);
         let started = WallInstant::now();
