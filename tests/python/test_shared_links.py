@@ -46,7 +46,7 @@ def test_pytrinamic_and_tmcl_on_two_links_never_mix(serve, tmcl_bin, tmp_path):
     transactions = 0
     try:
         # Meanwhile on the second link: `tmcl get` one process at a time, and a `tmcl watch`.
-        while script.is_alive() or transactions < 100:
+        while script.is_alive() or polls + transactions < 10_000:
             r = tmcl(tmcl_bin, "get", "--port", second, "--timeout", "2", "ap", MAX_SPEED)
             assert (r.returncode, r.stdout.strip()) == (0, f"ap {MAX_SPEED} = 1234"), r
             transactions += 1
