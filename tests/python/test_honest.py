@@ -112,3 +112,26 @@ def test_a_non_locking_opener_is_detected_and_named(pty_server, tmcl_bin):
         holder.close()
     # The server itself, which keeps its pty open, is never counted.
     assert tmcl(tmcl_bin, "get", "--port", link, "ap", "4").returncode == 0
+
+
+def test_the_server_warns_about_two_hosts_on_one_link(pty_server):
+    """Two processes with the same link open (pyserial, no lock): the server names both on stderr."""
+    import sys
+    import time
+
+    import serial
+
+    from tmcltest import wait_until
+
+    link = str(pty_server.link)
+    other = subprocess.Popen([sys.executable, "-c",
+                              f"import serial, time; s = serial.Serial({link!r}); time.sleep(30)"])
+    try:
+        with serial.Serial(link, 115200):
+            wait_until(lambda: "warning" in pty_server.stderr(), 10, what="the server's warning")
+        text = pty_server.stderr()
+        assert f"PID {os.getpid()}" in text and f"PID {other.pid}" in text, text
+        assert "--pty A --pty B" in text, text
+    finally:
+        other.kill()
+        other.wait(10)

@@ -33,6 +33,9 @@ const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(1);
 /// beyond it the oldest are dropped, with a word on stderr.
 const MAX_PENDING: usize = 16 << 20;
 
+/// How often the processes that have a pty link open are looked up (for the warning about two hosts).
+const INTRUDER_CHECK: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// How often the pty's exclusive mode is checked for a host that died holding it.
 const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
 
@@ -334,6 +337,9 @@ impl Server {
         let (bus, links, ecat) = (&mut self.bus, &mut self.links, &mut self.ecat);
         let mut buf = [0u8; 4096];
         let mut exclusive_checked = std::time::Instant::now();
+        let mut intruders_checked = std::time::Instant::now();
+        // Per link, the hosts last warned about.
+        let mut warned: Vec<Vec<(u32, String)>> = vec![Vec::new(); links.len()];
         while !self.stopper.is_stopped() {
             let now = clock();
             let mut deadline = bus.poll(now, &mut |n: usize, bytes: &[u8]| queue(links, n, bytes, verbose, now));
@@ -353,6 +359,14 @@ impl Server {
                     }
                 }
                 exclusive_checked = std::time::Instant::now();
+            }
+            if intruders_checked.elapsed() >= INTRUDER_CHECK {
+                for (n, (link, _)) in links.iter().enumerate() {
+                    if let Link::Pty(pty) = link {
+                        warn_intruders(pty, &mut warned[n]);
+                    }
+                }
+                intruders_checked = std::time::Instant::now();
             }
             let sleep = deadline
                 .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
@@ -419,6 +433,24 @@ impl Server {
         }
         Ok(())
     }
+}
+
+/// Warns (on stderr, once per change) when more than one other process has the pty open: hosts that open a
+/// port without a lock (pyserial's default) would read each other's replies.
+fn warn_intruders(pty: &Pty, warned: &mut Vec<(u32, String)>) {
+    let mut now = pty.openers();
+    now.sort();
+    if now.len() > 1 && now != *warned {
+        let names: Vec<String> = now.iter().map(|(pid, name)| format!("PID {pid} ({name})")).collect();
+        eprintln!(
+            "tmcl serve: warning: {} has {} hosts at once: {}; they read each other's replies. Give each host a \
+             link of its own (--pty A --pty B)",
+            pty.link.display(),
+            now.len(),
+            names.join(", ")
+        );
+    }
+    *warned = if now.len() > 1 { now } else { Vec::new() };
 }
 
 /// Queues what a module sent on link `n` (logged with -v), for [`write_pending`].
