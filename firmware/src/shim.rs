@@ -10,7 +10,7 @@
 #![allow(clippy::identity_op)]
 
 use core::sync::atomic::AtomicU8;
-use tmcl_core::model::{pd28_1021, tmcm_1310};
+use tmcl_core::model::MODELS;
 use tmcl_core::param::persist;
 
 /// A 32-bit memory-mapped peripheral register.
@@ -199,16 +199,18 @@ pub fn strap_word() -> u32 {
     unsafe { core::ptr::read_volatile(STRAP_ADDRESS as *const u32) }
 }
 
-/// The largest EEPROM image of the models in the image.
-pub const EEPROM_LEN: usize = {
-    let a = persist::capacity(&pd28_1021::SPEC);
-    let b = persist::capacity(&tmcm_1310::SPEC);
-    if a > b {
-        a
-    } else {
-        b
-    }
-};
+/// The RAM the image sets aside for the EEPROM: every model of [`MODELS`] must fit in it, or the image
+/// does not build (the assertion below), instead of a model's EEPROM being cut short at start-up.
+pub const EEPROM_AREA: usize = 20 * 1024;
+
+/// The largest EEPROM image of the models in the image (all of [`MODELS`]: the strap chooses among
+/// them, `tmcl_mcu::strap`).
+pub const EEPROM_LEN: usize = persist::max_capacity(MODELS);
+
+const _: () = assert!(
+    EEPROM_LEN <= EEPROM_AREA,
+    "a model's EEPROM image does not fit the firmware's EEPROM area (shim::EEPROM_AREA)"
+);
 
 /// The EEPROM (see [`tmcl_mcu::nvm`]): in `.uninit`, RAM that the start-up code neither clears nor
 /// initialises, so that it keeps its contents across a reset (a panic resets, see `lib.rs`). The

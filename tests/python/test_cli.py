@@ -232,3 +232,21 @@ def test_debug_and_run_json(tmcl_bin):
     r = tmcl(tmcl_bin, "--json", "run", program, "--for", "1")
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["simulated_s"] == 1
+
+
+def test_run_and_debug_list_refused_instructions(tmcl_bin, tmp_path):
+    # The module refuses these four (PD28-1021: AP 4 is 1.., one motor, outputs 0 and 1, no AP 99); the
+    # program skips them and goes on, and the simulator says so with the status, line and reason.
+    program = tmp_path / "refused.tmc"
+    program.write_text("SAP 4, 0, 0\nMVP ABS, 5, 100\nSIO 7, 2, 1\nGAP 99, 0\nROR 0, 1000\nSTOP\n")
+    r = tmcl(tmcl_bin, "--json", "run", str(program), "--for", "1")
+    assert r.returncode == 0, r.stderr
+    row = json.loads(r.stdout)
+    assert row["refused"] == 4 and row["executed"] == 6
+    assert [(x["line"], x["status"]) for x in row["refusals"]] == [(1, 4), (2, 4), (3, 3), (4, 3)]
+    assert "takes 1..2147483647" in row["refusals"][0]["reason"]
+    r = subprocess.run([str(tmcl_bin), "--json", "debug", str(program)], input="step 4\nstep\n",
+                       capture_output=True, text=True, timeout=30)
+    answers = [json.loads(line) for line in r.stdout.splitlines()]
+    assert [x["pc"] for x in answers[1]["refused"]] == [0, 1, 2, 3]
+    assert answers[2]["refused"] == [] and answers[2]["output"][0].startswith("status 100")

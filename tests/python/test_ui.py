@@ -216,6 +216,25 @@ def set_program(driver, text):
     driver.execute_script("window.workbench.editor.value = arguments[0]; window.workbench.editor.onChange();", text)
 
 
+PROGRAM_REFUSED = "SAP 5, 0, 1000\nSAP 4, 0, 0      // the PD28-1021 takes 1..\nSIO 7, 2, 1\nSTOP\n"
+
+
+def test_the_program_view_warns_where_the_module_would_refuse(browser, ui):
+    # The module would skip these instructions (status 4, 3): marked at their lines, download allowed.
+    open_page(browser, ui, "program")
+    set_program(browser, PROGRAM_REFUSED)
+    by_name(browser, "button", "Assemble").click()
+    diags = by_css(browser, "#diagnostics")
+    wait_until(lambda: "warning: line 2, column 11" in diags.text, what="the warning at its place")
+    assert "takes 1..2147483647" in diags.text and "warning: line 3, column 5" in diags.text
+    assert "warn" in by_css(browser, ".gutter button[data-line='2']").get_attribute("class")
+    assert "err" not in by_css(browser, ".gutter button[data-line='2']").get_attribute("class")
+    shot(browser, "program-warnings")
+    by_name(browser, "button", "Download").click()
+    wait_until(lambda: "Downloaded: 4 instructions" in diags.text, what="the download despite the warnings")
+    assert "warning: line 2" in diags.text
+
+
 def test_the_program_editor_assembles_downloads_and_debugs(browser, ui):
     open_page(browser, ui, "program")
     set_program(browser, PROGRAM_WITH_ERROR)

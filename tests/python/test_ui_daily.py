@@ -95,6 +95,7 @@ def test_the_pdx_113_speaks_tmc428_units(browser, tmcl_bin, tmp_path, serve):
                    what="the PDx-113's sample program")
         by_css(browser, "#pg-assemble").click()
         wait_until(lambda: "no errors" in by_css(browser, "#diagnostics").text, what="the sample assembles")
+        shot(browser, "program-pd113-sample")
     finally:
         assert u.stop() == 0
 
@@ -260,5 +261,137 @@ def test_commands_that_may_get_no_reply_show_what_came(browser, tmcl_bin, tmp_pa
         console(browser, "SGP 255, 0, 0", "replies are on again", timeout=10)
         wait_until(lambda: wb(browser, "line.state") == "answering", what="the line answering again")
         console(browser, "GAP 6, 0", "value 128")
+    finally:
+        assert u.stop() == 0
+
+
+SEIZURE_WORLD = """
+# The closed-loop-seizure example's motor and encoder; the shaft seizes for good when it reaches 150
+# degrees (the encoder initialisation moves it less than one electrical period from 0).
+[motor]
+holding_torque = 0.45
+rated_current = 2.0
+
+[encoder]
+kind = "abn"
+counts_per_rev = 4096
+
+[[faults.stall]]
+at = 150.0
+from = 0.0
+until = 100000.0
+"""
+
+
+def test_the_tmcm1310_closed_loop_panel(browser, tmcl_bin, tmp_path, serve):
+    """The TMCM-1310's closed loop on screen: encoder initialisation with its result, the loop closed,
+    the status word's bits as lamps, the settings beside the plots, and the position error plotted while
+    the shaft seizes (and AP 131 beside AP 3 in the velocity panel)."""
+    world = tmp_path / "seizure.toml"
+    world.write_text(SEIZURE_WORLD)
+    server = serve("pty", modules=["tmcm-1310"], extra=["--world", str(world)])
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(server.link)]).start()
+    try:
+        open_page(browser, u, "motion")
+        wait_until(lambda: wb(browser, "hello.model.id") == "tmcm-1310", what="the model")
+        card = by_css(browser, "#cl-card")
+        assert card.is_displayed()
+        assert len(all_css(browser, "#cl-bits .lamp")) == 14
+        wait_until(lambda: by_css(browser, "#cl-settings input[aria-label='MaxFollowingError']").get_attribute("value")
+                   == "0", what="the following-error setting read")
+        by_css(browser, "#cl-init").click()
+        wait_until(lambda: by_css(browser, "#cl-init-state").text.startswith("initialised"), timeout=15,
+                   what="the encoder initialised")
+        by_css(browser, "#cl-close").click()
+        wait_until(lambda: by_css(browser, "#cl-loop-state").text.startswith("closed"), timeout=15,
+                   what="the loop closed")
+        wait_until(lambda: "on" in by_css(browser, "#cl-bits .lamp[data-bit='2']").get_attribute("class"),
+                   what="the status word's closed-loop bit")
+        by_css(browser, "#ror").click()
+        # The seizure holds the shaft: the position error grows while the field runs on, and is plotted.
+        wait_until(lambda: browser.execute_script(
+            "const s = window.workbench.panels.find(p => p.id === 'closed').plot.get('ap.0.237');"
+            "return s && s.v.some(v => v !== null && Math.abs(v) > 200)"), timeout=20,
+            what="the position error during the seizure")
+        legend = by_css(browser, "#legend-velocity").text
+        assert "measured velocity [pps]" in legend and "actual speed [pps]" in legend
+        assert "position error [µsteps]" in by_css(browser, "#legend-closed").text
+        size = browser.get_window_size()
+        browser.set_window_size(1440, 1500)
+        try:
+            shot(browser, "motion-tmcm1310-closed-loop")
+        finally:
+            browser.set_window_size(size["width"], size["height"])
+        by_css(browser, "#mst").click()
+        by_css(browser, "#cl-open").click()
+        wait_until(lambda: by_css(browser, "#cl-loop-state").text.startswith("open"), timeout=15, what="the loop open")
+    finally:
+        assert u.stop() == 0
+
+
+def test_parameter_sets_in_the_workbench(browser, tmcl_bin, tmp_path, serve):
+    """Save, Load and Store all in the Parameters view; a set of another model is refused until asked to
+    load what matches, and then the speed in pps is not put into the PDx-113's TMC428 units."""
+    pd28 = serve("pty", modules=["pd28-1021"])
+    pd113 = serve("pty", modules=["pd-113"])
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(pd28.link)]).start()
+    try:
+        open_page(browser, u, "params")
+        wait_until(lambda: wb(browser, "hello.model.id") == "pd28-1021", what="the model")
+        # Through the workbench: a second host on the same pty would take some of its replies (issue 20).
+        set_ap4 = ("return window.workbench.call('set', {param: {kind: 'ap', number: 4, index: 0}, value: arguments[0]})"
+                   ".then(ok => ok.value)")
+        assert browser.execute_script(set_ap4, 30000) == 30000
+        by_css(browser, "#set-save").click()
+        wait_until(lambda: wb(browser, "lastSaved"), timeout=20, what="the saved set")
+        text = wb(browser, "lastSaved.toml")
+        assert 'model = "pd28-1021"' in text and "MaxPositioningSpeed" in text
+        assert wb(browser, "lastSaved.file_name") == "pd28-1021-1-params.toml"
+        assert browser.execute_script(set_ap4, 1000) == 1000
+        browser.execute_script("window.workbench.loadSet(arguments[0], false)", text)
+        wait_until(lambda: wb(browser, "lastSet"), timeout=20, what="the loaded set")
+        assert wb(browser, "lastSet.refused") == 0 and wb(browser, "lastSet.written") >= 1
+        got = browser.execute_script(
+            "return window.workbench.call('get', {param: {kind: 'ap', number: 4, index: 0}}).then(ok => ok.value)")
+        assert got == 30000
+        browser.execute_script("window.workbench.lastSet = null")
+        by_css(browser, "#set-store-all").click()
+        wait_until(lambda: wb(browser, "lastSet"), timeout=20, what="store all")
+        assert wb(browser, "lastSet.stored") >= 10 and wb(browser, "lastSet.refused") == 0
+        assert "stored" in by_css(browser, "#param-status").text
+    finally:
+        assert u.stop() == 0
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(pd113.link)]).start()
+    try:
+        open_page(browser, u, "params")
+        wait_until(lambda: wb(browser, "hello.model.id") == "pd-113", what="the PDx-113")
+        browser.execute_script("window.workbench.lastSet = null; window.workbench.loadSet(arguments[0], false)", text)
+        status = by_css(browser, "#param-status")
+        wait_until(lambda: "the set is of a PD28-1021" in status.text, what="the refusal of another model's set")
+        by_css(browser, "#param-status button").click()
+        wait_until(lambda: wb(browser, "lastSet"), timeout=20, what="the matching part loaded")
+        report = by_css(browser, "#set-report").text
+        assert "ap 4 MaxPositioningSpeed = 30000 pps: skipped, the unit differs" in report
+        shot(browser, "params-set-another-model")
+    finally:
+        assert u.stop() == 0
+
+
+def test_a_restarted_tcp_server_is_reconnected(browser, tmcl_bin, tmp_path, serve):
+    server = serve("tcp")
+    # The same port after the restart, as a service would have it.
+    server.listen = f"127.0.0.1:{server.port}"
+    u = Ui(tmcl_bin, tmp_path, ["--tcp", f"127.0.0.1:{server.port}"]).start()
+    try:
+        open_page(browser, u, "motion")
+        wait_until(lambda: wb(browser, "line.state") == "answering", what="the line answering")
+        epoch = wb(browser, "epoch")
+        server.kill()
+        wait_until(lambda: wb(browser, "line.state") == "down", timeout=10, what="the connection gone")
+        server.start()
+        wait_until(lambda: wb(browser, "line.state") == "answering", timeout=15, what="the connection back")
+        assert wb(browser, "epoch") > epoch
+        wait_until(lambda: wb(browser, "counts['ap.0.1']") and browser.execute_script(
+            "return window.workbench.plots[0].series[0].v.filter(v => v !== null).length > 3"), what="new samples")
     finally:
         assert u.stop() == 0

@@ -51,12 +51,33 @@ fn floor_char_boundary(s: &str, mut i: usize) -> usize {
     i
 }
 
+impl Diagnostic {
+    /// The diagnostic as a warning: as its [`fmt::Display`], with `warning:` for `error:`.
+    pub fn warning(&self) -> impl fmt::Display + '_ {
+        Labelled(self, "warning")
+    }
+}
+
+struct Labelled<'a>(&'a Diagnostic, &'static str);
+
+impl fmt::Display for Labelled<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.0.render(f, self.1)
+    }
+}
+
 impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.render(f, "error")
+    }
+}
+
+impl Diagnostic {
+    fn render(&self, f: &mut fmt::Formatter<'_>, label: &str) -> fmt::Result {
         if self.line == 0 {
-            return write!(f, "{}: error: {}", self.file, self.message);
+            return write!(f, "{}: {label}: {}", self.file, self.message);
         }
-        writeln!(f, "{}:{}:{}: error: {}", self.file, self.line, self.column, self.message)?;
+        writeln!(f, "{}:{}:{}: {label}: {}", self.file, self.line, self.column, self.message)?;
         writeln!(f, "    {}", self.source_line)?;
         // Keep tabs so that the caret lines up under tabbed source.
         let pad: String = self

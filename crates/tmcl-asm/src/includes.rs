@@ -16,7 +16,7 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use tmcl_model::{ModelSpec, GLOBAL_INTERRUPTS};
+use tmcl_model::{ModelSpec, ParamDesc, Role, Table, GLOBAL_INTERRUPTS};
 
 /// The name of the built-in parameter include file.
 pub const PARAM_FILE: &str = "TMCLParam.tmc";
@@ -57,10 +57,53 @@ fn param_file(model: &ModelSpec) -> String {
         for p in table.params {
             let _ = writeln!(s, "{prefix}{} = {} // {}, {}", p.ident, p.number, p.name, p.section);
         }
+        let shared = shared_names(model, prefix, table);
+        if !shared.is_empty() {
+            let _ =
+                writeln!(s, "// The same meanings under the other models' names, so that a program assembles for each");
+            s.push_str(&shared);
+        }
     }
     let _ = writeln!(s, "\n// Motors");
     for m in 0..model.motors {
         let _ = writeln!(s, "Motor{m} = {m}");
+    }
+    s
+}
+
+/// Whether two parameters have the same meaning: the same setting the firmware reads them as, or the
+/// same role it gives them (a plain stored value has no meaning the tables can compare).
+fn same_meaning(a: &ParamDesc, b: &ParamDesc) -> bool {
+    match (a.setting, b.setting) {
+        (Some(x), Some(y)) => x == y,
+        _ => a.role != Role::Plain && a.role == b.role,
+    }
+}
+
+/// `<prefix><ident> = <number>` for each name another model gives a parameter whose meaning `model` has
+/// under another name (the TMCM-1310 calls AP 4 `MaxVelocity`, the PD28-1021 `MaxPositioningSpeed`): a
+/// program written with one model's names assembles for the other. A name this model uses for anything
+/// of its own is not redefined.
+fn shared_names(model: &ModelSpec, prefix: &str, table: &Table) -> String {
+    let mut s = String::new();
+    let mut seen: Vec<&str> = table.params.iter().map(|p| p.ident).collect();
+    for p in table.params {
+        for other in tmcl_model::MODELS.iter().filter(|m| m.id != model.id) {
+            let other_table = if prefix == "AP" {
+                &other.axis
+            } else if prefix == "GP" {
+                &other.global
+            } else {
+                continue;
+            };
+            for q in other_table.params.iter().filter(|q| same_meaning(p, q)) {
+                if seen.contains(&q.ident) {
+                    continue;
+                }
+                seen.push(q.ident);
+                let _ = writeln!(s, "{prefix}{} = {} // {} ({}'s name)", q.ident, p.number, p.name, other.name);
+            }
+        }
     }
     s
 }
@@ -170,10 +213,34 @@ mod tests {
         for line in ["APMaxPositioningSpeed = 4 ", "APMaxAcceleration = 5 ", "GPSerialAddress = 66 ", "Motor0 = 0"] {
             assert!(params.contains(line), "{line}");
         }
-        let count = params.lines().filter(|l| l.contains(" = ")).count();
-        assert_eq!(count, spec.axis.params.len() + spec.global.params.len() + spec.interrupt.params.len() + 1);
+        let own = params.lines().filter(|l| l.contains(" = ") && !l.contains("'s name)")).count();
+        assert_eq!(own, spec.axis.params.len() + spec.global.params.len() + spec.interrupt.params.len() + 1);
         let (_, irq) = builtin_file(spec, INTERRUPT_FILE).unwrap();
         assert!(irq.contains("TI_TIMER0 = 0 ") && irq.contains("TI_GLOBAL = 255 "));
         assert_eq!(irq.lines().filter(|l| l.contains(" = ")).count(), spec.interrupts.list.len() + 1);
+    }
+
+    /// AP 4 is the maximum positioning speed on every model (PD28-1021 §4 Table 15; PDx-113 V1.10 p. 25;
+    /// TMCM-1310 axis parameter table): the program below, written with the PD28-1021's names,
+    /// assembles to the same instructions for all three.
+    #[test]
+    fn shared_names_assemble_for_every_model() {
+        let text = "#include TMCLParam.tmc\nSAP APMaxPositioningSpeed, Motor0, 1000\nSAP APMaxVelocity, 0, 1000\n\
+                    GAP APTargetSpeed, 0\nGAP APTargetVelocity, 0\nSAP APMaxAcceleration, 0, 500\n";
+        let mut assembled = Vec::new();
+        for model in tmcl_model::MODELS {
+            let mut resolver = BuiltinResolver { model };
+            let program = crate::assemble_str("p.tmc", text, &mut resolver)
+                .unwrap_or_else(|d| panic!("{}: {}", model.name, d[0]));
+            assert_eq!(program.instructions[0], program.instructions[1], "{}", model.name);
+            assert_eq!(program.instructions[0].kind, 4);
+            assert_eq!((program.instructions[2].kind, program.instructions[3].kind), (2, 2));
+            assembled.push(program.instructions);
+        }
+        assert!(assembled.windows(2).all(|w| w[0] == w[1]));
+        // Own names are never redefined: the TMCM-1310's file has MaxVelocity once, as its own.
+        let (_, params) = builtin_file(&tmcl_model::tmcm_1310::SPEC, PARAM_FILE).unwrap();
+        assert_eq!(params.matches("APMaxVelocity = ").count(), 1);
+        assert!(params.contains("APMaxPositioningSpeed = 4 "));
     }
 }

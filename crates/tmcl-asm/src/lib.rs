@@ -26,6 +26,7 @@ mod disasm;
 pub mod image;
 pub mod includes;
 mod model_check;
+pub mod operands;
 pub mod suggest;
 
 pub use assemble::{assemble, assemble_file, assemble_str, Program, SourceLine, MAX_INSTRUCTIONS};
@@ -34,3 +35,4 @@ pub use disasm::{disassemble, DisasmOptions};
 pub use image::{from_bin, to_bin, BinError};
 pub use includes::{BuiltinResolver, FileResolver, LoadError, Resolver, Source};
 pub use model_check::check_model;
+pub use operands::{check_operands, why_refused, Finding};

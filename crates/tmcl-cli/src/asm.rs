@@ -26,7 +26,8 @@ pub struct AsmArgs {
     /// Write the built-in include files (TMCLParam.tmc, Interrupts.inc) into DIR.
     #[arg(long, value_name = "DIR")]
     pub emit_includes: Option<PathBuf>,
-    /// The module whose tables the built-in include files come from.
+    /// The module whose tables the built-in include files come from, and whose commands, parameters,
+    /// ranges and ports the program is checked against (an operand the module would refuse is a warning).
     #[arg(long, value_name = "MODEL", default_value = "pd28-1021")]
     pub module: String,
 }
@@ -68,6 +69,10 @@ pub(crate) fn run_asm(args: AsmArgs, json: bool) -> Result<(), CliError> {
     let wrong = tmcl_asm::check_model(&program, model, &mut source_line);
     if !wrong.is_empty() {
         return Err(CliError::Assembly { file, diagnostics: wrong });
+    }
+    // Constant operands the model's tables refuse: the module would skip the instruction (status 3 or 4).
+    for warning in tmcl_asm::check_operands(&program, model, &mut source_line) {
+        eprintln!("{}", warning.warning());
     }
     if program.instructions.len() > model.program_memory as usize {
         eprintln!(

@@ -61,7 +61,7 @@ pub struct DebugArgs {
 
 /// What `tmcl debug --help` prints after the options: the debugger's commands and the exit codes.
 pub fn after_help() -> String {
-    format!("{COMMANDS_HELP}\n\nWith --json, each command's answer is one JSON object: the command, its output lines, and\nthe program's pc, state and simulated time after it.\n\n{EXIT_CODES}")
+    format!("{COMMANDS_HELP}\n\nWith --json, each command's answer is one JSON object: the command, its output lines, and\nthe program's pc, state and simulated time after it, and `refused`: the instructions the module\nrefused while it ran (status, pc, source line, reason; the program skipped them). Each step prints\nthe status the module gave the instruction: `status 100`, or a `refused:` line.\n\n{EXIT_CODES}")
 }
 
 /// Runs `tmcl debug`.
@@ -74,7 +74,7 @@ pub(crate) fn run(args: DebugArgs, json: bool) -> Result<(), CliError> {
     let mut out = io::stdout().lock();
     let mut answer = Vec::new();
     debugger.banner(&mut answer)?;
-    emit(&mut out, &debugger, None, &mut answer, json)?;
+    emit(&mut out, &mut debugger, None, &mut answer, json)?;
     let mut lines = stdin.lock().lines();
     loop {
         if interactive {
@@ -84,7 +84,7 @@ pub(crate) fn run(args: DebugArgs, json: bool) -> Result<(), CliError> {
         let Some(line) = lines.next() else { break };
         let line = line?;
         let flow = debugger.command(&line, &mut answer)?;
-        emit(&mut out, &debugger, Some(&line), &mut answer, json)?;
+        emit(&mut out, &mut debugger, Some(&line), &mut answer, json)?;
         if flow == Flow::Quit {
             break;
         }
@@ -96,26 +96,45 @@ pub(crate) fn run(args: DebugArgs, json: bool) -> Result<(), CliError> {
 /// Prints one answer: as it is, or with `--json` as an object with the program's state.
 fn emit(
     out: &mut dyn Write,
-    debugger: &Debugger,
+    debugger: &mut Debugger,
     command: Option<&str>,
     answer: &mut Vec<u8>,
     json: bool,
 ) -> io::Result<()> {
+    let refused = std::mem::take(&mut debugger.refused);
     if json {
         let text = String::from_utf8_lossy(answer);
-        let row = serde_json::json!({
-            "command": command,
-            "output": text.lines().collect::<Vec<_>>(),
-            "pc": debugger.module.vm().pc,
-            "state": state_name(debugger.module.vm().state),
-            "time_s": debugger.now.micros() as f64 / 1e6,
-        });
-        writeln!(out, "{row}")?;
+        let row = DebugJson {
+            command: command.map(String::from),
+            output: text.lines().map(String::from).collect(),
+            pc: debugger.module.vm().pc,
+            state: state_name(debugger.module.vm().state).to_string(),
+            time_s: debugger.now.micros() as f64 / 1e6,
+            refused,
+        };
+        writeln!(out, "{}", serde_json::to_string(&row).unwrap_or_default())?;
     } else {
         out.write_all(answer)?;
     }
     answer.clear();
     Ok(())
+}
+
+/// `tmcl debug --json`: one object per command.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+pub struct DebugJson {
+    /// The command line (none for the banner).
+    pub command: Option<String>,
+    /// What it printed, line by line.
+    pub output: Vec<String>,
+    /// The program counter after it.
+    pub pc: u16,
+    /// The program's state after it.
+    pub state: String,
+    /// Simulated time after it, s.
+    pub time_s: f64,
+    /// The instructions the module refused while this command ran (the program skipped them).
+    pub refused: Vec<tmcl_run::Refused>,
 }
 
 /// Whether the session goes on.
@@ -162,6 +181,10 @@ struct Debugger {
     ended: bool,
     /// Source files by name, split into lines (`None`: unreadable).
     files: HashMap<String, Option<Vec<String>>>,
+    /// Reads the module's refused instructions after each command.
+    refusals: tmcl_run::refusals::Collector,
+    /// Those of the present command (for `--json`).
+    refused: Vec<tmcl_run::Refused>,
 }
 
 impl Debugger {
@@ -178,6 +201,8 @@ impl Debugger {
             variables,
             ended: false,
             files: HashMap::new(),
+            refusals: tmcl_run::refusals::Collector::default(),
+            refused: Vec::new(),
         }
     }
 
@@ -361,6 +386,7 @@ impl Debugger {
             Ok(module) => self.module = module,
             Err(e) => return writeln!(out, "Cannot restart: {e}."),
         }
+        self.refusals = tmcl_run::refusals::Collector::default();
         self.now = Instant::ZERO;
         self.ended = false;
         for b in &self.breakpoints {
@@ -380,16 +406,32 @@ impl Debugger {
         };
         self.now += Duration::from_millis(ms);
         crate::sim::poll(&mut self.module, self.now);
+        self.refusals(out)?;
         self.status_line(out, "time passed")?;
         Ok(Ok(()))
     }
 
     // ---- what it says ------------------------------------------------------------------------
 
+    /// Prints the instructions the module refused since the last command (the program skipped them);
+    /// returns how many.
+    fn refusals(&mut self, out: &mut dyn Write) -> io::Result<usize> {
+        let new = self.refusals.collect(&self.module, &self.source).to_vec();
+        for r in &new {
+            writeln!(out, "refused: {}", r.describe())?;
+        }
+        let n = new.len();
+        self.refused.extend(new);
+        Ok(n)
+    }
+
     fn report(&mut self, stop: Stop, out: &mut dyn Write) -> io::Result<()> {
         self.ended = stop == Stop::Ended;
+        let refused = self.refusals(out)?;
         let pc = self.module.vm().pc;
         let why = match stop {
+            // A step: the status the module gave the instruction (100, or the refusal's above).
+            Stop::Stepped if refused == 0 => "status 100".into(),
             Stop::Stepped => String::new(),
             Stop::Breakpoint(n) => format!("breakpoint {n}"),
             Stop::Ended => {

@@ -44,13 +44,28 @@ Trace columns (--trace OUT.csv), in this order, one row every --every ms and one
                     (--module pd-113; `velocity` is the same in pps)
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
                     execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
-                    MVP; the row shows where the motor was then); several are joined with `;`
+                    MVP; the row shows where the motor was then), `refused=pc N status S` (the
+                    module refused the instruction at N and the program went on without it);
+                    several are joined with `;`
 
-The plot (--plot OUT.svg) draws, over time: target and actual position; velocity; a logic-analyser lane
-for each input and output that changes (IN0.., OUT0..) and one for each kind of program event. With
---drive also the load value, the current scale (closed loop: the current scaler and the position error),
-the encoder minus the step position, and the coil energy, each on its own axis with its unit.
-The run is deterministic: the same program and options give byte-identical traces.";
+A column is read from the model's parameter table by meaning (the parameter with that role, whatever its
+number); a column whose parameter the model lacks is left out (the PDx-113 with --drive has energy_a2s
+only), never filled with zeros, and a value the module refuses to give is an empty cell.
+
+The plot (--plot OUT.svg) draws, over time: target and actual position (in mm or degrees with --world,
+in µsteps without); velocity; a logic-analyser lane for each reference switch (HOME, LEFT, RIGHT), input
+(IN0..) and output (OUT0..) that changes and one for each kind of program event. With --drive also the
+load value, the current scale (closed loop: the current scaler and the position error), the encoder
+minus the step position, and the coil energy, each on its own axis with its unit. A signal that never
+moves gets no panel but a line under the title with its value.
+The run is deterministic: the same program and options give byte-identical traces.
+
+Refused instructions: a program gets no status, so the module skips an instruction it refuses (status 3
+wrong type, 4 invalid value, ...) and goes on. The run says so: a `refused:` line for each (source line,
+instruction, pc, time, status and why: the model's parameter table, e.g. the allowed range), their
+count on the summary line, a `refused=pc N status S` event in the trace, and with --json the list
+(`refusals`: number, time_us, pc, instruction, opcode, kind, motor, value, status, file, line, reason).
+`tmcl asm --module M` warns of the same where the tables decide it, before the program runs.";
 
 /// Options of `tmcl run`.
 #[derive(Debug, Args)]
@@ -65,7 +80,8 @@ pub struct RunArgs {
     /// Write the trace to this CSV file (columns below).
     #[arg(long, value_name = "OUT.csv")]
     pub trace: Option<PathBuf>,
-    /// Draw position, velocity, inputs, outputs and events over time into this SVG file (panels below).
+    /// Draw position, velocity, switches, inputs, outputs and events over time into this SVG file (panels
+    /// below).
     #[arg(long, value_name = "OUT.svg")]
     pub plot: Option<PathBuf>,
     /// Sample the trace every MS milliseconds of simulated time.
@@ -118,7 +134,34 @@ struct Summary {
     pc: u16,
     state: &'static str,
     rows: u64,
+    refusals: tmcl_run::Refusals,
 }
+
+/// `tmcl run --json`: the summary, and every instruction the module refused.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+pub struct RunJson {
+    /// Simulated time, s.
+    pub simulated_s: f64,
+    /// Wall-clock time, s.
+    pub wall_s: f64,
+    /// Simulated time per wall-clock time.
+    pub ratio: f64,
+    /// Instructions executed.
+    pub executed: u64,
+    /// The program counter at the end.
+    pub pc: u16,
+    /// `stopped`, `running`, `stepped` or `reset`.
+    pub state: String,
+    /// Trace rows written (0 without a trace or plot).
+    pub rows: u64,
+    /// Instructions the module refused (the program skipped them and went on).
+    pub refused: u64,
+    /// Each refusal (the first 1000): time, pc, instruction, status, source line, reason.
+    pub refusals: Vec<tmcl_run::Refused>,
+}
+
+/// In the text output, at most this many refusals are listed one by one.
+const REFUSALS_SHOWN: usize = 20;
 
 fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     let source = tmcl_run::Source::load(&args.file)?;
@@ -164,8 +207,18 @@ fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
         pc: done.pc,
         state: done.state,
         rows: done.rows,
+        refusals: simulation.refusals().clone(),
     };
     use std::io::Write;
+    if !json {
+        for r in summary.refusals.listed.iter().take(REFUSALS_SHOWN) {
+            writeln!(std::io::stdout(), "refused: {}", r.describe())?;
+        }
+        let more = summary.refusals.count.saturating_sub(REFUSALS_SHOWN as u64);
+        if more > 0 {
+            writeln!(std::io::stdout(), "refused: … and {more} more (--json lists the first 1000)")?;
+        }
+    }
     writeln!(std::io::stdout(), "{}", summary.line(json))?;
     Ok(())
 }
@@ -177,15 +230,27 @@ impl Summary {
         let ratio = simulated / wall.max(1e-9);
         let state = self.state;
         if json {
-            format!(
-                "{{\"simulated_s\":{simulated},\"wall_s\":{wall:.6},\"ratio\":{ratio:.0},\"executed\":{},\"pc\":{},\
-                 \"state\":\"{state}\",\"rows\":{}}}",
-                self.executed, self.pc, self.rows
-            )
+            let row = RunJson {
+                simulated_s: simulated,
+                wall_s: (wall * 1e6).round() / 1e6,
+                ratio: ratio.round(),
+                executed: self.executed,
+                pc: self.pc,
+                state: state.to_string(),
+                rows: self.rows,
+                refused: self.refusals.count,
+                refusals: self.refusals.listed.clone(),
+            };
+            serde_json::to_string(&row).unwrap_or_default()
         } else {
+            let refused = match self.refusals.count {
+                0 => String::new(),
+                1 => ", 1 instruction refused".to_string(),
+                n => format!(", {n} instructions refused"),
+            };
             format!(
                 "simulated {simulated} s in {wall:.3} s wall ({ratio:.0}x real time), {} instructions executed, \
-                 pc {}, program {state}",
+                 pc {}, program {state}{refused}",
                 self.executed, self.pc
             )
         }

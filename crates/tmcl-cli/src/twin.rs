@@ -11,7 +11,7 @@
 use crate::error::CliError;
 use crate::host::{Connection, HostClient};
 use crate::names::{ModelOption, Models};
-use crate::params::{self, Kind, LoadOptions, ParamFile};
+use crate::params::write_whole;
 use clap::Args;
 use serde::Serialize;
 use std::collections::VecDeque;
@@ -23,6 +23,7 @@ use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
 use tmcl_host::{Client, HostError, Transport};
 use tmcl_sim::{Eeprom, FileNvm, SimBoard};
+use tmcl_ui::paramset::{self as params, Kind, LoadOptions, ParamFile};
 use tmcl_wire::Command;
 
 /// Options of `tmcl twin`.
@@ -157,17 +158,17 @@ pub(crate) fn run(args: TwinArgs, json: bool) -> Result<(), CliError> {
     }
     let program = client.upload_program(model.program_memory, |_| {})?;
     let params_path = args.out.join("params.toml");
-    params::write_whole(&params_path, &params::to_toml(&set)?)?;
+    write_whole(&params_path, &params::to_toml(&set).map_err(CliError::Io)?)?;
     let program_path = (!program.is_empty()).then(|| args.out.join("program.tmc"));
     if let Some(path) = &program_path {
         let text = format!(
             "// The program of the module the twin was made of (`tmcl twin`), read back with command 134.\n{}",
             tmcl_asm::disassemble(&program, tmcl_asm::DisasmOptions { addresses: true })
         );
-        params::write_whole(path, &text)?;
+        write_whole(path, &text)?;
     }
     let world_path = args.out.join("world.toml");
-    params::write_whole(&world_path, &world_stub(model, &set))?;
+    write_whole(&world_path, &world_stub(model, &set))?;
 
     // 2. The same into a virtual module whose EEPROM is the image: the address last, so the requests
     //    before it reach the module at its start address; never the reply switch.

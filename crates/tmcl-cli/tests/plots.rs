@@ -94,6 +94,16 @@ fn the_trace_header_lists_exactly_the_columns_the_help_lists() {
         expected(&[With::Always, With::Units]),
         "the PDx-113's own velocity unit"
     );
+    // The drive's columns by meaning: the PDx-113 has no stallGuard2, coolStep or encoder parameter, so
+    // its trace has no such column (never a column of made-up zeros), only the coil energy.
+    let pd113 = header(dir.path(), "pd113_first_program.tmc", &["--module", "pd-113", "--drive"]);
+    let drive_columns: Vec<&str> = help
+        .iter()
+        .filter(|(_, w)| *w == With::Drive)
+        .map(|(n, _)| n.as_str())
+        .filter(|n| pd113.iter().any(|c| c == n))
+        .collect();
+    assert_eq!(drive_columns, ["energy_a2s"], "{pd113:?}");
     // A user variable takes the place of `varN`.
     let with_variable = header(dir.path(), "manual_p01_first_steps.tmc", &["--drive", "--set", "gp7.2=1"]);
     let at = names.iter().position(|n| *n == "varN").unwrap();
@@ -194,7 +204,7 @@ fn plots_have_units_and_no_negative_zero() {
     let text = std::fs::read_to_string(&svg).unwrap();
     let texts: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.starts_with('<')).collect();
     for unit in [
-        "position [µsteps]",
+        "position [°]",
         "velocity [pps]",
         "load value (0–1023)",
         "current scaler (/255)",
@@ -206,11 +216,112 @@ fn plots_have_units_and_no_negative_zero() {
     }
     // The velocity stands at 0 for 0.3 s, then the axis runs from -50000 to 50000: no label reads -0.
     assert!(!texts.iter().any(|t| t.starts_with("-0") && t.trim_start_matches(['-', '0', '.']).is_empty()), "-0");
-    // A flat series: the program waits, nothing moves; its position axis still has distinct labels.
-    let svg = dir.path().join("flat.svg");
-    let program = root().join("tests/programs/manual_p02_timer_interrupt.tmc");
-    tmcl(&["run", program.to_str().unwrap(), "--for", "2", "--plot", svg.to_str().unwrap()]);
-    let text = std::fs::read_to_string(&svg).unwrap();
-    let texts: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.starts_with('<')).collect();
-    assert!(texts.windows(3).any(|w| w == ["1", "0", "-1"] || w == ["-1", "0", "1"]), "ticks -1, 0, 1: {texts:?}");
+}
+
+/// The text elements of an SVG, trimmed (one per line, as plotters writes them).
+fn texts(svg: &str) -> Vec<String> {
+    svg.lines().map(str::trim).filter(|l| !l.starts_with('<')).map(str::to_string).collect()
+}
+
+/// The `points` of every `<polyline>` drawn in `color` (`#RRGGBB`), as (x, y) pairs.
+fn polylines(svg: &str, color: &str) -> Vec<Vec<(f64, f64)>> {
+    svg.lines()
+        .filter(|l| l.starts_with("<polyline") && l.contains(&format!("stroke=\"{color}\"")))
+        .filter_map(|l| l.split("points=\"").nth(1)?.split('"').next().map(str::to_string))
+        .map(|points| {
+            points
+                .split_whitespace()
+                .filter_map(|p| p.split_once(','))
+                .map(|(x, y)| (x.parse().unwrap(), y.parse().unwrap()))
+                .collect()
+        })
+        .collect()
+}
+
+/// Runs `program` (in tests/programs, or a path) for `secs` with `extra` options and returns the plot.
+fn plot(dir: &Path, program: &str, secs: &str, extra: &[&str]) -> String {
+    let svg = dir.join("plot.svg");
+    let program =
+        if Path::new(program).is_absolute() { program.into() } else { root().join("tests/programs").join(program) };
+    let args = [&["run", program.to_str().unwrap(), "--for", secs, "--plot", svg.to_str().unwrap()], extra].concat();
+    tmcl(&args);
+    std::fs::read_to_string(&svg).unwrap()
+}
+
+#[test]
+fn curves_are_drawn_at_sub_pixel_coordinates() {
+    // §2.4's ramps: whole-pixel points would make each slope a staircase of repeated x or y values.
+    let dir = tempfile::tempdir().unwrap();
+    let svg = plot(dir.path(), "manual_p01_first_steps.tmc", "60", &["--every", "100"]);
+    // The actual position's colour; the key's short stroke has two points.
+    let actual: Vec<_> = polylines(&svg, "#1E5AC8").into_iter().filter(|l| l.len() > 2).collect();
+    assert_eq!(actual.len(), 1, "one curve of the actual position");
+    let points = &actual[0];
+    assert!(points.len() > 500, "{}", points.len());
+    let fractional = points.iter().filter(|(x, y)| x.fract() != 0.0 && y.fract() != 0.0).count();
+    assert!(fractional * 2 > points.len(), "most points between pixels: {fractional} of {}", points.len());
+    // Sampled every 100 ms over 60 s and 1054 pixel columns: the samples have their own x (an event row
+    // shares its time with a sample).
+    assert!(points.windows(2).all(|w| w[1].0 >= w[0].0), "in time order");
+    assert!(points.windows(2).filter(|w| w[1].0 > w[0].0).count() >= 600, "a column of its own per sample");
+}
+
+#[test]
+fn a_signal_that_never_moved_is_a_note_not_a_panel() {
+    // §3.6.6.4: the timer toggles OUT0, the motor never moves. No position or velocity panel (they took
+    // 85 % of the plot), a note with their values, and the lanes.
+    let dir = tempfile::tempdir().unwrap();
+    let svg = plot(dir.path(), "manual_p02_timer_interrupt.tmc", "5", &["--every", "50"]);
+    let texts = texts(&svg);
+    assert!(!texts.iter().any(|t| t.starts_with("position [") || t.starts_with("velocity [")), "{texts:?}");
+    let note = texts.iter().find(|t| t.starts_with("Constant over the run (not drawn):")).expect("a note");
+    for part in ["target position (AP 0) 0 µsteps", "actual position (AP 1) 0 µsteps", "actual velocity (AP 3) 0 pps"]
+    {
+        assert!(note.contains(part), "{part} in {note}");
+    }
+    assert!(texts.iter().any(|t| t == "OUT0") && texts.iter().any(|t| t == "interrupt 0"), "{texts:?}");
+    let height: u32 = svg.split("height=\"").nth(1).unwrap().split('"').next().unwrap().parse().unwrap();
+    assert!(height < 250, "the plot is the note and the lanes: {height} px");
+    // With --drive, a drive signal that moves keeps its panel: the coil energy grows while current flows.
+    let svg = plot(dir.path(), "manual_p02_timer_interrupt.tmc", "5", &["--drive"]);
+    assert!(svg.lines().any(|l| l.trim() == "coil energy [A²·s]"));
+}
+
+#[test]
+fn switch_lanes_and_positions_in_world_units() {
+    // A reference search to the left switch on the linear stage (2 mm per revolution, the carriage at
+    // 25 mm at power-up, the left switch up to 0 mm, home at 49.5–50.5 mm), then out to 50 mm and back.
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("rfs.tmc");
+    std::fs::write(
+        &program,
+        "SAP 193, 0, 1\nSAP 194, 0, 100000\nSAP 4, 0, 200000\nRFS START, 0\nWait: RFS STATUS, 0\nJC NZ, Wait\n\
+         MVP ABS, 0, 1280000\nWAIT POS, 0, 0\nMVP ABS, 0, 0\nWAIT POS, 0, 0\nSTOP\n",
+    )
+    .unwrap();
+    let world = root().join("examples/worlds/linear-stage.toml");
+    let svg = plot(dir.path(), program.to_str().unwrap(), "30", &["--every", "20", "--world", world.to_str().unwrap()]);
+    let texts = texts(&svg);
+    assert!(texts.iter().any(|t| t == "position [mm]"), "{texts:?}");
+    assert!(texts.iter().any(|t| t == "HOME") && texts.iter().any(|t| t == "LEFT"), "{texts:?}");
+    assert!(!texts.iter().any(|t| t == "RIGHT"), "the right switch is never reached: no lane");
+    // The targets in the lane are in mm too.
+    assert!(texts.iter().any(|t| t == "50 mm"), "{texts:?}");
+    // The position axis is in mm: 0 (after the search) to 50 (1 280 000 µsteps of 2/51200 mm) and the
+    // start at 25; its ticks stay within that.
+    for tick in ["0", "10", "20", "30", "40", "50"] {
+        assert!(texts.iter().any(|t| t == tick), "tick {tick}");
+    }
+    assert!(!texts.iter().any(|t| t == "1200000" || t == "-600000"), "no µsteps on the axis");
+}
+
+#[test]
+fn event_lines_leave_the_value_axis_alone() {
+    // §3.7.20: the first MVP comes at 0 s; its line would cover the value axis.
+    let dir = tempfile::tempdir().unwrap();
+    let svg = plot(dir.path(), "manual_p08_csub.tmc", "5", &["--every", "50"]);
+    let lines = polylines(&svg, "#FF0000");
+    assert!(!lines.is_empty(), "the later events have lines");
+    let axis_x = 110.0; // MARGIN_LEFT + Y_LABELS: the value axis
+    assert!(lines.iter().all(|l| l.iter().all(|p| p.0 > axis_x + 1.0)), "{lines:?}");
 }

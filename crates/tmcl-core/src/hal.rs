@@ -257,3 +257,12 @@ forward! {
 pub trait Board: Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter {}
 
 impl<T: Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter> Board for T {}
+
+/// The capability traits under no names, for code that calls them on a concrete board type (the
+/// module's board behind its seam).
+pub mod prelude {
+    pub use super::{
+        Analog as _, EncoderCounter as _, Inputs as _, LoadSensor as _, Nvm as _, Outputs as _, StepDriver as _,
+        SwitchInputs as _,
+    };
+}

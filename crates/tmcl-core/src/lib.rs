@@ -11,10 +11,14 @@
 //!   number, and a model without one lacks the feature (see [`module`]).
 //! - [`param`]: the parameter tables' types and the EEPROM image ([`param::persist`]).
 //! - [`motion`]: the ramp generator and the reference search.
-//! - [`drive`]: coolStep, stop on stall and the encoder checks, as pure functions of the readings.
-//! - [`iface`]: per host interface a framer, an outbox and an ASCII line; [`iface::host`] takes bytes and
-//!   mailbox messages and answers on the interface that asked.
-//! - [`module`] and the dispatcher in `exec`: [`Module`], which ties it together.
+//! - [`drive`]: coolStep, stop on stall, the encoder checks, the closed loop and the emulated TMC428, as
+//!   pure functions and state of their own.
+//! - [`iface`]: per host interface a framer, an outbox and an ASCII line.
+//! - [`vm`]: the program machine's state: program memory, registers, run state, stack, interrupts.
+//! - [`module`]: [`Module`], the root that ties the components together and the only part that knows
+//!   all of them: bytes in and replies out (`module/host.rs`, `module/ascii.rs`), the dispatcher
+//!   (`module/exec.rs`), the program's steps (`module/program.rs`), time (`module/advance.rs`), and the
+//!   one seam that counts every change (`module/seam.rs`). Nothing below `module` imports it.
 //!
 //! Specification: PD28-1021 TMCL firmware manual V1.05 (firmware V1.42). Where the manual is silent or
 //! contradicts itself, the code says so beside the decision, citing the manual's section, and
@@ -23,7 +27,6 @@
 #![forbid(unsafe_code)]
 
 pub mod drive;
-mod exec;
 pub mod hal;
 pub mod iface;
 pub mod model;

@@ -1,5 +1,5 @@
 //! The module: a board, a model and the firmware state, fed with bytes and time (the entry points for
-//! bytes and time are in [`crate::iface::host`]).
+//! bytes and time are in `module/host.rs`).
 //!
 //! [`Module::receive_on`] takes bytes from one of the model's host interfaces with the time they arrived
 //! ([`Module::receive`] is the primary interface), [`Module::request`] takes a whole mailbox message;
@@ -27,6 +27,7 @@
 
 use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
+use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
 use crate::model::{Kinematics, ModelSpec, Setting};
@@ -39,50 +40,24 @@ use tmcl_model::capacity::{
 };
 use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
-pub use crate::iface::host::MAILBOX_LEN;
+pub use crate::drive::error_flags;
+pub use crate::iface::MAILBOX_LEN;
+pub use crate::vm::{flags, Registers};
 
 mod advance;
+mod ascii;
+mod closed_loop;
+mod drive;
+mod exec;
+mod host;
+mod params;
+mod program;
+mod sac;
+mod seam;
 mod spans;
 mod spin;
 
-/// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
-pub mod flags {
-    /// Result of the last comparison or accumulator load was zero / equal.
-    pub const ZERO: u16 = 1 << 0;
-    /// Greater.
-    pub const GREATER: u16 = 1 << 1;
-    /// Lower.
-    pub const LOWER: u16 = 1 << 2;
-    /// ETO: timeout.
-    pub const TIMEOUT: u16 = 1 << 8;
-    /// EAL: external alarm.
-    pub const ALARM: u16 = 1 << 9;
-    /// EDV: deviation.
-    pub const DEVIATION: u16 = 1 << 10;
-    /// EPO: position error.
-    pub const POSITION: u16 = 1 << 11;
-    /// ESD: shutdown.
-    pub const SHUTDOWN: u16 = 1 << 12;
-}
-
-/// The TMCL machine's registers (manual §3.6: accumulator, X register, flags).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Registers {
-    /// The accumulator.
-    pub accumulator: i32,
-    /// The X register.
-    pub x: i32,
-    /// Flags, see [`flags`].
-    pub flags: u16,
-}
-
-/// AP 207 bits (Table 15): 1 = stallGuard error, 2 = deviation error.
-pub mod error_flags {
-    /// stallGuard2 stopped the motor.
-    pub const STALL: u8 = 1;
-    /// The encoder deviation check stopped the motor.
-    pub const DEVIATION: u8 = 2;
-}
+use seam::Seam;
 
 /// Command 138's request (§3.7.37).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -255,7 +230,8 @@ pub(crate) type ReplyOf = Result<(Status, i32, u8), [u8; FRAME_LEN]>;
 
 /// A TMCL module: firmware state on a board.
 pub struct Module<B: Board> {
-    pub(crate) board: B,
+    /// The board, behind the seam that counts every change (`module/seam.rs`).
+    pub(crate) board: Seam<B>,
     pub(crate) spec: &'static ModelSpec,
     pub(crate) st: State,
     pub(crate) vm: Vm,
@@ -287,7 +263,7 @@ impl<B: Board> Module<B> {
     /// must be given [`Module::power_up`] before anything else.
     pub fn unpowered(board: B, spec: &'static ModelSpec, now: Instant) -> Module<B> {
         Module {
-            board,
+            board: Seam::new(board),
             spec,
             st: State::new(now),
             vm: Vm::default(),
@@ -301,6 +277,7 @@ impl<B: Board> Module<B> {
 
     /// Powers an [`Module::unpowered`] module up at `now`, as [`Module::new`] does.
     pub fn power_up(&mut self, now: Instant) {
+        self.board.input();
         self.start(now);
     }
 
@@ -311,7 +288,7 @@ impl<B: Board> Module<B> {
 
     /// The board.
     pub fn board(&self) -> &B {
-        &self.board
+        self.board.get()
     }
 
     /// The board, mutably (the simulator changes its world through this). The module takes it that the
@@ -319,15 +296,14 @@ impl<B: Board> Module<B> {
     /// `module/spin.rs`); to move the board's world on along its own timeline, or to read it, use
     /// [`Module::board_timeline`].
     pub fn board_mut(&mut self) -> &mut B {
-        self.spin.touch();
-        &mut self.board
+        self.board.changed()
     }
 
     /// The board, mutably, only to move its world on along its own timeline — the changes the board
     /// announces as the end of its quiet windows ([`crate::hal::StepDriver::quiet`]), as a simulator does
     /// at its polls — or to take readings. Any other change goes through [`Module::board_mut`].
     pub fn board_timeline(&mut self) -> &mut B {
-        &mut self.board
+        self.board.timeline()
     }
 
     /// The firmware's RAM state.
@@ -359,6 +335,18 @@ impl<B: Board> Module<B> {
     /// The module (primary) address: GP 66, or 1 for a model without one.
     pub fn address(&self) -> u8 {
         self.gp(Setting::SerialAddress).map_or(1, |a| a as u8)
+    }
+
+    /// Sets the module (primary) address by its meaning, the model's serial address setting (GP 66 on the
+    /// PD28-1021, §5.1), as SGP of it would: stored in the EEPROM at once, in force for the next frame. A
+    /// model without one is always module 1: 1 is accepted, another address is status 6 (not available);
+    /// an address outside the setting's range is status 4.
+    pub fn set_address(&mut self, address: u8, now: Instant) -> Result<(), Status> {
+        let Some(i) = self.spec.global.setting(Setting::SerialAddress) else {
+            return if address == 1 { Ok(()) } else { Err(Status::NotAvailable) };
+        };
+        let number = self.spec.global.params[i].number;
+        self.set_global(number, 0, i32::from(address), now)
     }
 
     /// The host address replies go to: GP 76, or 2 for a model without one (manual §3.2's examples).
@@ -603,7 +591,6 @@ impl<B: Board> Module<B> {
         self.st.unreported_steps = 0;
         self.st.last_drive = Some(unchanged);
         self.st.board_time = now;
-        self.spin.touch();
         self.board.update(now, &state);
     }
 
@@ -619,7 +606,8 @@ impl<B: Board> Module<B> {
         if self.st.board_time < now {
             if let Some(state) = self.st.last_drive {
                 self.st.board_time = now;
-                self.board.update(now, &state);
+                // The same state again, only to bring the board's clock on: no change (`module/seam.rs`).
+                self.board.timeline().update(now, &state);
             }
         }
     }

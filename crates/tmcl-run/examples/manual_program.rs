@@ -24,7 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let columns: Vec<String> = trace.columns().iter().map(|c| format!("{} [{}]", c.name, c.unit.symbol())).collect();
     println!("{} rows: {}", trace.len(), columns.join(", "));
     let position = trace.column(Quantity::ActualPosition).ok_or("no position column")?;
-    let reached = position.iter().flatten().max().copied().unwrap_or_default();
+    let reached = position.iter().flatten().max().unwrap_or_default();
     println!("furthest position {reached}; {} instructions in {:.3} s wall time", summary.executed, summary.wall_s);
     assert_eq!(reached, 10000);
     Ok(())

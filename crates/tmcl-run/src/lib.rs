@@ -35,10 +35,15 @@
 
 #[cfg(feature = "plot")]
 pub mod plot;
+mod record;
+pub mod refusals;
 pub mod runner;
 pub mod setup;
 pub mod trace;
 
+pub use refusals::{Refusals, Refused};
 pub use runner::{run, state_name, Options, RunError, Simulation, Summary};
 pub use setup::{parse_number, poll, Setting, Setup, SetupError, Source, SourceError, USER_BANK};
-pub use trace::{Column, Csv, Event, Header, Levels, Quantity, Row, Sink, Stamped, Tee, Trace, Unit, WorldUnit};
+pub use trace::{
+    Column, Csv, Event, Header, Levels, Placement, Quantity, Row, Sink, Stamped, Tee, Trace, Unit, Values, WorldUnit,
+};

@@ -14,7 +14,9 @@
 //! - **stop** / **end**: the program stopped at a STOP, or at a cell it cannot execute;
 //! - **outN=V**: output N changed;
 //! - **target=N**: a new target position (MVP, SAP 0): the row still shows where the motor stands,
-//!   so a program that waits for each position shows each arrival.
+//!   so a program that waits for each position shows each arrival;
+//! - **refused=pc N status S**: the module refused the instruction at N with status S and the program
+//!   went on without it (see [`crate::refusals`]; [`Simulation::refusals`] lists them with the reason).
 //!
 //! Without a sink, it polls only where the simulated world changes by itself and at the end (every
 //! second when a progress callback is given): the core catches up on everything in between, with the same
@@ -24,8 +26,10 @@
 //! hour of the manual's programs runs in milliseconds. [`Options::exact_ticks`] ticks them one by one
 //! instead, the reference the spans are checked against; both give byte-identical traces.
 
+use crate::record::Recorder;
+use crate::refusals::{Collector, Refusals};
 use crate::setup::{poll, Setup, SetupError, Source};
-use crate::trace::{Event, Recorder, Sink, Trace};
+use crate::trace::{Event, Sink, Trace};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::io;
@@ -77,6 +81,8 @@ pub struct Summary {
     pub state: &'static str,
     /// Rows recorded (0 without a sink).
     pub rows: u64,
+    /// Instructions the module refused (and the program skipped); [`Simulation::refusals`] lists them.
+    pub refused: u64,
 }
 
 /// Why a run failed.
@@ -94,6 +100,9 @@ pub enum RunError {
     /// The sink failed (a CSV file that cannot be written).
     #[error("cannot write the trace: {0}")]
     Sink(#[from] io::Error),
+    /// [`Simulation::run`] was called a second time: a run starts at time 0.
+    #[error("the simulation has run already; set up a new one")]
+    AlreadyRun,
 }
 
 /// The program's run state in words.
@@ -114,7 +123,7 @@ pub fn state_name(state: RunState) -> &'static str {
 /// let source = Source::assemble("demo.tmc", "MVP ABS, 0, 5000\nWAIT POS, 0, 0\nSTOP\n")?;
 /// let (trace, summary) = run(&source, &Setup::new("pd28-1021")?, &Options::new(tmcl_core::Duration::from_secs(2)))?;
 /// let position = trace.column(Quantity::ActualPosition).unwrap();
-/// assert_eq!(position.last(), Some(&Some(5000)));
+/// assert_eq!(position.last(), Some(Some(5000)));
 /// assert_eq!(summary.state, "stopped");
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
@@ -131,6 +140,8 @@ pub struct Simulation {
     module: Module<SimBoard>,
     source: Source,
     setup: Setup,
+    ran: bool,
+    refusals: Collector,
 }
 
 impl Simulation {
@@ -139,7 +150,13 @@ impl Simulation {
     pub fn new(source: &Source, setup: &Setup) -> Result<Simulation, SetupError> {
         let mut lines = |file: &str, line: u32| source_line(file, line);
         let module = setup.build(source, &mut lines)?;
-        Ok(Simulation { module, source: source.clone(), setup: setup.clone() })
+        Ok(Simulation {
+            module,
+            source: source.clone(),
+            setup: setup.clone(),
+            ran: false,
+            refusals: Collector::default(),
+        })
     }
 
     /// The module (after a run: its state at the end).
@@ -147,13 +164,18 @@ impl Simulation {
         &self.module
     }
 
+    /// The instructions the module refused during the run, with where and why.
+    pub fn refusals(&self) -> &Refusals {
+        self.refusals.refusals()
+    }
+
     /// The module, to change before the run.
     pub fn module_mut(&mut self) -> &mut Module<SimBoard> {
         &mut self.module
     }
 
-    /// Starts the program at 0 and runs it for `options.duration`. With a `sink`, records a row every
-    /// `options.every` and at each event into it; without one, runs as fast as it can and records
+    /// Starts the program at 0 and runs it for `options.duration`, once. With a `sink`, records a row
+    /// every `options.every` and at each event into it; without one, runs as fast as it can and records
     /// nothing. `progress` is told the simulated time now and then (about every simulated second).
     pub fn run(
         &mut self,
@@ -161,13 +183,18 @@ impl Simulation {
         sink: Option<&mut dyn Sink>,
         mut progress: Option<&mut dyn FnMut(Instant)>,
     ) -> Result<Summary, RunError> {
+        if std::mem::replace(&mut self.ran, true) {
+            return Err(RunError::AlreadyRun);
+        }
         let module = &mut self.module;
         module.set_exact_ticks(options.exact_ticks);
         let started = WallInstant::now();
         module.execute(Command::RunApplication { from: Some(0) }, Instant::ZERO).map_err(RunError::Start)?;
         let rows = match sink {
             None => {
-                run_coarse(module, options.duration, &mut progress);
+                run_coarse(module, options.duration, &mut progress, &mut |m| {
+                    self.refusals.collect(m, &self.source);
+                });
                 0
             }
             Some(sink) => {
@@ -178,7 +205,7 @@ impl Simulation {
                     Recorder::new(self.setup.model, &variables, options.drive, self.setup.world.as_ref());
                 sink.start(recorder.header())?;
                 let run = Traced { every: options.every, end: Instant::ZERO + options.duration };
-                run.run(module, &self.source, &mut recorder, sink, &mut progress)?;
+                run.run(module, &self.source, &mut recorder, sink, &mut progress, &mut self.refusals)?;
                 sink.finish()?;
                 recorder.rows
             }
@@ -190,6 +217,7 @@ impl Simulation {
             pc: module.vm().pc,
             state: state_name(module.vm().state),
             rows,
+            refused: module.vm().refusals().count(),
         })
     }
 }
@@ -204,11 +232,16 @@ fn source_line(file: &str, line: u32) -> Option<String> {
 /// window) and at the end, and every [`COARSE_STEP`] when progress is reported. The module catches up
 /// on every tick and instruction up to the time it is polled at, with the same result however often
 /// that is; the board's world moves on by itself only when polled, so its changes are stepped on exactly.
-fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, progress: &mut Option<&mut dyn FnMut(Instant)>) {
+fn run_coarse(
+    module: &mut Module<SimBoard>,
+    duration: Duration,
+    progress: &mut Option<&mut dyn FnMut(Instant)>,
+    after_poll: &mut dyn FnMut(&Module<SimBoard>),
+) {
     let end = Instant::ZERO + duration;
     let mut t = Instant::ZERO;
     loop {
-        // One poll runs at most `tmcl_core::vm::run::BUDGET` instructions (so that a poll always returns);
+        // One poll runs at most `tmcl_core::vm::BUDGET` instructions (so that a poll always returns);
         // a program that runs without waiting gets further in each poll at the same time until it has
         // caught up, which its deadline says (it is then still `t` or before).
         // (A poll that executed nothing is the last: whatever its deadline says, no further poll at `t`
@@ -216,6 +249,7 @@ fn run_coarse(module: &mut Module<SimBoard>, duration: Duration, progress: &mut 
         loop {
             let executed = module.vm().executed();
             let behind = poll(module, t).is_some_and(|d| d <= t);
+            after_poll(module);
             if !behind || module.vm().executed() == executed {
                 break;
             }
@@ -285,6 +319,7 @@ impl Traced {
         recorder: &mut Recorder,
         sink: &mut dyn Sink,
         progress: &mut Option<&mut dyn FnMut(Instant)>,
+        refusals: &mut Collector,
     ) -> Result<(), RunError> {
         let handlers = source.handler_addresses();
         for &address in &handlers {
@@ -300,6 +335,8 @@ impl Traced {
             let deadline = poll(module, t);
             recorder.watch_levels(module, t, sink);
             events.clear();
+            events
+                .extend(refusals.collect(module, source).iter().map(|r| Event::Refused { pc: r.pc, status: r.status }));
             if module.vm().at_breakpoint() && module.vm().state == RunState::Stopped {
                 // A handler's first instruction: name the interrupt(s) whose vector points here, go on.
                 let pc = module.vm().pc;

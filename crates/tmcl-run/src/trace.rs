@@ -24,11 +24,7 @@
 use serde::{Deserialize, Serialize};
 use std::fmt::{self, Write as _};
 use std::io::{self, Write};
-use tmcl_core::hal::{Inputs as _, SwitchInputs as _};
-use tmcl_core::model::{Kinematics, ModelSpec, Role, Setting};
-use tmcl_core::{Instant, Module};
-use tmcl_sim::world::AxisKind;
-use tmcl_sim::SimBoard;
+use tmcl_core::model::Role;
 
 /// What a column holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -193,7 +189,7 @@ pub struct Column {
 }
 
 impl Column {
-    fn of(quantity: Quantity) -> Column {
+    pub(crate) fn of(quantity: Quantity) -> Column {
         let decimals = if quantity == Quantity::Energy { 6 } else { 0 };
         Column { name: quantity.name(), quantity, unit: quantity.unit(), decimals }
     }
@@ -207,6 +203,7 @@ impl Column {
 /// A program event, at the row it happened.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum Event {
     /// The program entered the handler of interrupt N.
     Interrupt(u8),
@@ -223,6 +220,13 @@ pub enum Event {
     },
     /// A new target position (MVP, SAP 0); the row still shows where the motor stands.
     Target(i32),
+    /// The module refused the instruction at `pc` with `status`; the program went on without it.
+    Refused {
+        /// Its address.
+        pc: u16,
+        /// The status (PD28-1021 manual §3.2.1, Table 4).
+        status: u8,
+    },
 }
 
 impl Event {
@@ -231,6 +235,7 @@ impl Event {
         match self {
             Event::Output { number, .. } => format!("out{number}"),
             Event::Target(_) => "target".into(),
+            Event::Refused { .. } => "refused".into(),
             other => other.to_string(),
         }
     }
@@ -240,6 +245,7 @@ impl Event {
         match self {
             Event::Output { level, .. } => Some(u8::from(*level).to_string()),
             Event::Target(t) => Some(t.to_string()),
+            Event::Refused { pc, status } => Some(format!("pc {pc} status {status}")),
             _ => None,
         }
     }
@@ -254,6 +260,7 @@ impl fmt::Display for Event {
             Event::End => f.write_str("end"),
             Event::Output { number, level } => write!(f, "out{number}={}", u8::from(*level)),
             Event::Target(t) => write!(f, "target={t}"),
+            Event::Refused { pc, status } => write!(f, "refused=pc {pc} status {status}"),
         }
     }
 }
@@ -286,14 +293,30 @@ pub struct Levels {
 /// The reference switches' names, by bit of [`Levels::switches`].
 pub const SWITCHES: [&str; 3] = ["HOME", "LEFT", "RIGHT"];
 
-/// The position axis in the world's own unit, when a world file defines the axis: a position of `p`
-/// µsteps is `offset + p × per_microstep` (per row: the microstep resolution may change in a run).
+/// The position axis in the world's own unit, when the run has a world file: mm on a linear axis, degrees
+/// on a rotary one. Each row carries its [`Placement`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WorldUnit {
     /// `mm` (linear axis) or `°` (rotary axis).
     pub name: String,
-    /// Where the step counter's 0 is (the world's `axis.start`), in the unit.
+}
+
+/// Where positions of a row are in the world: `p` µsteps (AP 0, AP 1) are at `offset + p × per_microstep`
+/// in the [`WorldUnit`]. Per row, because the microstep resolution may change and a reference search or
+/// `SAP 1` moves the step counter's 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Placement {
+    /// World units per µstep (negative with the shaft reversed).
+    pub per_microstep: f64,
+    /// Where the step counter's 0 is, in world units.
     pub offset: f64,
+}
+
+impl Placement {
+    /// A position in µsteps in world units.
+    pub fn place(&self, microsteps: i64) -> f64 {
+        self.offset + microsteps as f64 * self.per_microstep
+    }
 }
 
 /// What a trace is about: its columns, the model, and the world's unit.
@@ -316,8 +339,8 @@ pub struct Row<'a> {
     pub values: &'a [Option<i64>],
     /// The events that happened at this row (empty for a plain sample).
     pub events: &'a [Event],
-    /// With a [`WorldUnit`]: world units per µstep at this row.
-    pub per_microstep: Option<f64>,
+    /// With a [`WorldUnit`]: where the row's positions are in the world.
+    pub placement: Option<Placement>,
 }
 
 /// Where a run's rows go.
@@ -422,12 +445,8 @@ impl<W: Write> Sink for Csv<W> {
         line.push_str(&seconds(row.micros));
         for (value, &decimals) in row.values.iter().zip(&self.decimals) {
             line.push(',');
-            match value {
-                Some(v) if decimals == 6 && *v >= 0 => line.push_str(&seconds(*v as u64)),
-                Some(v) => {
-                    let _ = write!(line, "{v}");
-                }
-                None => {}
+            if let Some(v) = value {
+                write_fixed(line, *v, decimals);
             }
         }
         line.push(',');
@@ -446,6 +465,76 @@ impl<W: Write> Sink for Csv<W> {
     }
 }
 
+/// One column of a [`Trace`] in memory, compactly: 32-bit integers for the quantities that are 32-bit in
+/// the module (all but the energy), 64-bit for the energy, and the rows without a value (the module
+/// refused to give one) listed apart. An hour sampled every millisecond is 3.6 million values a column.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Values {
+    data: Data,
+    /// The rows without a value, ascending.
+    missing: Vec<usize>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+enum Data {
+    Narrow(Vec<i32>),
+    Wide(Vec<i64>),
+}
+
+impl Values {
+    fn for_quantity(quantity: Quantity) -> Values {
+        let data = if quantity == Quantity::Energy { Data::Wide(Vec::new()) } else { Data::Narrow(Vec::new()) };
+        Values { data, missing: Vec::new() }
+    }
+
+    /// Appends the value of row `row` (the next one).
+    fn push(&mut self, value: Option<i64>, row: usize) {
+        if value.is_none() {
+            self.missing.push(row);
+        }
+        let v = value.unwrap_or(0);
+        match &mut self.data {
+            // A narrow quantity is an i32 in the module; saturating keeps a wrong caller from wrapping.
+            Data::Narrow(d) => d.push(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32),
+            Data::Wide(d) => d.push(v),
+        }
+    }
+
+    /// Rows.
+    pub fn len(&self) -> usize {
+        match &self.data {
+            Data::Narrow(d) => d.len(),
+            Data::Wide(d) => d.len(),
+        }
+    }
+
+    /// Whether there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The value at row `row` (`None`: no such row, or the module gave no value there).
+    pub fn get(&self, row: usize) -> Option<i64> {
+        if !self.missing.is_empty() && self.missing.binary_search(&row).is_ok() {
+            return None;
+        }
+        match &self.data {
+            Data::Narrow(d) => d.get(row).map(|&v| i64::from(v)),
+            Data::Wide(d) => d.get(row).copied(),
+        }
+    }
+
+    /// The last row's value (`None` if there are no rows).
+    pub fn last(&self) -> Option<Option<i64>> {
+        self.len().checked_sub(1).map(|r| self.get(r))
+    }
+
+    /// Every row's value, in order.
+    pub fn iter(&self) -> impl Iterator<Item = Option<i64>> + '_ {
+        (0..self.len()).map(|r| self.get(r))
+    }
+}
+
 /// A trace in memory, as columns: the times, one vector of values per column, the events, and the
 /// inputs, outputs and switches at every change.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -454,14 +543,14 @@ pub struct Trace {
     pub header: Option<Header>,
     /// Each row's time in µs.
     pub times: Vec<u64>,
-    /// `values[c][r]`: column `c` at row `r`.
-    pub values: Vec<Vec<Option<i64>>>,
+    /// `values[c]`: column `c`, a value per row.
+    pub values: Vec<Values>,
     /// The events, in order.
     pub events: Vec<Stamped>,
     /// The inputs, outputs and switches at the start and after each change.
     pub levels: Vec<Levels>,
-    /// With a world unit: world units per µstep at each row.
-    pub per_microstep: Vec<f64>,
+    /// With a world unit: where each row's positions are in the world.
+    pub placements: Vec<Placement>,
 }
 
 impl Trace {
@@ -491,8 +580,8 @@ impl Trace {
     }
 
     /// The values of the column holding `quantity`, if the trace has it.
-    pub fn column(&self, quantity: Quantity) -> Option<&[Option<i64>]> {
-        self.position(quantity).map(|i| self.values[i].as_slice())
+    pub fn column(&self, quantity: Quantity) -> Option<&Values> {
+        self.position(quantity).map(|i| &self.values[i])
     }
 
     /// The values of column `index` in its unit (the energy in A²·s, the rest as they are), `None` where
@@ -516,14 +605,14 @@ impl Trace {
         let mut next_event = 0;
         for (r, &micros) in self.times.iter().enumerate() {
             for (c, column) in self.values.iter().enumerate() {
-                values[c] = column[r];
+                values[c] = column.get(r);
             }
             let first = next_event;
             while self.events.get(next_event).is_some_and(|e| e.row == r) {
                 next_event += 1;
             }
             let events: Vec<Event> = self.events[first..next_event].iter().map(|e| e.event.clone()).collect();
-            csv.row(Row { micros, values: &values, events: &events, per_microstep: None })?;
+            csv.row(Row { micros, values: &values, events: &events, placement: None })?;
         }
         csv.finish()
     }
@@ -531,7 +620,7 @@ impl Trace {
 
 impl Sink for Trace {
     fn start(&mut self, header: &Header) -> io::Result<()> {
-        self.values = vec![Vec::new(); header.columns.len()];
+        self.values = header.columns.iter().map(|c| Values::for_quantity(c.quantity)).collect();
         self.header = Some(header.clone());
         Ok(())
     }
@@ -540,11 +629,11 @@ impl Sink for Trace {
         let r = self.times.len();
         self.times.push(row.micros);
         for (column, value) in self.values.iter_mut().zip(row.values) {
-            column.push(*value);
+            column.push(*value, r);
         }
         self.events.extend(row.events.iter().map(|e| Stamped { micros: row.micros, row: r, event: e.clone() }));
-        if let Some(p) = row.per_microstep {
-            self.per_microstep.push(p);
+        if let Some(p) = row.placement {
+            self.placements.push(p);
         }
         Ok(())
     }
@@ -558,193 +647,17 @@ impl Sink for Trace {
     }
 }
 
-/// Reads the rows off a module: the columns decided from the model's tables once, at the start.
-pub(crate) struct Recorder {
-    header: Header,
-    /// Per column: where its value comes from.
-    sources: Vec<Read>,
-    /// AP 1 by role, read while a closed loop is closed (else the step counter).
-    actual: Option<u8>,
-    closed_loop: bool,
-    /// With a world unit: (AP 140 by role, µsteps of the world per motor revolution / units per revolution,
-    /// reverse shaft GP by setting).
-    world: Option<WorldScale>,
-    values: Vec<Option<i64>>,
-    last_levels: Option<(u8, u8, u8)>,
-    /// Rows recorded.
-    pub rows: u64,
-}
-
-/// How a column's value is read.
-#[derive(Debug, Clone, Copy)]
-enum Read {
-    Target,
-    Actual,
-    Velocity,
-    Accumulator,
-    X,
-    Pc,
-    Outputs,
-    Variable(u8),
-    Energy,
-    Axis(u8),
-}
-
-#[derive(Debug, Clone, Copy)]
-struct WorldScale {
-    resolution: u8,
-    full_steps: f64,
-    units_per_rev: f64,
-    reverse: Option<u8>,
-}
-
-/// The number of the axis parameter with `role` on the model, if it has one.
-fn axis_number(spec: &ModelSpec, role: Role) -> Option<u8> {
-    spec.axis.role(role).map(|i| spec.axis.params[i].number)
-}
-
-impl Recorder {
-    /// The columns of a run of `spec` with these user variables (ascending), with or without the drive's
-    /// columns; `world`: the world file's axis, if one was given.
-    pub fn new(spec: &'static ModelSpec, variables: &[u8], drive: bool, world: Option<&tmcl_sim::World>) -> Recorder {
-        let mut columns: Vec<(Quantity, Read)> = vec![
-            (Quantity::TargetPosition, Read::Target),
-            (Quantity::ActualPosition, Read::Actual),
-            (Quantity::Velocity, Read::Velocity),
-            (Quantity::Accumulator, Read::Accumulator),
-            (Quantity::X, Read::X),
-            (Quantity::Pc, Read::Pc),
-            (Quantity::Outputs, Read::Outputs),
-        ];
-        columns.extend(
-            variables
-                .iter()
-                .filter(|&&n| u16::from(n) < spec.user_variables)
-                .map(|&n| (Quantity::Variable(n), Read::Variable(n))),
-        );
-        let closed_loop = drive && spec.axis.setting(Setting::ClosedLoop).is_some();
-        let by_role = |q: Quantity| q.role().and_then(|r| axis_number(spec, r)).map(|n| (q, Read::Axis(n)));
-        if drive {
-            for q in Quantity::DRIVE {
-                columns.extend(if q == Quantity::Energy { Some((q, Read::Energy)) } else { by_role(q) });
-            }
-        }
-        if closed_loop {
-            columns.extend(Quantity::CLOSED_LOOP.into_iter().filter_map(by_role));
-        }
-        if spec.kinematics != Kinematics::Pps {
-            columns.extend(by_role(Quantity::VelocityUnits));
-        }
-        let world_scale = world.and_then(|w| {
-            let units_per_rev = match w.axis.kind {
-                AxisKind::Linear => *w.axis.lead.get_ref(),
-                AxisKind::Rotary => 360.0,
-            };
-            Some(WorldScale {
-                resolution: axis_number(spec, Role::MicrostepResolution)?,
-                full_steps: f64::from(*w.motor.full_steps.get_ref()),
-                units_per_rev,
-                reverse: spec.global.setting(Setting::ReverseShaft).map(|i| spec.global.params[i].number),
-            })
-        });
-        let world_unit = world_scale.zip(world).map(|(s, w)| WorldUnit {
-            name: match w.axis.kind {
-                AxisKind::Linear => "mm".into(),
-                AxisKind::Rotary => "°".into(),
-            },
-            offset: start_in_units(w, s),
-        });
-        let header = Header {
-            columns: columns.iter().map(|&(q, _)| Column::of(q)).collect(),
-            model: spec.name.to_string(),
-            world_unit,
-        };
-        Recorder {
-            sources: columns.iter().map(|&(_, r)| r).collect(),
-            values: vec![None; columns.len()],
-            header,
-            actual: axis_number(spec, Role::ActualPosition),
-            closed_loop,
-            world: world_scale,
-            last_levels: None,
-            rows: 0,
-        }
+/// `value / 10^decimals` with exactly `decimals` decimals, from the integer (no floating point).
+fn write_fixed(line: &mut String, value: i64, decimals: u8) {
+    if decimals == 0 {
+        let _ = write!(line, "{value}");
+        return;
     }
-
-    /// The trace's header.
-    pub fn header(&self) -> &Header {
-        &self.header
-    }
-
-    /// Records the module's state at `now`, with the events that happened (empty for a plain sample).
-    pub fn record(
-        &mut self,
-        module: &mut Module<SimBoard>,
-        now: Instant,
-        events: &[Event],
-        sink: &mut dyn Sink,
-    ) -> io::Result<()> {
-        let ramp = *module.ramp();
-        // AP 1: the step counter, or the encoder while a closed loop is closed.
-        let actual = match self.actual {
-            Some(n) if self.closed_loop || module.state().closed_loop().active => {
-                module.get_axis(n).unwrap_or(ramp.position)
-            }
-            _ => ramp.position,
-        };
-        for (value, source) in self.values.iter_mut().zip(&self.sources) {
-            *value = match *source {
-                Read::Target => Some(i64::from(ramp.target_position)),
-                Read::Actual => Some(i64::from(actual)),
-                Read::Velocity => Some(i64::from(ramp.velocity())),
-                Read::Accumulator => Some(i64::from(module.registers().accumulator)),
-                Read::X => Some(i64::from(module.registers().x)),
-                Read::Pc => Some(i64::from(module.vm().pc)),
-                Read::Outputs => Some(i64::from(module.board().outputs())),
-                Read::Variable(n) => module.get_global(n, crate::USER_BANK, now).ok().map(i64::from),
-                // Rounded to an integer number of µA²·s, so traces stay byte-identical everywhere.
-                Read::Energy => Some((module.board().energy() * 1e6).round() as i64),
-                Read::Axis(n) => module.get_axis(n).ok().map(i64::from),
-            };
-        }
-        let per_microstep = self.world.map(|w| {
-            let resolution = module.get_axis(w.resolution).unwrap_or(0).clamp(0, 8);
-            let reverse = w.reverse.is_some_and(|n| module.get_global(n, 0, now).unwrap_or(0) != 0);
-            let sign = if reverse { -1.0 } else { 1.0 };
-            sign * w.units_per_rev / (w.full_steps * f64::from(1u32 << resolution))
-        });
-        self.rows += 1;
-        sink.row(Row { micros: now.micros(), values: &self.values, events, per_microstep })
-    }
-
-    /// Hands the digital inputs, outputs and reference switches at `now` to the sink if they changed
-    /// since the last call (or if this is the first). Called after every poll, so a change is kept at the
-    /// time it happened, between samples too. Nothing is written to a CSV file.
-    pub fn watch_levels(&mut self, module: &mut Module<SimBoard>, now: Instant, sink: &mut dyn Sink) {
-        if !sink.wants_levels() {
-            return;
-        }
-        let outputs = module.board().outputs();
-        let inputs = module.board_timeline().digital_inputs();
-        let s = module.board_timeline().switches();
-        let switches = u8::from(s.home) | u8::from(s.left) << 1 | u8::from(s.right) << 2;
-        if self.last_levels != Some((inputs, outputs, switches)) {
-            self.last_levels = Some((inputs, outputs, switches));
-            sink.levels(Levels { micros: now.micros(), inputs, outputs, switches });
-        }
-    }
-}
-
-/// Where the step counter's 0 is in world units: the world's `axis.start`.
-fn start_in_units(world: &tmcl_sim::World, scale: WorldScale) -> f64 {
-    use tmcl_sim::world::Pos;
-    let per_rev = scale.units_per_rev;
-    match *world.axis.start.get_ref() {
-        Pos::Axis(v) | Pos::Mm(v) | Pos::Deg(v) => v,
-        Pos::Rev(v) => v * per_rev,
-        Pos::FullSteps(v) => v / scale.full_steps * per_rev,
-        Pos::Usteps(v) => v / (scale.full_steps * 256.0) * per_rev,
-    }
+    let unit = 10u64.pow(u32::from(decimals));
+    let sign = if value < 0 { "-" } else { "" };
+    let magnitude = value.unsigned_abs();
+    let width = usize::from(decimals);
+    let _ = write!(line, "{sign}{}.{:0width$}", magnitude / unit, magnitude % unit);
 }
 
 /// Integer millionths as a decimal number with six decimals (no floating point: the same everywhere):
@@ -765,47 +678,40 @@ mod tests {
     }
 
     #[test]
+    fn columns_in_memory_keep_every_value_and_the_missing_ones() {
+        let mut narrow = Values::for_quantity(Quantity::Accumulator);
+        for (r, v) in [Some(i64::from(i32::MIN)), None, Some(7), Some(i64::from(i32::MAX))].into_iter().enumerate() {
+            narrow.push(v, r);
+        }
+        assert_eq!(
+            narrow.iter().collect::<Vec<_>>(),
+            [Some(i64::from(i32::MIN)), None, Some(7), Some(i64::from(i32::MAX))]
+        );
+        assert_eq!((narrow.len(), narrow.last(), narrow.get(9)), (4, Some(Some(i64::from(i32::MAX))), None));
+        let mut wide = Values::for_quantity(Quantity::Energy);
+        wide.push(Some(1 << 40), 0);
+        assert_eq!(wide.get(0), Some(1 << 40));
+    }
+
+    #[test]
+    fn fixed_point_values_are_exact() {
+        let text = |v, d| {
+            let mut line = String::new();
+            write_fixed(&mut line, v, d);
+            line
+        };
+        assert_eq!(text(1_250_000, 6), "1.250000");
+        assert_eq!(text(-5, 6), "-0.000005");
+        assert_eq!(text(-42, 0), "-42");
+        assert_eq!(text(i64::MIN, 6), "-9223372036854.775808");
+    }
+
+    #[test]
     fn events_read_as_in_the_event_column() {
         let events = [Event::Interrupt(0), Event::Stop, Event::End, Event::Output { number: 2, level: true }];
         let text: Vec<String> = events.iter().map(|e| e.to_string()).collect();
         assert_eq!(text, ["interrupt 0", "stop", "end", "out2=1"]);
         assert_eq!(Event::Target(-512_000).to_string(), "target=-512000");
         assert_eq!((Event::Target(5).kind(), Event::Target(5).value()), ("target".into(), Some("5".into())));
-    }
-
-    #[test]
-    fn columns_come_from_the_models_roles() {
-        let pd28 = tmcl_core::model::by_id("pd28-1021").unwrap();
-        let names = |r: &Recorder| r.header().columns.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
-        let plain = Recorder::new(pd28, &[3], false, None);
-        assert_eq!(
-            names(&plain),
-            ["target_position", "actual_position", "velocity", "accumulator", "x", "pc", "outputs", "var3"]
-        );
-        let drive = Recorder::new(pd28, &[], true, None);
-        assert!(names(&drive).ends_with(&[
-            "load".into(),
-            "current_scale".into(),
-            "encoder".into(),
-            "energy_a2s".into()
-        ]));
-        let tmcm = tmcl_core::model::by_id("tmcm-1310").unwrap();
-        let closed = Recorder::new(tmcm, &[], true, None);
-        assert!(names(&closed).ends_with(&[
-            "virtual_position".into(),
-            "position_error".into(),
-            "scaler".into(),
-            "status_word".into()
-        ]));
-        // Every drive column of every model is read from a parameter the model has, by role.
-        for spec in tmcl_core::model::MODELS {
-            let r = Recorder::new(spec, &[], true, None);
-            for (column, source) in r.header().columns.iter().zip(&r.sources) {
-                if let Read::Axis(n) = source {
-                    let role = column.quantity.role().unwrap();
-                    assert_eq!(spec.axis.find(*n).unwrap().1.role, role, "{} {}", spec.id, column.name);
-                }
-            }
-        }
     }
 }

@@ -22,7 +22,6 @@ use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
 use tmcl_ethercat::Slave;
 use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
-use tmcl_wire::Command;
 
 /// Longest sleep without a deadline or a byte. A signal or a [`Stopper::stop`] ends a sleep at once, so
 /// this only paces the pty's exclusive-mode check; a moving module has its next event as deadline (the end
@@ -179,7 +178,7 @@ impl Server {
             if let Some(address) = address {
                 if fresh && module.address() != address {
                     module
-                        .execute(Command::Sgp { param: 66, bank: 0, value: i32::from(address) }, clock())
+                        .set_address(address, clock())
                         .map_err(|s| ServeError::Config(format!("address {address}: {s}")))?;
                 } else if module.address() != address {
                     notes.push(format!(

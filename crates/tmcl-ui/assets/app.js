@@ -124,7 +124,7 @@
     if (h.line) setLine(h.line);
     if (h.epoch !== undefined && wb.epoch !== undefined && h.epoch !== wb.epoch) newTrace({ n: h.epoch, why: "module" });
     wb.epoch = h.epoch;
-    setupMotion();
+    setupMotion(); setupClosedLoop();
     $("m-link").textContent = h.link; $("m-address").textContent = h.address;
     $("m-version").textContent = h.version || "no answer to command 136";
     $("m-model").textContent = model ? `${model.name} (${model.id})` : "unknown: give --module MODEL";
@@ -288,6 +288,54 @@
       body.hidden = !any;
     }
   }
+  // Parameter sets: save, load (and store), store all; what was skipped or refused is listed.
+  function setReport(ok, verb) {
+    const list = $("set-report");
+    // Refusals first, then what a load could not carry (another unit), then the rest of the skips.
+    const rank = (o) => (o.result === "refused" ? 0 : /unit differs/.test(o.why || "") ? 1 : 2);
+    const sorted = [...ok.outcomes].sort((a, b) => rank(a) - rank(b));
+    list.replaceChildren(...sorted.map((o) => el("li", { class: o.result, text: `${o.param} ${o.name} = ${o.value}${o.unit ? " " + o.unit : ""}: ${o.result}${o.why ? ", " + o.why : ""}` })));
+    list.hidden = !ok.outcomes.length;
+    const parts = [`${ok.written + ok.stored} ${verb}`];
+    if (ok.stored && verb !== "stored") parts.push(`${ok.stored} stored in the EEPROM`);
+    if (ok.unchanged) parts.push(`${ok.unchanged} unchanged`);
+    if (ok.skipped) parts.push(`${ok.skipped} skipped`);
+    if (ok.refused) parts.push(`${ok.refused} refused`);
+    say("param-status", parts.join(", "), ok.refused === 0);
+    wb.lastSet = ok;
+  }
+  $("set-save").addEventListener("click", async () => {
+    say("param-status", "reading every parameter…");
+    try {
+      const ok = await call("save_params");
+      save(ok.file_name, ok.toml, "application/toml");
+      wb.lastSaved = ok;
+      say("param-status", `saved ${ok.count} parameters to ${ok.file_name}${ok.notes.length ? ` (${ok.notes.length} not readable)` : ""}`, true);
+    } catch (err) { say("param-status", `save: ${refusal(err)}`, false); }
+  });
+  async function loadSet(text, anyModel) {
+    say("param-status", "writing the set…");
+    $("set-report").hidden = true;
+    try {
+      setReport(await call("load_params", { text, store: $("set-store").checked, any_model: anyModel }), "written");
+    } catch (err) {
+      say("param-status", `load: ${refusal(err)}`, false);
+      if (!anyModel && /the set is of a/.test(err.error || "")) {
+        $("param-status").append(" ", el("button", { type: "button", text: "Load what matches by number and unit",
+          onclick: () => loadSet(text, true) }));
+      }
+    }
+  }
+  wb.loadSet = loadSet;
+  $("set-load").addEventListener("change", async (e) => {
+    const f = e.target.files[0]; if (!f) return;
+    const text = await f.text(); e.target.value = "";
+    loadSet(text, false);
+  });
+  $("set-store-all").addEventListener("click", async () => {
+    say("param-status", "storing every parameter…");
+    try { setReport(await call("store_all"), "stored"); } catch (err) { say("param-status", `store all: ${refusal(err)}`, false); }
+  });
   $("param-filter").addEventListener("input", filterParams);
   $("param-which").addEventListener("change", filterParams);
   on("value", (ev) => { if ("v" in ev) showParam(ev.k, ev.v); });
@@ -359,10 +407,13 @@
   }
   function standardPanels() {
     const ap = (n, label, color) => (has(n) ? seriesOf("ap", n, 0, label, color) : null);
+    const cl = model && model.closed_loop;
     const defs = [
       ["position", "Position", [ap(roles.actual_position, "actual position", COLORS.actual), ap(roles.target_position, "target position", COLORS.target), ap(roles.encoder, "encoder", COLORS.encoder)]],
-      ["velocity", "Velocity", [ap(roles.actual_speed, "actual speed", COLORS.actual), ap(roles.target_speed, "target speed", COLORS.target)]],
-      ["load", "Load and current", [ap(roles.load, "load value", COLORS.load), ap(roles.current, "current scale", COLORS.current)]],
+      ["velocity", "Velocity", [ap(roles.actual_speed, "actual speed", COLORS.actual), ap(roles.target_speed, "target speed", COLORS.target),
+        cl ? ap(cl.measured_velocity, "measured velocity", COLORS.encoder) : null]],
+      ["load", "Load and current", [ap(roles.load, "load value", COLORS.load), cl ? null : ap(roles.current, "current scale", COLORS.current)]],
+      ["closed", "Closed loop", cl ? [ap(cl.position_error, "position error", COLORS.load), ap(cl.current_scale, "current scale", COLORS.current)] : []],
     ];
     return defs.map(([id, title, list]) => ({ id, title, series: list.filter(Boolean) }));
   }
@@ -484,8 +535,61 @@
   });
   // The plot update rate: new samples of the actual position per second, shown and kept for tests.
   let lastCount = 0;
-  // The closed loop's values (filled in by the closed-loop panel).
-  let closedLoopKeys = () => [];
+  // The closed loop (TMCM-1310): encoder initialisation, close/open, the status word's bits as lamps, the
+  // settings beside the plots of position error, current scale and measured velocity.
+  const clInfo = () => (model && model.closed_loop) || null;
+  const closedLoopKeys = () => {
+    const cl = clInfo();
+    if (!cl) return [];
+    return [cl.encoder_init, cl.active, cl.status_word, cl.position_error, cl.current_scale, cl.measured_velocity]
+      .filter(has).map((n) => `ap.${motor}.${n}`);
+  };
+  const INIT_STATE = ["not initialised", "initialising…", "initialised", "failed"];
+  function setupClosedLoop() {
+    const cl = clInfo();
+    $("cl-card").hidden = !cl;
+    if (!cl) return;
+    $("cl-bits").replaceChildren(...cl.status_bits.map((name, bit) => el("span", { class: "lamp", "data-bit": bit, text: name })));
+    const rows = cl.settings.map((n) => {
+      const p = paramOf("ap", n);
+      if (!p) return null;
+      const input = el("input", { type: "number", "aria-label": p.name, "data-cl": n });
+      input.addEventListener("change", async () => {
+        try {
+          const ok = await call("set", { param: { kind: "ap", number: n, index: motor }, value: Number(input.value) });
+          input.value = ok.value; say("cl-status", `${p.name} = ${ok.value}${p.unit ? " " + p.unit : ""}`, true);
+        } catch (err) {
+          say("cl-status", `${p.name} = ${input.value} refused: ${refusal(err)}`, false);
+          readSetting(n, input);
+        }
+      });
+      readSetting(n, input);
+      return el("tr", {}, el("th", { scope: "row", title: `AP ${n}, ${p.title}`, text: p.title }), el("td", {}, input), el("td", { text: p.unit || "" }));
+    }).filter(Boolean);
+    $("cl-settings").replaceChildren(...rows);
+  }
+  async function readSetting(n, input) {
+    try { input.value = (await call("get", { param: { kind: "ap", number: n, index: motor } })).value; } catch (e) { /* shown as empty */ }
+  }
+  async function clWrite(n, value, what) {
+    try {
+      await call("set", { param: { kind: "ap", number: n, index: motor }, value });
+      say("cl-status", what, true);
+    } catch (err) { say("cl-status", `${what}: ${refusal(err)}`, false); }
+  }
+  $("cl-init").addEventListener("click", () => { const cl = clInfo(); if (cl) clWrite(cl.encoder_init, 1, "encoder initialisation started (AP " + cl.encoder_init + " := 1)"); });
+  $("cl-close").addEventListener("click", () => { const cl = clInfo(); if (cl) clWrite(cl.closed_loop, 1, "closing the loop (AP " + cl.closed_loop + " := 1)"); });
+  $("cl-open").addEventListener("click", () => { const cl = clInfo(); if (cl) clWrite(cl.closed_loop, 0, "opening the loop (AP " + cl.closed_loop + " := 0)"); });
+  on("value", (ev) => {
+    const cl = clInfo();
+    if (!cl || !("v" in ev)) return;
+    const k = (n) => `ap.${motor}.${n}`;
+    if (ev.k === k(cl.encoder_init)) $("cl-init-state").textContent = `${INIT_STATE[ev.v] || ev.v} (AP ${cl.encoder_init} = ${ev.v})`;
+    if (ev.k === k(cl.active)) $("cl-loop-state").textContent = ev.v ? `closed (AP ${cl.active} = 1)` : `open (AP ${cl.active} = 0)`;
+    if (has(cl.status_word) && ev.k === k(cl.status_word)) {
+      for (const lamp of $("cl-bits").children) lamp.classList.toggle("on", !!(ev.v & (1 << Number(lamp.dataset.bit))));
+    }
+  });
   setInterval(() => {
     const key = `ap.${motor}.${roles.actual_position}`;
     const n = wb.counts[key] || 0;
@@ -626,24 +730,36 @@
     if (programModel === id) return;
     programModel = id;
     const sample = model ? model.sample_program : "// Give --module MODEL to get the model's sample program.\n";
+    // A program kept by an earlier version (one for all models) becomes this model's, unless it is that
+    // version's PD28-1021 sample, which other models refuse.
+    const legacy = localStorage.getItem("tmcl-program");
+    if (legacy !== null && localStorage.getItem(programStore()) === null && model &&
+        !legacy.startsWith("// A first program: back and forth between two positions.")) {
+      localStorage.setItem(programStore(), legacy);
+    }
+    localStorage.removeItem("tmcl-program");
     editor.value = localStorage.getItem(programStore()) ?? sample;
     downloaded = null;
   }
   editor.onChange = () => { localStorage.setItem(programStore(), editor.value); downloaded = null; };
   let downloaded = null; // the source last downloaded
-  function diagnostics(list, okText) {
+  // Errors keep a program from assembling; warnings (the model would refuse the instruction, status 3
+  // or 4, and the program would skip it) are marked at their line and do not.
+  function diagnostics(list, okText, warnings = []) {
     const ul = $("diagnostics");
-    ul.replaceChildren(...list.map((d) => el("li", {}, el("button", {
-      type: "button", text: d.line ? `line ${d.line}, column ${d.column}: ${d.message}` : d.message,
+    const marked = [...list, ...warnings.map((w) => ({ ...w, warning: true }))];
+    ul.replaceChildren(...marked.map((d) => el("li", { class: d.warning ? "warn" : "" }, el("button", {
+      type: "button",
+      text: (d.warning ? "warning: " : "") + (d.line ? `line ${d.line}, column ${d.column}: ${d.message}` : d.message),
       onclick: () => d.line && editor.goTo(d.line, d.column),
     }))));
     if (!list.length && okText) ul.append(el("li", { class: "ok", text: okText }));
-    editor.setDiagnostics(list);
+    editor.setDiagnostics(marked);
   }
   async function assemble() {
     try {
       const ok = await call("assemble", { source: editor.value });
-      diagnostics(ok.diagnostics, ok.instructions !== null ? `Assembled: ${ok.instructions} instructions, no errors.` : "");
+      diagnostics(ok.diagnostics, ok.instructions !== null ? `Assembled: ${ok.instructions} instructions, no errors.` : "", ok.warnings || []);
       return ok.diagnostics.length === 0;
     } catch (err) { diagnostics([{ line: 0, message: refusal(err) }]); return false; }
   }
@@ -652,7 +768,7 @@
     try {
       const ok = await call("download", { source: editor.value });
       if (ok.diagnostics.length) { diagnostics(ok.diagnostics); say("pg-progress", "not downloaded: the program has errors", false); return false; }
-      diagnostics([], `Downloaded: ${ok.stored} instructions at addresses 0–${ok.stored - 1}.`);
+      diagnostics([], `Downloaded: ${ok.stored} instructions at addresses 0–${ok.stored - 1}.`, ok.warnings || []);
       downloaded = editor.value; wb.lastDownload = ok;
       say("pg-progress", `${ok.stored} instructions stored`, true);
       await sendBreakpoints([...editor.breakpoints]);

@@ -115,7 +115,7 @@
       lines.forEach((text, i) => {
         const n = i + 1, d = this.errors.get(n);
         const err = d ? [d.column - 1, d.column - 1 + Math.max(1, d.width)] : null;
-        const cls = ["ln", n === this.pc ? "pc" : "", d ? "err" : ""].filter(Boolean).join(" ");
+        const cls = ["ln", n === this.pc ? "pc" : "", d ? (d.warning ? "warn" : "err") : ""].filter(Boolean).join(" ");
         html += `<div class="${cls}">${highlight(text, err) || " "}</div>`;
       });
       this.pre.innerHTML = html + "<div class=\"ln\"> </div>";
@@ -130,7 +130,8 @@
         if (b.dataset.line !== String(n)) { b.dataset.line = n; b.textContent = n; }
         b.setAttribute("aria-label", `Breakpoint at line ${n}`);
         b.setAttribute("aria-pressed", on ? "true" : "false");
-        b.className = [n === this.pc ? "pc" : "", this.errors.has(n) ? "err" : ""].filter(Boolean).join(" ");
+        const mark = this.errors.get(n);
+        b.className = [n === this.pc ? "pc" : "", mark ? (mark.warning ? "warn" : "err") : ""].filter(Boolean).join(" ");
         if (this.errors.has(n)) b.title = this.errors.get(n).message; else b.removeAttribute("title");
       }
       this.sync();

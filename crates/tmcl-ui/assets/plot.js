@@ -229,7 +229,12 @@
           if (n === 0) out += `<line x1="${ox + L.x0}" x2="${ox + L.x1}" y1="${Y(y)}" y2="${Y(y)}" stroke="#e6e9ee"/>`;
           if (!a.empty) out += `<text x="${x}" y="${Y(y)}" text-anchor="${n === 0 ? "end" : "start"}" dominant-baseline="middle" fill="${n === 0 ? "#5b6475" : a.color}">${fmt(y)}</text>\n`;
         }
-        if (a.unit) out += `<text x="${n === 0 ? ox + 4 : x}" y="${oy + L.y0 - 3}" fill="${n === 0 ? "#5b6475" : a.color}">${esc(a.unit)}</text>\n`;
+        if (a.unit) {
+          // As on the canvas: the left unit from the left edge, the right ones ending at the right edge.
+          const ux = n === 0 ? ox + 4 : n === 1 ? ox + w - 4 : x + AXIS_W - 4;
+          const uy = oy + L.y0 - 3 - (n < 2 ? 0 : 12 * (n - 1));
+          out += `<text x="${ux}" y="${uy}" text-anchor="${n === 0 ? "start" : "end"}" fill="${n === 0 ? "#5b6475" : a.color}">${esc(a.unit)}</text>\n`;
+        }
       });
       const span = (v.end - v.start) / 1000, ts = niceStep(span, 6);
       for (let s = 0; s <= span + 1e-9; s += ts) {
@@ -280,7 +285,7 @@
   // The plots as one SVG that says what it shows: `about.title` (module, model, address, version) and
   // the time range, then each panel with its title, its units and its series.
   function toSvg(plots, titles, about) {
-    const w = 900, h = 220, gap = 56, top = 64;
+    const w = 900, h = 220, gap = 56, top = 84;
     const esc = (s) => String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;");
     let body = "";
     plots.forEach((p, n) => { body += p.svg(0, top + n * (h + gap), w, h, titles[n]); });

@@ -51,6 +51,7 @@ pub(crate) fn model_json(model: &'static ModelSpec) -> Value {
         "id": model.id, "name": model.name, "manual": model.manual, "motors": model.motors,
         "user_variables": model.user_variables, "program_memory": model.program_memory,
         "params": params, "ports": ports, "motion": MotionInfo::of(model),
+        "closed_loop": ClosedLoopInfo::of(model),
         "sample_program": sample_program(model),
     })
 }
@@ -117,6 +118,76 @@ impl MotionInfo {
             clock_hz,
             pulse_divisor: clock_hz.and(by_setting(Setting::PulseDivisor).map(|d| d.number)),
         }
+    }
+}
+
+/// The closed loop of a model that has one (the TMCM-1310): the parameters its panel reads and writes, by
+/// their roles and settings in the model's table, and the names of the status word's bits.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ClosedLoopInfo {
+    /// AP 132: write 1 to start the encoder initialisation; reads 0 not done, 1 running, 2 done, 3 failed.
+    pub encoder_init: u8,
+    /// AP 129: the closed loop on (1) or off (0).
+    pub closed_loop: u8,
+    /// AP 133: 1 while the loop is closed.
+    pub active: u8,
+    /// AP 18: the status word.
+    pub status_word: Option<u8>,
+    /// AP 237: virtual minus actual position.
+    pub position_error: Option<u8>,
+    /// AP 123: the closed loop's current scale.
+    pub current_scale: Option<u8>,
+    /// AP 131: the velocity measured from the encoder.
+    pub measured_velocity: Option<u8>,
+    /// The settings shown beside the plots: following error, windows, gains.
+    pub settings: Vec<u8>,
+    /// The status word's bits, bit 0 first.
+    pub status_bits: &'static [&'static str],
+}
+
+/// The bits of the status word (AP 18), bit 0 first: the TMCM-1311 firmware manual's order, which the
+/// TMCM-1310 model follows where its own manual stops (the firmware core's `drive::closed_loop::status`).
+const STATUS_BITS: &[&str] = &[
+    "target reached",
+    "velocity reached",
+    "closed loop",
+    "position mode",
+    "velocity mode",
+    "torque mode",
+    "home switch",
+    "left switch",
+    "right switch",
+    "undervoltage",
+    "overvoltage",
+    "overtemperature",
+    "position hold",
+    "I²t exceeded",
+];
+
+impl ClosedLoopInfo {
+    pub(crate) fn of(model: &'static ModelSpec) -> Option<ClosedLoopInfo> {
+        let role = |r: Role| model.axis.params.iter().find(|d| d.role == r).map(|d| d.number);
+        let setting = |s: Setting| model.axis.params.iter().find(|d| d.setting == Some(s)).map(|d| d.number);
+        let settings = [
+            Setting::MaxFollowingError,
+            Setting::PositionWindow,
+            Setting::VelocityWindow,
+            Setting::CorrectionGain,
+            Setting::MaxCorrectionVelocity,
+            Setting::CurrentScaleMin,
+            Setting::CurrentScaleMax,
+        ];
+        Some(ClosedLoopInfo {
+            encoder_init: role(Role::EncoderInit)?,
+            closed_loop: setting(Setting::ClosedLoop)?,
+            active: role(Role::ClosedLoopActive)?,
+            status_word: role(Role::StatusWord),
+            position_error: role(Role::PositionError),
+            current_scale: role(Role::CurrentScale),
+            measured_velocity: role(Role::MeasuredVelocity),
+            settings: settings.into_iter().filter_map(setting).collect(),
+            status_bits: STATUS_BITS,
+        })
     }
 }
 
@@ -252,6 +323,10 @@ mod tests {
         assert_eq!((motion.velocity_unit, motion.speed_max, motion.speed_default), ("TMC428 v units", 2047, 1000));
         assert_eq!((motion.kinematics, motion.pulse_divisor), ("tmc428", Some(154)));
         assert!(sample_program(pd113).contains("Speed = 1000"));
+        assert!(ClosedLoopInfo::of(pd113).is_none());
+        let cl = ClosedLoopInfo::of(tmcl_model::by_id("tmcm-1310").unwrap()).unwrap();
+        assert_eq!((cl.encoder_init, cl.closed_loop, cl.active, cl.position_error), (132, 129, 133, Some(237)));
+        assert_eq!(cl.settings, [125, 134, 17, 124, 126, 113, 114]);
         let why = explain_motion(Some(pd113), true, 51200).unwrap();
         assert!(why.contains("0..2047 TMC428 v units"), "{why}");
         assert_eq!(explain_motion(Some(pd113), true, 700), None);

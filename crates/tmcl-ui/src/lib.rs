@@ -24,6 +24,7 @@ mod guard;
 mod info;
 mod link;
 mod ops;
+pub mod paramset;
 mod schedule;
 mod server;
 #[cfg(test)]

@@ -490,6 +490,14 @@ impl Link {
         result
     }
 
+    /// Runs a whole series of requests (a parameter set) on the client as one turn of the line.
+    pub(crate) fn with_client<R>(
+        &mut self,
+        f: impl FnOnce(&mut HostClient) -> Result<R, HostError>,
+    ) -> Result<R, HostError> {
+        self.on_line(f)
+    }
+
     /// One request and its reply (PD28-1021 TMCL manual §3.1).
     pub(crate) fn request(&mut self, instruction: Instruction) -> Result<Reply, HostError> {
         self.on_line(|c| c.request(instruction))
@@ -664,16 +672,20 @@ impl Link {
         if self.link_error.is_some() {
             self.backoff = Some(Instant::now() + BACKOFF);
         }
-        // A value the model's table does not allow is no answer of this module to this request: a reply
-        // to another host's request (the reply names no parameter, so one of another parameter of the same
-        // command can pass the client's check). It is counted, never shown.
+        // A plain stored value (read back as written, and written only within its range) outside the
+        // model's range is no answer of this module to this request: a reply to another host's request
+        // (the reply names no parameter, so one of another parameter of the same command can pass the
+        // client's check). It is counted, never shown. Values the firmware computes (flags, states,
+        // counters) are not checked: their tables give the range a write takes, not what a read returns.
         let desc = match (poll, self.model) {
             (Poll::Axis { param, .. }, Some(m)) => crate::info::find_param(m, true, 0, param),
             (Poll::Global { param, bank }, Some(m)) => crate::info::find_param(m, false, bank, param),
             _ => None,
         };
         match result {
-            Ok(reply) if desc.is_some_and(|d| !d.range.contains(reply.value)) => self.note_mismatched(1),
+            Ok(reply) if desc.is_some_and(|d| d.role == tmcl_model::Role::Plain && !d.range.contains(reply.value)) => {
+                self.note_mismatched(1)
+            }
             Ok(reply) => self.emit(json!({"e": "v", "k": key, "v": reply.value, "t": t})),
             Err(HostError::Status { status, .. }) => {
                 self.emit(json!({"e": "v", "k": key, "s": u8::from(status), "t": t}))

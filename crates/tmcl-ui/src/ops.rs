@@ -8,7 +8,8 @@
 use crate::debug::{self, Action, SOURCE_NAME};
 use crate::info::{self, model_json};
 use crate::link::{Link, Poll, Roles, Watch};
-use serde::Deserialize;
+use crate::paramset;
+use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::time::Duration;
@@ -102,6 +103,18 @@ pub(crate) enum Op {
     Program { action: Action },
     /// The breakpoints, as source lines.
     Breakpoints { lines: Vec<u32> },
+    /// Every readable parameter as a parameter set (TOML), as `tmcl params --save`.
+    SaveParams,
+    /// Writes the settings of a parameter set, as `tmcl params --load [--store] [--any-model]`.
+    LoadParams {
+        text: String,
+        #[serde(default)]
+        store: bool,
+        #[serde(default)]
+        any_model: bool,
+    },
+    /// Stores every parameter that can be stored in the EEPROM (STAP/STGP of each).
+    StoreAll,
     /// Asks every address in first..=last for its version.
     Scan { first: u8, last: u8 },
     /// Talks to another address.
@@ -198,7 +211,9 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
         }
         Op::Assemble { source } => {
             let (program, diagnostics) = assemble(link, &source)?;
-            Ok(json!({"diagnostics": diagnostics, "instructions": program.map(|p| p.instructions.len())}))
+            let warnings = warnings(link, program.as_ref(), &source);
+            Ok(json!({"diagnostics": diagnostics, "warnings": warnings,
+                      "instructions": program.map(|p| p.instructions.len())}))
         }
         Op::Download { source } => download(link, &source),
         Op::Program { action } => Ok(debug::act(link, action)?),
@@ -208,6 +223,9 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
             debug::breakpoints_changed(link)?;
             Ok(json!({"lines": effective}))
         }
+        Op::SaveParams => save_params(link),
+        Op::LoadParams { text, store, any_model } => load_params(link, &text, store, any_model),
+        Op::StoreAll => store_all(link),
         Op::Scan { first, last } => scan(link, first, last),
         Op::Select { address } => {
             link.select(address);
@@ -477,6 +495,22 @@ fn diagnostic_json(d: &Diagnostic) -> Value {
     json!({"file": d.file, "line": d.line, "column": d.column, "width": d.width, "message": d.message})
 }
 
+/// What the model's tables refuse in an assembled program (`tmcl asm --module`'s warnings): a constant
+/// operand outside a parameter's range, a parameter, bank, port or motor the model lacks. The module
+/// would skip such an instruction (a program gets no status), so the page marks its line; it does not
+/// keep the program from being downloaded.
+fn warnings(link: &Link, program: Option<&tmcl_asm::Program>, source: &str) -> Vec<Value> {
+    let (Some(program), Some(model)) = (program, link.model) else { return Vec::new() };
+    let mut text = |file: &str, line: u32| {
+        (file == SOURCE_NAME).then(|| source.lines().nth(line as usize - 1).map(String::from)).flatten()
+    };
+    tmcl_asm::check_operands(program, model, &mut text)
+        .into_iter()
+        .filter(|d| d.file == SOURCE_NAME)
+        .map(|d| diagnostic_json(&d))
+        .collect()
+}
+
 /// Assembles the editor's text with the model's built-in include files.
 fn assemble(link: &Link, source: &str) -> Result<(Option<tmcl_asm::Program>, Vec<Value>), Failure> {
     if source.len() > MAX_SOURCE {
@@ -507,6 +541,7 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     let Some(program) = program else {
         return Ok(json!({"diagnostics": diagnostics}));
     };
+    let warnings = warnings(link, Some(&program), source);
     let total = program.instructions.len();
     debug::download(link, &program.instructions, |link, n| {
         if n % 8 == 0 || n == total {
@@ -516,7 +551,77 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     let lines: Vec<Option<u32>> =
         program.source_lines.iter().map(|s| (&*s.file == SOURCE_NAME).then_some(s.line)).collect();
     link.debug.set_program(program);
-    Ok(json!({"stored": total, "lines": lines, "diagnostics": []}))
+    Ok(json!({"stored": total, "lines": lines, "diagnostics": [], "warnings": warnings}))
+}
+
+/// The answer to `save_params`.
+#[derive(Debug, Serialize)]
+struct Saved {
+    /// The set as TOML.
+    toml: String,
+    /// How many values it holds.
+    count: usize,
+    /// Values the module would not give.
+    notes: Vec<String>,
+    /// A file name for it: `MODEL-ADDRESS-params.toml`.
+    file_name: String,
+}
+
+/// The answer to `load_params` and `store_all`.
+#[derive(Debug, Serialize)]
+struct Loaded {
+    written: usize,
+    stored: usize,
+    unchanged: usize,
+    skipped: usize,
+    refused: usize,
+    /// Every parameter that was skipped or refused, with why.
+    outcomes: Vec<paramset::Outcome>,
+}
+
+impl Loaded {
+    fn of(outcomes: Vec<paramset::Outcome>) -> Loaded {
+        let count = |r: &str| outcomes.iter().filter(|o| o.result == r).count();
+        Loaded {
+            written: count("written"),
+            stored: count("stored"),
+            unchanged: count("unchanged"),
+            skipped: count("skipped"),
+            refused: count("refused"),
+            outcomes: outcomes.into_iter().filter(|o| o.result == "refused" || o.result == "skipped").collect(),
+        }
+    }
+}
+
+fn to_value<T: Serialize>(v: &T) -> Result<Value, Failure> {
+    serde_json::to_value(v).map_err(|e| Failure::from(e.to_string()))
+}
+
+fn save_params(link: &mut Link) -> Result<Value, Failure> {
+    let model = link.model.ok_or_else(|| "the model is unknown: give --module MODEL".to_string())?;
+    let address = link.address();
+    let (file, notes) = link.with_client(|c| paramset::snapshot(c, model))?;
+    let toml = paramset::to_toml(&file)?;
+    to_value(&Saved { toml, count: file.params.len(), notes, file_name: format!("{}-{address}-params.toml", model.id) })
+}
+
+fn load_params(link: &mut Link, text: &str, store: bool, any_model: bool) -> Result<Value, Failure> {
+    if text.len() > MAX_SOURCE {
+        return Err(format!("the set is longer than {MAX_SOURCE} bytes").into());
+    }
+    let model = link.model.ok_or_else(|| "the model is unknown: give --module MODEL".to_string())?;
+    let file = paramset::from_toml(text)?;
+    paramset::check_model(&file, model, any_model)?;
+    let options = paramset::LoadOptions { store, interface: false };
+    let outcomes = link.with_client(|c| paramset::load(c, model, &file, options))?;
+    link.hurry(|p| matches!(p, Poll::Axis { .. } | Poll::Global { .. }));
+    to_value(&Loaded::of(outcomes))
+}
+
+fn store_all(link: &mut Link) -> Result<Value, Failure> {
+    let model = link.model.ok_or_else(|| "the model is unknown: give --module MODEL".to_string())?;
+    let outcomes = link.with_client(|c| paramset::store_all(c, model))?;
+    to_value(&Loaded::of(outcomes))
 }
 
 /// Asks each address for its binary version (136 type 1) with a short wait, as `tmcl scan` does, then

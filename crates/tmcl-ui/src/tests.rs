@@ -350,3 +350,79 @@ fn the_server_refuses_foreign_hosts_and_origins_and_survives_bad_messages() {
     stop.send(()).unwrap();
     thread.join().unwrap();
 }
+
+#[test]
+fn commands_that_may_get_no_reply_show_what_came() {
+    let (mut link, _) = link();
+    // 137 without its key is refused by the module: a refusal, not "no reply".
+    let refused = op(&mut link, json!({"op": "console", "line": "#op 137, 0, 0, 0"})).unwrap_err();
+    assert_eq!(refused["status"], 4, "{refused}");
+    // GP 255 switches replies off: the console says so, the line too, and SGP 255, 0, 0 turns them on.
+    let off = op(&mut link, json!({"op": "console", "line": "SGP 255, 0, 1"})).unwrap();
+    assert!(off["reply"].as_str().unwrap().contains("replies are now off"), "{off}");
+    assert!(link.replies_off);
+    assert_eq!(link.line_event().state, crate::link::LineState::RepliesOff);
+    let on = op(&mut link, json!({"op": "console", "line": "SGP 255, 0, 0"})).unwrap();
+    assert!(on["reply"].as_str().unwrap().contains("replies are on again"), "{on}");
+    assert!(!link.replies_off);
+    assert_eq!(op(&mut link, json!({"op": "console", "line": "GAP 6, 0"})).unwrap()["value"], 128);
+    assert_eq!(link.line_event().state, crate::link::LineState::Answering);
+}
+
+#[test]
+fn a_refusal_leaves_the_line_answering_and_mismatched_replies_warn() {
+    let (mut link, _) = link();
+    let speed = json!({"kind": "ap", "number": 4, "index": 0});
+    op(&mut link, json!({"op": "set", "param": speed, "value": 0})).unwrap_err();
+    let line = link.line_event();
+    assert_eq!((line.state, line.ok), (crate::link::LineState::Answering, true));
+    link.note_mismatched(3);
+    let line = link.line_event();
+    assert_eq!((line.state, line.mismatched, line.mismatched_recent), (crate::link::LineState::Mismatched, 3, 3));
+    assert!(line.error.unwrap().contains("another host on this line?"));
+}
+
+#[test]
+fn a_parameter_set_is_saved_loaded_and_stored() {
+    let (mut link, _) = link();
+    let speed = json!({"kind": "ap", "number": 4, "index": 0});
+    op(&mut link, json!({"op": "set", "param": speed, "value": 30000})).unwrap();
+    let saved = op(&mut link, json!({"op": "save_params"})).unwrap();
+    let text = saved["toml"].as_str().unwrap().to_string();
+    assert!(text.contains("model = \"pd28-1021\"") && saved["count"].as_u64().unwrap() > 300);
+    op(&mut link, json!({"op": "set", "param": speed, "value": 1000})).unwrap();
+    let loaded = op(&mut link, json!({"op": "load_params", "text": text, "store": true})).unwrap();
+    assert_eq!(loaded["refused"], 0, "{loaded}");
+    assert_eq!(op(&mut link, json!({"op": "get", "param": speed})).unwrap()["value"], 30000);
+    let stored = op(&mut link, json!({"op": "store_all"})).unwrap();
+    assert!(stored["stored"].as_u64().unwrap() > 10 && stored["refused"] == 0, "{stored}");
+    let wrong = text.replace("model = \"pd28-1021\"", "model = \"pd-113\"");
+    let refused = op(&mut link, json!({"op": "load_params", "text": wrong})).unwrap_err();
+    assert!(refused["error"].as_str().unwrap().contains("the set is of a"), "{refused}");
+}
+
+/// The program view marks at their line what the model's tables refuse (the module would skip the
+/// instruction): PD28-1021 manual §2.4's `SAP 4, 0, 51200` on a PDx-113 (0..2047), a warning that does
+/// not keep the program from being downloaded.
+#[test]
+fn the_program_view_warns_where_the_model_would_refuse() {
+    let (events, _rx) = tokio::sync::broadcast::channel(4096);
+    let client = InProcess::client_for(&tmcl_core::model::pd_113::SPEC);
+    let mut link = Link::new(client, 100_000.0, None, "in process".into(), events);
+    link.identify();
+    let source = "SAP 5, 0, 100\nSAP 4, 0, 51200 // §2.4\nSTOP\n";
+    let ok = op(&mut link, json!({"op": "assemble", "source": source})).unwrap();
+    assert_eq!(ok["diagnostics"], json!([]));
+    assert_eq!(ok["instructions"], 3);
+    let w = &ok["warnings"];
+    assert_eq!(w.as_array().map(Vec::len), Some(1), "{w}");
+    assert_eq!((w[0]["line"].as_u64(), w[0]["column"].as_u64(), w[0]["width"].as_u64()), (Some(2), Some(11), Some(5)));
+    assert!(w[0]["message"].as_str().unwrap().contains("takes 0..2047"), "{w}");
+    let ok = op(&mut link, json!({"op": "download", "source": source})).unwrap();
+    assert_eq!(ok["stored"], 3);
+    assert_eq!(ok["warnings"][0]["line"], 2);
+    // On the PD28-1021, 51200 is fine.
+    let (mut pd28, _) = self::link();
+    let ok = op(&mut pd28, json!({"op": "assemble", "source": source})).unwrap();
+    assert_eq!(ok["warnings"], json!([]));
+}

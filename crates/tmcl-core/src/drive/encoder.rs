@@ -7,7 +7,7 @@
 //!   when the maximum deviation is set to zero." The table gives AP 212 in "encoder steps" but AP 1 and
 //!   AP 209 are both in microsteps (AP 209 is after the prescaler, §6.2), so the difference is compared in
 //!   microsteps as it is. Strictly more than AP 212 trips. The core stops the motor, sets AP 207 bit
-//!   value 2 ([`crate::module::error_flags::DEVIATION`]) and raises interrupt 21.
+//!   value 2 ([`super::error_flags::DEVIATION`]) and raises interrupt 21.
 //! - **Prescaler (AP 210).** p = prescaler · 512; bit 2 (value 4) is the clear-on-null function and is
 //!   masked off; the other low bits stay (Table 20's p = 200 for 2 µsteps has bit 3 set, although §6.2.1
 //!   reserves the four low bits for special functions).

@@ -10,13 +10,19 @@
 //! - [`tmc428`]: SAC's SPI pass-through to an emulated TMC428/429 motion controller (PDx-113 manual
 //!   §5.4.3, the TMC428 datasheet).
 //!
-//! The AP 207 bits they lead to are [`crate::module::error_flags`]; `wiring` calls them from the
-//! module's motion tick.
+//! The AP 207 bits they lead to are [`error_flags`]; the module calls them from its
+//! motion tick (`module/drive.rs`, `module/closed_loop.rs`, `module/sac.rs`). Nothing here knows the module.
 
 pub mod closed_loop;
-mod closed_loop_wiring;
 pub mod coolstep;
 pub mod encoder;
 pub mod stall;
 pub mod tmc428;
-mod wiring;
+
+/// AP 207 bits (Table 15): 1 = stallGuard error, 2 = deviation error.
+pub mod error_flags {
+    /// stallGuard2 stopped the motor.
+    pub const STALL: u8 = 1;
+    /// The encoder deviation check stopped the motor.
+    pub const DEVIATION: u8 = 2;
+}

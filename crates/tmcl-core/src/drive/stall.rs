@@ -4,7 +4,7 @@
 //! load value reaches zero" (AP 181). The core calls [`stall_stop`] with each new stallGuard2 reading
 //! (`hal::LoadSensor::load_measurements` changed); when it returns `true` the core stops the motor (a hard
 //! stop, as on a stall the load is already holding it), sets AP 207 bit value 1
-//! ([`crate::module::error_flags::STALL`]) and raises interrupt 15 ("stallGuard axis 0").
+//! ([`super::error_flags::STALL`]) and raises interrupt 15 ("stallGuard axis 0").
 //!
 //! # Decisions
 //!

@@ -34,13 +34,13 @@
 //! checked at every tick, and a standby or freewheeling delay takes effect at its time.
 
 use super::Module;
+use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
 use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Mode, RampParams, TICK};
 use crate::time::{Duration, Instant};
-use crate::vm::run::BUDGET;
-use crate::vm::RunState;
+use crate::vm::{RunState, BUDGET};
 use tmcl_wire::{Opcode, Status};
 
 /// One microsecond.
@@ -55,7 +55,7 @@ impl<B: Board> Module<B> {
     /// Ticks the motion controller one by one (`true`), as the reference for the spans it takes by
     /// default (`false`); both give the same results (see `module/advance.rs`).
     pub fn set_exact_ticks(&mut self, exact: bool) {
-        self.spin.touch();
+        self.board.input();
         self.exact = exact;
     }
 
@@ -339,7 +339,7 @@ impl<B: Board> Module<B> {
             }
         }
         // A program spinning in a fixed point (`module/spin.rs`) needs no poll before the next event.
-        let program = self.spin.rest(self.st.now).unwrap_or_else(|| self.program_deadline());
+        let program = self.spin.rest(self.st.now, self.board.changes()).unwrap_or_else(|| self.program_deadline());
         for t in [program, self.timer_deadline()].into_iter().flatten() {
             consider(t.max(self.st.now));
         }

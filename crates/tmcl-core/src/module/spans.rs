@@ -20,6 +20,7 @@
 
 use super::Module;
 use crate::drive::encoder;
+use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
 use crate::motion::{Bounds, Limits, Ramp, RampParams, Span, TICK};

@@ -18,7 +18,9 @@
 //!   until its end while the driver is told nothing new;
 //! - the caller's `now`, where an advance ends;
 //! - and whatever reaches it from outside: a host command changes the firmware state (compared below),
-//!   a change of the board through [`Module::board_mut`] counts as telling it something new (the epoch).
+//!   a change of the board through [`Module::board_mut`] counts as telling it something new: every
+//!   such change, and every write to the board or the EEPROM, moves the count of changes on
+//!   (`module/seam.rs`), which is the *epoch* below.
 //!   [`Module::board_timeline`] moves the board's world on along its timeline, which the quiet windows
 //!   announce.
 //!
@@ -54,6 +56,8 @@
 
 #[cfg(feature = "spin-skip")]
 use super::{Module, Registers, State};
+#[cfg(feature = "spin-skip")]
+use crate::hal::prelude::*;
 #[cfg(feature = "spin-skip")]
 use crate::hal::Board;
 #[cfg(feature = "spin-skip")]
@@ -93,6 +97,7 @@ struct Snapshot {
     vm: Vm,
     /// The end of the board's quiet window at the pass (`None`: quiet for good).
     until: Option<Instant>,
+    /// The count of changes at the pass (`module/seam.rs`): a turn that changed anything is no fixed point.
     epoch: u32,
 }
 
@@ -104,14 +109,13 @@ pub(crate) struct Spin {
     /// The key of the pass being watched and the instruction count when it was last seen.
     anchor: Option<(Key, u64)>,
     snapshot: Option<Snapshot>,
-    /// Bumped whenever the board is told something new (see [`Spin::touch`]).
-    epoch: u32,
     failures: u32,
     /// Passes of the key to let go by before the next copy or comparison.
     skip: u32,
-    /// A fixed point found, with nothing due before this (`None`: ever): the program needs no poll before
-    /// it. Forgotten when anything from outside reaches the module (a host command, the board).
-    rest: Option<Option<Instant>>,
+    /// A fixed point found at this count of changes (`module/seam.rs`), with nothing due before this
+    /// instant (`None`: ever): the program needs no poll before it. Void once the count moves on (a host
+    /// command, a library call, the board changed or told something new).
+    rest: Option<(u32, Option<Instant>)>,
 }
 
 #[cfg(feature = "spin-skip")]
@@ -130,24 +134,11 @@ impl Spin {
         self.skip = 0;
     }
 
-    /// Forgets the fixed point found (a host command: it may change what the program does).
-    #[inline(always)]
-    pub(crate) fn unrest(&mut self) {
-        self.rest = None;
-    }
-
-    /// The program spins in a fixed point with nothing due before `now`: when it needs its next poll
-    /// (`Some(None)`: never by itself). `None`: not known to spin.
-    pub(crate) fn rest(&self, now: Instant) -> Option<Option<Instant>> {
-        self.rest.filter(|r| r.is_none_or(|e| e > now))
-    }
-
-    /// The board is told something it was not told before (a new drive state, driver settings, outputs,
-    /// an EEPROM write): a turn that does this is no fixed point.
-    #[inline(always)]
-    pub(crate) fn touch(&mut self) {
-        self.epoch = self.epoch.wrapping_add(1);
-        self.rest = None;
+    /// The program spins in a fixed point with nothing due before `now` and nothing changed since it was
+    /// found (`changes`, the count now): when it needs its next poll (`Some(None)`: never by itself).
+    /// `None`: not known to spin.
+    pub(crate) fn rest(&self, now: Instant, changes: u32) -> Option<Option<Instant>> {
+        self.rest.filter(|(at, r)| *at == changes && r.is_none_or(|e| e > now)).map(|(_, r)| r)
     }
 }
 
@@ -335,7 +326,7 @@ impl<B: Board> Module<B> {
             self.spin.snapshot = None;
             return false;
         };
-        let epoch = self.spin.epoch;
+        let epoch = self.board.changes();
         let turn = match &self.spin.snapshot {
             // The copy's quiet window has ended since (the board may have changed): a fresh copy, no failure.
             Some(s) if s.until.is_some_and(|u| u <= self.vm.time) => None,
@@ -363,7 +354,7 @@ impl<B: Board> Module<B> {
         let now = self.st.now;
         // Nothing is due within this advance: the loop spins on in its fixed point up to `event`, and the
         // program needs no poll before it (the deadline after this advance says so).
-        self.spin.rest = event.is_none_or(|e| e > now).then_some(event);
+        self.spin.rest = event.is_none_or(|e| e > now).then_some((epoch, event));
         let bound = match event {
             Some(e) if e <= now => e,
             _ => now + Duration::from_micros(1), // instructions and ticks up to and including `now`
@@ -396,13 +387,7 @@ impl Spin {
     pub(crate) fn arm(&mut self, _: bool) {}
 
     #[inline(always)]
-    pub(crate) fn touch(&mut self) {}
-
-    #[inline(always)]
-    pub(crate) fn unrest(&mut self) {}
-
-    #[inline(always)]
-    pub(crate) fn rest(&self, _: crate::time::Instant) -> Option<Option<crate::time::Instant>> {
+    pub(crate) fn rest(&self, _: crate::time::Instant, _: u32) -> Option<Option<crate::time::Instant>> {
         None
     }
 }

@@ -26,6 +26,21 @@ pub const fn capacity(spec: &ModelSpec) -> usize {
     spec.layout().end
 }
 
+/// The EEPROM size the largest of `models` needs: what a firmware image that holds them all must set
+/// aside (at compile time, `firmware/`), so that no model's image is cut short.
+pub const fn max_capacity(models: &[&ModelSpec]) -> usize {
+    let mut max = 0;
+    let mut i = 0;
+    while i < models.len() {
+        let c = capacity(models[i]);
+        if c > max {
+            max = c;
+        }
+        i += 1;
+    }
+    max
+}
+
 fn header(spec: &ModelSpec) -> [u8; HEADER_LEN] {
     let mut h = [0u8; HEADER_LEN];
     h[..4].copy_from_slice(&MAGIC);

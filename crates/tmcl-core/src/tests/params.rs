@@ -217,3 +217,20 @@ fn a_module_built_in_two_steps_is_the_one_new_builds() {
     assert_eq!(b.gap(4), 12345);
     assert_eq!(b.ggp(7, 2), 0);
 }
+
+/// The module address set by its meaning (the model's serial address setting, GP 66 here): stored at
+/// once as SGP 66 would, answered on the new address from the next frame, kept across a power cycle; out
+/// of range is status 4 and changes nothing.
+#[test]
+fn the_address_is_set_by_meaning() {
+    let mut b = Bench::new();
+    let now = b.now;
+    b.module.set_address(5, now).unwrap();
+    assert_eq!(b.module.address(), 5);
+    assert!(b.to(1, Opcode::Gap, 1, 0, 0).is_none(), "the old address is not answered");
+    assert_eq!(b.to(5, Opcode::Ggp, 66, 0, 0).unwrap().value, 5);
+    b.power_cycle();
+    assert_eq!(b.module.address(), 5, "stored in the EEPROM");
+    assert_eq!(b.module.set_address(0, now), Err(Status::InvalidValue));
+    assert_eq!(b.module.address(), 5);
+}

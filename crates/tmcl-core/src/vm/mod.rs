@@ -1,8 +1,8 @@
 //! The TMCL program machine: standalone mode (PD28-1021 manual §3.3, §3.6.3–3.6.6, §3.7.16–3.7.38,
 //! chapter 8).
 //!
-//! Data lives here ([`Vm`], [`Program`]); the stepping is in `run.rs` as methods of the module, because
-//! instructions act on the whole module (motion, parameters, I/O).
+//! Data lives here ([`Vm`], [`Program`], [`Registers`]); the stepping is in the module's `program.rs`,
+//! because instructions act on the whole module (motion, parameters, I/O).
 //!
 //! The machine: `step` fetches the instruction at the PC, decodes it to a command, runs
 //! it, then checks the interrupts. Waiting is a state ([`Wait`]), never a loop. It runs a bounded number of
@@ -28,7 +28,6 @@
 //!   the model's table ([`tmcl_model::Interrupts`]).
 
 pub mod refusal;
-pub(crate) mod run;
 
 pub use refusal::{Refusal, Refusals};
 
@@ -47,10 +46,56 @@ pub const INSTRUCTION_TIME: crate::time::Duration = crate::time::Duration::from_
 /// One WAIT tick (§3.7.22: "1 tick = 10 milliseconds").
 pub const WAIT_TICK: crate::time::Duration = crate::time::Duration::from_millis(10);
 
-const NO_VECTOR: u16 = u16::MAX;
+pub(crate) const NO_VECTOR: u16 = u16::MAX;
+
+/// How many instructions one call may run at most, so that a poll always returns.
+pub const BUDGET: u32 = 1 << 20;
 
 /// An empty program-memory cell: opcode 0, which marks the end of a program for host tools.
 pub const EMPTY: Instruction = Instruction::new(Opcode::Unknown(0), 0, 0, 0);
+
+/// Comparison and error flags (manual §3.7.17, §3.7.18, §3.7.31).
+pub mod flags {
+    /// Result of the last comparison or accumulator load was zero / equal.
+    pub const ZERO: u16 = 1 << 0;
+    /// Greater.
+    pub const GREATER: u16 = 1 << 1;
+    /// Lower.
+    pub const LOWER: u16 = 1 << 2;
+    /// ETO: timeout.
+    pub const TIMEOUT: u16 = 1 << 8;
+    /// EAL: external alarm.
+    pub const ALARM: u16 = 1 << 9;
+    /// EDV: deviation.
+    pub const DEVIATION: u16 = 1 << 10;
+    /// EPO: position error.
+    pub const POSITION: u16 = 1 << 11;
+    /// ESD: shutdown.
+    pub const SHUTDOWN: u16 = 1 << 12;
+}
+
+/// The TMCL machine's registers (manual §3.6: accumulator, X register, flags).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Registers {
+    /// The accumulator.
+    pub accumulator: i32,
+    /// The X register.
+    pub x: i32,
+    /// Flags, see [`flags`].
+    pub flags: u16,
+}
+
+impl Registers {
+    /// Sets zero/greater/lower from a comparison (COMP, and every load of the accumulator).
+    pub(crate) fn set_compare(&mut self, ord: core::cmp::Ordering) {
+        self.flags &= !(flags::ZERO | flags::GREATER | flags::LOWER);
+        self.flags |= match ord {
+            core::cmp::Ordering::Equal => flags::ZERO,
+            core::cmp::Ordering::Greater => flags::GREATER,
+            core::cmp::Ordering::Less => flags::LOWER,
+        };
+    }
+}
 
 /// The TMCL program memory, in RAM (a copy of the EEPROM's program area, written through on download).
 #[derive(Debug, Clone)]
@@ -170,7 +215,7 @@ pub struct Context {
     /// PC to return to.
     pub pc: u16,
     /// Registers.
-    pub regs: crate::module::Registers,
+    pub regs: Registers,
     /// A WAIT in progress.
     pub wait: Option<Wait>,
 }
@@ -178,7 +223,7 @@ pub struct Context {
 /// The program machine's state.
 #[derive(Debug, Clone)]
 pub struct Vm {
-    /// Run state.
+    /// Run state: read it here, change it only through [`Vm::set_state`].
     pub state: RunState,
     /// Program counter: the address of the next instruction (GP 130).
     pub pc: u16,
@@ -242,6 +287,13 @@ impl Default for Vm {
 }
 
 impl Vm {
+    /// The one place the run state changes (GP 128; command 128–131, STOP, an instruction that does not
+    /// decode, a breakpoint, auto start): every transition of the program machine passes here.
+    #[inline]
+    pub(crate) fn set_state(&mut self, to: RunState) {
+        self.state = to;
+    }
+
     /// Whether instructions execute (running, not waiting).
     pub fn is_running(&self) -> bool {
         self.state == RunState::Running
@@ -312,7 +364,7 @@ impl Vm {
         &self.refusals
     }
 
-    /// The flags of the program (see [`crate::module::flags`]).
+    /// The interrupted context while a handler runs (registers with the flags, see [`flags`]).
     pub fn saved_context(&self) -> Option<&Context> {
         self.handler.as_ref()
     }

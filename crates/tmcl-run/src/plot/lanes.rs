@@ -1,5 +1,6 @@
-//! The plot's lanes, as on a logic analyser: a level line per digital input and output that changes
-//! during the run (`IN0`, ..., `OUT0`, ...), then a lane per kind of program event with a mark at each.
+//! The plot's lanes, as on a logic analyser: a level line per reference switch, digital input and output
+//! that changes during the run (`HOME`, `LEFT`, `RIGHT`, `IN0`, ..., `OUT0`, ...; a switch is high while
+//! it is pressed), then a lane per kind of program event with a mark at each.
 //!
 //! An event `name=value` belongs to the lane `name` and its mark is labelled with the value (`target`
 //! lane: `512000`); other events (`interrupt 0`, `stop`, `end`) are their own lane. Output events
@@ -9,7 +10,7 @@
 use super::axis::{spread, text_width, Label, Scale};
 use super::Event;
 use super::{coordinate, seconds, FONT, MARGIN_LEFT, MARGIN_RIGHT, X_DESC, X_LABELS, Y_LABELS};
-use crate::trace::Levels;
+use crate::trace::{Levels, SWITCHES};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -20,6 +21,7 @@ pub(crate) const MAX_EVENT_LANES: usize = 8;
 const LABEL_FONT: u32 = 13;
 /// Height of one lane in pixels.
 const LANE: u32 = 28;
+const SWITCH: RGBColor = RGBColor(150, 40, 160);
 const INPUT: RGBColor = RGBColor(20, 130, 60);
 const OUTPUT: RGBColor = RGBColor(30, 90, 200);
 const PALETTE: [RGBColor; 8] = [
@@ -63,11 +65,15 @@ impl Lanes {
     pub fn new(events: &[Event], levels: &[Levels], end: f64) -> Lanes {
         let changed = |bits: fn(&Levels) -> u8| levels.windows(2).fold(0u8, |m, w| m | (bits(&w[0]) ^ bits(&w[1])));
         let mut signals = Vec::new();
-        for (prefix, color, bits) in
-            [("IN", INPUT, (|l: &Levels| l.inputs) as fn(&Levels) -> u8), ("OUT", OUTPUT, |l: &Levels| l.outputs)]
-        {
+        let switches = |l: &Levels| l.switches;
+        for (prefix, color, bits) in [
+            ("", SWITCH, switches as fn(&Levels) -> u8),
+            ("IN", INPUT, |l: &Levels| l.inputs),
+            ("OUT", OUTPUT, |l: &Levels| l.outputs),
+        ] {
             let mask = changed(bits);
-            for n in (0..8).filter(|n| mask >> n & 1 == 1) {
+            let count = if prefix.is_empty() { SWITCHES.len() as u8 } else { 8 };
+            for n in (0..count).filter(|n| mask >> n & 1 == 1) {
                 let mut edges: Vec<(f64, bool)> = Vec::new();
                 for l in levels {
                     let level = bits(l) >> n & 1 == 1;
@@ -75,7 +81,9 @@ impl Lanes {
                         edges.push((seconds(l.micros), level));
                     }
                 }
-                signals.push(Signal { name: format!("{prefix}{n}"), color, edges });
+                let name =
+                    if prefix.is_empty() { SWITCHES[usize::from(n)].to_string() } else { format!("{prefix}{n}") };
+                signals.push(Signal { name, color, edges });
             }
         }
         let shown_as_signal = |text: &str| {
@@ -261,6 +269,18 @@ mod tests {
         let lanes = Lanes::new(&[], &levels, 1.0);
         assert_eq!(lanes.names(), ["OUT1"]);
         assert!(Lanes::new(&[], &levels[..1], 1.0).is_empty());
+    }
+
+    #[test]
+    fn switches_that_change_get_lanes_first() {
+        let levels = [
+            Levels { micros: 0, inputs: 0, outputs: 0, switches: 0b100 },
+            Levels { micros: 10, inputs: 0, outputs: 0, switches: 0b101 },
+            Levels { micros: 20, inputs: 1, outputs: 0, switches: 0b100 },
+        ];
+        let lanes = Lanes::new(&[], &levels, 1.0);
+        assert_eq!(lanes.names(), ["HOME", "IN0"], "RIGHT stays pressed: no lane");
+        assert_eq!(lanes.signals[0].edges, [(0.0, false), (0.00001, true), (0.00002, false)]);
     }
 
     #[test]

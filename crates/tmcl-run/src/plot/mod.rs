@@ -1,42 +1,54 @@
-//! The SVG plot of a trace: position, velocity, the drive, inputs, outputs and events over time.
+//! The SVG plot of a trace: position, velocity, the drive, switches, inputs, outputs and events over time.
 //!
-//! Panels share the time axis, one under the other:
-//! 1. target (AP 0) and actual (AP 1) position, µsteps;
+//! Panels share the time axis, one under the other, each drawn only if its columns are in the trace and
+//! its signal moved during the run (a signal that stayed put gets a line of text under the title instead,
+//! with its value):
+//! 1. target (AP 0) and actual (AP 1) position, in µsteps, or in the world's unit (mm on a linear axis,
+//!    degrees on a rotary one) when the run had a world file ([`crate::WorldUnit`]);
 //! 2. actual velocity (AP 3), pps;
-//! 3. with `--drive`: the stallGuard2 load value (AP 206, 0..1023); the coolStep current scale (AP 180,
-//!    0..31), or on a closed-loop model the current scaler (AP 123, /255); the encoder position (AP 209)
-//!    minus the step position (AP 1), lost steps, or on a closed-loop model the position error (AP 237),
-//!    µsteps; the coils' energy ∫ I² dt, A²·s;
-//! 4. lanes, as on a logic analyser: one per digital input and output that changes (`IN0`, `OUT1`, ...),
-//!    a level line that is high while the signal is, and one per kind of program event (`interrupt 0`,
-//!    `target`, `stop`, ...), a mark at each, labelled with its value where there is room ([`lanes`]).
+//! 3. with the drive's columns: the stallGuard2 load value (AP 206, 0..1023); the coolStep current scale
+//!    (AP 180, 0..31), or on a closed-loop model the current scaler (AP 123, /255); the encoder position
+//!    (AP 209) minus the step position (AP 1), lost steps, or on a closed-loop model the position error
+//!    (AP 237), µsteps; the coils' energy ∫ I² dt, A²·s;
+//! 4. lanes, as on a logic analyser: one per reference switch, digital input and output that changes
+//!    (`HOME`, `LEFT`, `RIGHT`, `IN0`, `OUT1`, ...), a level line that is high while the signal is, and
+//!    one per kind of program event (`interrupt 0`, `target`, `stop`, ...), a mark at each, labelled with
+//!    its value where there is room (`lanes.rs`).
 //!
 //! The ranges and units are those of the PD28-1021 TMCL manual's axis parameter table (chapter 4: AP 3 in
 //! pps, AP 180 0..31 meaning 1/32..32/32, AP 206 0..1023, AP 209 in µsteps); the TMCM-1310's closed-loop
 //! parameters (AP 123, 233, 237) as `docs/tmcm-1310.md` decides them, its manual lacking that table.
-//! Every axis has its unit; ticks come from [`axis::Scale`] (a flat series gets a range around it, integer
-//! quantities integer ticks). With few events (up to [`MAX_EVENT_LINES`]) each also gets a vertical line
-//! across the panels above the lanes. Long traces are thinned to two points per pixel column (the
-//! column's minimum and maximum, so peaks stay visible). The encoder − steps and position-error panels
-//! draw the minimum-to-maximum envelope over slots of a few pixel columns as a band: a difference that
-//! jitters by an encoder count reads as a band with straight edges, not as a solid block of zigzag lines.
+//! Every axis has its unit; ticks come from `axis::Scale` (a flat series gets a range around it, integer
+//! quantities integer ticks). With few events (up to 40) each also gets a faint vertical
+//! line across the panels above the lanes, drawn under the grid and the axes, and none at 0 s, where it
+//! would hide the value axis. Long traces are thinned to two points per pixel column (the column's minimum and maximum,
+//! so peaks stay visible). The curves are drawn at sub-pixel coordinates (plotters rounds every point to
+//! a whole pixel, which turns a slow ramp into a staircase), so they are written into the SVG directly.
+//! The encoder − steps and position-error panels draw the minimum-to-maximum envelope over slots of a few
+//! pixel columns as a band: a difference that jitters by an encoder count reads as a band with straight
+//! edges, not as a solid block of zigzag lines.
 
 mod axis;
 mod lanes;
 
-use crate::trace::{Levels, Quantity, Trace};
-use axis::{text_width, Scale};
+use crate::trace::{Levels, Quantity, Stamped, Trace, Values};
+use axis::{format_number, text_width, Scale};
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::fmt::Write as _;
 
 /// Up to this many events get a vertical line in the panels.
 const MAX_EVENT_LINES: usize = 40;
 
 const WIDTH: u32 = 1200;
 const TITLE: u32 = 40;
+/// One line of the notes under the title.
+const NOTE: u32 = 20;
+/// The notes' font size.
+const NOTE_FONT: u32 = 14;
 /// Left of each panel: tick labels and the rotated axis description.
 const Y_LABELS: u32 = 100;
 const MARGIN_LEFT: u32 = 10;
@@ -119,17 +131,27 @@ struct Series {
     name: String,
 }
 
+impl Series {
+    /// The value if the series never moved.
+    fn constant(&self) -> Option<f64> {
+        let first = self.points.first()?.1;
+        self.points.iter().all(|p| p.1 == first).then_some(first)
+    }
+}
+
 /// One panel: its height in pixels, its axis description with the unit, its scale and series.
 struct Panel {
     height: u32,
-    unit: &'static str,
+    unit: String,
     scale: Scale,
     series: Vec<Series>,
+    /// Decimals of the values in a note.
+    decimals: usize,
 }
 
 impl Panel {
     /// A panel whose scale fits its series (integer ticks if `integer`), or that shows `fixed` if given.
-    fn new(height: u32, unit: &'static str, integer: bool, fixed: Option<(f64, f64)>, series: Vec<Series>) -> Panel {
+    fn new(height: u32, unit: &str, integer: bool, fixed: Option<(f64, f64)>, series: Vec<Series>) -> Panel {
         let ticks = max_ticks(height);
         let scale = match fixed {
             Some((lo, hi)) => Scale::fixed(lo, hi, integer, ticks),
@@ -145,7 +167,29 @@ impl Panel {
                 }
             }
         };
-        Panel { height, unit, scale, series }
+        Panel { height, unit: unit.to_string(), scale, series, decimals: if integer { 0 } else { 6 } }
+    }
+
+    /// If no series moved: what the note says instead of the panel, `name: value unit` for each.
+    fn note(&self) -> Option<String> {
+        let values: Option<Vec<f64>> = self.series.iter().map(Series::constant).collect();
+        let values = values?;
+        let unit = self.unit.split_once('[').map_or("", |(_, u)| u.trim_end_matches(']'));
+        let parts: Vec<String> = self
+            .series
+            .iter()
+            .zip(values)
+            .map(|(s, v)| {
+                let name = s.name.split_once(':').map_or(s.name.as_str(), |(n, _)| n);
+                let value = format_number(v, self.decimals);
+                if unit.is_empty() {
+                    format!("{name} {value}")
+                } else {
+                    format!("{name} {value} {unit}")
+                }
+            })
+            .collect();
+        Some(parts.join(", "))
     }
 }
 
@@ -155,10 +199,14 @@ fn max_ticks(height: u32) -> usize {
 }
 
 /// The SVG of a trace, titled `title`: the panels of the columns it has (the drive's if it was recorded
-/// with them), the lanes of its inputs, outputs and events.
+/// with them) whose signals moved, a note for those that did not, and the lanes of its switches, inputs,
+/// outputs and events.
 pub fn svg(trace: &Trace, title: &str) -> Result<String, PlotError> {
     let mut out = String::new();
-    draw(&mut out, title, trace)?;
+    let curves = draw(&mut out, title, trace)?;
+    // The curves go in last, over the grid, each clipped to its panel's plotting area.
+    let end = out.rfind("</svg>").ok_or("plotters wrote no SVG")?;
+    out.insert_str(end, &curves);
     Ok(out)
 }
 
@@ -168,54 +216,111 @@ pub fn write(trace: &Trace, title: &str, path: &std::path::Path) -> Result<(), P
     Ok(())
 }
 
-/// The samples the panels draw, taken from the trace's columns.
-fn samples(trace: &Trace) -> Vec<Sample> {
-    let column = |q: Quantity| trace.column(q);
-    let at = |c: Option<&[Option<i64>]>, r: usize| c.and_then(|c| c[r]).unwrap_or(0) as i32;
-    let (target, actual, velocity) =
-        (column(Quantity::TargetPosition), column(Quantity::ActualPosition), column(Quantity::Velocity));
-    let drive = column(Quantity::Energy).is_some();
-    let closed_loop = column(Quantity::PositionError).is_some();
-    let (load, scale, encoder, energy) =
-        (column(Quantity::Load), column(Quantity::CurrentScale), column(Quantity::Encoder), column(Quantity::Energy));
-    let cl = Quantity::CLOSED_LOOP.map(column);
-    (0..trace.len())
-        .map(|r| Sample {
-            micros: trace.times[r],
-            target: at(target, r),
-            actual: at(actual, r),
-            velocity: at(velocity, r),
-            drive: drive.then(|| Drive {
-                load: at(load, r),
-                current_scale: at(scale, r),
-                encoder: at(encoder, r),
-                energy: energy.and_then(|e| e[r]).unwrap_or(0) as u64,
-            }),
-            closed_loop: closed_loop.then(|| cl.map(|c| at(c, r))),
-        })
-        .collect()
-}
-
-/// What the drive reports at a sample.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Drive {
-    load: i32,
-    current_scale: i32,
-    encoder: i32,
-    /// µA²·s.
-    energy: u64,
-}
-
-/// One sample of the panels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// One sample of the panels, taken from the trace's columns by meaning (`None`: the trace has no such
+/// column, or the module gave no value there).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct Sample {
     micros: u64,
     target: i32,
     actual: i32,
     velocity: i32,
-    drive: Option<Drive>,
-    /// Virtual position, position error, scaler, status word.
-    closed_loop: Option<[i32; 4]>,
+    /// Target and actual position in the world's unit, when the run had a world.
+    world: Option<(f64, f64)>,
+    load: Option<i32>,
+    current_scale: Option<i32>,
+    encoder: Option<i32>,
+    /// µA²·s.
+    energy: Option<u64>,
+    position_error: Option<i32>,
+    scaler: Option<i32>,
+}
+
+/// Where the panels' samples come from: the trace's columns, read one row at a time (a trace an hour
+/// long at 1 ms is 3.6 million rows: the plot never copies them), or a list (the tests).
+trait Samples {
+    fn len(&self) -> usize;
+    fn at(&self, row: usize) -> Sample;
+    fn micros(&self, row: usize) -> u64 {
+        self.at(row).micros
+    }
+}
+
+impl Samples for [Sample] {
+    fn len(&self) -> usize {
+        <[Sample]>::len(self)
+    }
+    fn at(&self, row: usize) -> Sample {
+        self[row]
+    }
+}
+
+impl Samples for Vec<Sample> {
+    fn len(&self) -> usize {
+        Vec::len(self)
+    }
+    fn at(&self, row: usize) -> Sample {
+        self[row]
+    }
+}
+
+/// The panels' columns of a trace, found by meaning.
+struct Columns<'a> {
+    trace: &'a Trace,
+    target: Option<&'a Values>,
+    actual: Option<&'a Values>,
+    velocity: Option<&'a Values>,
+    load: Option<&'a Values>,
+    scale: Option<&'a Values>,
+    encoder: Option<&'a Values>,
+    energy: Option<&'a Values>,
+    error: Option<&'a Values>,
+    scaler: Option<&'a Values>,
+}
+
+impl<'a> Columns<'a> {
+    fn of(trace: &'a Trace) -> Columns<'a> {
+        let column = |q: Quantity| trace.column(q);
+        Columns {
+            trace,
+            target: column(Quantity::TargetPosition),
+            actual: column(Quantity::ActualPosition),
+            velocity: column(Quantity::Velocity),
+            load: column(Quantity::Load),
+            scale: column(Quantity::CurrentScale),
+            encoder: column(Quantity::Encoder),
+            energy: column(Quantity::Energy),
+            error: column(Quantity::PositionError),
+            scaler: column(Quantity::Scaler),
+        }
+    }
+}
+
+impl Samples for Columns<'_> {
+    fn len(&self) -> usize {
+        self.trace.len()
+    }
+
+    fn micros(&self, row: usize) -> u64 {
+        self.trace.times[row]
+    }
+
+    fn at(&self, r: usize) -> Sample {
+        let at = |c: Option<&Values>| c.and_then(|c| c.get(r)).map(|v| v as i32);
+        let (t, a) = (at(self.target).unwrap_or(0), at(self.actual).unwrap_or(0));
+        Sample {
+            micros: self.trace.times[r],
+            target: t,
+            actual: a,
+            velocity: at(self.velocity).unwrap_or(0),
+            world: self.trace.placements.get(r).map(|p| (p.place(t.into()), p.place(a.into()))),
+            load: at(self.load),
+            current_scale: at(self.scale),
+            encoder: at(self.encoder),
+            energy: self.energy.and_then(|e| e.get(r)).map(|v| v as u64),
+            position_error: at(self.error),
+            scaler: at(self.scaler),
+        }
+    }
 }
 
 /// One program event of the plot.
@@ -225,73 +330,167 @@ pub(crate) struct Event {
     text: String,
 }
 
-fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<(), PlotError> {
-    let samples = &samples(trace)[..];
+/// An event as its lane shows it: as in the trace, but a new target in the world's unit when the
+/// position axis is in it (`target=50 mm` where the trace says `target=1280000`).
+fn event_text(trace: &Trace, stamped: &Stamped) -> String {
+    let unit = trace.header.as_ref().and_then(|h| h.world_unit.as_ref());
+    match (&stamped.event, unit, trace.placements.get(stamped.row)) {
+        (crate::Event::Target(t), Some(unit), Some(placement)) => {
+            let v = placement.place(i64::from(*t));
+            let text = format_number(v, 2);
+            let text = text.trim_end_matches('0').trim_end_matches('.');
+            format!("target={text} {unit}", unit = unit.name)
+        }
+        (event, ..) => event.to_string(),
+    }
+}
+
+/// Draws the plot into `out` with plotters, and returns the curves as SVG elements to add at its end.
+fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotError> {
+    let samples = &Columns::of(trace);
     let events: &[Event] =
-        &trace.events.iter().map(|e| Event { micros: e.micros, text: e.event.to_string() }).collect::<Vec<_>>();
+        &trace.events.iter().map(|e| Event { micros: e.micros, text: event_text(trace, e) }).collect::<Vec<_>>();
     let levels: &[Levels] = &trace.levels;
-    let drive = trace.column(Quantity::Energy).is_some();
-    let end = samples.last().map_or(1, |s| s.micros).max(events.last().map_or(0, |e| e.micros)).max(1);
+    let last = samples.len().checked_sub(1).map_or(1, |r| samples.micros(r));
+    let end = last.max(events.last().map_or(0, |e| e.micros)).max(1);
     let time = Scale::fixed(0.0, seconds(end), false, 12);
-    let mut panels = vec![position_panel(samples), velocity_panel(samples)];
-    if drive {
-        panels.extend(drive_panels(samples, seconds(end)));
+    let unit = trace.header.as_ref().and_then(|h| h.world_unit.as_ref()).map(|u| u.name.as_str());
+    let mut candidates = vec![position_panel(samples, unit), velocity_panel(samples)];
+    candidates.extend(drive_panels(samples, seconds(end)));
+    let mut panels = Vec::new();
+    let mut notes = Vec::new();
+    for panel in candidates {
+        match panel.note() {
+            Some(note) => notes.push(note),
+            None => panels.push(panel),
+        }
     }
+    let notes = wrap_notes(&notes);
     let lanes = lanes::Lanes::new(events, levels, seconds(end));
-    let height = TITLE + panels.iter().map(|p| p.height).sum::<u32>() + lanes.height();
-    let root = SVGBackend::with_string(out, (WIDTH, height)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (head, mut rest) = root.split_vertically(TITLE);
-    let style = TextStyle::from((FONT, 24).into_font()).pos(Pos::new(HPos::Center, VPos::Center));
-    head.draw(&Text::new(title.to_string(), (WIDTH as i32 / 2, TITLE as i32 / 2), style))?;
-    let lines = if events.len() <= MAX_EVENT_LINES { events } else { &[] };
-    for (i, panel) in panels.iter().enumerate() {
-        let (area, below) = rest.split_vertically(panel.height);
-        let bottom = i + 1 == panels.len() && lanes.is_empty();
-        draw_panel(&area, &time, panel, lines, bottom)?;
-        rest = below;
+    let head = TITLE + notes.len() as u32 * NOTE + if notes.is_empty() { 0 } else { 6 };
+    let height = head + panels.iter().map(|p| p.height).sum::<u32>() + lanes.height();
+    let mut curves = String::new();
+    {
+        let root = SVGBackend::with_string(out, (WIDTH, height)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (top, mut rest) = root.split_vertically(head);
+        let style = TextStyle::from((FONT, 24).into_font()).pos(Pos::new(HPos::Center, VPos::Center));
+        top.draw(&Text::new(title.to_string(), (WIDTH as i32 / 2, TITLE as i32 / 2), style))?;
+        let style = TextStyle::from((FONT, NOTE_FONT).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+        for (i, note) in notes.iter().enumerate() {
+            let y = (TITLE + i as u32 * NOTE + NOTE / 2) as i32;
+            top.draw(&Text::new(note.clone(), ((MARGIN_LEFT + Y_LABELS) as i32, y), style.clone()))?;
+        }
+        let lines = if events.len() <= MAX_EVENT_LINES { events } else { &[] };
+        for (i, panel) in panels.iter().enumerate() {
+            let (area, below) = rest.split_vertically(panel.height);
+            let bottom = i + 1 == panels.len() && lanes.is_empty();
+            curves.push_str(&draw_panel(&area, &time, panel, lines, bottom)?);
+            rest = below;
+        }
+        lanes.draw(&rest, &time)?;
+        root.present()?;
     }
-    lanes.draw(&rest, &time)?;
-    root.present()?;
-    Ok(())
+    Ok(curves)
 }
 
-fn position_panel(samples: &[Sample]) -> Panel {
-    let series = vec![
-        line(samples, |s| s.target, TARGET, 2, "target position (AP 0)"),
-        line(samples, |s| s.actual, ACTUAL, 1, "actual position (AP 1)"),
-    ];
-    Panel::new(300, "position [µsteps]", true, None, series)
+/// The notes of the panels left out, as lines that fit the plot's width: `Constant over the run (not
+/// drawn): ...`, parts separated by `;`.
+fn wrap_notes(notes: &[String]) -> Vec<String> {
+    if notes.is_empty() {
+        return Vec::new();
+    }
+    let width = f64::from(WIDTH - Y_LABELS - MARGIN_LEFT - MARGIN_RIGHT);
+    let mut lines = vec!["Constant over the run (not drawn):".to_string()];
+    for note in notes.iter().flat_map(|n| n.split(", ")) {
+        let last = lines.last_mut().expect("one line at least");
+        let candidate = format!("{last} {note};");
+        if text_width(&candidate, f64::from(NOTE_FONT) / 1.24) <= width || last.ends_with(':') {
+            *last = candidate;
+        } else {
+            lines.push(format!("    {note};"));
+        }
+    }
+    if let Some(last) = lines.last_mut() {
+        last.pop();
+    }
+    lines
 }
 
-fn velocity_panel(samples: &[Sample]) -> Panel {
+fn position_panel(samples: &impl Samples, unit: Option<&str>) -> Panel {
+    match unit {
+        Some(unit) => {
+            let world = |f: fn((f64, f64)) -> f64| move |s: &Sample| s.world.map_or(0.0, f);
+            let series = vec![
+                Series {
+                    points: thin(samples, world(|w| w.0)),
+                    color: TARGET,
+                    style: Style::Line(2),
+                    name: "target position (AP 0)".into(),
+                },
+                Series {
+                    points: thin(samples, world(|w| w.1)),
+                    color: ACTUAL,
+                    style: Style::Line(1),
+                    name: "actual position (AP 1)".into(),
+                },
+            ];
+            let mut panel = Panel::new(300, &format!("position [{unit}]"), false, None, series);
+            panel.decimals = panel.scale.decimals + 1;
+            panel
+        }
+        None => {
+            let series = vec![
+                line(samples, |s| s.target, TARGET, 2, "target position (AP 0)"),
+                line(samples, |s| s.actual, ACTUAL, 1, "actual position (AP 1)"),
+            ];
+            Panel::new(300, "position [µsteps]", true, None, series)
+        }
+    }
+}
+
+fn velocity_panel(samples: &impl Samples) -> Panel {
     let series = vec![line(samples, |s| s.velocity, SPEED, 1, "actual velocity (AP 3)")];
     Panel::new(220, "velocity [pps]", true, None, series)
 }
 
-/// The `--drive` panels: load value, current scale or scaler, encoder − steps or position error, energy.
-fn drive_panels(samples: &[Sample], end: f64) -> Vec<Panel> {
-    let drive = |f: fn(&Drive) -> i32| move |s: &Sample| s.drive.as_ref().map_or(0, f);
-    let closed_loop = samples.iter().any(|s| s.closed_loop.is_some());
-    let load = line(
-        samples,
-        drive(|d| d.load),
-        LOAD,
-        1,
-        "stallGuard2 load value (AP 206): 1023 unloaded, 0 at the torque limit",
-    );
-    let mut panels = vec![Panel::new(200, "load value (0–1023)", true, Some((-31.0, 1054.0)), vec![load])];
-    if closed_loop {
+/// The drive's panels, for the columns the trace has: load value, current scale or scaler, encoder −
+/// steps or position error, energy.
+fn drive_panels(samples: &impl Samples, end: f64) -> Vec<Panel> {
+    let has = |f: fn(&Sample) -> bool| samples.len() > 0 && f(&samples.at(0));
+    let mut panels = Vec::new();
+    if has(|s| s.load.is_some()) {
+        let load = line(
+            samples,
+            |s| s.load.unwrap_or(0),
+            LOAD,
+            1,
+            "stallGuard2 load value (AP 206): 1023 unloaded, 0 at the torque limit",
+        );
+        panels.push(Panel::new(200, "load value (0–1023)", true, Some((-31.0, 1054.0)), vec![load]));
+    }
+    if has(|s| s.scaler.is_some()) {
         let scaler = line(
             samples,
-            |s| s.closed_loop.map_or(0, |c| c[2]),
+            |s| s.scaler.unwrap_or(0),
             SCALE,
             2,
             "closed-loop current scaler (AP 123): the current is AP 6 × scaler / 255",
         );
         panels.push(Panel::new(200, "current scaler (/255)", true, Some((-8.0, 263.0)), vec![scaler]));
+    } else if has(|s| s.current_scale.is_some()) {
+        let scale = line(
+            samples,
+            |s| s.current_scale.unwrap_or(0),
+            SCALE,
+            2,
+            "coolStep current scale (AP 180): the current is (n + 1)/32 of the set current",
+        );
+        panels.push(Panel::new(200, "current scale (0–31)", true, Some((-1.0, 32.0)), vec![scale]));
+    }
+    if has(|s| s.position_error.is_some()) {
         // In closed loop AP 1 is the encoder: the error that matters is the virtual position's lead.
-        let error = |s: &Sample| s.closed_loop.map_or(0.0, |c| f64::from(c[1]));
+        let error = |s: &Sample| s.position_error.map_or(0.0, f64::from);
         let error = difference(
             samples,
             end,
@@ -299,46 +498,42 @@ fn drive_panels(samples: &[Sample], end: f64) -> Vec<Panel> {
             "position error (AP 237): virtual position (AP 233) − actual position (AP 1)",
         );
         panels.push(Panel::new(230, "position error [µsteps]", true, None, vec![error]));
-    } else {
-        let scale = line(
-            samples,
-            drive(|d| d.current_scale),
-            SCALE,
-            2,
-            "coolStep current scale (AP 180): the current is (n + 1)/32 of the set current",
-        );
-        panels.push(Panel::new(200, "current scale (0–31)", true, Some((-1.0, 32.0)), vec![scale]));
-        let slip = |s: &Sample| s.drive.map_or(0.0, |d| f64::from(d.encoder) - f64::from(s.actual));
+    } else if has(|s| s.encoder.is_some()) {
+        let slip = |s: &Sample| s.encoder.map_or(0.0, |e| f64::from(e) - f64::from(s.actual));
         let slip = difference(samples, end, slip, "encoder position (AP 209) − step position (AP 1): lost steps");
         panels.push(Panel::new(230, "encoder − steps [µsteps]", true, None, vec![slip]));
     }
-    let energy = thin(samples, |s| s.drive.map_or(0.0, |d| d.energy as f64 / 1e6));
-    let energy = Series {
-        points: energy,
-        color: ENERGY,
-        style: Style::Line(2),
-        name: "coil energy ∫ I² dt of both coils since power-up (× coil resistance = copper loss in J)".into(),
-    };
-    let mut energy = Panel::new(200, "coil energy [A²·s]", false, None, vec![energy]);
-    // Energy only grows from 0: the axis starts at 0.
-    let top = energy.series[0].points.iter().fold(0.0f64, |m, p| m.max(p.1));
-    energy.scale = Scale::fit(0.0, top, false, max_ticks(200));
-    panels.push(energy);
+    if has(|s| s.energy.is_some()) {
+        let energy = thin(samples, |s| s.energy.map_or(0.0, |e| e as f64 / 1e6));
+        let energy = Series {
+            points: energy,
+            color: ENERGY,
+            style: Style::Line(2),
+            name: "coil energy ∫ I² dt of both coils since power-up (× coil resistance = copper loss in J)".into(),
+        };
+        let mut energy = Panel::new(200, "coil energy [A²·s]", false, None, vec![energy]);
+        // Energy only grows from 0: the axis starts at 0.
+        let top = energy.series[0].points.iter().fold(0.0f64, |m, p| m.max(p.1));
+        energy.scale = Scale::fit(0.0, top, false, max_ticks(200));
+        panels.push(energy);
+    }
     panels
 }
 
 /// A line series of an integer quantity.
-fn line(samples: &[Sample], value: impl Fn(&Sample) -> i32, color: RGBColor, width: u32, name: &str) -> Series {
+fn line(samples: &impl Samples, value: impl Fn(&Sample) -> i32, color: RGBColor, width: u32, name: &str) -> Series {
     Series { points: thin(samples, |s| f64::from(value(s))), color, style: Style::Line(width), name: name.into() }
 }
 
+/// Draws a panel's frame, grid, axes, event lines and key with plotters, and returns its curves as SVG
+/// elements at sub-pixel coordinates.
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     time: &Scale,
     panel: &Panel,
     lines: &[Event],
     bottom: bool,
-) -> Result<(), PlotError>
+) -> Result<String, PlotError>
 where
     DB::ErrorType: 'static,
 {
@@ -350,12 +545,14 @@ where
         .x_label_area_size(if bottom { X_LABELS + X_DESC } else { X_LABELS })
         .y_label_area_size(Y_LABELS)
         .build_cartesian_2d(coordinate(time), coordinate(&panel.scale))?;
+    // Under the grid and the axes: an event at 0 s must not hide the value axis.
+    event_lines(&mut chart, lines)?;
     let x_label = |v: &f64| time.label(*v);
     let y_label = |v: &f64| panel.scale.label(*v);
     let mut mesh = chart.configure_mesh();
     mesh.x_label_formatter(&x_label)
         .y_label_formatter(&y_label)
-        .y_desc(panel.unit)
+        .y_desc(panel.unit.as_str())
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 15))
         .bold_line_style(BLACK.mix(0.1))
@@ -364,16 +561,77 @@ where
         mesh.x_desc("time [s]");
     }
     mesh.draw()?;
-    event_lines(&mut chart, lines)?;
+    key(area, &chart, &panel.series)?;
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let frame = Frame { x: time.range.clone(), y: panel.scale.range.clone(), xs, ys };
+    let mut svg = String::new();
     for s in &panel.series {
         match s.style {
-            Style::Line(width) => {
-                chart.draw_series(LineSeries::new(s.points.iter().copied(), s.color.stroke_width(width)))?;
-            }
-            Style::Envelope => draw_envelope(&mut chart, &s.points, s.color)?,
+            Style::Line(width) => svg.push_str(&frame.polyline(&s.points, s.color, f64::from(width), 1.0)),
+            Style::Envelope => svg.push_str(&frame.envelope(&s.points, s.color)),
         }
     }
-    key(area, &chart, &panel.series)
+    Ok(svg)
+}
+
+/// A panel's plotting area in the SVG's pixels, and the values it shows: maps values to sub-pixel
+/// coordinates as plotters maps them to whole pixels (x from the left edge to the last pixel column, y
+/// from the bottom row up), without the rounding.
+struct Frame {
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    xs: std::ops::Range<i32>,
+    ys: std::ops::Range<i32>,
+}
+
+impl Frame {
+    fn point(&self, (t, v): (f64, f64)) -> (f64, f64) {
+        let fx = (t - self.x.start) / (self.x.end - self.x.start);
+        let fy = (v - self.y.start) / (self.y.end - self.y.start);
+        let (x0, x1) = (f64::from(self.xs.start), f64::from(self.xs.end - 1));
+        let (y0, y1) = (f64::from(self.ys.end - 1), f64::from(self.ys.start));
+        (x0 + fx * (x1 - x0), y0 + fy * (y1 - y0))
+    }
+
+    fn points(&self, points: impl Iterator<Item = (f64, f64)>) -> String {
+        let mut text = String::new();
+        for (i, p) in points.enumerate() {
+            let (x, y) = self.point(p);
+            let _ = write!(text, "{}{x:.2},{y:.2}", if i == 0 { "" } else { " " });
+        }
+        text
+    }
+
+    /// A line through `points`.
+    fn polyline(&self, points: &[(f64, f64)], color: RGBColor, width: f64, opacity: f64) -> String {
+        if points.is_empty() {
+            return String::new();
+        }
+        let RGBColor(r, g, b) = color;
+        format!(
+            "<polyline fill=\"none\" stroke=\"#{r:02X}{g:02X}{b:02X}\" stroke-opacity=\"{opacity}\" \
+             stroke-width=\"{width}\" stroke-linejoin=\"round\" points=\"{}\"/>\n",
+            self.points(points.iter().copied())
+        )
+    }
+
+    /// An envelope's points come in pairs per slot, (time, minimum) then (time, maximum): the band
+    /// between the minima and the maxima, filled lightly and edged by thin lines.
+    fn envelope(&self, points: &[(f64, f64)], color: RGBColor) -> String {
+        let low: Vec<(f64, f64)> = points.iter().step_by(2).copied().collect();
+        let high: Vec<(f64, f64)> = points.iter().skip(1).step_by(2).copied().collect();
+        if low.is_empty() {
+            return String::new();
+        }
+        let RGBColor(r, g, b) = color;
+        let band = self.points(high.iter().chain(low.iter().rev()).copied());
+        let mut svg = format!(
+            "<polygon fill=\"#{r:02X}{g:02X}{b:02X}\" fill-opacity=\"0.3\" stroke=\"none\" points=\"{band}\"/>\n"
+        );
+        svg.push_str(&self.polyline(&low, color, 1.0, 0.7));
+        svg.push_str(&self.polyline(&high, color, 1.0, 0.7));
+        svg
+    }
 }
 
 /// The series' names above the plot, each after a short stroke of its colour.
@@ -394,35 +652,23 @@ where
     Ok(())
 }
 
-/// Vertical lines at the events, across the whole panel.
+/// Vertical lines at the events, across the whole panel (drawn before the grid and the axes, which stay
+/// on top).
 fn event_lines<DB: DrawingBackend>(chart: &mut Chart<DB>, events: &[Event]) -> Result<(), PlotError>
 where
     DB::ErrorType: 'static,
 {
-    let y = chart.y_range();
-    chart.draw_series(events.iter().map(|e| {
-        let x = seconds(e.micros);
-        PathElement::new(vec![(x, y.start), (x, y.end)], RED.mix(0.35).stroke_width(1))
-    }))?;
-    Ok(())
-}
-
-/// An envelope's points come in pairs per slot, (time, minimum) then (time, maximum): the band
-/// between the minima and the maxima, filled lightly and edged by thin lines.
-fn draw_envelope<DB: DrawingBackend>(
-    chart: &mut Chart<DB>,
-    points: &[(f64, f64)],
-    color: RGBColor,
-) -> Result<(), PlotError>
-where
-    DB::ErrorType: 'static,
-{
-    let low: Vec<(f64, f64)> = points.iter().step_by(2).copied().collect();
-    let high: Vec<(f64, f64)> = points.iter().skip(1).step_by(2).copied().collect();
-    let band: Vec<(f64, f64)> = high.iter().chain(low.iter().rev()).copied().collect();
-    chart.draw_series(std::iter::once(Polygon::new(band, color.mix(0.3).filled())))?;
-    chart.draw_series(LineSeries::new(low, color.mix(0.7).stroke_width(1)))?;
-    chart.draw_series(LineSeries::new(high, color.mix(0.7).stroke_width(1)))?;
+    let (x, y) = (chart.x_range(), chart.y_range());
+    // An event within two pixels of the value axis (one at 0 s) gets no line: it would paint over the
+    // axis; its mark in the lanes stays.
+    let near_axis = x.start + 2.0 * (x.end - x.start) / COLUMNS as f64;
+    chart.draw_series(
+        events
+            .iter()
+            .map(|e| seconds(e.micros))
+            .filter(|&t| t > near_axis)
+            .map(|t| PathElement::new(vec![(t, y.start), (t, y.end)], RED.mix(0.35).stroke_width(1))),
+    )?;
     Ok(())
 }
 
@@ -433,19 +679,30 @@ fn seconds(micros: u64) -> f64 {
 
 /// `(seconds, value)` points of one series, at most two per pixel column: each column's minimum and
 /// maximum, in time order (all samples if there are no more than that).
-fn thin(samples: &[Sample], value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
-    if samples.len() <= 2 * COLUMNS {
-        return samples.iter().map(|s| (seconds(s.micros), value(s))).collect();
+fn thin<S: Samples + ?Sized>(samples: &S, value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
+    let n = samples.len();
+    if n <= 2 * COLUMNS {
+        return (0..n).map(|r| samples.at(r)).map(|s| (seconds(s.micros), value(&s))).collect();
     }
-    let bucket = samples.len().div_ceil(COLUMNS);
+    let bucket = n.div_ceil(COLUMNS);
     let mut points = Vec::with_capacity(2 * COLUMNS + 2);
-    for chunk in samples.chunks(bucket) {
-        let lo = chunk.iter().min_by(|a, b| value(a).total_cmp(&value(b)));
-        let hi = chunk.iter().max_by(|a, b| value(a).total_cmp(&value(b)));
+    for start in (0..n).step_by(bucket) {
+        let mut lo: Option<(u64, f64)> = None;
+        let mut hi: Option<(u64, f64)> = None;
+        for s in (start..(start + bucket).min(n)).map(|r| samples.at(r)) {
+            let v = value(&s);
+            // The first of equal minima and the last of equal maxima, as `min_by`/`max_by` pick them.
+            if lo.is_none_or(|(_, l)| v.total_cmp(&l).is_lt()) {
+                lo = Some((s.micros, v));
+            }
+            if hi.is_none_or(|(_, h)| v.total_cmp(&h).is_ge()) {
+                hi = Some((s.micros, v));
+            }
+        }
         if let (Some(lo), Some(hi)) = (lo, hi) {
-            let (first, second) = if lo.micros <= hi.micros { (lo, hi) } else { (hi, lo) };
-            points.push((seconds(first.micros), value(first)));
-            points.push((seconds(second.micros), value(second)));
+            let (first, second) = if lo.0 <= hi.0 { (lo, hi) } else { (hi, lo) };
+            points.push((seconds(first.0), first.1));
+            points.push((seconds(second.0), second.1));
         }
     }
     points
@@ -454,9 +711,9 @@ fn thin(samples: &[Sample], value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
 /// A difference of two positions (encoder − steps, the position error) as a line, or as a band if it
 /// [`jitters`]: then it is mostly the encoder's resolution, which a line would draw as a solid block of
 /// zigzags.
-fn difference(samples: &[Sample], end: f64, value: impl Fn(&Sample) -> f64, name: &str) -> Series {
-    let values: Vec<f64> = samples.iter().map(&value).collect();
-    if jitters(&values) {
+fn difference<S: Samples + ?Sized>(samples: &S, end: f64, value: impl Fn(&Sample) -> f64, name: &str) -> Series {
+    let values: Vec<f64> = (0..samples.len()).map(|r| value(&samples.at(r))).collect();
+    if jitters(&values) || fills_columns(samples, end, &values) {
         let name = format!("{name} (band: minimum to maximum over ±{ENVELOPE_REACH} pixels)");
         Series { points: envelope(samples, end, value), color: SLIP, style: Style::Envelope, name }
     } else {
@@ -476,16 +733,38 @@ fn jitters(values: &[f64]) -> bool {
     turns * 5 > values.len() && mean_move * 20.0 >= hi - lo
 }
 
+/// Whether a series fills its pixel columns: in more than half of the columns that hold samples, the
+/// samples span at least half of the series' whole range. A sawtooth finer than a pixel (encoder − steps
+/// sampled every millisecond for an hour: the encoder's counts alias with the step rate) has few turns
+/// per sample but would still draw a solid block as a line.
+fn fills_columns<S: Samples + ?Sized>(samples: &S, end: f64, values: &[f64]) -> bool {
+    let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    if hi <= lo {
+        return false;
+    }
+    let mut columns: Vec<Option<(f64, f64)>> = vec![None; COLUMNS + 1];
+    for (r, &v) in values.iter().enumerate() {
+        let t = seconds(samples.micros(r));
+        let c = (((t / end.max(1e-9)) * COLUMNS as f64) as usize).min(COLUMNS);
+        let column = columns[c].get_or_insert((v, v));
+        column.0 = column.0.min(v);
+        column.1 = column.1.max(v);
+    }
+    let used = columns.iter().flatten().count();
+    let full = columns.iter().flatten().filter(|(l, h)| h - l >= (hi - lo) / 2.0).count();
+    full * 2 > used
+}
+
 /// The band around `value` over the time axis `0..end`: for each pixel column that has samples, the
 /// minimum and the maximum over it and [`ENVELOPE_REACH`] columns either side, as pairs of points
 /// `(time, minimum), (time, maximum)` at the column's first sample. The reach smooths the edges of a
 /// band whose samples alias with the encoder's steps; a real jump widens the band by a few pixels.
-fn envelope(samples: &[Sample], end: f64, value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
+fn envelope<S: Samples + ?Sized>(samples: &S, end: f64, value: impl Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
     let mut columns: Vec<Option<(f64, f64, f64)>> = vec![None; COLUMNS + 1];
-    for s in samples {
+    for s in (0..samples.len()).map(|r| samples.at(r)) {
         let t = seconds(s.micros);
         let c = (((t / end.max(1e-9)) * COLUMNS as f64) as usize).min(COLUMNS);
-        let v = value(s);
+        let v = value(&s);
         let column = columns[c].get_or_insert((t, v, v));
         column.1 = column.1.min(v);
         column.2 = column.2.max(v);
@@ -507,7 +786,7 @@ mod tests {
     use super::*;
 
     fn sample(micros: u64, actual: i32) -> Sample {
-        Sample { micros, target: 0, actual, velocity: 0, drive: None, closed_loop: None }
+        Sample { micros, actual, ..Sample::default() }
     }
 
     #[test]
@@ -546,6 +825,10 @@ mod tests {
         assert_eq!(line.points.len(), 300);
         let steps: Vec<Sample> = (0..3000u64).map(|i| sample(i * 1000, -((i / 500) as i32) * 800)).collect();
         assert!(!jitters(&steps.iter().map(|s| f64::from(s.actual)).collect::<Vec<_>>()));
+        // A sawtooth finer than a pixel with few turns per sample (an hour at 1 ms): a band.
+        let saw: Vec<Sample> = (0..200_000u64).map(|i| sample(i * 1000, -((i % 40) as i32) * 5 / 4)).collect();
+        let band = difference(&saw, seconds(199_999_000), |s| f64::from(s.actual), "saw");
+        assert!(matches!(band.style, Style::Envelope));
         // A hold that wobbles by a few µsteps under a peak of 9000: the wobble is not what the panel shows.
         let wobble: Vec<f64> =
             (0..300).map(|i| if (140..160).contains(&i) { 9000.0 } else { f64::from(i % 7) }).collect();

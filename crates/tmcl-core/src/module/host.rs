@@ -5,16 +5,13 @@
 //! line ([`crate::iface::Port`]); what it filters (addresses), delays (telegram pause) and suppresses
 //! (GP 255) is the interface's data.
 
+use super::{Module, Origin, Outcome, ReplyOf};
 use crate::hal::Board;
-use crate::iface::Sink;
+use crate::iface::{Sink, MAILBOX_LEN};
 use crate::model::{AppStatusReply, Framing, InterfaceDesc, Setting};
-use crate::module::{Module, Origin, Outcome, ReplyOf};
 use crate::time::{Duration, Instant};
 use tmcl_model::capacity::MAX_INTERFACES;
 use tmcl_wire::{Command, CommandSet, Frame, Instruction, Opcode, Reply, Request, Status, StatusKind, FRAME_LEN};
-
-/// The length of a mailbox message (TMCM-1310 manual §3.6: an 8-byte command, an 8-byte reply).
-pub const MAILBOX_LEN: usize = 8;
 
 impl<B: Board> Module<B> {
     /// The interface `port` of the model, if it has one; an extra host link is the first interface again.

@@ -1,11 +1,13 @@
-//! How the module runs the closed loop ([`super::closed_loop`]) at every motion tick, and what the
+//! How the module runs the closed loop ([`crate::drive::closed_loop`]) at every motion tick, and what the
 //! closed-loop parameters read (TMCM-1310 manual §3.4; the TMCM-1311 sibling's AP 14–29, 111–138, 230–237).
 
-use super::closed_loop::{self, status, FieldCommand, Init, LoopInput, LoopParams, ScaleParams, INIT_PHASE};
+use super::{error_flags, Module};
+use crate::drive::closed_loop::{self, status, FieldCommand, Init, LoopInput, LoopParams, ScaleParams, INIT_PHASE};
+use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
-use crate::module::{error_flags, flags, Module};
 use crate::motion::Mode;
+use crate::vm::flags;
 use tmcl_wire::Status;
 
 /// √2 · 10000, for RMS ↔ peak.
@@ -297,7 +299,7 @@ impl<B: Board> Module<B> {
                 self.set_ap(Setting::EncoderOffset, zero as i32);
                 // The encoder now reads the step counter.
                 let position = self.st.ramp.position;
-                self.st.encoder = crate::module::EncoderBase { counts, value: position };
+                self.st.encoder = super::EncoderBase { counts, value: position };
                 self.st.cl.actual = i64::from(position);
             } else {
                 self.st.cl.init = Init::Failed;

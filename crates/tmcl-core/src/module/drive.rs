@@ -2,11 +2,13 @@
 //! deviation check and clear-on-null (PD28-1021 manual §6.2, §7.2, §7.3; AP 168–183, 206–215), and the
 //! driver settings the board needs (AP 173, 174, 179).
 
-use super::coolstep::{CoolStepParams, Regime};
-use super::{encoder, stall};
+use super::{error_flags, EncoderBase, Module};
+use crate::drive::coolstep::{CoolStepParams, Regime};
+use crate::drive::{encoder, stall};
+use crate::hal::prelude::*;
 use crate::hal::{Board, DriverSettings};
 use crate::model::{Role, Setting};
-use crate::module::{error_flags, flags, EncoderBase, Module};
+use crate::vm::flags;
 
 impl<B: Board> Module<B> {
     /// Tells the board the stallGuard2 settings and the current range (start-up, and after a write to
@@ -18,7 +20,6 @@ impl<B: Board> Module<B> {
             high_range: self.ap(Setting::CurrentRange) == Some(0),
             ssi_encoder: self.ssi_selected(),
         };
-        self.spin.touch();
         self.board.configure(&settings);
     }
 

@@ -1,24 +1,26 @@
-//! Running programs: the step, the waits, the interrupts, and the control commands 128–135.
+//! Running programs on the module: the step, the waits, the interrupts, and the control commands 128–135
+//! (the program machine's state is [`crate::vm`]'s).
 
-use super::{Context, RunState, Wait, INSTRUCTION_TIME, MAX_VECTORS, NO_VECTOR, STACK_DEPTH, WAIT_TICK};
+use super::{Module, Origin};
+use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::{Setting, Source};
-use crate::module::{flags, Module, Origin, Registers};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
+use crate::vm::{
+    flags, Context, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM, MAX_VECTORS,
+    NO_VECTOR, STACK_DEPTH, WAIT_TICK,
+};
 use tmcl_wire::{Command, Condition, Instruction, Status, WaitCondition, FRAME_LEN};
-
-/// How many instructions one call may run at most, so that a poll always returns.
-pub const BUDGET: u32 = 1 << 20;
 
 impl<B: Board> Module<B> {
     /// The program machine.
-    pub fn vm(&self) -> &super::Vm {
+    pub fn vm(&self) -> &Vm {
         &self.vm
     }
 
     /// Program memory.
-    pub fn program(&self) -> &super::Program {
+    pub fn program(&self) -> &Program {
         &self.program
     }
 
@@ -26,10 +28,10 @@ impl<B: Board> Module<B> {
     pub(crate) fn read_program(&mut self) {
         let (spec, program) = (self.spec, &mut self.program);
         persist::load_program(&mut self.board, spec, program.end(), |address, i| {
-            if i == super::EMPTY && program.get(address) == Some(&super::EMPTY) {
+            if i == EMPTY && program.get(address) == Some(&EMPTY) {
                 return; // already so (a fresh module, or an empty cell before and after a restart)
             }
-            let known = i != super::EMPTY && spec.commands.contains(i.opcode);
+            let known = i != EMPTY && spec.commands.contains(i.opcode);
             program.set(address, i, known);
         });
     }
@@ -66,7 +68,7 @@ impl<B: Board> Module<B> {
             }
             if self.vm.has_breakpoint(self.vm.pc) && !core::mem::take(&mut self.vm.at_breakpoint) {
                 // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
-                self.vm.state = RunState::Stopped;
+                self.vm.set_state(RunState::Stopped);
                 self.vm.at_breakpoint = true;
                 return false;
             }
@@ -90,14 +92,14 @@ impl<B: Board> Module<B> {
     fn step_instruction(&mut self, now: Instant) {
         let pc = self.vm.pc;
         let Some(&instruction) = self.program.get(usize::from(pc)) else {
-            self.vm.state = RunState::Stopped; // ran off the end of memory
+            self.vm.set_state(RunState::Stopped); // ran off the end of memory
             return;
         };
         // A command the model lacks ends the program like garbage (checked when the cell was written).
         let decoded = if self.program.is_known(usize::from(pc)) { Command::decode(instruction).ok() } else { None };
         let Some(command) = decoded else {
             // Opcode 0 (empty memory), garbage, or a command the model lacks: the program ends.
-            self.vm.state = RunState::Stopped;
+            self.vm.set_state(RunState::Stopped);
             return;
         };
         let mut next = pc.wrapping_add(1);
@@ -105,7 +107,7 @@ impl<B: Board> Module<B> {
             // §3.7.17 COMP: flags from A − operand.
             Command::Comp { operand } => {
                 let a = self.st.regs.accumulator;
-                set_compare(&mut self.st.regs, a.cmp(&operand));
+                self.st.regs.set_compare(a.cmp(&operand));
             }
             // §3.7.18 JC.
             Command::Jc { condition, address } => {
@@ -157,7 +159,7 @@ impl<B: Board> Module<B> {
             }
             // §3.7.23 STOP.
             Command::Stop => {
-                self.vm.state = RunState::Stopped;
+                self.vm.set_state(RunState::Stopped);
                 return;
             }
             // §3.7.34 VECT.
@@ -177,13 +179,13 @@ impl<B: Board> Module<B> {
             // Control commands and 242 are direct-mode only: in memory they end the program.
             c if instruction.opcode.is_control() => {
                 let _ = c;
-                self.vm.state = RunState::Stopped;
+                self.vm.set_state(RunState::Stopped);
                 return;
             }
             other => match self.exec(other, now, Origin::Program) {
                 // §3.6.5: in standalone mode a command that reads a value loads the accumulator
                 // (FW V1.35: RFS STATUS too, setting the flags).
-                Ok(crate::module::Outcome::Value(v)) if other.reads_value() => {
+                Ok(super::Outcome::Value(v)) if other.reads_value() => {
                     self.load_accumulator(Origin::Program, v);
                 }
                 Ok(_) => {}
@@ -375,7 +377,7 @@ impl<B: Board> Module<B> {
     /// 128: stop the program.
     pub(crate) fn stop_application(&mut self) {
         if self.vm.state == RunState::Running {
-            self.vm.state = RunState::Stopped;
+            self.vm.set_state(RunState::Stopped);
         }
     }
 
@@ -386,7 +388,7 @@ impl<B: Board> Module<B> {
             self.vm.pc = a;
             self.vm.wait = None;
         }
-        self.vm.state = RunState::Running;
+        self.vm.set_state(RunState::Running);
         self.vm.time = self.vm.time.max(now);
         Ok(())
     }
@@ -395,6 +397,7 @@ impl<B: Board> Module<B> {
     /// download of it would (for tools: `tmcl run`, the debugger). Refused like command 132 when the
     /// program is protected against overwriting.
     pub fn load_program(&mut self, instructions: &[Instruction]) -> Result<(), Status> {
+        self.board.input(); // a library call from outside (`module/seam.rs`)
         if self.protection() & 2 != 0 {
             return Err(Status::EepromLocked);
         }
@@ -402,12 +405,11 @@ impl<B: Board> Module<B> {
             return Err(Status::InvalidValue);
         }
         self.reset_application();
-        self.vm.state = RunState::Stopped;
-        let memory = usize::from(self.spec.program_memory).min(super::MAX_PROGRAM);
+        self.vm.set_state(RunState::Stopped);
+        let memory = usize::from(self.spec.program_memory).min(MAX_PROGRAM);
         for address in 0..memory {
-            let i = instructions.get(address).copied().unwrap_or(super::EMPTY);
+            let i = instructions.get(address).copied().unwrap_or(EMPTY);
             if self.program.cells[address] != i {
-                self.spin.touch(); // an EEPROM write
                 persist::store_program_cell(&mut self.board, self.spec, address, &i)?;
                 self.program.set(address, i, self.knows(i));
             }
@@ -416,14 +418,14 @@ impl<B: Board> Module<B> {
     }
 
     /// Mutable access to the program machine (debuggers: breakpoints).
-    pub fn vm_mut(&mut self) -> &mut super::Vm {
-        self.spin.touch(); // (a spinning program is looked at afresh, see `module/spin.rs`)
+    pub fn vm_mut(&mut self) -> &mut Vm {
+        self.board.input(); // a change from outside (`module/seam.rs`)
         &mut self.vm
     }
 
     /// 130: execute one instruction.
     pub(crate) fn step_application(&mut self, now: Instant) {
-        self.vm.state = RunState::Running;
+        self.vm.set_state(RunState::Running);
         self.vm.time = self.vm.time.max(now);
         let mut budget = 1;
         let limit = self.vm.time + INSTRUCTION_TIME;
@@ -440,13 +442,13 @@ impl<B: Board> Module<B> {
             self.run_program(limit, &mut budget);
         }
         if self.vm.state == RunState::Running {
-            self.vm.state = RunState::Stepped;
+            self.vm.set_state(RunState::Stepped);
         }
     }
 
     /// 131: stop, PC = 0, stack empty, A = X = 0, flags cleared.
     pub(crate) fn reset_application(&mut self) {
-        self.vm.state = RunState::Reset;
+        self.vm.set_state(RunState::Reset);
         self.vm.pc = 0;
         self.vm.sp = 0;
         self.vm.wait = None;
@@ -487,7 +489,6 @@ impl<B: Board> Module<B> {
         }
         // Only what a program of this model can execute is stored; anything else is refused and not stored.
         self.decode(instruction)?;
-        self.spin.touch(); // an EEPROM write
         persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
         self.program.set(usize::from(address), instruction, true); // decoded for this model above
         self.vm.download = Some(address + 1); // at most program_memory ≤ 2048
@@ -524,11 +525,10 @@ impl<B: Board> Module<B> {
     /// (§5.1).
     pub(crate) fn protection_changed(&mut self, old: i32, new: i32) -> Result<(), Status> {
         if old & 1 != 0 && new & 1 == 0 {
-            self.spin.touch(); // an EEPROM write
             persist::erase_program(&mut self.board, self.spec)?;
             self.program.clear();
             self.reset_application();
-            self.vm.state = RunState::Stopped;
+            self.vm.set_state(RunState::Stopped);
         }
         Ok(())
     }
@@ -537,7 +537,7 @@ impl<B: Board> Module<B> {
     pub(crate) fn auto_start(&mut self, now: Instant) {
         if self.gp_flag(Setting::AutoStart) && !self.program.is_empty() {
             self.vm.pc = 0;
-            self.vm.state = RunState::Running;
+            self.vm.set_state(RunState::Running);
             self.vm.time = now;
         }
     }
@@ -546,14 +546,4 @@ impl<B: Board> Module<B> {
 /// A jump target from a value: out-of-range targets land past memory, which stops the program.
 fn jump(address: i32) -> u16 {
     u16::try_from(address).unwrap_or(u16::MAX)
-}
-
-/// Sets zero/greater/lower from a comparison.
-pub(crate) fn set_compare(regs: &mut Registers, ord: core::cmp::Ordering) {
-    regs.flags &= !(flags::ZERO | flags::GREATER | flags::LOWER);
-    regs.flags |= match ord {
-        core::cmp::Ordering::Equal => flags::ZERO,
-        core::cmp::Ordering::Greater => flags::GREATER,
-        core::cmp::Ordering::Less => flags::LOWER,
-    };
 }

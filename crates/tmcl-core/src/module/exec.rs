@@ -1,0 +1,542 @@
+//! The one dispatcher: every command a host sends goes through [`Module::execute`].
+//!
+//! Each arm cites the manual section that defines the command. Statuses the manual leaves open are
+//! decided once, here and in [`crate::param::ParamError`]:
+//! - an unknown parameter, port or coordinate number, or one that does not support the operation
+//!   (a write to a read-only parameter, STAP of a parameter without E): **3, wrong type** — the type byte
+//!   names it;
+//! - a value out of range, a motor other than 0, a bank the command does not know: **4, invalid value**;
+//! - an EEPROM that cannot be written: **5, configuration EEPROM locked**;
+//! - a write or store of a password-protected parameter while the module is locked: **8, parameter is
+//!   password protected** (TMCM-1310 manual §3.7);
+//! - a command the model does not have: **2, invalid command** (checked before this dispatcher, by
+//!   `Module::decode`);
+//! - program-flow commands sent from the host (the table of opcode properties marks them "program only":
+//!   JA, JC, COMP, CSUB, RSUB, WAIT, STOP, VECT, RETI; the manual's §3.6.3 calls them standalone only)
+//!   and UF0–UF7 (no user functions in the standard firmware, §3.7.36): **6, command not available**.
+//!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.5) and work on the
+//!   module's registers.
+
+use super::{Module, Origin, Outcome};
+use crate::hal::prelude::*;
+use crate::hal::Board;
+use crate::model::{AppStatusReply, Driver, PortKind, Setting};
+use crate::motion::reference::Action;
+use crate::motion::SearchMode;
+use crate::param::{persist, ParamError, Role};
+use crate::time::Instant;
+use crate::vm::{flags, Registers};
+use tmcl_wire::command::MAGIC_KEY;
+use tmcl_wire::{
+    CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
+};
+
+type Exec = Result<Outcome, Status>;
+
+fn value(v: i32) -> Exec {
+    Ok(Outcome::Value(v))
+}
+
+impl<B: Board> Module<B> {
+    /// Executes one validated command sent by the host at `now`.
+    pub fn execute(&mut self, command: Command, now: Instant) -> Exec {
+        self.st.asking_port = 0;
+        self.exec(command, now, Origin::Host)
+    }
+
+    /// The registers a command works on: the program's or the host's (see [`crate::vm`]).
+    fn regs(&mut self, origin: Origin) -> &mut Registers {
+        match origin {
+            Origin::Host => &mut self.st.host_regs,
+            Origin::Program => &mut self.st.regs,
+        }
+    }
+
+    /// Executes one validated command from the host or the program at `now`: one short arm per command,
+    /// each citing the manual section that defines it.
+    pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
+        use Command as C;
+        if origin == Origin::Host {
+            // A host input: a change (`module/seam.rs`); a program spinning in a fixed point may do
+            // otherwise now.
+            self.board.input();
+        }
+        // A parameter write may change what the driver sees (a current, the chopper, the resolution), and a
+        // stop (MST, RFS) stops the motor at once: the board is brought up to date at this instant, not at
+        // the next motion tick (a standing motor has none), however often the module is polled.
+        if matches!(
+            command,
+            C::Sap { .. }
+                | C::Aap { .. }
+                | C::Rsap { .. }
+                | C::Sgp { .. }
+                | C::Agp { .. }
+                | C::Rsgp { .. }
+                | C::Mst { .. }
+                | C::Rfs { .. }
+        ) {
+            self.st.drive_due = Some(self.st.drive_due.map_or(now, |t| t.min(now)));
+        }
+        match command {
+            // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
+            C::Ror { motor, velocity } => self.rotate(motor, velocity, velocity),
+            // §3.7.2 ROL: as ROR to the left: AP 2 = −velocity (the manual leaves a negative velocity open; it
+            // turns right). Its range is the whole −2147483648..2147483647: the lowest value, whose negation
+            // does not fit, turns right at the highest velocity, 2147483647.
+            C::Rol { motor, velocity } => self.rotate(motor, velocity.checked_neg().unwrap_or(i32::MAX), velocity),
+            // §3.7.3 MST: velocity mode, target speed 0 (the printed "axis parameter #0" is a typo for AP 2),
+            // decelerating with AP 5.
+            C::Mst { motor } => {
+                self.motor(motor)?;
+                self.start_rotation(0);
+                value(0)
+            }
+            // §3.7.4 MVP ABS/REL/COORD: AP 0 = new target, position mode (AP 128 = 0).
+            C::Mvp { motor, target } => self.mvp(motor, target),
+            // §3.7.5 SAP: RAM only.
+            C::Sap { param, motor, value: v } => {
+                self.motor(motor).and_then(|()| self.write_axis(param, v, now)).map(|()| Outcome::Value(v))
+            }
+            // §3.7.6 GAP.
+            C::Gap { param, motor } => {
+                self.motor(motor)?;
+                value(self.read_axis(param, Some(now))?)
+            }
+            // §3.7.7 STAP: E parameters only.
+            C::Stap { param, motor } => {
+                self.motor(motor).and_then(|()| self.store_axis(param)).map(|()| Outcome::Value(0))
+            }
+            // §3.7.8 RSAP: E parameters only.
+            C::Rsap { param, motor } => {
+                self.motor(motor).and_then(|()| self.restore_axis(param)).map(|()| Outcome::Value(0))
+            }
+            // §3.7.9 SGP.
+            C::Sgp { param, bank, value: v } => self.write_global(param, bank, v, now).map(|()| Outcome::Value(v)),
+            // §3.7.10 GGP.
+            C::Ggp { param, bank } => value(self.read_global(param, bank, now)?),
+            // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
+            // and a STGP rewrites them (the manual does not say what STGP does on bank 0).
+            C::Stgp { param, bank } => self.store_global(param, bank).map(|()| Outcome::Value(0)),
+            // §3.7.12 RSGP.
+            C::Rsgp { param, bank } => self.restore_global(param, bank).map(|()| Outcome::Value(0)),
+            // §3.7.13 RFS START/STOP/STATUS.
+            C::Rfs { action, motor } => {
+                self.motor(motor)?;
+                value(self.reference_search(action)?)
+            }
+            // §3.7.14 SIO: bank 2 outputs; port 255 sets all from a bit vector, −1 takes it from A.
+            C::Sio { port, bank, value: v } => self.sio(port, bank, v, origin),
+            // §3.7.15 GIO: bank 0 digital inputs, bank 1 analog inputs, bank 2 outputs read back.
+            C::Gio { port, bank } => self.gio(port, bank),
+            // §3.7.16 CALC: A ← A op operand; the reply carries the operand (example reply §3.7.16).
+            C::Calc { op, operand } => self.calc(op, operand, origin),
+            // §3.7.28 CALCX: A ← A op X (LOAD, SWAP and NOT work on X).
+            C::Calcx { op } => self.calcx(op, origin),
+            // §3.7.29 AAP: axis parameter ← A.
+            C::Aap { param, motor } => {
+                self.motor(motor)?;
+                let a = self.regs(origin).accumulator;
+                self.write_axis(param, a, now)?;
+                value(a)
+            }
+            // §3.7.30 AGP: global parameter ← A.
+            C::Agp { param, bank } => {
+                let a = self.regs(origin).accumulator;
+                self.write_global(param, bank, a, now)?;
+                value(a)
+            }
+            // §3.7.24 SCO; motor 255 copies RAM → EEPROM (coordinate 0 = all of 1..20).
+            C::Sco { coord, motor: 255, .. } => self.copy_coordinates(coord, true).map(|()| Outcome::Value(0)),
+            C::Sco { coord, motor, position } => self.set_coordinate(coord, motor, position),
+            // §3.7.25 GCO; motor 255 copies EEPROM → RAM.
+            C::Gco { coord, motor: 255 } => self.copy_coordinates(coord, false).map(|()| Outcome::Value(0)),
+            C::Gco { coord, motor } => {
+                self.motor(motor)?;
+                value(self.st.coords[self.coord_index(coord)?])
+            }
+            // §3.7.26 CCO: coordinate ← actual position; the reply carries it.
+            C::Cco { coord, motor } => self.set_coordinate(coord, motor, self.st.ramp.position),
+            // §3.7.27 ACO: coordinate ← accumulator (as its description says; its "internal function" line says the
+            // actual position).
+            C::Aco { coord, motor } => {
+                let a = self.regs(origin).accumulator;
+                self.set_coordinate(coord, motor, a)
+            }
+            // §3.7.31 CLE: clears error flags (the comparison flags stay).
+            C::Cle { flag } => {
+                self.regs(origin).flags &= !error_mask(flag);
+                value(0)
+            }
+            // §3.7.32 EI / §3.7.33 DI: interrupt n (Table 12) or 255 = global.
+            C::Ei { interrupt } => self.enable_interrupt(interrupt, true),
+            C::Di { interrupt } => self.enable_interrupt(interrupt, false),
+            // Standalone-only program flow, run by the program machine (and refused from the host above),
+            // and user functions, which the standard firmware does not have (§3.7.36).
+            C::Comp { .. }
+            | C::Jc { .. }
+            | C::Ja { .. }
+            | C::Csub { .. }
+            | C::Rsub
+            | C::Wait { .. }
+            | C::Stop
+            | C::Vect { .. }
+            | C::Reti
+            | C::UserFunction { .. } => Err(Status::NotAvailable),
+            // §3.7.38 128: stop the program.
+            C::StopApplication => {
+                self.stop_application();
+                value(0)
+            }
+            // §3.7.38 129: run from the current address (type 0) or a given one (type 1, §8.6).
+            C::RunApplication { from } => {
+                self.run_application(from, now)?;
+                value(from.unwrap_or(0))
+            }
+            // §3.7.38 130: one instruction.
+            C::StepApplication => {
+                self.step_application(now);
+                value(0)
+            }
+            // §3.7.38 131: stop, PC 0, stack, A, X and flags cleared.
+            C::ResetApplication => {
+                self.reset_application();
+                value(0)
+            }
+            // §3.7.38 132/133: download mode.
+            C::StartDownload { address } => {
+                self.start_download(address)?;
+                value(address)
+            }
+            C::QuitDownload => {
+                self.quit_download();
+                value(0)
+            }
+            // §3.7.38 134: read program memory (special reply).
+            C::ReadMemory { address } => Ok(Outcome::Raw(self.read_memory(address)?)),
+            // §3.7.38 135: application status.
+            C::GetStatus { kind } => value(self.get_status(kind)),
+            // §3.4.1 command 139: ASCII mode. The reply (binary) goes out first, then the mode changes.
+            C::EnterAscii => Ok(Outcome::EnterAscii),
+            // §3.7.38 136: type 0 = host address + 8 characters, no checksum; type 1 = binary.
+            C::GetVersion { format: VersionFormat::String } => Ok(Outcome::Raw(self.version_string())),
+            C::GetVersion { format: VersionFormat::Binary } => value(self.spec.version_binary),
+            // §3.7.38 137 (value 1234, checked by decode): factory defaults into the EEPROM, no reply; the
+            // module then restarts on them (the program memory is kept: it is not a setting).
+            C::FactoryDefault => {
+                persist::format(&mut self.board, self.spec, false).map_err(Status::from)?;
+                Ok(Outcome::Silent)
+            }
+            // §3.7.37 138: type 0 = next MVP, type 1 = every MVP; value = motor mask.
+            C::RequestTargetReachedEvent { mode, mask } => self.request_event(mode, mask),
+            // 242: pytrinamic's boot-loader request. The module has no boot loader on this link; it stays
+            // silent so the host's reply stream stays aligned (pytrinamic expects no reply).
+            C::Boot => Ok(Outcome::Silent),
+            // §3.7.38 255 (value 1234): restart like a power cycle; the reply goes out first.
+            C::SoftwareReset => Ok(Outcome::Restart(MAGIC_KEY)),
+            // SAC (PDx-113 manual §5.4.3): SPI access to the motion controller and driver chain; the
+            // emulated TMC428 answers (`crate::drive::tmc428`). A model without one: status 6.
+            C::Sac { bus, bytes, data } => match self.spec.driver {
+                Driver::Tmc428Tmc24x => value(self.sac(bus, bytes, data)?),
+                _ => Err(Status::NotAvailable),
+            },
+        }
+    }
+
+    /// SCO, CCO, ACO: coordinate `coord` ← `v` (through to the EEPROM with GP 84 = 1); the reply carries it.
+    fn set_coordinate(&mut self, coord: u8, motor: u8, v: i32) -> Exec {
+        self.motor(motor)?;
+        self.write_coordinate(coord, v)?;
+        value(v)
+    }
+
+    /// ROR, ROL: velocity mode towards `velocity` (AP 2's unit), checked against AP 2's range; the
+    /// reply carries `reply`.
+    fn rotate(&mut self, motor: u8, velocity: i32, reply: i32) -> Exec {
+        self.motor(motor)?;
+        self.velocity_in_range(velocity)?;
+        self.start_rotation(self.units_to_pps(velocity));
+        value(reply)
+    }
+
+    /// MVP: a move to an absolute position, by an offset, or to a stored coordinate (§3.7.4).
+    fn mvp(&mut self, motor: u8, target: MoveTarget) -> Exec {
+        self.motor(motor)?;
+        let to = match target {
+            MoveTarget::Abs(p) => p,
+            // "an offset to the actual position ... must not exceed the above mentioned limits".
+            MoveTarget::Rel(d) => self.relative_base().checked_add(d).ok_or(Status::InvalidValue)?,
+            MoveTarget::Coord(n) => {
+                let n = usize::try_from(n).ok().filter(|n| *n <= usize::from(self.spec.coordinates));
+                self.st.coords[n.ok_or(Status::InvalidValue)?]
+            }
+        };
+        // The target must be a position the counter holds (PDx-113 manual §5.7.4: −2^23 … 2^23 − 1,
+        // "the new resulting position value must not exceed the above mentioned limits, too").
+        if let Some(i) = self.spec.axis.role(Role::TargetPosition) {
+            if !self.spec.axis.params[i].range.contains(to) {
+                return Err(Status::InvalidValue);
+            }
+        }
+        self.start_move(to);
+        value(match target {
+            MoveTarget::Abs(v) | MoveTarget::Rel(v) | MoveTarget::Coord(v) => v,
+        })
+    }
+
+    /// SIO: only bank 2 (outputs) can be set; another bank is an invalid value of the bank byte.
+    fn sio(&mut self, port: u8, bank: u8, v: i32, origin: Origin) -> Exec {
+        if bank != 2 {
+            return Err(Status::InvalidValue);
+        }
+        let desc = self.spec.port(bank, port).ok_or(Status::WrongType)?;
+        let bits = match desc.kind {
+            PortKind::Output(bit) => match v {
+                0 => self.st.outputs & !(1 << bit),
+                1 => self.st.outputs | (1 << bit),
+                _ => return Err(Status::InvalidValue),
+            },
+            PortKind::AllOutputs => match v {
+                -1 => self.regs(origin).accumulator as u8,
+                0..=255 => v as u8,
+                _ => return Err(Status::InvalidValue),
+            },
+            _ => return Err(Status::WrongType),
+        };
+        let bits = bits & (((1u16 << self.spec.outputs) - 1) as u8); // outputs ≤ 8
+        self.st.outputs = bits;
+        self.board.set_outputs(self.st.outputs);
+        value(v)
+    }
+
+    /// GIO: a port of bank 0, 1 or 2 the model has (another port 3, another bank 4).
+    fn gio(&mut self, port: u8, bank: u8) -> Exec {
+        let missing = if bank <= 2 { Status::WrongType } else { Status::InvalidValue };
+        let desc = self.spec.port(bank, port).ok_or(missing)?;
+        value(self.read_port(desc.kind))
+    }
+
+    /// CALC (§3.7.16): A ← A op operand; division by 0 is status 4 (−1 divides without overflow).
+    fn calc(&mut self, op: CalcOp, operand: i32, origin: Origin) -> Exec {
+        let a = self.regs(origin).accumulator;
+        let r = match op {
+            CalcOp::Add => a.wrapping_add(operand),
+            CalcOp::Sub => a.wrapping_sub(operand),
+            CalcOp::Mul => a.wrapping_mul(operand),
+            CalcOp::Div => divide(a, operand)?,
+            CalcOp::Mod => remainder(a, operand)?,
+            CalcOp::And => a & operand,
+            CalcOp::Or => a | operand,
+            CalcOp::Xor => a ^ operand,
+            CalcOp::Not => !a,
+            CalcOp::Load => operand,
+        };
+        self.load_accumulator(origin, r);
+        value(operand)
+    }
+
+    /// CALCX (§3.7.28): A ← A op X; LOAD copies A to X, SWAP exchanges them, NOT inverts X (Table of
+    /// §3.7.28: "logical invert X register", although every other operation writes A).
+    fn calcx(&mut self, op: CalcxOp, origin: Origin) -> Exec {
+        let Registers { accumulator: a, x, .. } = *self.regs(origin);
+        let r = match op {
+            CalcxOp::Add => a.wrapping_add(x),
+            CalcxOp::Sub => a.wrapping_sub(x),
+            CalcxOp::Mul => a.wrapping_mul(x),
+            CalcxOp::Div => divide(a, x)?,
+            CalcxOp::Mod => remainder(a, x)?,
+            CalcxOp::And => a & x,
+            CalcxOp::Or => a | x,
+            CalcxOp::Xor => a ^ x,
+            CalcxOp::Not | CalcxOp::Load => {
+                self.regs(origin).x = if op == CalcxOp::Not { !x } else { a };
+                return value(0);
+            }
+            CalcxOp::Swap => {
+                self.regs(origin).x = a;
+                x
+            }
+        };
+        self.load_accumulator(origin, r);
+        value(0)
+    }
+
+    /// EI n / DI n (§3.7.32, §3.7.33): interrupt n of the model's table, or 255 = globally; DI n also
+    /// drops n's pending request.
+    fn enable_interrupt(&mut self, interrupt: u8, on: bool) -> Exec {
+        if interrupt == crate::model::GLOBAL_INTERRUPTS {
+            self.vm.global = on;
+        } else if self.spec.interrupts.find(interrupt).is_some() {
+            let bit = 1u64 << interrupt;
+            self.vm.enabled = if on { self.vm.enabled | bit } else { self.vm.enabled & !bit };
+            if !on {
+                self.vm.pending &= !bit;
+            }
+        } else {
+            return Err(Status::WrongType);
+        }
+        value(0)
+    }
+
+    /// Command 135's value (§3.7.38). PDx-113 manual §5.5: the state alone (0 stop, 1 run, 2 step,
+    /// 3 reset), type "don't care".
+    fn get_status(&self, kind: StatusKind) -> i32 {
+        if self.spec.app_status == AppStatusReply::Plain {
+            return self.vm.state.code();
+        }
+        match kind {
+            StatusKind::MemoryPointer => self.application_status(false),
+            StatusKind::ProgramCounter => self.application_status(true),
+            StatusKind::Accumulator => self.st.regs.accumulator,
+            StatusKind::XRegister => self.st.regs.x,
+        }
+    }
+
+    /// Command 136 type 0 (§3.7.38): the host address and the model's 8 characters, no checksum.
+    fn version_string(&self) -> [u8; FRAME_LEN] {
+        let mut raw = [0u8; FRAME_LEN];
+        raw[0] = self.host_address();
+        raw[1..].copy_from_slice(&self.spec.version_string);
+        raw
+    }
+
+    /// Command 138 (§3.7.37) on the interface that asked. Mask 0 cancels (our decision: the manual gives
+    /// no way to turn type 1 off); a motor the model lacks is status 4.
+    fn request_event(&mut self, mode: EventMode, mask: i32) -> Exec {
+        let all = (1i32 << self.spec.motors) - 1;
+        if mask & !all != 0 {
+            return Err(Status::InvalidValue);
+        }
+        self.st.event.mode = (mask != 0).then_some(mode);
+        self.st.event.mask = mask;
+        self.st.event.port = self.st.asking_port;
+        if mask == 0 {
+            self.st.event.pending = false;
+        }
+        value(mask)
+    }
+
+    /// A ROR/ROL velocity in the model's unit within AP 2's range (PDx-113 manual §5.7.1: 0…2047), else
+    /// status 4.
+    fn velocity_in_range(&self, v: i32) -> Result<(), Status> {
+        match self.spec.axis.role(Role::TargetSpeed) {
+            Some(i) if !self.spec.axis.params[i].range.contains(v) => Err(Status::InvalidValue),
+            _ => Ok(()),
+        }
+    }
+
+    /// What MVP REL counts from: AP 127 (TMCM-1316's options: 0 the last target, 1 the ramp's position,
+    /// 2 the encoder), or the actual position for a model without it (PD28-1021 §3.7.4).
+    fn relative_base(&mut self) -> i32 {
+        match self.ap(Setting::RelativePositioning) {
+            Some(0) => self.st.ramp.target_position,
+            Some(2) => self.encoder_position(),
+            _ => self.st.ramp.position,
+        }
+    }
+
+    fn motor(&self, motor: u8) -> Result<(), Status> {
+        if motor < self.spec.motors {
+            Ok(())
+        } else {
+            Err(ParamError::NoSuchMotor.into())
+        }
+    }
+
+    fn start_rotation(&mut self, velocity: i32) {
+        self.leave_torque_mode();
+        self.st.reference.stop();
+        self.st.ramp.rotate(velocity);
+        self.st.error_flags = 0; // AP 207: "cleared ... when a motion command runs"
+        self.st.event.pending = false;
+    }
+
+    fn start_move(&mut self, target: i32) {
+        self.leave_torque_mode();
+        self.st.reference.stop();
+        self.st.ramp.move_to(target);
+        self.st.error_flags = 0;
+        match self.st.event.mode {
+            Some(EventMode::Next) => {
+                self.st.event.mode = None;
+                self.st.event.pending = true;
+            }
+            Some(EventMode::Every) => self.st.event.pending = true,
+            None => {}
+        }
+    }
+
+    /// Loads the accumulator and sets the comparison flags from it, as a comparison with 0. The manual never
+    /// lists which commands set the flags, but its §3.6.6.4 example jumps with `JC NZ` right after a GIO.
+    pub(crate) fn load_accumulator(&mut self, origin: Origin, v: i32) {
+        let regs = self.regs(origin);
+        regs.accumulator = v;
+        regs.set_compare(v.cmp(&0));
+    }
+
+    fn read_port(&mut self, kind: PortKind) -> i32 {
+        match kind {
+            PortKind::DigitalInput(bit) => i32::from((self.board.digital_inputs() >> bit) & 1),
+            PortKind::AllInputs => i32::from(self.board.digital_inputs()),
+            PortKind::EncoderNearZero => i32::from(self.encoder_near_zero()),
+            PortKind::Analog(ch) => i32::from(self.board.analog_input(ch).min(4095)),
+            PortKind::Analog10(ch) => i32::from(self.board.analog_input(ch).min(4095) >> 2),
+            PortKind::Temperature => self.board.temperature(),
+            PortKind::Output(bit) => i32::from((self.st.outputs >> bit) & 1),
+            PortKind::AllOutputs => i32::from(self.st.outputs),
+        }
+    }
+
+    /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions.
+    fn reference_search(&mut self, action: RfsAction) -> Result<i32, Status> {
+        match action {
+            RfsAction::Start => {
+                // AP 193 is range-checked on write, so it always decodes.
+                let value = self.ap(Setting::ReferenceSearchMode).ok_or(Status::NotAvailable)?;
+                let mode = SearchMode::decode(value, self.spec.reference_modes).ok_or(Status::InvalidValue)?;
+                let (fast, slow) = self.reference_speeds();
+                if fast == 0 || slow == 0 {
+                    // A search at speed 0 would never end: refused (our decision).
+                    return Err(Status::InvalidValue);
+                }
+                self.st.error_flags = 0;
+                self.st.event.pending = false;
+                self.leave_torque_mode();
+                if let Action::Rotate(v) = self.st.reference.start(mode, fast) {
+                    self.st.ramp.hard_stop();
+                    self.st.ramp.rotate(v);
+                }
+                Ok(0)
+            }
+            RfsAction::Stop => {
+                if self.st.reference.is_active() {
+                    self.st.reference.stop();
+                    self.st.ramp.rotate(0);
+                }
+                Ok(0)
+            }
+            RfsAction::Status => Ok(self.st.reference.status()),
+        }
+    }
+}
+
+/// A ÷ b, as CALC and CALCX divide: b = −1 negates without overflow, b = 0 is status 4.
+fn divide(a: i32, b: i32) -> Result<i32, Status> {
+    a.checked_div(b).or((b == -1).then(|| a.wrapping_neg())).ok_or(Status::InvalidValue)
+}
+
+/// A mod b, as CALC and CALCX take it: b = −1 gives 0, b = 0 is status 4.
+fn remainder(a: i32, b: i32) -> Result<i32, Status> {
+    a.checked_rem(b).or((b == -1).then_some(0)).ok_or(Status::InvalidValue)
+}
+
+/// The error flags CLE clears (§3.7.31).
+fn error_mask(flag: ErrorFlag) -> u16 {
+    match flag {
+        ErrorFlag::All => flags::TIMEOUT | flags::ALARM | flags::DEVIATION | flags::POSITION | flags::SHUTDOWN,
+        ErrorFlag::Timeout => flags::TIMEOUT,
+        ErrorFlag::ExternalAlarm => flags::ALARM,
+        ErrorFlag::Deviation => flags::DEVIATION,
+        ErrorFlag::PositionError => flags::POSITION,
+        ErrorFlag::Shutdown => flags::SHUTDOWN,
+    }
+}

@@ -1,0 +1,462 @@
+//! Parameters on the module: axis parameters (chapter 4), the global banks (chapter 5: bank 0
+//! settings, bank 2 user variables, bank 3 interrupt configuration), coordinates (§3.7.24–3.7.27), and
+//! their EEPROM copies ([`crate::param::persist`]). Statuses as the dispatcher's docs (`module/exec.rs`)
+//! decide them.
+
+use super::{Module, RNG_SEED};
+use crate::hal::prelude::*;
+use crate::hal::Board;
+use crate::model::{Driver, Setting};
+use crate::motion::Mode;
+use crate::param::{persist, ParamDesc, ParamError, Role};
+use crate::time::Instant;
+use tmcl_wire::Status;
+
+/// A bank of SGP, GGP, STGP and RSGP (chapter 5) the model has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Bank {
+    /// Bank 0: the global parameters.
+    Global,
+    /// Bank 2: the user variables (§5.3).
+    User,
+    /// Bank 3: the interrupt configuration (§5.4).
+    Interrupt,
+}
+
+impl<B: Board> Module<B> {
+    /// The bank `bank` names: one the model lacks, or one past 3, is status 4 (the bank byte being a
+    /// value of the command; PD28-1021 manual chapter 5, PDx-113 manual §5.7.9); bank 1, which no source
+    /// gives a parameter, is status 3 (an unknown parameter of it).
+    pub(crate) fn bank(&self, bank: u8) -> Result<Bank, Status> {
+        if !self.spec.banks.has(bank) {
+            return Err(ParamError::NoSuchMotor.into());
+        }
+        match bank {
+            0 => Ok(Bank::Global),
+            2 => Ok(Bank::User),
+            3 => Ok(Bank::Interrupt),
+            1 => Err(ParamError::Unknown.into()),
+            _ => Err(ParamError::NoSuchMotor.into()),
+        }
+    }
+
+    /// STAP (§3.7.7): an E parameter's RAM value into the EEPROM.
+    pub(crate) fn store_axis(&mut self, number: u8) -> Result<(), Status> {
+        let (i, d) = self.axis_desc(number, |d| d.access.store)?;
+        self.unlocked_for(d)?;
+        persist::store_axis(&mut self.board, self.spec, i, self.st.axis[i])?;
+        Ok(())
+    }
+
+    /// RSAP (§3.7.8): an E parameter back from the EEPROM (its default if the stored value is out of range).
+    pub(crate) fn restore_axis(&mut self, number: u8) -> Result<(), Status> {
+        let (i, d) = self.axis_desc(number, |d| d.access.store)?;
+        let v = persist::load_axis(&mut self.board, self.spec, i)?;
+        self.st.axis[i] = if d.range.contains(v) { v } else { d.default };
+        Ok(())
+    }
+
+    /// STGP (§3.7.11): a bank 0 A parameter or a bank 2 user variable into the EEPROM; bank 3 is not stored.
+    pub(crate) fn store_global(&mut self, number: u8, bank: u8) -> Result<(), Status> {
+        match self.bank(bank)? {
+            Bank::Global => {
+                let (i, d) = self.global_desc(number, |d| d.access.auto)?;
+                self.unlocked_for(d)?;
+                persist::store_global(&mut self.board, self.spec, i, self.st.global[i])?;
+            }
+            Bank::User => {
+                let v = self.st.user[self.user_index(number)?];
+                persist::store_user(&mut self.board, self.spec, number, v)?;
+            }
+            Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
+        }
+        Ok(())
+    }
+
+    /// RSGP (§3.7.12): a bank 0 A parameter or a bank 2 user variable back from the EEPROM.
+    pub(crate) fn restore_global(&mut self, number: u8, bank: u8) -> Result<(), Status> {
+        match self.bank(bank)? {
+            Bank::Global => {
+                let (i, d) = self.global_desc(number, |d| d.access.auto)?;
+                let v = persist::load_global(&mut self.board, self.spec, i)?;
+                self.st.global[i] = if d.range.contains(v) { v } else { d.default };
+            }
+            Bank::User => {
+                let n = self.user_index(number)?;
+                self.st.user[n] = persist::load_user(&mut self.board, self.spec, number)?;
+            }
+            Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
+        }
+        Ok(())
+    }
+
+    pub(crate) fn axis_desc(
+        &self,
+        number: u8,
+        allowed: impl Fn(&ParamDesc) -> bool,
+    ) -> Result<(usize, &'static ParamDesc), Status> {
+        permitted(&self.spec.axis, number, allowed)
+    }
+
+    pub(crate) fn global_desc(
+        &self,
+        number: u8,
+        allowed: impl Fn(&ParamDesc) -> bool,
+    ) -> Result<(usize, &'static ParamDesc), Status> {
+        permitted(&self.spec.global, number, allowed)
+    }
+
+    /// GAP: an axis parameter's value (chapter 4, Table 15). A library call from outside, as a host's
+    /// GAP is: a read may change state (AP 207 clears on read), so it counts as an input
+    /// (`module/seam.rs`).
+    pub fn get_axis(&mut self, number: u8) -> Result<i32, Status> {
+        self.board.input();
+        self.read_axis(number, None)
+    }
+
+    /// SAP without the frame: writes an axis parameter (RAM only) at `now`, as a library call from outside
+    /// (an input, `module/seam.rs`).
+    pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+        self.board.input();
+        self.write_axis(number, v, now)
+    }
+
+    /// GGP without the frame: a global parameter, as a library call from outside (an input: GP 133 draws
+    /// a new number at every read).
+    pub fn get_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
+        self.board.input();
+        self.read_global(number, bank, now)
+    }
+
+    /// SGP without the frame: writes a global parameter at `now`, as a library call from outside (an
+    /// input, `module/seam.rs`).
+    pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
+        self.board.input();
+        self.write_global(number, bank, v, now)
+    }
+
+    /// GAP at `now` (`None`: whenever the board was last brought up to date). A parameter that reads
+    /// something of the board that changes with the board's own clock — a switch (it may bounce), the
+    /// driver's flags (standstill after 2²⁰ clocks without a step) or the status word made of them — is
+    /// read with the board brought to `now` first ([`Module::sync_board`]), so that it is the value at the
+    /// instant of the read however often the module was polled before.
+    pub(crate) fn read_axis(&mut self, number: u8, now: Option<Instant>) -> Result<i32, Status> {
+        let (i, d) = self.axis_desc(number, |d| d.access.read)?;
+        if let Some(now) = now {
+            if matches!(
+                d.role,
+                Role::HomeSwitch | Role::RightSwitch | Role::LeftSwitch | Role::DriverFlags | Role::StatusWord
+            ) {
+                self.sync_board(now);
+            }
+        }
+        let ramp = &self.st.ramp;
+        Ok(match d.role {
+            Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axis[i],
+            Role::TargetPosition => ramp.target_position,
+            Role::ActualPosition if self.st.cl.active => self.encoder_position(),
+            Role::ActualPosition => ramp.position,
+            // TMC428: in position mode the ramp sets v_target itself (see `hardware_target_speed`).
+            Role::TargetSpeed if ramp.mode == Mode::Position && self.spec.driver == Driver::Tmc428Tmc24x => {
+                self.hardware_target_speed()
+            }
+            Role::TargetSpeed => self.pps_to_units(ramp.target_velocity),
+            Role::ActualSpeed => self.pps_to_units(ramp.velocity()),
+            Role::PositionReached => i32::from(self.target_reached()),
+            Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
+            // TMC428: 2 velocity; in position mode what was written, 0 (ramp) or 1 (soft).
+            Role::RampModeTmc428 if ramp.mode == Mode::Velocity => 2,
+            Role::RampModeTmc428 => i32::from(self.st.axis[i] == 1),
+            Role::HomeSwitch => i32::from(self.switches().2),
+            Role::RightSwitch => i32::from(self.switches().1),
+            Role::LeftSwitch => i32::from(self.switches().0),
+            // AP 180: the current scale 0..31 in use (current / 8, Table 22), after coolStep.
+            Role::ActualCurrent => i32::from(self.current(self.st.now).0 >> 3),
+            Role::LoadValue => i32::from(self.board.load().min(1023)),
+            // AP 207: "cleared automatically when read".
+            Role::ErrorFlags => i32::from(core::mem::take(&mut self.st.error_flags)),
+            Role::DriverFlags => i32::from(self.board.driver_flags()),
+            Role::EncoderPosition => self.encoder_position(),
+            Role::EncoderAbsolute => self.encoder_absolute(),
+            Role::TargetCurrent => self.st.cl.torque.map_or(self.st.axis[i], |(t, _)| t),
+            Role::VelocityReached => i32::from(self.velocity_reached()),
+            Role::StatusWord => self.status_word(),
+            Role::ActualTorqueCurrent => self.actual_torque_current(),
+            Role::I2tSum => self.st.cl.i2t.clamp(0, i64::from(i32::MAX)) as i32,
+            Role::I2tExceedCount => self.st.cl.i2t_count as i32,
+            Role::CurrentScale => i32::from(self.st.cl.scaler),
+            Role::MeasuredVelocity => self.measured_velocity(),
+            Role::EncoderInit => self.st.cl.init.code(),
+            Role::ClosedLoopActive => i32::from(self.st.cl.active),
+            Role::Gamma => self.st.cl.gamma,
+            Role::VirtualPosition => self.st.ramp.position,
+            // Virtual minus actual position in closed loop; in open loop there is no such error.
+            Role::PositionError if self.st.cl.active => self.st.ramp.position.wrapping_sub(self.encoder_position()),
+            Role::PositionError => 0,
+            _ => self.st.axis[i],
+        })
+    }
+
+    /// SAP/AAP: writes an axis parameter (RAM only).
+    pub(crate) fn write_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+        let (i, d) = self.axis_desc(number, |d| d.access.write)?;
+        if !d.range.contains(v) {
+            return Err(ParamError::OutOfRange.into());
+        }
+        self.unlocked_for(d)?;
+        // The encoder's input or scale changes (AP 201, 202, 210, 140 on a closed-loop model): the
+        // position before, read through the old one.
+        let rescales =
+            (matches!(d.setting, Some(Setting::EncoderMode | Setting::EncoderResolution | Setting::MotorFullSteps))
+                || d.role == Role::MicrostepResolution)
+                && self.has_closed_loop();
+        let encoder_before = if rescales { self.encoder_position() } else { 0 };
+        // The pulse divisor (AP 154) scales the TMC428's clock: the velocity registers keep their values
+        // in units, so AP 2 and AP 3 read the same and the speed in microsteps per second follows.
+        let velocities = (d.setting == Some(Setting::PulseDivisor)).then(|| self.velocity_units());
+        match d.role {
+            // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
+            // result to target position" relies on it).
+            Role::TargetPosition => {
+                self.leave_torque_mode();
+                self.st.ramp.move_to(v)
+            }
+            Role::ActualPosition => {
+                self.relabel(v.wrapping_sub(self.st.ramp.position));
+                self.st.ramp.set_position(v)
+            }
+            // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
+            Role::TargetSpeed => self.st.ramp.target_velocity = self.units_to_pps(v),
+            // Listed RW in Table 15: accepted, no effect: the ramp generator owns the actual speed.
+            Role::ActualSpeed => {}
+            Role::RampMode => {
+                self.st.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
+            }
+            // TMC428: 2 velocity mode; 0 ramp and 1 soft are position mode (the soft approach is not
+            // simulated).
+            Role::RampModeTmc428 => {
+                self.st.ramp.mode = if v == 2 { Mode::Velocity } else { Mode::Position };
+                self.st.axis[i] = v;
+            }
+            // In closed loop the step counter moves with the encoder, so that the loop sees no error.
+            Role::EncoderPosition if self.st.cl.active => {
+                let delta = v.wrapping_sub(self.encoder_position());
+                self.st.ramp.set_position(self.st.ramp.position.wrapping_add(delta));
+                self.relabel(delta);
+            }
+            Role::EncoderPosition => self.set_encoder(v),
+            Role::TargetCurrent => {
+                self.set_torque(v)?;
+                self.st.axis[i] = v;
+            }
+            Role::EncoderInit => self.start_encoder_init(v)?,
+            Role::ClearI2t => self.st.cl.i2t_exceeded = false,
+            Role::I2tExceedCount => self.st.cl.i2t_count = v as u32,
+            Role::EncoderPrescaler => {
+                let now_value = self.encoder_position();
+                self.st.axis[i] = v;
+                self.set_encoder(now_value);
+            }
+            _ => self.st.axis[i] = v,
+        }
+        // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
+        // range), the closed loop switched on or off, the encoder's input or scale. The driver's take
+        // effect at this instant: the board is brought to it first (its clock may lag the module's).
+        if matches!(
+            d.setting,
+            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange | Setting::EncoderMode)
+        ) {
+            self.sync_board(now);
+        }
+        match d.setting {
+            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange) => self.configure_driver(),
+            Some(Setting::ClosedLoop) => self.closed_loop_switched(),
+            _ => {}
+        }
+        if rescales {
+            self.encoder_rescaled(encoder_before, d.setting == Some(Setting::EncoderMode));
+        }
+        if let Some(units) = velocities {
+            self.set_velocity_units(units);
+        }
+
+        Ok(())
+    }
+
+    /// GGP: a global parameter (chapter 5).
+    pub(crate) fn read_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
+        match self.bank(bank)? {
+            Bank::Global => {
+                let (i, d) = self.global_desc(number, |d| d.access.read)?;
+                Ok(match d.role {
+                    Role::ApplicationStatus => self.vm.state.code(),
+                    Role::DownloadMode => i32::from(self.vm.download.is_some()),
+                    Role::ProgramCounter => i32::from(self.vm.pc),
+                    // GP 132: "incremented every 1 ms" (§5.1).
+                    Role::TickTimer => {
+                        let (at, base) = self.st.tick_base;
+                        ((u64::from(base) + (now - at).millis()) & 0x7FFF_FFFF) as i32
+                    }
+                    // GP 133: a new random number 0..2^31−1 on every read (xorshift32).
+                    Role::RandomNumber => {
+                        let mut x = self.st.rng;
+                        x ^= x << 13;
+                        x ^= x >> 17;
+                        x ^= x << 5;
+                        self.st.rng = x;
+                        (x & 0x7FFF_FFFF) as i32
+                    }
+                    // The password is never read back: 1 = unlocked, 0 = locked.
+                    Role::Password => i32::from(self.st.unlocked),
+                    _ => self.st.global[i],
+                })
+            }
+            Bank::User => Ok(self.st.user[self.user_index(number)?]),
+            Bank::Interrupt => {
+                let (i, _) = self.spec.interrupt.find(number)?;
+                Ok(self.st.interrupt[i])
+            }
+        }
+    }
+
+    /// SGP/AGP: writes a global parameter; bank 0 A parameters go to the EEPROM at once (§5.1).
+    pub(crate) fn write_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
+        match self.bank(bank)? {
+            Bank::Global => {
+                let (i, d) = self.global_desc(number, |d| d.access.write)?;
+                if !d.range.contains(v) {
+                    return Err(ParamError::OutOfRange.into());
+                }
+                self.unlocked_for(d)?;
+                if d.access.auto {
+                    // Stored first: if the EEPROM refuses, nothing changes.
+                    persist::store_global(&mut self.board, self.spec, i, v)?;
+                }
+                if d.setting == Some(Setting::CodeProtection) {
+                    self.protection_changed(self.st.global[i], v)?;
+                }
+                match d.role {
+                    Role::TickTimer => self.st.tick_base = (now, v as u32),
+                    // A written value seeds the generator (0 would stick; it becomes the start seed).
+                    Role::RandomNumber => self.st.rng = if v == 0 { RNG_SEED } else { v as u32 },
+                    // The password: the model's unlocks the protected parameters, anything else locks them.
+                    Role::Password => self.st.unlocked = self.spec.password == Some(v),
+                    _ => {}
+                }
+                self.st.global[i] = v;
+                Ok(())
+            }
+            Bank::User => {
+                let n = self.user_index(number)?;
+                self.st.user[n] = v;
+                Ok(())
+            }
+            Bank::Interrupt => {
+                let (i, d) = self.spec.interrupt.find(number)?;
+                if !d.range.contains(v) {
+                    return Err(ParamError::OutOfRange.into());
+                }
+                self.st.interrupt[i] = v;
+                self.restart_timer(number, now);
+                Ok(())
+            }
+        }
+    }
+
+    pub(crate) fn coord_index(&self, coord: u8) -> Result<usize, Status> {
+        if coord <= self.spec.coordinates {
+            Ok(usize::from(coord))
+        } else {
+            Err(Status::WrongType)
+        }
+    }
+
+    /// Sets a coordinate; with GP 84 = 1 coordinates 1..20 also go to the EEPROM (§3.7.24).
+    pub(crate) fn write_coordinate(&mut self, coord: u8, v: i32) -> Result<(), Status> {
+        let n = self.coord_index(coord)?;
+        if n > 0 && self.gp_flag(Setting::CoordinateStorage) {
+            persist::store_coordinate(&mut self.board, self.spec, coord, v)?;
+        }
+        self.st.coords[n] = v;
+        Ok(())
+    }
+
+    /// SCO/GCO x, 255: coordinate 0 = all of 1..20, n = that one (§3.7.24, §3.7.25).
+    pub(crate) fn copy_coordinates(&mut self, coord: u8, to_eeprom: bool) -> Result<(), Status> {
+        let n = self.coord_index(coord)? as u8;
+        let range = if n == 0 { 1..=self.spec.coordinates } else { n..=n };
+        for c in range {
+            if to_eeprom {
+                persist::store_coordinate(&mut self.board, self.spec, c, self.st.coords[usize::from(c)])?;
+            } else {
+                self.st.coords[usize::from(c)] = persist::load_coordinate(&mut self.board, self.spec, c)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// AP 209 = value at the reference + counts since × p / 512 (§6.2).
+    pub(crate) fn encoder_position(&mut self) -> i32 {
+        let counts = self.encoder_counts_now();
+        self.encoder_value(counts)
+    }
+
+    /// Sets AP 209 to `v` at the counts the encoder reads now.
+    pub(crate) fn set_encoder(&mut self, v: i32) {
+        let counts = self.encoder_counts_now();
+        self.st.encoder = crate::module::EncoderBase { counts, value: v };
+        // Clear-on-null (AP 210 + 4) looks for zero crossings from here on: not between a reading from
+        // before (taken when it was last on, perhaps long ago) and the next one, which would depend on
+        // when that next one is taken.
+        self.st.last_counts = counts;
+    }
+
+    /// AP 215: the absolute single-turn value 0..counts per revolution − 1 (0..1023 on the PD28-1021),
+    /// independent of the prescaler (§6.2).
+    pub(crate) fn encoder_absolute(&mut self) -> i32 {
+        self.encoder_counts_now().rem_euclid(i64::from(self.counts_per_rev())) as i32
+    }
+
+    /// GIO 11, 0: the encoder is within 1/256 of a revolution (±4 counts, ±1.4° on the PD28-1021) of its
+    /// absolute zero (our tolerance; §6.2 gives none).
+    pub(crate) fn encoder_near_zero(&mut self) -> bool {
+        let per_rev = self.counts_per_rev() as i32;
+        let tolerance = (per_rev / 256).max(1);
+        let a = self.encoder_absolute();
+        !(tolerance..=per_rev - tolerance).contains(&a)
+    }
+
+    /// A bank 2 user variable's index: 0..the model's user variables (else 3, wrong type).
+    pub(crate) fn user_index(&self, number: u8) -> Result<usize, Status> {
+        let n = usize::from(number);
+        if n < usize::from(self.spec.user_variables) {
+            Ok(n)
+        } else {
+            Err(ParamError::Unknown.into())
+        }
+    }
+
+    /// Refuses a write or store of a password-protected parameter while the module is locked (status 8).
+    pub(crate) fn unlocked_for(&self, d: &ParamDesc) -> Result<(), Status> {
+        if d.access.protected && !self.st.unlocked {
+            Err(ParamError::Protected.into())
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// A parameter of `table` that allows what `allowed` asks (read, write, store, ...): unknown → 3, not
+/// permitted → 3 (see [`ParamError`]).
+fn permitted(
+    table: &crate::param::Table,
+    number: u8,
+    allowed: impl Fn(&ParamDesc) -> bool,
+) -> Result<(usize, &'static ParamDesc), Status> {
+    let (i, d) = table.find(number)?;
+    if allowed(d) {
+        Ok((i, d))
+    } else {
+        Err(ParamError::NotPermitted.into())
+    }
+}
