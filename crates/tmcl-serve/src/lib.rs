@@ -28,6 +28,14 @@
 //! dropped. Stopping removes the links (a pty link only while it still points at this server's pty) and
 //! their lock files, and flushes every EEPROM file.
 //!
+//! # Several links
+//!
+//! [`Options::links`] may name up to four links (ptys and TCP ports mixed). Each is a host interface of its
+//! own on every module (its own framer, ASCII line and replies; `tmcl_core::Module::link_port`), so a
+//! script on one link and the workbench on another never see each other's replies; they share the module.
+//! `wire_timing` times one wire and takes one link. A backlog of frames on any link is answered in order,
+//! one reply per frame (see [`bus`]).
+//!
 //! # Layers
 //!
 //! - [`pty`]: a pseudo-terminal behind a symlink, with its lock file `LINK.lock` (one server per link).

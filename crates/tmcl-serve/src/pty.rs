@@ -124,28 +124,6 @@ impl Pty {
     }
 }
 
-impl Pty {
-    /// The other processes that have this pty's slave side open (Linux: `/proc/*/fd`; not this process),
-    /// as (PID, name). More than one means hosts that will read each other's replies.
-    pub fn openers(&self) -> Vec<(u32, String)> {
-        let me = std::process::id();
-        let Ok(procs) = std::fs::read_dir("/proc") else { return Vec::new() };
-        let mut found = Vec::new();
-        for entry in procs.flatten() {
-            let Some(pid) = entry.file_name().to_str().and_then(|n| n.parse::<u32>().ok()) else { continue };
-            if pid == me {
-                continue;
-            }
-            let Ok(fds) = std::fs::read_dir(entry.path().join("fd")) else { continue };
-            if fds.flatten().any(|fd| std::fs::read_link(fd.path()).is_ok_and(|t| t == self.device)) {
-                let name = std::fs::read_to_string(entry.path().join("comm")).unwrap_or_default();
-                found.push((pid, name.trim().to_string()));
-            }
-        }
-        found
-    }
-}
-
 /// The lock that makes one server the owner of LINK: the file `LINK.lock` beside it, holding the owner's PID,
 /// with an exclusive `flock` on it. The kernel drops the `flock` when its owner exits, however it exits (kill
 /// -9 too), so a held lock always means a live owner, and a LINK whose lock is free is stale.

@@ -437,7 +437,8 @@ impl Server {
 /// Warns (on stderr, once per change) when more than one other process has the pty open: hosts that open a
 /// port without a lock (pyserial's default) would read each other's replies.
 fn warn_intruders(pty: &Pty, warned: &mut Vec<(u32, String)>) {
-    let mut now = pty.openers();
+    // Not this process (which keeps the pty open), nor the server LINK.lock names (this one again).
+    let mut now: Vec<(u32, String)> = tmcl_host::openers(&pty.link).into_iter().map(|o| (o.pid, o.name)).collect();
     now.sort();
     if now.len() > 1 && now != *warned {
         let names: Vec<String> = now.iter().map(|(pid, name)| format!("PID {pid} ({name})")).collect();
