@@ -79,6 +79,9 @@ cleanup() {
     exec 4>&- 2>/dev/null || true
     if [[ -n "$pts" && -L "$link" && "$(readlink "$link")" == "$pts" ]]; then
         rm -f "$link"
+        if [[ -n "$holder_pid" && "$(cat "$link.lock" 2>/dev/null)" == "$holder_pid" ]]; then
+            rm -f "$link.lock"
+        fi
     fi
     rm -rf "$work"
 }
@@ -149,6 +152,9 @@ fi
 while [[ -n "$(timeout 0.3 dd bs=64 count=1 status=none <"$pts" 2>/dev/null | od -An -tx1 || true)" ]]; do :; done
 ln -sfn "$pts" "$link.tmp.$$"
 mv -Tf "$link.tmp.$$" "$link"
+# As `tmcl serve` does: LINK.lock names the process that holds the pty for the link, so that hosts do not
+# count it as another host (`tmcl --port LINK`), and know when it is gone.
+echo "$holder_pid" >"$link.lock"
 echo "serving $name at address 1 on $link"
 set +e
 wait "$qemu_pid"

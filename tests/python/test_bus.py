@@ -451,7 +451,8 @@ def test_without_wire_timing_the_line_is_fast(line):
 # -- tmcl host commands per address ----------------------------------------------------------------
 
 def tmcl(tmcl_bin, *args, timeout=30):
-    return subprocess.run([str(tmcl_bin), *args], capture_output=True, text=True, timeout=timeout,
+    # --shared: these tests keep a raw line open beside `tmcl` on purpose.
+    return subprocess.run([str(tmcl_bin), "--shared", *args], capture_output=True, text=True, timeout=timeout,
                           stdin=subprocess.DEVNULL)
 
 

@@ -93,3 +93,45 @@ def test_an_interrupted_download_says_how_much_was_stored(tmcl_bin, tmp_path):
     listener.close()
     assert r.returncode != 0, r
     assert "download interrupted: 5 of 12 instructions stored (addresses 0..5)" in r.stderr, r.stderr
+
+
+def test_a_non_locking_opener_is_detected_and_named(pty_server, tmcl_bin):
+    """pyserial opens ports without a lock (and as root TIOCEXCL keeps nobody out): `tmcl` looks for other
+    processes that have the tty open (/proc/*/fd) and refuses, naming them; --shared goes on anyway."""
+    import serial
+
+    link = str(pty_server.link)
+    holder = serial.Serial(link, 115200)  # no exclusive=True: no flock, no TIOCEXCL
+    try:
+        r = tmcl(tmcl_bin, "get", "--port", link, "ap", "4")
+        assert r.returncode == 3, r
+        assert f"PID {os.getpid()} (" in r.stderr and "--shared" in r.stderr, r.stderr
+        r = tmcl(tmcl_bin, "--shared", "get", "--port", link, "ap", "4")
+        assert (r.returncode, r.stdout.strip()) == (0, "ap 4 = 51200"), r
+    finally:
+        holder.close()
+    # The server itself, which keeps its pty open, is never counted.
+    assert tmcl(tmcl_bin, "get", "--port", link, "ap", "4").returncode == 0
+
+
+def test_the_server_warns_about_two_hosts_on_one_link(pty_server):
+    """Two processes with the same link open (pyserial, no lock): the server names both on stderr."""
+    import sys
+    import time
+
+    import serial
+
+    from tmcltest import wait_until
+
+    link = str(pty_server.link)
+    other = subprocess.Popen([sys.executable, "-c",
+                              f"import serial, time; s = serial.Serial({link!r}); time.sleep(30)"])
+    try:
+        with serial.Serial(link, 115200):
+            wait_until(lambda: "warning" in pty_server.stderr(), 10, what="the server's warning")
+        text = pty_server.stderr()
+        assert f"PID {os.getpid()}" in text and f"PID {other.pid}" in text, text
+        assert "--pty A --pty B" in text, text
+    finally:
+        other.kill()
+        other.wait(10)

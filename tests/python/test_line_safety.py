@@ -112,7 +112,8 @@ def test_second_host_on_a_pty_is_refused(pty_server, tmcl_bin):
     try:
         r = tmcl(tmcl_bin, "--port", link, "get", "ap", "4")
         assert r.returncode == 3, (r.stdout, r.stderr)
-        assert "is in use" in r.stderr and "another program" in r.stderr, r.stderr
+        assert "is in use" in r.stderr, r.stderr
+        assert f"PID {os.getpid()}" in r.stderr, "the holder named"
     finally:
         holder.close()
     # A `tmcl` host holds it: a second one is refused while the first waits for its (missing) reply.

@@ -140,7 +140,9 @@ class Server:
                 assert self.module_address == self.expect_address, line
         elif self.expect_addresses is not None:
             assert self.addresses == self.expect_addresses, line
-        self.address = m.group(2)
+        # Several links (`--pty A --pty B --tcp ADDR`) are listed "A and B and ADDR": the first is this one.
+        self.links = m.group(2).split(" and ")
+        self.address = self.links[0]
         if self.kind == "pty":
             assert self.address == str(self.link), line
             assert self.link.is_symlink(), f"{self.link} is not a symlink"

@@ -26,6 +26,11 @@ pub struct Connection {
     /// Serial port or pty to use, e.g. /dev/ttyUSB0 or the LINK made by `tmcl serve --pty LINK`.
     #[arg(long, global = true, value_name = "PATH", conflicts_with = "tcp", help_heading = "Connection")]
     pub port: Option<String>,
+    /// Use the port even when other processes have it open (without a lock, as pyserial and pytrinamic
+    /// open ports). Without it such a port is refused, naming them: two hosts on one line read each other's
+    /// replies.
+    #[arg(long, global = true, help_heading = "Connection")]
+    pub shared: bool,
     /// Baud rate of the serial port (ignored by ptys).
     #[arg(long, global = true, value_name = "N", default_value_t = 9600, help_heading = "Connection")]
     pub baud: u32,
@@ -247,7 +252,8 @@ impl Connection {
     /// Opens the one connection the options name.
     pub(crate) fn open(&self) -> Result<HostClient, CliError> {
         let transport: Box<dyn Transport + Send> = match (&self.port, &self.tcp) {
-            (Some(path), None) => Box::new(SerialTransport::open(path, self.baud)?),
+            (Some(path), None) if self.shared => Box::new(SerialTransport::open(path, self.baud)?),
+            (Some(path), None) => Box::new(SerialTransport::open_alone(path, self.baud)?),
             (None, Some(addr)) => Box::new(TcpTransport::connect(addr)?),
             (Some(_), Some(_)) => return Err(CliError::Usage("give either --port or --tcp, not both".into())),
             (None, None) => {

@@ -110,7 +110,7 @@ fn hoist_connection_options(args: Vec<OsString>) -> Vec<OsString> {
                 leading.push(args[i + 1].clone());
                 i += 1;
             }
-        } else if arg == "--json" {
+        } else if arg == "--json" || arg == "--shared" {
             leading.push(args[i].clone());
         } else {
             break;

@@ -25,9 +25,15 @@ pub struct ServeArgs {
     /// LINK another live server holds is refused (exit code 3, naming that server's PID); a LINK left behind
     /// by a server that died (kill -9) is replaced. On exit LINK and LINK.lock are removed, LINK only if it
     /// still points at this server's pty.
-    #[arg(long, value_name = "LINK", conflicts_with = "tcp", required_unless_present_any = ["tcp", "ethercat"])]
-    pub pty: Option<PathBuf>,
-    /// Serve on a TCP port instead, HOST:PORT (e.g. localhost:2323 or 127.0.0.1:2323; a bare PORT means
+    ///
+    /// Give --pty (and --tcp) several times, up to 4 links in all, for several hosts at once (a script and
+    /// the workbench): each link is a host interface of its own on every module (its own framer, ASCII line
+    /// and replies), so no host ever sees another's replies. The module is one: what one host sets, the
+    /// others read. On a bus each link reaches every module, as if each module had that many ports wired
+    /// to separate hosts (see docs/decisions.md).
+    #[arg(long, value_name = "LINK", required_unless_present_any = ["tcp", "ethercat"])]
+    pub pty: Vec<PathBuf>,
+    /// Serve on a TCP port, HOST:PORT (e.g. localhost:2323 or 127.0.0.1:2323; a bare PORT means
     /// 127.0.0.1; port 0 picks a free one).
     ///
     /// HOST may be a name; of its addresses IPv4 ones are tried first. One client at a time, as one host on a
@@ -35,7 +41,7 @@ pub struct ServeArgs {
     /// a byte, and `tmcl` reports the port in use by another client. A port another program listens on is
     /// refused (exit code 3).
     #[arg(long, value_name = "HOST:PORT")]
-    pub tcp: Option<String>,
+    pub tcp: Vec<String>,
     /// The address a module with a new EEPROM answers at (default 1; a module keeps the address stored in
     /// its EEPROM, global parameter 66).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..))]
@@ -79,8 +85,10 @@ pub struct ServeArgs {
 struct Serving {
     /// The EtherCAT interface, if any.
     ethercat: Option<String>,
-    /// Where hosts reach the modules (the link's path, or the bound TCP address).
+    /// Where hosts reach the modules (the first link's path, or the bound TCP address).
     link: Option<String>,
+    /// Every link, in the order given (pty links first, then TCP).
+    links: Vec<String>,
     /// The modules.
     serving: Vec<ServedModule>,
 }
@@ -116,17 +124,18 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
         signal_hook::flag::register(signal, std::sync::Arc::clone(&stop))
             .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
     }
-    let place = server.links().first().map(ToString::to_string);
+    let places: Vec<String> = server.links().iter().map(ToString::to_string).collect();
+    let place = places.first().cloned();
     let iface = server.ethercat_interface().map(str::to_string);
     let modules = server.modules();
     if json {
         let serving = modules.iter().map(|m| ServedModule { address: m.address, model: m.model.clone() }).collect();
-        let line = Serving { ethercat: iface, link: place, serving };
+        let line = Serving { ethercat: iface, link: place, links: places, serving };
         println!("{}", serde_json::to_string(&line).map_err(|e| CliError::Io(e.to_string()))?);
     } else {
         let names: Vec<String> =
             modules.iter().map(|ModuleInfo { name, address, .. }| format!("{name} at address {address}")).collect();
-        let mut on: Vec<String> = place.into_iter().collect();
+        let mut on: Vec<String> = places;
         on.extend(iface.map(|i| format!("EtherCAT {i}")));
         println!("{}", format_args!("serving {} on {}", names.join(", "), on.join(" and ")));
     }

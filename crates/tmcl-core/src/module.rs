@@ -97,8 +97,8 @@ pub struct State {
     /// running program's accumulator, X register or flags (§8.5).
     pub(crate) host_regs: Registers,
     pub(crate) event: EventRequest,
-    /// Per host interface: framer, outbox, ASCII line.
-    pub(crate) ports: [Port; MAX_INTERFACES],
+    /// Per host interface: framer, outbox, ASCII line; then the extra host links (`host-links`).
+    pub(crate) ports: [Port; crate::iface::PORTS],
     /// The interface whose command runs (a 138 event goes back there).
     pub(crate) asking_port: u8,
     /// Time up to which motion has been simulated (tick aligned).
@@ -463,6 +463,12 @@ impl<B: Board> Module<B> {
         if self.gp(Setting::AsciiMode).unwrap_or(0) & 1 == 1 {
             if let Some(port) = spec.interfaces.iter().position(|i| i.ascii) {
                 self.enter_ascii(port);
+                // The extra host links are the first interface again.
+                if port == 0 {
+                    for link in 1..crate::iface::HOST_LINKS {
+                        self.enter_ascii(MAX_INTERFACES + link - 1);
+                    }
+                }
             }
         }
     }

@@ -79,10 +79,78 @@ impl SerialTransport {
         Ok(transport)
     }
 
+    /// As [`SerialTransport::open`], but first refuses a port that another process has open, lock or no
+    /// lock: pyserial (and so pytrinamic) opens ports without one, and as root `TIOCEXCL` keeps nobody out,
+    /// so two hosts would read each other's replies. The server that made a `tmcl serve` link (the PID in
+    /// `LINK.lock`) is not counted. On Linux only (`/proc/*/fd`); elsewhere nothing is checked.
+    ///
+    /// # Errors
+    ///
+    /// [`HostError::InUse`] naming the processes (PID and name), and those of [`SerialTransport::open`].
+    pub fn open_alone(path: &str, baud: u32) -> Result<SerialTransport, HostError> {
+        check_link(std::path::Path::new(path))?;
+        let others = openers(std::path::Path::new(path));
+        if !others.is_empty() {
+            let names: Vec<String> = others.iter().map(|o| format!("PID {} ({})", o.pid, o.name)).collect();
+            return Err(HostError::InUse {
+                target: path.to_owned(),
+                detail: format!(
+                    "{} {} it open; two hosts on one line read each other's replies. Give each host a link of \
+                     its own (`tmcl serve --pty A --pty B`, or `tmcl share` for a real module), or --shared to \
+                     go on anyway",
+                    names.join(", "),
+                    if others.len() == 1 { "has" } else { "have" }
+                ),
+            });
+        }
+        SerialTransport::open(path, baud)
+    }
+
     /// The port's name as given to [`SerialTransport::open`].
     pub fn name(&self) -> Option<String> {
         self.port.name()
     }
+}
+
+/// A process that has a port open.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Opener {
+    /// Its process ID.
+    pub pid: u32,
+    /// Its name (`/proc/PID/comm`).
+    pub name: String,
+}
+
+/// The other processes that have the device behind `path` open (Linux: `/proc/*/fd`): not this process,
+/// and not the server that made the link (the PID in `LINK.lock`). Empty where `/proc` is not there, and
+/// for processes whose descriptors this user may not read.
+pub fn openers(path: &std::path::Path) -> Vec<Opener> {
+    let Ok(device) = std::fs::canonicalize(path) else { return Vec::new() };
+    let server = path
+        .file_name()
+        .map(|name| {
+            let mut lock = name.to_os_string();
+            lock.push(".lock");
+            path.with_file_name(lock)
+        })
+        .and_then(|lock| std::fs::read_to_string(lock).ok())
+        .and_then(|text| text.trim().parse::<u32>().ok());
+    let me = std::process::id();
+    let Ok(procs) = std::fs::read_dir("/proc") else { return Vec::new() };
+    let mut found = Vec::new();
+    for entry in procs.flatten() {
+        let Some(pid) = entry.file_name().to_str().and_then(|n| n.parse::<u32>().ok()) else { continue };
+        if pid == me || Some(pid) == server {
+            continue;
+        }
+        let Ok(fds) = std::fs::read_dir(entry.path().join("fd")) else { continue };
+        let holds = fds.flatten().any(|fd| std::fs::read_link(fd.path()).is_ok_and(|target| target == device));
+        if holds {
+            let name = std::fs::read_to_string(entry.path().join("comm")).unwrap_or_default().trim().to_string();
+            found.push(Opener { pid, name });
+        }
+    }
+    found
 }
 
 /// Refuses the link of a `tmcl serve` that has exited. The server writes its PID into `LINK.lock` beside

@@ -44,13 +44,13 @@ pub struct Node {
     inbound: VecDeque<(Instant, u8)>,
     /// Bytes the module has not taken yet (without wire timing): it takes a frame when the reply to the
     /// one before has gone out.
-    backlog: VecDeque<u8>,
+    backlog: Vec<VecDeque<u8>>,
 }
 
 impl Node {
     /// A module on the line.
     pub fn new(module: Module<SimBoard>, name: String) -> Node {
-        Node { module, name, inbound: VecDeque::new(), backlog: VecDeque::new() }
+        Node { module, name, inbound: VecDeque::new(), backlog: vec![VecDeque::new()] }
     }
 
     /// Time of one byte (10 bits) at the module's baud rate.
@@ -60,11 +60,16 @@ impl Node {
     }
 }
 
+/// Where the modules' bytes go: to host link `link` (0 for the only one).
+pub type LinkSink<'a> = dyn FnMut(usize, &[u8]) + 'a;
+
 /// The line and the modules on it.
 pub struct Bus {
     /// The modules, in command-line order.
     pub nodes: Vec<Node>,
     wire_timing: bool,
+    /// How many host links reach the modules.
+    links: usize,
     /// Bytes waiting to go to the host (with wire timing): (byte, its byte time).
     outbound: VecDeque<(u8, Duration)>,
     /// When the line back to the host is free again.
@@ -72,17 +77,36 @@ pub struct Bus {
 }
 
 impl Bus {
-    /// A line with these modules.
-    pub fn new(mut nodes: Vec<Node>, wire_timing: bool) -> Bus {
+    /// A line with these modules, reached by one host link.
+    pub fn new(nodes: Vec<Node>, wire_timing: bool) -> Bus {
+        Bus::with_links(nodes, wire_timing, 1)
+    }
+
+    /// A line with these modules, reached by `links` host links: each is a host interface of its own on
+    /// every module (its own framer, ASCII line and replies, [`Module::link_port`]), so a host never sees
+    /// the replies to another. Wire timing is for one link (one wire).
+    ///
+    /// # Panics
+    ///
+    /// If `links` is 0, more than the core keeps ([`tmcl_core::iface::HOST_LINKS`]), or more than 1 with wire
+    /// timing.
+    pub fn with_links(mut nodes: Vec<Node>, wire_timing: bool, links: usize) -> Bus {
+        assert!((1..=tmcl_core::iface::HOST_LINKS).contains(&links) && (links == 1 || !wire_timing));
         for node in &mut nodes {
             let timeout = if wire_timing { tmcl_core::iface::INTER_BYTE_TIMEOUT } else { STREAM_RESYNC };
             node.module.set_inter_byte_timeout(Some(timeout));
+            node.backlog = (0..links).map(|_| VecDeque::new()).collect();
         }
-        Bus { nodes, wire_timing, outbound: VecDeque::new(), line_free: Instant::ZERO }
+        Bus { nodes, wire_timing, links, outbound: VecDeque::new(), line_free: Instant::ZERO }
     }
 
-    /// Bytes from the host, written at `now`.
-    pub fn receive(&mut self, now: Instant, bytes: &[u8], sink: &mut dyn FnMut(&[u8])) {
+    /// How many host links reach the modules.
+    pub fn links(&self) -> usize {
+        self.links
+    }
+
+    /// Bytes from the host on link `link`, written at `now`.
+    pub fn receive(&mut self, link: usize, now: Instant, bytes: &[u8], sink: &mut LinkSink<'_>) {
         for i in 0..self.nodes.len() {
             if self.wire_timing {
                 let node = &mut self.nodes[i];
@@ -92,24 +116,28 @@ impl Bus {
                     node.inbound.push_back((start + Duration::from_micros(byte.micros() * (k as u64 + 1)), b));
                 }
             } else {
-                self.nodes[i].backlog.extend(bytes);
-                self.pump(i, now, sink);
+                self.nodes[i].backlog[link].extend(bytes);
+                self.pump(i, link, now, sink);
             }
         }
         self.poll(now, sink);
     }
 
-    /// Drops partial frames everywhere (a host connection ended or began).
-    pub fn reset_link(&mut self) {
+    /// Drops partial frames of link `link` everywhere (a host connection ended or began).
+    pub fn reset_link(&mut self, link: usize) {
         for node in &mut self.nodes {
-            node.module.reset_link();
-            node.inbound.clear();
-            node.backlog.clear();
+            if let Some(port) = node.module.link_port(link) {
+                node.module.reset_port(port);
+            }
+            if link == 0 {
+                node.inbound.clear();
+            }
+            node.backlog[link].clear();
         }
     }
 
     /// Advances every module and the line to `now`; returns the next deadline.
-    pub fn poll(&mut self, now: Instant, sink: &mut dyn FnMut(&[u8])) -> Option<Instant> {
+    pub fn poll(&mut self, now: Instant, sink: &mut LinkSink<'_>) -> Option<Instant> {
         let mut next: Option<Instant> = None;
         let mut consider = |t: Option<Instant>| {
             if let Some(t) = t {
@@ -125,47 +153,51 @@ impl Bus {
                 self.nodes[i].inbound.pop_front();
                 let mut out = Vec::new();
                 self.nodes[i].module.receive(t, &[b], &mut |x: &[u8]| out.extend_from_slice(x));
-                self.emit(i, t, &out, sink);
+                self.emit(i, 0, t, &out, sink);
             }
-            let mut out = Vec::new();
-            let mut deadline = self.nodes[i].module.poll(now, &mut |x: &[u8]| out.extend_from_slice(x));
-            self.emit(i, now, &out, sink);
-            if !self.nodes[i].backlog.is_empty() && self.pump(i, now, sink) {
+            for link in 0..self.links {
+                let Some(port) = self.nodes[i].module.link_port(link) else { continue };
                 let mut out = Vec::new();
-                deadline = self.nodes[i].module.poll(now, &mut |x: &[u8]| out.extend_from_slice(x));
-                self.emit(i, now, &out, sink);
+                let mut deadline = self.nodes[i].module.poll_port(port, now, &mut |x: &[u8]| out.extend_from_slice(x));
+                self.emit(i, link, now, &out, sink);
+                if !self.nodes[i].backlog[link].is_empty() && self.pump(i, link, now, sink) {
+                    let mut out = Vec::new();
+                    deadline = self.nodes[i].module.poll_port(port, now, &mut |x: &[u8]| out.extend_from_slice(x));
+                    self.emit(i, link, now, &out, sink);
+                }
+                consider(deadline);
             }
-            consider(deadline);
             consider(self.nodes[i].inbound.front().map(|(t, _)| *t));
         }
         consider(self.drain(now, sink));
         next
     }
 
-    /// Offers module `i` its backlog; returns whether it took anything.
-    fn pump(&mut self, i: usize, now: Instant, sink: &mut dyn FnMut(&[u8])) -> bool {
+    /// Offers module `i` the backlog of link `link`; returns whether it took anything.
+    fn pump(&mut self, i: usize, link: usize, now: Instant, sink: &mut LinkSink<'_>) -> bool {
         let node = &mut self.nodes[i];
+        let Some(port) = node.module.link_port(link) else { return false };
         let mut out = Vec::new();
         let taken = node
             .module
-            .receive_in_turn(0, now, node.backlog.make_contiguous(), &mut |b: &[u8]| out.extend_from_slice(b));
-        node.backlog.drain(..taken);
-        self.emit(i, now, &out, sink);
+            .receive_in_turn(port, now, node.backlog[link].make_contiguous(), &mut |b: &[u8]| out.extend_from_slice(b));
+        node.backlog[link].drain(..taken);
+        self.emit(i, link, now, &out, sink);
         taken > 0
     }
 
-    /// Bytes not yet taken by the modules (without wire timing), the most any one module holds.
+    /// Bytes not yet taken by the modules (without wire timing), the most any one module holds on a link.
     pub fn backlog(&self) -> usize {
-        self.nodes.iter().map(|n| n.backlog.len()).max().unwrap_or(0)
+        self.nodes.iter().flat_map(|n| n.backlog.iter().map(VecDeque::len)).max().unwrap_or(0)
     }
 
-    /// What module `i` sent at `at`: straight to the host, or onto the timed line.
-    fn emit(&mut self, i: usize, at: Instant, bytes: &[u8], sink: &mut dyn FnMut(&[u8])) {
+    /// What module `i` sent at `at` on link `link`: straight to the host, or onto the timed line.
+    fn emit(&mut self, i: usize, link: usize, at: Instant, bytes: &[u8], sink: &mut LinkSink<'_>) {
         if bytes.is_empty() {
             return;
         }
         if !self.wire_timing {
-            sink(bytes);
+            sink(link, bytes);
             return;
         }
         let byte = self.nodes[i].byte_time();
@@ -176,7 +208,7 @@ impl Bus {
     }
 
     /// Sends the bytes whose transmission has ended by `now`; returns when the next one will have.
-    fn drain(&mut self, now: Instant, sink: &mut dyn FnMut(&[u8])) -> Option<Instant> {
+    fn drain(&mut self, now: Instant, sink: &mut LinkSink<'_>) -> Option<Instant> {
         let mut ready = Vec::new();
         while let Some(&(b, time)) = self.outbound.front() {
             let done = self.line_free + time;
@@ -188,7 +220,7 @@ impl Bus {
             ready.push(b);
         }
         if !ready.is_empty() {
-            sink(&ready);
+            sink(0, &ready);
         }
         self.outbound.front().map(|(_, time)| self.line_free + *time)
     }
@@ -221,12 +253,12 @@ mod tests {
         let mut b = bus(&[1, 2, 3], false);
         for a in 1..=3 {
             let mut out = Vec::new();
-            b.receive(Instant::ZERO, &gap(a), &mut |x: &[u8]| out.extend_from_slice(x));
+            b.receive(0, Instant::ZERO, &gap(a), &mut |_, x: &[u8]| out.extend_from_slice(x));
             let r = Reply::parse(&ReplyFrame::new_checked(&out[..]).unwrap()).unwrap();
             assert_eq!((out.len(), r.module), (9, a));
         }
         let mut out = Vec::new();
-        b.receive(Instant::ZERO, &gap(4), &mut |x: &[u8]| out.extend_from_slice(x));
+        b.receive(0, Instant::ZERO, &gap(4), &mut |_, x: &[u8]| out.extend_from_slice(x));
         assert!(out.is_empty());
     }
 
@@ -235,13 +267,13 @@ mod tests {
         let mut b = bus(&[1, 2], true);
         let mut out = Vec::new();
         let t0 = Instant::from_secs(1);
-        b.receive(t0, &gap(2), &mut |x: &[u8]| out.extend_from_slice(x));
+        b.receive(0, t0, &gap(2), &mut |_, x: &[u8]| out.extend_from_slice(x));
         assert!(out.is_empty());
         // 9 bytes in (9 × 1.041 ms), then 9 bytes out.
         let (mut t, mut done) = (t0, t0);
         while out.len() < 9 {
             done = t;
-            t = b.poll(t, &mut |x: &[u8]| out.extend_from_slice(x)).expect("something pending");
+            t = b.poll(t, &mut |_, x: &[u8]| out.extend_from_slice(x)).expect("something pending");
         }
         let elapsed = (done - t0).micros();
         assert!((18 * 1041..=18 * 1041 + 20).contains(&elapsed), "{elapsed} µs");

@@ -2,8 +2,8 @@
 //! serial port, on a TCP port, and (the TMCM-1310) as an EtherCAT slave on a network interface.
 //!
 //! This is the library behind `tmcl serve`; embed it to run virtual modules inside another program (the
-//! Python package does, for its pytest plugin). The firmware core runs on a [`SimBoard`]; this crate only
-//! moves bytes and wall-clock time between the OS and [`Module::receive`]/[`Module::poll`] (and, for
+//! Python package does, for its pytest plugin). The firmware core runs on a `tmcl_sim::SimBoard`; this crate only
+//! moves bytes and wall-clock time between the OS and `tmcl_core::Module` (`receive_in_turn`, `poll_port`; for
 //! EtherCAT, frames between a packet socket and `tmcl_ethercat::Slave`), and sleeps until the module's next
 //! deadline, the next byte, the next frame or a stop request, whichever comes first.
 //!
@@ -27,6 +27,14 @@
 //! [`Server::spawn`] runs it on a thread of its own and returns a [`RunningServer`] that stops it when
 //! dropped. Stopping removes the links (a pty link only while it still points at this server's pty) and
 //! their lock files, and flushes every EEPROM file.
+//!
+//! # Several links
+//!
+//! [`Options::links`] may name up to four links (ptys and TCP ports mixed). Each is a host interface of its
+//! own on every module (its own framer, ASCII line and replies; `tmcl_core::Module::link_port`), so a
+//! script on one link and the workbench on another never see each other's replies; they share the module.
+//! `wire_timing` times one wire and takes one link. A backlog of frames on any link is answered in order,
+//! one reply per frame (see [`bus`]).
 //!
 //! # Layers
 //!

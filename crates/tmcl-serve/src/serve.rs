@@ -32,6 +32,9 @@ const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(1);
 /// beyond it the oldest are dropped, with a word on stderr.
 const MAX_PENDING: usize = 16 << 20;
 
+/// How often the processes that have a pty link open are looked up (for the warning about two hosts).
+const INTRUDER_CHECK: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// How often the pty's exclusive mode is checked for a host that died holding it.
 const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
 
@@ -82,9 +85,9 @@ impl Stopper {
 /// Modules and links, open and ready to serve (see the crate docs).
 pub struct Server {
     bus: Bus,
-    link: Option<Link>,
-    /// Reply bytes the link did not take yet (its buffer was full): written when it can take them.
-    pending: Vec<u8>,
+    /// The host links, each with the reply bytes it did not take yet (its buffer was full): written when
+    /// it can take them.
+    links: Vec<(Link, Vec<u8>)>,
     ecat: Option<EtherCat>,
     start: std::time::Instant,
     verbose: bool,
@@ -128,8 +131,13 @@ impl Server {
                 ServeError::Config(format!("the {} has no EtherCAT interface (the TMCM-1310 has)", spec.name))
             })?;
         }
-        if links.len() > 1 {
-            return Err(ServeError::Config("one host link per server".into()));
+        if links.len() > tmcl_core::iface::HOST_LINKS {
+            return Err(ServeError::Config(format!("at most {} host links per server", tmcl_core::iface::HOST_LINKS)));
+        }
+        if links.len() > 1 && wire_timing {
+            return Err(ServeError::Config(
+                "--wire-timing times one wire: give one link (--pty or --tcp) with it".into(),
+            ));
         }
         if links.is_empty() && ethercat.is_none() {
             return Err(ServeError::Config("give exactly one of --pty LINK or --tcp HOST:PORT".into()));
@@ -205,7 +213,7 @@ impl Server {
                 )));
             }
         }
-        let bus = Bus::new(nodes, wire_timing);
+        let bus = Bus::with_links(nodes, wire_timing, links.len().max(1));
         // The raw socket first: without the privilege for it, no pty link is made at all.
         let ecat = match ethercat {
             Some(options) => {
@@ -233,18 +241,21 @@ impl Server {
             }
             None => None,
         };
-        let link = match links.into_iter().next() {
-            Some(LinkOptions::Pty(path)) => Some(Link::Pty(Pty::open(&path).map_err(|e| match e {
-                PtyError::Busy { .. } => ServeError::Io(e.to_string()),
-                PtyError::Io(e) => ServeError::Io(format!("cannot open a pty at {}: {e}", path.display())),
-            })?)),
-            Some(LinkOptions::Tcp(addr)) => {
-                let listener = listen(&addr)?;
-                listener.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
-                Some(Link::Tcp { listener, peer: None })
-            }
-            None => None,
-        };
+        let mut opened = Vec::new();
+        for options in links {
+            let link = match options {
+                LinkOptions::Pty(path) => Link::Pty(Pty::open(&path).map_err(|e| match e {
+                    PtyError::Busy { .. } => ServeError::Io(e.to_string()),
+                    PtyError::Io(e) => ServeError::Io(format!("cannot open a pty at {}: {e}", path.display())),
+                })?),
+                LinkOptions::Tcp(addr) => {
+                    let listener = listen(&addr)?;
+                    listener.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
+                    Link::Tcp { listener, peer: None }
+                }
+            };
+            opened.push((link, Vec::new()));
+        }
         // What opening wrote (journal headers, a journal reset) goes to disk now, at the start: a file
         // whose blocks are still unwritten when it is closed is flushed by the close (ext4), which would
         // slow the exit instead.
@@ -260,7 +271,7 @@ impl Server {
         wake.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         waker.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         let stopper = Stopper { flag: Arc::new(AtomicBool::new(false)), waker: Arc::new(waker) };
-        Ok(Server { bus, link, pending: Vec::new(), ecat, start, verbose, flush_on_stop: true, notes, stopper, wake })
+        Ok(Server { bus, links: opened, ecat, start, verbose, flush_on_stop: true, notes, stopper, wake })
     }
 
     /// The modules, in line order, with the addresses they answer at.
@@ -278,13 +289,13 @@ impl Server {
 
     /// Where hosts reach the modules.
     pub fn links(&self) -> Vec<LinkInfo> {
-        match &self.link {
-            Some(Link::Pty(pty)) => vec![LinkInfo::Pty { link: pty.link.clone(), device: pty.device.clone() }],
-            Some(Link::Tcp { listener, .. }) => {
-                listener.local_addr().map(|address| LinkInfo::Tcp { address }).into_iter().collect()
-            }
-            None => Vec::new(),
-        }
+        self.links
+            .iter()
+            .filter_map(|(link, _)| match link {
+                Link::Pty(pty) => Some(LinkInfo::Pty { link: pty.link.clone(), device: pty.device.clone() }),
+                Link::Tcp { listener, .. } => listener.local_addr().ok().map(|address| LinkInfo::Tcp { address }),
+            })
+            .collect()
     }
 
     /// The network interface of the EtherCAT slave, if one is served.
@@ -367,20 +378,22 @@ impl Server {
         let clock = move || Instant::from_micros(start.elapsed().as_micros() as u64);
         let verbose = self.verbose;
         if verbose {
-            if let Some(Link::Pty(pty)) = &self.link {
-                eprintln!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
+            for (link, _) in &self.links {
+                if let Link::Pty(pty) = link {
+                    eprintln!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
+                }
             }
         }
-        let (bus, link, ecat, pending) = (&mut self.bus, &mut self.link, &mut self.ecat, &mut self.pending);
+        let (bus, links, ecat) = (&mut self.bus, &mut self.links, &mut self.ecat);
         let mut buf = [0u8; 4096];
         let mut exclusive_checked = std::time::Instant::now();
+        let mut intruders_checked = std::time::Instant::now();
+        // Per link, the hosts last warned about.
+        let mut warned: Vec<Vec<(u32, String)>> = vec![Vec::new(); links.len()];
         while !self.stopper.is_stopped() {
             let now = clock();
-            let mut deadline = {
-                let mut sink = Sender { pending: &mut *pending, verbose, now };
-                bus.poll(now, &mut |bytes: &[u8]| sink.send(bytes))
-            };
-            if let Some(link) = link.as_mut() {
+            let mut deadline = bus.poll(now, &mut |n: usize, bytes: &[u8]| queue(links, n, bytes, verbose, now));
+            for (link, pending) in links.iter_mut() {
                 write_pending(link, pending, verbose, now);
             }
             if let Some(e) = ecat.as_mut() {
@@ -389,17 +402,27 @@ impl Server {
                 log_al(verbose, now, before, e.slave.status());
                 deadline = [deadline, next].into_iter().flatten().min();
             }
-            if let Some(Link::Pty(pty)) = &link {
-                if exclusive_checked.elapsed() >= EXCLUSIVE_CHECK {
-                    pty.release_abandoned_exclusive_mode();
-                    exclusive_checked = std::time::Instant::now();
+            if exclusive_checked.elapsed() >= EXCLUSIVE_CHECK {
+                for (link, _) in links.iter() {
+                    if let Link::Pty(pty) = link {
+                        pty.release_abandoned_exclusive_mode();
+                    }
                 }
+                exclusive_checked = std::time::Instant::now();
+            }
+            if intruders_checked.elapsed() >= INTRUDER_CHECK {
+                for (n, (link, _)) in links.iter().enumerate() {
+                    if let Link::Pty(pty) = link {
+                        warn_intruders(pty, &mut warned[n]);
+                    }
+                }
+                intruders_checked = std::time::Instant::now();
             }
             let sleep = deadline
                 .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
                 .unwrap_or(MAX_SLEEP)
                 .min(MAX_SLEEP);
-            let ready = wait(link.as_ref(), !pending.is_empty(), ecat.as_ref().map(|e| &e.socket), &self.wake, sleep)
+            let ready = wait(links, ecat.as_ref().map(|e| &e.socket), &self.wake, sleep)
                 .map_err(|e| ServeError::Io(format!("poll: {e}")))?;
             if ready.waker {
                 let mut drain = [0u8; 16];
@@ -413,45 +436,81 @@ impl Server {
                     e.files.write_pending();
                 }
             }
-            let Some(link) = link.as_mut().filter(|_| ready.link) else { continue };
-            // The host's bytes first: they are answered before a new TCP client is let in.
-            let received = match &mut *link {
-                Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
-                Link::Tcp { peer, .. } => match peer {
-                    None => 0,
-                    Some(stream) => match stream.read(&mut buf) {
-                        Ok(n) if n > 0 => n,
-                        Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
-                        _ => {
-                            if verbose {
-                                eprintln!("[{}] connection closed", clock());
-                            }
-                            *peer = None;
-                            bus.reset_link();
-                            pending.clear();
-                            0
-                        }
-                    },
-                },
-            };
-            if received > 0 {
-                let now = clock();
-                if verbose {
-                    log_request(now, &buf[..received]);
+            for n in 0..links.len() {
+                if !ready.links.get(n).copied().unwrap_or(false) {
+                    continue;
                 }
-                let mut sink = Sender { pending: &mut *pending, verbose, now };
-                bus.receive(now, &buf[..received], &mut |bytes: &[u8]| sink.send(bytes));
-                write_pending(link, pending, verbose, now);
-            }
-            if let Link::Tcp { listener, peer } = link {
-                let had = peer.is_some();
-                accept_clients(listener, peer, bus, verbose, clock());
-                if had && peer.is_none() {
-                    pending.clear();
+                // The host's bytes first: they are answered before a new TCP client is let in.
+                let received = match &mut links[n].0 {
+                    Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
+                    Link::Tcp { peer, .. } => match peer {
+                        None => 0,
+                        Some(stream) => match stream.read(&mut buf) {
+                            Ok(k) if k > 0 => k,
+                            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
+                            _ => {
+                                if verbose {
+                                    eprintln!("[{}] connection closed", clock());
+                                }
+                                *peer = None;
+                                bus.reset_link(n);
+                                links[n].1.clear();
+                                0
+                            }
+                        },
+                    },
+                };
+                if received > 0 {
+                    let now = clock();
+                    if verbose {
+                        log_request(now, &buf[..received]);
+                    }
+                    bus.receive(n, now, &buf[..received], &mut |k: usize, bytes: &[u8]| {
+                        queue(links, k, bytes, verbose, now)
+                    });
+                    let (link, pending) = &mut links[n];
+                    write_pending(link, pending, verbose, now);
+                }
+                let (link, pending) = &mut links[n];
+                if let Link::Tcp { listener, peer } = link {
+                    let had = peer.is_some();
+                    accept_clients(listener, peer, bus, n, verbose, clock());
+                    if had && peer.is_none() {
+                        pending.clear();
+                    }
                 }
             }
         }
         Ok(())
+    }
+}
+
+/// Warns (on stderr, once per change) when more than one other process has the pty open: hosts that open a
+/// port without a lock (pyserial's default) would read each other's replies.
+fn warn_intruders(pty: &Pty, warned: &mut Vec<(u32, String)>) {
+    // Not this process (which keeps the pty open), nor the server LINK.lock names (this one again).
+    let mut now: Vec<(u32, String)> = tmcl_host::openers(&pty.link).into_iter().map(|o| (o.pid, o.name)).collect();
+    now.sort();
+    if now.len() > 1 && now != *warned {
+        let names: Vec<String> = now.iter().map(|(pid, name)| format!("PID {pid} ({name})")).collect();
+        eprintln!(
+            "tmcl serve: warning: {} has {} hosts at once: {}; they read each other's replies. Give each host a \
+             link of its own (--pty A --pty B)",
+            pty.link.display(),
+            now.len(),
+            names.join(", ")
+        );
+    }
+    *warned = if now.len() > 1 { now } else { Vec::new() };
+}
+
+/// Queues what a module sent on link `n` (logged with -v), for [`write_pending`].
+fn queue(links: &mut [(Link, Vec<u8>)], n: usize, bytes: &[u8], verbose: bool, now: Instant) {
+    if verbose {
+        log_reply(now, bytes);
+    }
+    if let Some((_, pending)) = links.get_mut(n) {
+        pending.extend_from_slice(bytes);
     }
 }
 
@@ -549,69 +608,62 @@ fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
 
 /// What woke [`wait`].
 struct Ready {
-    /// The link has bytes (or a TCP connection waits).
-    link: bool,
+    /// Per link: it has bytes (or a TCP connection waits, or room for replies).
+    links: Vec<bool>,
     /// EtherCAT frames wait.
     ethercat: bool,
     /// A stop was asked for.
     waker: bool,
 }
 
-/// Waits until the link is readable (for TCP: the client, or the listener with a new connection), an
-/// EtherCAT frame arrives, a stop is asked for, or `timeout` passes (with microsecond resolution: byte
-/// times at high baud rates are far below a millisecond).
+/// Waits until a link is readable (for TCP: the client, or the listener with a new connection) or, with
+/// replies waiting for room, writable, an EtherCAT frame arrives, a stop is asked for, or `timeout` passes
+/// (with microsecond resolution: byte times at high baud rates are far below a millisecond).
 fn wait(
-    link: Option<&Link>,
-    writing: bool,
+    links: &[(Link, Vec<u8>)],
     ethercat: Option<&RawSocket>,
     waker: &UnixStream,
     timeout: std::time::Duration,
 ) -> io::Result<Ready> {
-    // With replies waiting for room, the link's writability wakes the loop too.
-    let flags = if writing { PollFlags::POLLIN | PollFlags::POLLOUT } else { PollFlags::POLLIN };
-    let mut fds = match link {
-        Some(Link::Pty(pty)) => vec![PollFd::new(pty.master.as_fd(), flags)],
-        Some(Link::Tcp { listener, peer }) => {
-            let mut fds = vec![PollFd::new(listener.as_fd(), PollFlags::POLLIN)];
-            fds.extend(peer.iter().map(|stream| PollFd::new(stream.as_fd(), flags)));
-            fds
+    let mut fds = Vec::new();
+    let mut owner = Vec::new();
+    for (n, (link, pending)) in links.iter().enumerate() {
+        let flags = if pending.is_empty() { PollFlags::POLLIN } else { PollFlags::POLLIN | PollFlags::POLLOUT };
+        match link {
+            Link::Pty(pty) => fds.push(PollFd::new(pty.master.as_fd(), flags)),
+            Link::Tcp { listener, peer } => {
+                fds.push(PollFd::new(listener.as_fd(), PollFlags::POLLIN));
+                owner.push(n);
+                if let Some(stream) = peer {
+                    fds.push(PollFd::new(stream.as_fd(), flags));
+                } else {
+                    continue;
+                }
+            }
         }
-        None => Vec::new(),
-    };
+        owner.push(n);
+    }
     let link_fds = fds.len();
     fds.extend(ethercat.map(|s| PollFd::new(s.as_fd(), PollFlags::POLLIN)));
     let ecat_fds = fds.len();
     fds.push(PollFd::new(waker.as_fd(), PollFlags::POLLIN));
     let timeout = nix::sys::time::TimeSpec::from_duration(timeout.max(std::time::Duration::from_micros(20)));
-    let none = Ready { link: false, ethercat: false, waker: false };
+    let mut woke = Ready { links: vec![false; links.len()], ethercat: false, waker: false };
     match ppoll(&mut fds, Some(timeout), None) {
-        Ok(0) => Ok(none),
+        Ok(0) => Ok(woke),
         Ok(_) => {
             let ready = |fd: &PollFd| fd.revents().is_some_and(|r| !r.is_empty());
-            Ok(Ready {
-                link: fds[..link_fds].iter().any(ready),
-                ethercat: fds[link_fds..ecat_fds].iter().any(ready),
-                waker: fds[ecat_fds..].iter().any(ready),
-            })
+            for (k, fd) in fds[..link_fds].iter().enumerate() {
+                if ready(fd) {
+                    woke.links[owner[k]] = true;
+                }
+            }
+            woke.ethercat = fds[link_fds..ecat_fds].iter().any(ready);
+            woke.waker = fds[ecat_fds..].iter().any(ready);
+            Ok(woke)
         }
-        Err(nix::Error::EINTR) => Ok(none),
+        Err(nix::Error::EINTR) => Ok(woke),
         Err(e) => Err(io::Error::from_raw_os_error(e as i32)),
-    }
-}
-
-/// Collects what the modules send, for [`write_pending`].
-struct Sender<'a> {
-    pending: &'a mut Vec<u8>,
-    verbose: bool,
-    now: Instant,
-}
-
-impl Sender<'_> {
-    fn send(&mut self, bytes: &[u8]) {
-        if self.verbose {
-            log_reply(self.now, bytes);
-        }
-        self.pending.extend_from_slice(bytes);
     }
 }
 

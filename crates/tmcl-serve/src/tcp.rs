@@ -46,6 +46,7 @@ pub(crate) fn accept_clients(
     listener: &TcpListener,
     peer: &mut Option<TcpStream>,
     bus: &mut Bus,
+    link: usize,
     verbose: bool,
     now: Instant,
 ) {
@@ -59,7 +60,7 @@ pub(crate) fn accept_clients(
                         eprintln!("[{now}] connection closed");
                     }
                     *peer = None;
-                    bus.reset_link();
+                    bus.reset_link(link);
                 }
             }
         }
@@ -78,7 +79,7 @@ pub(crate) fn accept_clients(
         }
         *peer = Some(stream);
         // A partial frame of the previous connection must not join this one's.
-        bus.reset_link();
+        bus.reset_link(link);
     }
 }
 

@@ -58,3 +58,31 @@ fn a_held_link_is_refused_before_anything_is_made() {
     assert!(matches!(second, Err(ServeError::Io(m)) if m.contains("already served")));
     drop(first);
 }
+
+#[test]
+fn several_links_reach_one_module_each_with_its_own_replies() {
+    let links = vec![LinkOptions::Tcp("127.0.0.1:0".into()), LinkOptions::Tcp("127.0.0.1:0".into())];
+    let server = Server::new(Options::new(vec![ModuleOptions::new(pd28())], links)).unwrap().spawn().unwrap();
+    let addresses: Vec<String> = server.links().iter().map(ToString::to_string).collect();
+    assert_eq!(addresses.len(), 2);
+    let mut a = Client::new(TcpTransport::connect(&addresses[0]).unwrap());
+    let mut b = Client::new(TcpTransport::connect(&addresses[1]).unwrap());
+    a.set_axis_parameter(4, 0, 1111).unwrap();
+    assert_eq!(b.get_axis_parameter(4, 0).unwrap(), 1111, "one module");
+    for k in 0..200 {
+        a.set_axis_parameter(6, 0, k % 200).unwrap();
+        assert_eq!(b.get_axis_parameter(4, 0).unwrap(), 1111);
+        assert_eq!(a.get_axis_parameter(6, 0).unwrap(), k % 200);
+    }
+    assert!(a.take_skipped().is_empty() && b.take_skipped().is_empty(), "no foreign reply on either link");
+    drop((a, b));
+    server.stop().unwrap();
+}
+
+#[test]
+fn wire_timing_takes_one_link() {
+    let links = vec![LinkOptions::Tcp("127.0.0.1:0".into()), LinkOptions::Tcp("127.0.0.1:0".into())];
+    let mut options = Options::new(vec![ModuleOptions::new(pd28())], links);
+    options.wire_timing = true;
+    assert!(matches!(Server::new(options), Err(ServeError::Config(m)) if m.contains("one link")));
+}

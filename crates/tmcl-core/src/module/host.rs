@@ -10,13 +10,31 @@ use crate::hal::Board;
 use crate::iface::{Sink, MAILBOX_LEN};
 use crate::model::{AppStatusReply, Framing, InterfaceDesc, Setting};
 use crate::time::{Duration, Instant};
+use tmcl_model::capacity::MAX_INTERFACES;
 use tmcl_wire::{Command, CommandSet, Frame, Instruction, Opcode, Reply, Request, Status, StatusKind, FRAME_LEN};
 
 impl<B: Board> Module<B> {
-    /// The interface `port` of the model, if it has one.
+    /// The interface `port` of the model, if it has one; an extra host link is the first interface again.
     #[inline]
     pub(crate) fn interface(&self, port: usize) -> Option<&'static InterfaceDesc> {
-        self.spec.interfaces.get(port)
+        match self.spec.interfaces.get(port) {
+            Some(iface) => Some(iface),
+            None if (MAX_INTERFACES..crate::iface::PORTS).contains(&port) => self.spec.interfaces.first(),
+            None => None,
+        }
+    }
+
+    /// The port of host link `link` on the first interface: link 0 is the interface itself (port 0); with
+    /// the feature `host-links`, links 1 to [`crate::iface::HOST_LINKS`] - 1 are ports of their own after
+    /// the model's interfaces, each with its own framer, outbox and ASCII line, filtered, paused and
+    /// suppressed as the first interface is. A host on one link never sees a reply to another; a 138 event
+    /// goes to the link that asked for it. `None` beyond the links the core keeps.
+    pub fn link_port(&self, link: usize) -> Option<usize> {
+        match link {
+            0 => Some(0),
+            n if n < crate::iface::HOST_LINKS => Some(MAX_INTERFACES + n - 1),
+            _ => None,
+        }
     }
 
     /// Feeds bytes that arrived at `now` on the primary interface (see [`Module::receive_on`]).

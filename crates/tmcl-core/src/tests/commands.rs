@@ -352,5 +352,8 @@ fn reference_search_status_idle() {
 
 #[test]
 fn state_fits_in_4_kib() {
-    assert!(core::mem::size_of::<crate::State>() <= 4096, "{}", core::mem::size_of::<crate::State>());
+    // The extra host links of a simulator (feature `host-links`) are not the microcontroller's to carry.
+    let extra = (crate::iface::HOST_LINKS - 1) * core::mem::size_of::<crate::iface::Port>();
+    let size = core::mem::size_of::<crate::State>() - extra;
+    assert!(size <= 4096, "{size}");
 }
