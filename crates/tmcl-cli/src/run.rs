@@ -40,6 +40,7 @@ Trace columns (--trace OUT.csv), in this order, one row every --every ms and one
   position_error    --drive, closed loop: AP 237 virtual − actual position, µsteps
   scaler            --drive, closed loop: AP 123 current scaler, the current is AP 6 × scaler / 255
   status_word       --drive, closed loop: AP 18 status word, bit field (bit 2 = closed loop)
+  measured_velocity --drive, closed loop: AP 131 velocity measured at the encoder, pps
   velocity_units    TMC428 units: AP 3 in the module's own unit, a TMC428 velocity -2047..2047
                     (--module pd-113; `velocity` is the same in pps)
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not

@@ -239,7 +239,8 @@ mod tests {
             "virtual_position".into(),
             "position_error".into(),
             "scaler".into(),
-            "status_word".into()
+            "status_word".into(),
+            "measured_velocity".into()
         ]));
         // Every drive column of every model is read from a parameter the model has, by role.
         for spec in tmcl_core::model::MODELS {

@@ -62,6 +62,9 @@ pub enum Quantity {
     Scaler,
     /// `drive`, closed loop: the status word ([`Role::StatusWord`], AP 18), a bit field.
     StatusWord,
+    /// `drive`, closed loop: the velocity measured at the encoder ([`Role::MeasuredVelocity`], AP 131,
+    /// TMCM-1310 manual §3.4), pps; next to the ramp's [`Quantity::Velocity`] it shows the rotor lagging.
+    MeasuredVelocity,
     /// On a model with velocity units of its own (the TMC428 generation): AP 3 ([`Role::ActualSpeed`]) in
     /// them.
     VelocityUnits,
@@ -81,8 +84,13 @@ impl Quantity {
     /// The columns `drive` adds after the user variables (those the model has).
     pub const DRIVE: [Quantity; 4] = [Quantity::Load, Quantity::CurrentScale, Quantity::Encoder, Quantity::Energy];
     /// The columns `drive` adds after [`Quantity::DRIVE`] on a closed-loop model (those it has).
-    pub const CLOSED_LOOP: [Quantity; 4] =
-        [Quantity::VirtualPosition, Quantity::PositionError, Quantity::Scaler, Quantity::StatusWord];
+    pub const CLOSED_LOOP: [Quantity; 5] = [
+        Quantity::VirtualPosition,
+        Quantity::PositionError,
+        Quantity::Scaler,
+        Quantity::StatusWord,
+        Quantity::MeasuredVelocity,
+    ];
 
     /// The column's name in the CSV header.
     pub fn name(self) -> String {
@@ -103,6 +111,7 @@ impl Quantity {
             Quantity::PositionError => "position_error".into(),
             Quantity::Scaler => "scaler".into(),
             Quantity::StatusWord => "status_word".into(),
+            Quantity::MeasuredVelocity => "measured_velocity".into(),
             Quantity::VelocityUnits => "velocity_units".into(),
         }
     }
@@ -115,7 +124,7 @@ impl Quantity {
             | Quantity::Encoder
             | Quantity::VirtualPosition
             | Quantity::PositionError => Unit::Microsteps,
-            Quantity::Velocity => Unit::Pps,
+            Quantity::Velocity | Quantity::MeasuredVelocity => Unit::Pps,
             Quantity::Energy => Unit::AmpereSquaredSeconds,
             Quantity::VelocityUnits => Unit::ModelVelocity,
             Quantity::Accumulator
@@ -140,6 +149,7 @@ impl Quantity {
             Quantity::PositionError => Role::PositionError,
             Quantity::Scaler => Role::CurrentScale,
             Quantity::StatusWord => Role::StatusWord,
+            Quantity::MeasuredVelocity => Role::MeasuredVelocity,
             Quantity::VelocityUnits => Role::ActualSpeed,
             _ => return None,
         })

@@ -5,7 +5,8 @@
 //! with its value):
 //! 1. target (AP 0) and actual (AP 1) position, in µsteps, or in the world's unit (mm on a linear axis,
 //!    degrees on a rotary one) when the run had a world file ([`crate::WorldUnit`]);
-//! 2. actual velocity (AP 3), pps;
+//! 2. actual velocity (AP 3), pps, and on a closed-loop model beside it the velocity measured at the
+//!    encoder (AP 131, TMCM-1310 manual §3.4);
 //! 3. with the drive's columns: the stallGuard2 load value (AP 206, 0..1023); the coolStep current scale
 //!    (AP 180, 0..31), or on a closed-loop model the current scaler (AP 123, /255); the encoder position
 //!    (AP 209) minus the step position (AP 1), lost steps, or on a closed-loop model the position error
@@ -75,6 +76,7 @@ const LOAD: RGBColor = RGBColor(150, 40, 160);
 const SCALE: RGBColor = RGBColor(200, 60, 40);
 const SLIP: RGBColor = RGBColor(60, 60, 60);
 const ENERGY: RGBColor = RGBColor(190, 120, 0);
+const MEASURED: RGBColor = RGBColor(0, 160, 215);
 
 /// What went wrong drawing the plot.
 pub type PlotError = Box<dyn std::error::Error>;
@@ -233,6 +235,8 @@ struct Sample {
     energy: Option<u64>,
     position_error: Option<i32>,
     scaler: Option<i32>,
+    /// Closed loop: the velocity measured at the encoder (AP 131), pps.
+    measured: Option<i32>,
 }
 
 /// Where the panels' samples come from: the trace's columns, read one row at a time (a trace an hour
@@ -275,6 +279,7 @@ struct Columns<'a> {
     energy: Option<&'a Values>,
     error: Option<&'a Values>,
     scaler: Option<&'a Values>,
+    measured: Option<&'a Values>,
 }
 
 impl<'a> Columns<'a> {
@@ -291,6 +296,7 @@ impl<'a> Columns<'a> {
             energy: column(Quantity::Energy),
             error: column(Quantity::PositionError),
             scaler: column(Quantity::Scaler),
+            measured: column(Quantity::MeasuredVelocity),
         }
     }
 }
@@ -319,6 +325,7 @@ impl Samples for Columns<'_> {
             energy: self.energy.and_then(|e| e.get(r)).map(|v| v as u64),
             position_error: at(self.error),
             scaler: at(self.scaler),
+            measured: at(self.measured),
         }
     }
 }
@@ -450,7 +457,14 @@ fn position_panel(samples: &impl Samples, unit: Option<&str>) -> Panel {
 }
 
 fn velocity_panel(samples: &impl Samples) -> Panel {
-    let series = vec![line(samples, |s| s.velocity, SPEED, 1, "actual velocity (AP 3)")];
+    // On a closed loop the velocity measured at the encoder is drawn thin over a wider ramp velocity, so
+    // the ramp stays visible where the two agree.
+    let measured = samples.len() > 0 && samples.at(0).measured.is_some();
+    let mut series = vec![line(samples, |s| s.velocity, SPEED, if measured { 3 } else { 1 }, "actual velocity (AP 3)")];
+    if measured {
+        let measured = |s: &Sample| s.measured.unwrap_or(0);
+        series.push(line(samples, measured, MEASURED, 1, "measured velocity at the encoder (AP 131)"));
+    }
     Panel::new(220, "velocity [pps]", true, None, series)
 }
 
