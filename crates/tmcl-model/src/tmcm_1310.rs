@@ -262,8 +262,11 @@ const TAIL: [ParamDesc; 15] = [
         .with_role(Role::ErrorFlags),
     ParamDesc::plain(208, "Driver error flags", "DriverErrorFlags", r(0, 255), Access::R, 0, P28)
         .with_role(Role::DriverFlags),
+    // In µsteps: the counts are scaled by AP 210 and the motor's full steps and microsteps (AP 202, 140),
+    // so that a closed loop compares it with the step position (docs/tmcm-1310.md).
     ParamDesc::plain(209, "Encoder position", "EncoderPosition", POS, Access::RW, 0, PD)
-        .with_role(Role::EncoderPosition),
+        .with_role(Role::EncoderPosition)
+        .with_unit(Unit::Microsteps),
     ParamDesc::plain(210, "Encoder resolution", "EncoderResolution", r(1, 65535), Access::RWE, 4096, M11)
         .with_setting(Setting::EncoderResolution)
         .with_unit(Unit::EncoderCounts),
