@@ -2,8 +2,8 @@
 //! serial port, on a TCP port, and (the TMCM-1310) as an EtherCAT slave on a network interface.
 //!
 //! This is the library behind `tmcl serve`; embed it to run virtual modules inside another program (the
-//! Python package does, for its pytest plugin). The firmware core runs on a [`SimBoard`]; this crate only
-//! moves bytes and wall-clock time between the OS and [`Module::receive`]/[`Module::poll`] (and, for
+//! Python package does, for its pytest plugin). The firmware core runs on a [`SimBoard`](tmcl_sim::SimBoard); this crate only
+//! moves bytes and wall-clock time between the OS and [`Module::receive`](tmcl_core::Module::receive)/[`Module::poll`](tmcl_core::Module::poll) (and, for
 //! EtherCAT, frames between a packet socket and `tmcl_ethercat::Slave`), and sleeps until the module's next
 //! deadline, the next byte, the next frame or a stop request, whichever comes first.
 //!

@@ -9,13 +9,13 @@
 //!    µsteps; the coils' energy ∫ I² dt, A²·s;
 //! 4. lanes, as on a logic analyser: one per digital input and output that changes (`IN0`, `OUT1`, ...),
 //!    a level line that is high while the signal is, and one per kind of program event (`interrupt 0`,
-//!    `target`, `stop`, ...), a mark at each, labelled with its value where there is room ([`lanes`]).
+//!    `target`, `stop`, ...), a mark at each, labelled with its value where there is room (`lanes`).
 //!
 //! The ranges and units are those of the PD28-1021 TMCL manual's axis parameter table (chapter 4: AP 3 in
 //! pps, AP 180 0..31 meaning 1/32..32/32, AP 206 0..1023, AP 209 in µsteps); the TMCM-1310's closed-loop
 //! parameters (AP 123, 233, 237) as `docs/tmcm-1310.md` decides them, its manual lacking that table.
-//! Every axis has its unit; ticks come from [`axis::Scale`] (a flat series gets a range around it, integer
-//! quantities integer ticks). With few events (up to [`MAX_EVENT_LINES`]) each also gets a vertical line
+//! Every axis has its unit; ticks come from `axis::Scale` (a flat series gets a range around it, integer
+//! quantities integer ticks). With few events (up to `MAX_EVENT_LINES`) each also gets a vertical line
 //! across the panels above the lanes. Long traces are thinned to two points per pixel column (the
 //! column's minimum and maximum, so peaks stay visible). The encoder − steps and position-error panels
 //! draw the minimum-to-maximum envelope over slots of a few pixel columns as a band: a difference that
