@@ -17,6 +17,12 @@ Scenarios:
   cycle      pysoem cycles process data at CYCLE_US for SECONDS: lost working counters
   record     SOEM's bring-up to OP (no motion), a mailbox GAP and the way back to INIT, every frame
              in both directions written to --out (the replay test of tmcl-ethercat reads it)
+  alias      SOEM writes a station alias into the SII (word 4 and the checksum, as eepromtool -walias);
+             the server is killed with -9 and started again on the same --eeprom: the alias is there
+  broadcast  raw BRD/BWR/BRW frames: each comes back with its position (ADP) incremented
+  split      a TMCL request written into SM0 in two frames (two FPWR): answered as in one
+  sigterm    SIGTERM while a master floods the slave with frames: exit times (ms)
+  esi        `tmcl esi` against the SII the running slave serves, read word by word with SOEM
 Exit code 77 (and a {"skip": ...} line) where the namespace cannot have veth links or raw sockets.
 """
 
@@ -85,6 +91,12 @@ class Serve:
         if not line.startswith("serving TMCM-1310 at address 1 on ") or f"EtherCAT {SLAVE_IF}" not in line:
             self.proc.kill()
             raise AssertionError(f"ready line {line!r}; stderr: {self.stderr_path.read_text()}")
+
+    def kill(self) -> None:
+        """kill -9: no chance to clean up."""
+        self.proc.kill()
+        self.proc.wait(timeout=10)
+        self.stderr.close()
 
     def stop(self) -> str:
         self.proc.send_signal(signal.SIGTERM)
@@ -382,9 +394,225 @@ def scenario_record(args) -> None:
     emit(recorded=len(frames), out=args.out)
 
 
+def sii_crc(data: bytes) -> int:
+    """CRC-8 of the SII configuration area (x^8 + x^2 + x + 1, initial 0xFF), as eepromtool computes it."""
+    crc = 0xFF
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+def sii_words(slave, first: int, count: int) -> bytes:
+    """SII words read with SOEM's EEPROM interface (each read gives 2 words)."""
+    out = b""
+    for w in range(first, first + count, 2):
+        out += bytes(slave.eeprom_read(w, 20_000))
+    return out[: 2 * count]
+
+
+def scenario_alias(args) -> None:
+    alias = 0x0BAD
+    serve = Serve(args.tmcl, Path(args.dir))
+    pysoem, master, slave = open_master()
+    config = bytearray(sii_words(slave, 0, 8))
+    assert config[8:10] == bytes(2), f"factory alias {config[8:10].hex()}"
+    # eepromtool -walias: word 4, then the checksum over words 0..6 in word 7.
+    config[8:10] = struct.pack("<H", alias)
+    slave.eeprom_write(4, bytes(config[8:10]), 20_000)
+    slave.eeprom_write(7, bytes([sii_crc(bytes(config[:14])), 0]), 20_000)
+    assert sii_words(slave, 4, 4) == bytes(config[8:10]) + bytes(config[10:14]) + bytes([sii_crc(bytes(config[:14])), 0])
+    before = struct.unpack("<H", bytes(slave._fprd(0x0012, 2)))[0]
+    master.close()
+    serve.kill()  # kill -9: the words must already be on disk
+    serve = Serve(args.tmcl, Path(args.dir))
+    pysoem, master, slave = open_master()
+    after = struct.unpack("<H", bytes(slave._fprd(0x0012, 2)))[0]
+    word4 = struct.unpack("<H", sii_words(slave, 4, 1))[0]
+    crc_ok = sii_words(slave, 7, 1)[0] == sii_crc(sii_words(slave, 0, 7))
+    # The rest of the identity is the model's, as before.
+    assert (slave.man, slave.id, slave.name) == (0x286, 1310, "TMCM-1310")
+    master.close()
+    log = serve.stop()
+    emit(alias_before_restart=before, alias_after_restart=after, sii_word4=word4, crc_ok=crc_ok,
+         restored_logged="SII: 2 words a master wrote" in log)
+
+
+def raw_socket() -> socket.socket:
+    s = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETHERTYPE))
+    s.bind((MASTER_IF, ETHERTYPE))
+    s.settimeout(1)
+    return s
+
+
+def datagram(cmd: int, adp: int, ado: int, data: bytes, more: bool = False) -> bytes:
+    return struct.pack("<BBHHHH", cmd, 0x42, adp, ado, len(data) | (0x8000 if more else 0), 0) + data + bytes(2)
+
+
+def ecat_frame(*datagrams: bytes) -> bytes:
+    body = b"".join(datagrams)
+    return b"\xff" * 6 + b"\x01" * 6 + struct.pack(">H", ETHERTYPE) + struct.pack("<H", len(body) | 0x1000) + body
+
+
+def packet_sockets() -> list[tuple[int, int]]:
+    """(protocol, interface index) of every packet socket in this namespace (/proc/net/packet: 0 = not
+    bound to an interface)."""
+    rows = Path("/proc/net/packet").read_text().splitlines()[1:]
+    return [(int(r.split()[3], 16), int(r.split()[4])) for r in rows]
+
+
+def scenario_broadcast(args) -> None:
+    serve = Serve(args.tmcl, Path(args.dir))
+    # The server's socket is bound to its interface (ecs0), not open on all of them.
+    ecs0 = socket.if_nametoindex(SLAVE_IF)
+    sockets = packet_sockets()
+    s = raw_socket()
+    result = {"server_socket_bound_to": [iface for proto, iface in sockets if proto == ETHERTYPE], "ecs0": ecs0}
+    for name, cmd, adp, ado, data in [("brd", 7, 0, 0x0000, bytes(4)), ("bwr", 8, 0xFFFE, 0x0F80, b"\x00"),
+                                      ("brw", 9, 0x0005, 0x0F80, b"\x00")]:
+        s.send(ecat_frame(datagram(cmd, adp, ado, data)))
+        reply = s.recv(2048)
+        back_adp, = struct.unpack("<H", reply[18:20])
+        wkc, = struct.unpack("<H", reply[-2:])
+        result[name] = {"sent": adp, "back": back_adp, "wkc": wkc}
+        if name == "brd":
+            result["esc"] = reply[26:30].hex()
+    s.close()
+    serve.stop()
+    emit(**result)
+
+
+def scenario_split(args) -> None:
+    serve = Serve(args.tmcl, Path(args.dir))
+    pysoem, master, slave = open_master()
+    assert master.state_check(pysoem.PREOP_STATE, 3_000_000) == pysoem.PREOP_STATE
+    request = bytes([1, 6, 4, 0, 0, 0, 0, 0]) + bytes(SM0_LEN - 8)
+    slave._fpwr(SM0, request[:100])
+    early = slave._fprd(0x080D, 1)[0] & 0x08
+    slave._fpwr(SM0 + 100, request[100:])
+    deadline = time.monotonic() + 2
+    while not slave._fprd(0x080D, 1)[0] & 0x08:
+        assert time.monotonic() < deadline, "no reply in SM1 after a split request"
+    reply = bytes(slave._fprd(SM1, SM1_LEN))
+    # And a whole request after it still works.
+    whole = tmcl(slave, 6, 4)[:2]
+    master.close()
+    serve.stop()
+    emit(reply_before_the_end=bool(early), status=reply[2], value=struct.unpack(">i", reply[4:8])[0],
+         whole=list(whole))
+
+
+def scenario_sigterm(args) -> None:
+    import threading
+
+    times = []
+    for _ in range(args.rounds):
+        serve = Serve(args.tmcl, Path(args.dir))
+        stop = threading.Event()
+        sent = [0]
+
+        def flood() -> None:
+            s = raw_socket()
+            s.settimeout(0.01)
+            frame = ecat_frame(datagram(7, 0, 0x0130, bytes(2)), datagram(4, 0x1001, 0x0010, bytes(64)))
+            while not stop.is_set():
+                try:
+                    s.send(frame)
+                    sent[0] += 1
+                    s.recv(2048)
+                except (socket.timeout, OSError):
+                    pass
+            s.close()
+
+        threads = [threading.Thread(target=flood) for _ in range(2)]
+        for t in threads:
+            t.start()
+        time.sleep(0.5)
+        t0 = time.perf_counter()
+        serve.proc.send_signal(signal.SIGTERM)
+        rc = serve.proc.wait(timeout=10)
+        elapsed = time.perf_counter() - t0
+        stop.set()
+        for t in threads:
+            t.join()
+        serve.stderr.close()
+        assert rc == 0, f"exit {rc}: {serve.stderr_path.read_text()}"
+        times.append(round(elapsed * 1000, 1))
+    emit(exit_ms=times, worst_ms=max(times), frames=sent[0])
+
+
+def scenario_esi(args) -> None:
+    import xml.etree.ElementTree as ET
+
+    esi_path = Path(args.dir) / "tmcm1310.xml"
+    subprocess.run([args.tmcl, "esi", "--module", "tmcm-1310", "-o", str(esi_path)], check=True)
+    root = ET.parse(esi_path).getroot()
+    serve = Serve(args.tmcl, Path(args.dir))
+    pysoem, master, slave = open_master()
+    # The SII as the slave serves it: the fixed words, then the categories up to the end marker.
+    head = sii_words(slave, 0, 0x40)
+    word = lambda w: struct.unpack("<H", head[2 * w:2 * w + 2])[0]
+    dword = lambda w: word(w) | word(w + 1) << 16
+    cats = {}
+    at = 0x40
+    while True:
+        kind, size = struct.unpack("<HH", sii_words(slave, at, 2))
+        if kind == 0xFFFF:
+            break
+        cats[kind] = sii_words(slave, at + 2, size)
+        at += 2 + size
+    master.close()
+    serve.stop()
+    strings = [b""]
+    data = cats[10]
+    pos = 1
+    for _ in range(data[0]):
+        n = data[pos]
+        strings.append(data[pos + 1:pos + 1 + n])
+        pos += 1 + n
+    s = lambda i: strings[i].decode()
+    hexval = lambda t: int(t.strip().removeprefix("#x"), 16)
+    device = root.find("Descriptions/Devices/Device")
+    checks = {}
+    checks["vendor"] = hexval(root.find("Vendor/Id").text) == dword(0x08)
+    t = device.find("Type")
+    checks["product"] = hexval(t.get("ProductCode")) == dword(0x0A)
+    checks["revision"] = hexval(t.get("RevisionNo")) == dword(0x0C)
+    general = cats[30]
+    checks["name"] = device.find("Name").text == s(general[3])
+    checks["group"] = device.find("GroupType").text == s(general[0])
+    sms = device.findall("Sm")
+    syncm = cats[41]
+    checks["sync_managers"] = len(sms) == len(syncm) // 8 and all(
+        hexval(sm.get("StartAddress")) == struct.unpack("<H", syncm[8 * i:8 * i + 2])[0]
+        and int(sm.get("DefaultSize")) == struct.unpack("<H", syncm[8 * i + 2:8 * i + 4])[0]
+        and hexval(sm.get("ControlByte")) == syncm[8 * i + 4]
+        for i, sm in enumerate(sms))
+    types = {"DINT": 4, "UDINT": 7}
+    for element, kind in (("RxPdo", 51), ("TxPdo", 50)):
+        pdo, raw = device.find(element), cats[kind]
+        index, entries, sm, _, name = struct.unpack("<HBBBB", raw[:6])
+        ok = hexval(pdo.find("Index").text) == index and int(pdo.get("Sm")) == sm and pdo.find("Name").text == s(name)
+        xml_entries = pdo.findall("Entry")
+        ok &= len(xml_entries) == entries
+        for k, e in enumerate(xml_entries):
+            e_index, sub, e_name, dtype, bits = struct.unpack("<HBBBB", raw[8 + 8 * k:8 + 8 * k + 6])
+            ok &= (hexval(e.find("Index").text), int(e.find("SubIndex").text), e.find("Name").text,
+                   types[e.find("DataType").text], int(e.find("BitLen").text)) == (e_index, sub, s(e_name), dtype, bits)
+        checks[element] = bool(ok)
+    protocols = {"AoE": 1, "EoE": 2, "CoE": 4, "FoE": 8, "SoE": 16, "VoE": 32}
+    checks["mailbox"] = sum(protocols[c.tag] for c in device.find("Mailbox")) == word(0x1C)
+    checks["config_data"] = bytes.fromhex(device.find("Eeprom/ConfigData").text) == head[:14]
+    checks["bootstrap"] = bytes.fromhex(device.find("Eeprom/BootStrap").text) == head[0x28:0x30]
+    emit(**checks)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scenario", choices=["pysoem", "foe", "roundtrip", "cycle", "record"])
+    p.add_argument("scenario", choices=["pysoem", "foe", "roundtrip", "cycle", "record", "alias", "broadcast", "split",
+                                        "sigterm", "esi"])
+    p.add_argument("--rounds", type=int, default=3, help="sigterm: how many servers to stop")
     p.add_argument("--tmcl", required=True)
     p.add_argument("--dir", required=True)
     p.add_argument("--frames", type=int, default=2000)

@@ -122,3 +122,70 @@ def test_an_interface_that_is_not_there(tmcl_bin, tmp_path):
                           capture_output=True, text=True, timeout=20, cwd=tmp_path)
     assert proc.returncode == 3, proc.stderr
     assert "no-such-if0: no such network interface" in proc.stderr
+
+
+@in_namespace
+def test_the_alias_a_master_writes_survives_kill_9_and_a_restart(tmcl_bin, tmp_path):
+    """SOEM writes station alias 0x0BAD into the SII (word 4 and the checksum, as eepromtool -walias);
+    the server is killed with -9 and started again on the same --eeprom: register 0x0012 holds the
+    alias from power-on, the SII word and its checksum are there, the identity is the model's."""
+    (result,) = run_scenario(tmcl_bin, tmp_path, "alias")
+    assert result["alias_before_restart"] == 0, "the ESC takes the alias at power-on only"
+    assert result["alias_after_restart"] == 0x0BAD, result
+    assert result["sii_word4"] == 0x0BAD and result["crc_ok"], result
+    assert result["restored_logged"], result
+    assert (tmp_path / "tmcm1310.eeprom.sii").exists()
+
+
+@in_namespace
+def test_broadcasts_come_back_with_their_position_incremented(tmcl_bin, tmp_path):
+    """BRD, BWR and BRW from a raw socket: the slave increments ADP (ETG.1000.4) and counts 1; the BRD of
+    registers 0x0000-0x0003 reads an ET1100-0003 (type 0x11, revision 0, build 3). The server's packet
+    socket is bound to its interface (/proc/net/packet)."""
+    (result,) = run_scenario(tmcl_bin, tmp_path, "broadcast")
+    assert result["server_socket_bound_to"] == [result["ecs0"]], "the packet socket is bound to its interface"
+    for name in ("brd", "bwr", "brw"):
+        r = result[name]
+        assert r["back"] == (r["sent"] + 1) & 0xFFFF and r["wkc"] == 1, (name, r)
+    assert result["esc"] == "11000300"
+
+
+@in_namespace
+def test_a_mailbox_written_in_two_frames_is_answered(tmcl_bin, tmp_path):
+    """SOEM writes a GAP 4 into SM0 in two FPWR frames (100 bytes, then 168): the request is taken when
+    its last byte arrives, and the reply is the one a whole write gets."""
+    (result,) = run_scenario(tmcl_bin, tmp_path, "split")
+    assert not result["reply_before_the_end"]
+    assert (result["status"], result["value"]) == (100, 51200), result
+    assert result["whole"] == [100, 51200]
+
+
+@in_namespace
+def test_sigterm_under_a_flood_of_frames_exits_within_100_ms(tmcl_bin, tmp_path):
+    """Two threads send EtherCAT frames as fast as the slave answers; SIGTERM then stops the server
+    (exit code 0) within 100 ms, each of three times."""
+    (result,) = run_scenario(tmcl_bin, tmp_path, "sigterm", "--rounds", "3")
+    assert result["frames"] > 100, result
+    assert result["worst_ms"] < 100, result
+
+
+@in_namespace
+def test_the_esi_file_says_what_the_served_sii_says(tmcl_bin, tmp_path):
+    """`tmcl esi --module tmcm-1310` against the SII the running slave serves, read word by word with
+    SOEM: identity, name and group, SyncManagers, both PDOs with every entry, mailbox protocols, the
+    configuration data and the bootstrap mailbox."""
+    (result,) = run_scenario(tmcl_bin, tmp_path, "esi")
+    assert all(result.values()), result
+    assert set(result) >= {"vendor", "product", "revision", "name", "sync_managers", "RxPdo", "TxPdo", "mailbox"}
+
+
+def test_esi_for_a_model_without_ethercat_is_a_usage_error(tmcl_bin, tmp_path):
+    proc = subprocess.run([str(tmcl_bin), "esi", "--module", "pd28-1021"], capture_output=True, text=True,
+                          timeout=20)
+    assert proc.returncode == 2 and "has no EtherCAT interface" in proc.stderr, proc.stderr
+    out = tmp_path / "x.xml"
+    proc = subprocess.run([str(tmcl_bin), "--json", "esi", "-o", str(out)], capture_output=True, text=True,
+                          timeout=20)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout) == {"module": "tmcm-1310", "file": str(out), "xml": None}
+    assert out.read_text().startswith('<?xml version="1.0" encoding="UTF-8"?>')

@@ -177,7 +177,7 @@ def test_a_velocity_from_the_motion_panel_moves_the_plot(browser, ui):
     wait_until(lambda: by_css(browser, "#st-aspeed").text == "30000 pps", what="the state card")
     shot(browser, "motion")
     csv = wb(browser, "exportCsv()")
-    assert csv.splitlines()[0].startswith("time_s,unix_ms,actual position,target position")
+    assert csv.splitlines()[0].startswith("time [s],unix time [ms],actual position [µsteps],target position [µsteps]")
     assert len(csv.splitlines()) > 5
     svg = wb(browser, "exportSvg()")
     assert svg.startswith("<?xml") and "<polyline" in svg

@@ -14,7 +14,8 @@ Exit codes (the same for every command):
      assembly errors, a world file or model that does not fit
   3  no reply in time, or the port, pty, TCP connection or output failed
   4  a reply arrived but is no answer: damaged (checksum), late, or from another module or request
-  5  `tmcl wait`: the condition did not come true within --within
+  5  `tmcl wait`: the condition did not come true within --within; `tmcl params --diff`: the module
+     differs from the file
 With --json, every command prints one JSON object per result on stdout, and on failure
 {\"error\": MESSAGE, \"kind\": KIND, \"exit_code\": N} (plus \"reply\" for a status error).";
 
@@ -50,6 +51,9 @@ pub(crate) enum CliError {
     /// `tmcl wait` gave up.
     #[error("{0}")]
     NotMet(String),
+    /// The module refused some of several requests (`tmcl params --load`), each reported already.
+    #[error("{0}")]
+    Refused(String),
     /// A program with assembly errors (each printed on stderr with its place; in JSON as `diagnostics`).
     #[error("{file}: {} error{}; nothing written or run", diagnostics.len(), if diagnostics.len() == 1 { "" } else { "s" })]
     Assembly {
@@ -77,6 +81,7 @@ impl CliError {
             CliError::Host(err) => host_exit_code(err),
             CliError::Io(_) | CliError::Output(_) => EXIT_IO,
             CliError::NotMet(_) => EXIT_NOT_MET,
+            CliError::Refused(_) => EXIT_STATUS,
         }
     }
 
@@ -90,6 +95,7 @@ impl CliError {
             CliError::Host(err) => host_kind(err),
             CliError::Io(_) | CliError::Output(_) => "io",
             CliError::NotMet(_) => "not_met",
+            CliError::Refused(_) => "status",
         }
     }
 

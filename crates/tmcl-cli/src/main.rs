@@ -3,12 +3,15 @@
 mod asm;
 mod debug;
 mod error;
+mod esi;
 mod host;
 mod names;
+mod params;
 mod program;
 mod run;
 mod serve;
 mod sim;
+mod twin;
 mod ui;
 mod watch;
 
@@ -50,6 +53,14 @@ enum Command {
     /// editor and debugger (open the printed address in a browser).
     #[command(after_help = EXIT_CODES)]
     Ui(ui::UiArgs),
+    /// Write the ESI file (EtherCAT Slave Information XML) of a module with EtherCAT, as TwinCAT,
+    /// CODESYS or the IgH master read it; it says what the virtual module's SII EEPROM says.
+    #[command(after_help = EXIT_CODES)]
+    Esi(esi::EsiArgs),
+    /// Make the twin of a module for CI: read its parameters and program, write an EEPROM image (and a
+    /// world stub) that `tmcl serve --eeprom` serves as that module.
+    #[command(after_help = EXIT_CODES)]
+    Twin(twin::TwinArgs),
     #[command(flatten)]
     Host(host::HostCommand),
     #[command(flatten)]
@@ -66,6 +77,8 @@ impl Command {
             Command::Run(_) => "run",
             Command::Debug(_) => "debug",
             Command::Ui(_) => "ui",
+            Command::Esi(_) => "esi",
+            Command::Twin(_) => "twin",
             Command::Host(c) => c.name(),
             Command::Program(c) => c.name(),
         }
@@ -75,7 +88,7 @@ impl Command {
 /// The subcommands that talk to a module: they take the connection options.
 const HOST_COMMANDS: &[&str] = &[
     "version", "get", "set", "store", "restore", "send", "scan", "params", "wait", "watch", "download", "upload",
-    "start", "stop", "status", "ui",
+    "start", "stop", "status", "ui", "twin",
 ];
 
 /// Options of the host commands that take a value and may come before the command's name: the connection
@@ -137,6 +150,8 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(args, json),
         Command::Debug(args) => debug::run(args, json),
         Command::Ui(args) => ui::run(args, json),
+        Command::Esi(args) => esi::run(args, json),
+        Command::Twin(args) => twin::run(args, json),
         Command::Host(command) => host::run(command, json),
         Command::Program(command) => program::run(command, json),
     };

@@ -339,10 +339,46 @@ pub struct ParamsArgs {
     /// List the tables only, without reading values (needs no module with --module).
     #[arg(long)]
     pub no_values: bool,
+    /// Save every readable parameter (all motors, banks 0 and 3, the user variables) with the model, version,
+    /// names and units to FILE (TOML).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["load", "diff", "no_values"])]
+    pub save: Option<std::path::PathBuf>,
+    /// Write the settings of a saved FILE to the module: read-only values, state (target and actual
+    /// position, speeds, ...) and the settings that decide how the module is reached are skipped, each
+    /// refusal is reported (exit 1 if any).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["diff", "no_values"])]
+    pub load: Option<std::path::PathBuf>,
+    /// With --load: store each value in the EEPROM too (STAP/STGP), where the parameter can be stored.
+    #[arg(long, requires = "load")]
+    pub store: bool,
+    /// With --load: accept a file of another model, matching parameters by number and refusing those whose
+    /// unit differs.
+    #[arg(long, requires = "load")]
+    pub any_model: bool,
+    /// Show what differs between the module and a saved FILE (exit 5 if anything does).
+    #[arg(long, value_name = "FILE", conflicts_with = "no_values")]
+    pub diff: Option<std::path::PathBuf>,
 }
 
 /// `tmcl params`.
 pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    let action = match (&args.save, &args.load, &args.diff) {
+        (Some(path), _, _) => Some(crate::params::SetAction::Save(path)),
+        (_, Some(path), _) => {
+            Some(crate::params::SetAction::Load { path, store: args.store, any_model: args.any_model })
+        }
+        (_, _, Some(path)) => Some(crate::params::SetAction::Diff(path)),
+        _ => None,
+    };
+    if let Some(action) = action {
+        if !args.conn.given() {
+            return Err(CliError::Usage("parameter sets need a module: give --port or --tcp".into()));
+        }
+        let mut models = Models::new(&args.model)?;
+        let mut client = args.conn.open()?;
+        let model = models.get(&mut client)?;
+        return crate::params::run(action, &mut client, model, json, out);
+    }
     let offline = args.no_values || !args.conn.given();
     let mut models = Models::new(&args.model)?;
     let (model, mut client) = if offline {

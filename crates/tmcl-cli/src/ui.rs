@@ -48,7 +48,18 @@ pub(crate) fn run(args: UiArgs, json: bool) -> Result<(), CliError> {
         (None, Some(addr)) => (format!("TCP {addr}"), tmcl_ui::UNTIMED_RATE),
         (None, None) => unreachable!("Connection::open fails without a link"),
     };
-    let options = tmcl_ui::Options { listen: args.listen, rate: args.rate.unwrap_or(line_rate), model, link_name };
+    // The same way of opening, for when the link goes away and comes back (a restarted `tmcl serve`).
+    let conn = args.conn.clone();
+    let reopen = tmcl_ui::Reopen(std::sync::Arc::new(move || {
+        conn.open().map_err(|e| tmcl_host::HostError::Io(std::io::Error::other(e.to_string())))
+    }));
+    let options = tmcl_ui::Options {
+        listen: args.listen,
+        rate: args.rate.unwrap_or(line_rate),
+        model,
+        link_name,
+        reopen: Some(reopen),
+    };
     let address = args.conn.address;
     tmcl_ui::run(client, options, |addr| {
         let url = format!("http://{addr}/");

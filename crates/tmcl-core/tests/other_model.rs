@@ -101,6 +101,7 @@ const DESC: ModelDesc = ModelDesc {
     inputs: 8,
     outputs: 8,
     interfaces: &INTERFACES,
+    ethercat: None,
     commands: COMMANDS,
     ascii_commands: COMMANDS.ascii_subset(),
     app_status: AppStatusReply::Typed,

@@ -12,7 +12,9 @@
 //!   the SYNC activation, because this ESC advertises no DC (register 0x0008 bit 2 = 0).
 //! - **Process RAM** outside an active SyncManager is plain memory. Inside one, the SyncManager decides
 //!   (manual §3.1): an access must begin at the buffer's start address, otherwise it is denied; it ends
-//!   when the last byte is accessed. In **mailbox** mode a write is denied while the mailbox is full and
+//!   when the last byte is accessed, in the same frame or a later one (the ESC detects a buffer change by
+//!   its first and last byte, ET1100 datasheet section I §8.9, and "the time it takes to read or write
+//!   the mailbox does not matter", §8.2: a master may split a mailbox over several frames). In **mailbox** mode a write is denied while the mailbox is full and
 //!   a read while it is empty; in **buffered** (3-buffer) mode the master always gets the latest complete
 //!   buffer and a write only becomes visible to the application when it reaches the end. A denied access
 //!   leaves data and working counter alone. Access in the wrong direction (reading a buffer the master
@@ -41,12 +43,23 @@ pub const FMMUS: usize = 8;
 /// Number of SyncManagers.
 pub const SMS: usize = 8;
 
+/// ESC type (register 0x0000): 0x11, the ET1100 the TMCM-1310 carries (its manual §3.1).
+pub const ESC_TYPE: u8 = 0x11;
+/// ESC revision (register 0x0001): 0x00, the revision of every ET1100 (Beckhoff EtherCAT slave controller
+/// datasheet, section II "Register description", register 0x0001, with section III, ET1100).
+pub const ESC_REVISION: u8 = 0x00;
+/// ESC build (registers 0x0002–0x0003): 0x0003, the ET1100-0003, the chip version current when the
+/// TMCM-1310's firmware V1.14 was released (the datasheet's section I revision history introduces it
+/// with version 2.1; section II, register 0x0002, "Build": the chip version's number).
+pub const ESC_BUILD: u16 = 0x0003;
+
 /// The run-time state of a SyncManager beside its registers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct SmState {
     /// The application switched it off (PDI control bit 0).
     pdi_off: bool,
-    /// An access began at the start address in the current frame.
+    /// An access began at the start address and has not reached the end yet (in this frame or an
+    /// earlier one).
     open: bool,
     /// Mailbox: the buffer is full.
     full: bool,
@@ -112,7 +125,9 @@ impl Esc {
     pub fn new() -> Esc {
         let mut esc =
             Esc { regs: [0; REGISTER_SPACE], ram: [0; RAM_LEN], sm: [SmState::OFF; SMS], events: Events::default() };
-        esc.regs[usize::from(reg::TYPE)] = 0x11;
+        esc.regs[usize::from(reg::TYPE)] = ESC_TYPE;
+        esc.regs[usize::from(reg::REVISION)] = ESC_REVISION;
+        esc.set_reg16(reg::BUILD, ESC_BUILD);
         esc.regs[usize::from(reg::FMMU_COUNT)] = FMMUS as u8;
         esc.regs[usize::from(reg::SM_COUNT)] = SMS as u8;
         esc.regs[usize::from(reg::RAM_SIZE)] = (RAM_LEN / 1024) as u8;
@@ -262,13 +277,6 @@ impl Esc {
         self.set_reg8(base + reg::sm::PDI_CONTROL, u8::from(s.pdi_off) | u8::from(s.repeat_ack) << 1);
     }
 
-    /// Ends the accesses of a frame: an access that did not reach the end of its buffer is dropped.
-    pub fn end_frame(&mut self) {
-        for s in &mut self.sm {
-            s.open = false;
-        }
-    }
-
     // ---- the application's side of the buffers ----
 
     /// The message in mailbox SyncManager `n` (master writes), if it is full.
@@ -383,7 +391,12 @@ impl Esc {
                 let me = adp == self.reg16(reg::STATION_ADDRESS) || (alias_on && adp == self.reg16(reg::STATION_ALIAS));
                 wkc = self.physical(command, me, ado, d.data_mut());
             }
-            Addressing::Broadcast => wkc = self.physical(command, true, ado, d.data_mut()),
+            Addressing::Broadcast => {
+                // Every slave increments the position of a broadcast too (ETG.1000.4, "Broadcast
+                // read/write": "ADP ... incremented by each slave"), so a master can count slaves in it.
+                d.set_adp(adp.wrapping_add(1));
+                wkc = self.physical(command, true, ado, d.data_mut());
+            }
             Addressing::Logical => {
                 let address = d.address();
                 let (read, write) = self.logical(address, d.data_mut(), command.reads(), command.writes());
@@ -559,7 +572,7 @@ impl Esc {
     }
 
     /// The start-address rule (manual §3.1): an access must begin at the buffer's start; once begun, it
-    /// may go on anywhere in the buffer within the frame.
+    /// may go on anywhere in the buffer, in this frame or a later one, until the last byte ends it.
     fn begin(&mut self, n: usize, at: u32, start: u16) -> bool {
         let s = &mut self.sm[n];
         if at == u32::from(start) {

@@ -5,7 +5,7 @@
 //! - [`frames`]: a slave (brought to INIT, PRE-OP, SAFE-OP or OP first) fed arbitrary frames.
 
 use crate::foe::{FileStore, NoFiles};
-use crate::layout::{INPUTS, MAILBOX_IN, MAILBOX_OUT, OUTPUTS};
+use crate::layout::{MAILBOX_IN, MAILBOX_OUT, OUTPUTS};
 use crate::register as reg;
 use crate::slave::Slave;
 use crate::wire::datagram::{self, Command, Datagram};
@@ -126,9 +126,10 @@ pub fn bring_up<B: Board>(slave: &mut Slave, module: &mut Module<B>, now: Instan
     if target == AlState::PreOp || target == AlState::Boot {
         return;
     }
+    let inputs = slave.sync_managers()[3];
     fpwr(slave, module, now, reg::SM + 16, &sm(OUTPUTS));
-    fpwr(slave, module, now, reg::SM + 24, &sm(INPUTS));
-    // FMMU0: logical 0..8 → SM2 (write); FMMU1: logical 8..56 → SM3 (read).
+    fpwr(slave, module, now, reg::SM + 24, &sm(inputs));
+    // FMMU0: logical 0..8 → SM2 (write); FMMU1: logical 8.. → SM3 (read).
     let fmmu = |logical: u32, s: crate::layout::SmLayout, kind: u8| {
         let mut b = [0u8; 16];
         b[..4].copy_from_slice(&logical.to_le_bytes());
@@ -140,12 +141,13 @@ pub fn bring_up<B: Board>(slave: &mut Slave, module: &mut Module<B>, now: Instan
         b
     };
     fpwr(slave, module, now, reg::FMMU, &fmmu(0, OUTPUTS, 2));
-    fpwr(slave, module, now, reg::FMMU + 16, &fmmu(8, INPUTS, 1));
+    fpwr(slave, module, now, reg::FMMU + 16, &fmmu(8, inputs, 1));
     fpwr(slave, module, now, reg::AL_CONTROL, &[0x04, 0]);
     if target == AlState::SafeOp {
         return;
     }
-    let _ = one(slave, module, &mut NoFiles, now, (Command::Lrw, 0, &[0u8; 56]), &mut []);
+    let image = [0u8; 8 + crate::pdo::MAX_INPUTS_LEN];
+    let _ = one(slave, module, &mut NoFiles, now, (Command::Lrw, 0, &image[..8 + usize::from(inputs.length)]), &mut []);
     fpwr(slave, module, now, reg::AL_CONTROL, &[0x08, 0]);
 }
 

@@ -1,4 +1,5 @@
-//! Where the virtual TMCM-1310 keeps its buffers in the ESC's RAM, and who it says it is.
+//! Where the virtual TMCM-1310 keeps its buffers in the ESC's RAM (who it says it is, and what its
+//! process data hold, is the model's `EtherCatDesc`).
 //!
 //! The manual gives two sets of addresses that cannot both be ESC addresses (§3.3 and §3.4 overlap; see
 //! `docs/ethercat.md` and `docs/decisions.md`, "EtherCAT"):
@@ -13,7 +14,8 @@
 //!   places, each in a 0x100 block as in the manual's Figure 3.1 (three buffers of one length there):
 //!   **outputs at 0x1200, inputs at 0x1300**.
 
-use crate::pdo::{INPUTS_LEN, OUTPUTS_LEN};
+use crate::pdo::OUTPUTS_LEN;
+use tmcl_core::model::EtherCatDesc;
 
 /// One SyncManager as the slave expects it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,15 +45,16 @@ pub const MAILBOX_IN: SmLayout = SmLayout { index: 1, start: 0x110C, length: 40,
 pub const OUTPUTS: SmLayout =
     SmLayout { index: 2, start: 0x1200, length: OUTPUTS_LEN as u16, control: 0x64, sm_type: 3 };
 
-/// SM3, the process-data inputs (the twelve fields of manual §3.4). Control 0x20: buffered, ECAT reads,
-/// AL event.
-pub const INPUTS: SmLayout = SmLayout { index: 3, start: 0x1300, length: INPUTS_LEN as u16, control: 0x20, sm_type: 4 };
+/// SM3, the process-data inputs of `map` (the twelve fields of manual §3.4 on the TMCM-1310, 48 bytes).
+/// Control 0x20: buffered, ECAT reads, AL event.
+pub const fn inputs(map: &EtherCatDesc) -> SmLayout {
+    SmLayout { index: 3, start: 0x1300, length: map.inputs_len() as u16, control: 0x20, sm_type: 4 }
+}
 
-/// The four SyncManagers in order.
-pub const SYNC_MANAGERS: [SmLayout; 4] = [MAILBOX_OUT, MAILBOX_IN, OUTPUTS, INPUTS];
-
-/// The vendor ID of Trinamic Motion Control GmbH in the ETG vendor list, as the TMCM-1310 reports it.
-pub const VENDOR_ID: u32 = 0x0000_0286;
+/// The four SyncManagers of a slave with process-data map `map`, in order.
+pub const fn sync_managers(map: &EtherCatDesc) -> [SmLayout; 4] {
+    [MAILBOX_OUT, MAILBOX_IN, OUTPUTS, inputs(map)]
+}
 
 /// Logical bytes of one FoE data packet: the request mailbox less the mailbox and FoE headers.
 pub const FOE_DATA: usize = MAILBOX_OUT.length as usize - 12;

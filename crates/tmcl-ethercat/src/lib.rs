@@ -15,6 +15,7 @@
 //! - [`layout`] and [`pdo`]: where the buffers are and what the process data hold (manual §3.3–3.4, with
 //!   the decisions its contradictions forced).
 //! - [`foe`]: FoE in BOOT, to a [`foe::FileStore`].
+//! - [`esi`]: the ESI file (EtherCAT Slave Information XML) from the same description as the SII.
 //! - [`slave`]: [`Slave`], which ties it together around a [`tmcl_core::Module`]: `process` one frame,
 //!   `poll` for time.
 //! - [`fuzzing`]: harnesses shared by the fuzz targets and the property tests.
@@ -31,6 +32,7 @@
 pub mod al;
 pub mod eeprom;
 pub mod esc;
+pub mod esi;
 pub mod foe;
 pub mod fuzzing;
 pub mod layout;
@@ -40,5 +42,6 @@ pub mod slave;
 pub mod wire;
 
 pub use al::{AlState, AlStatus, AlStatusCode};
+pub use eeprom::{Volatile, SII_STORE_LEN};
 pub use foe::{FileStore, NoFiles};
-pub use slave::{NoEtherCat, Slave};
+pub use slave::{NoEtherCat, Slave, StoreError};

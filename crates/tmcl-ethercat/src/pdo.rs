@@ -1,40 +1,29 @@
-//! Process data (TMCM-1310 manual §3.4): what the master writes every cycle and what it reads back.
+//! Process data (TMCM-1310 manual §3.4): what the master writes every cycle and what it reads back, as
+//! the model's [`EtherCatDesc`] describes them by meaning (the map itself, with the decisions the
+//! manual's contradictions forced, is `tmcl_model::tmcm_1310::ETHERCAT`).
 //!
 //! **Outputs** (master → slave, 8 bytes, little-endian): controller mode (UNSIGNED32) and value
-//! (SIGNED32). The manual heads the mode table "Bit" but lists 0 "no operation" among 1, 2, 3: the mode is
-//! a **value**, 0..3, not a bit mask.
+//! (SIGNED32). In OP, a change of either carries out the mode's [`OutputAction`]: a target position
+//! (`MVP ABS, 0, value`), a velocity (`ROR 0, value`) or a parameter write (`SAP n, 0, value`, n the
+//! model's parameter with the role); a mode without action, or one the map does not know, commands
+//! nothing.
 //!
-//! | mode | the value is | what the firmware does, when it changes |
-//! |---|---|---|
-//! | 0 no operation | ignored | nothing: the process data leave the motor to TMCL |
-//! | 1 position | target position, microsteps | `MVP ABS, 0, value` |
-//! | 2 velocity | velocity, pps (signed) | `ROR 0, value` (negative turns left) |
-//! | 3 torque | torque-mode current, mA (signed) | `SAP 14, 0, value` (the closed loop must be on) |
-//! | other | ignored | nothing |
-//!
-//! **Inputs** (slave → master, little-endian): the manual's table in its order, all **twelve** fields,
-//! **48 bytes**. The text says "first 44 bytes", which would drop the last field (gamma); the table lists
-//! twelve 4-byte fields and nothing says which one to leave out, so all are mapped (see
-//! `docs/decisions.md`, "EtherCAT"). The word the manual prints as "Error flags" with the bit table
-//! "0 target reached … 11 overtemperature" is read as: the status word (AP 18) carries the bit table,
-//! and the error flags field carries the module's error flags: AP 207 (stall, deviation) in bits 0..8
-//! and AP 208 (the driver's flags) in bits 8..16, read without clearing them.
+//! **Inputs** (slave → master, little-endian): each entry of the map in its order, read from the
+//! module's parameter with the entry's role (as GAP reads it), or the error and driver flags read without
+//! clearing them.
 
 use tmcl_core::hal::Board;
+use tmcl_core::model::ethercat::{InputSource, OutputAction, MAX_INPUTS};
+use tmcl_core::model::{EtherCatDesc, ModelSpec, Role};
 use tmcl_core::{Instant, Module};
 use tmcl_wire::{Command, MoveTarget, Status};
 
 /// Length of the outputs.
-pub const OUTPUTS_LEN: usize = 8;
-/// Length of the inputs.
-pub const INPUTS_LEN: usize = 4 * INPUT_FIELDS.len();
+pub const OUTPUTS_LEN: usize = EtherCatDesc::OUTPUTS_LEN;
+/// The longest inputs a map may have.
+pub const MAX_INPUTS_LEN: usize = 4 * MAX_INPUTS;
 
-/// CoE data type INTEGER32 (ETG.1000.6, "Basic data types").
-pub const INTEGER32: u8 = 0x04;
-/// CoE data type UNSIGNED32.
-pub const UNSIGNED32: u8 = 0x07;
-
-/// Object index of the inputs' entries (subindex = position in the table, from 1), in the range
+/// Object index of the inputs' entries (subindex = position in the map, from 1), in the range
 /// ETG.5001 gives input data.
 pub const INPUT_OBJECT: u16 = 0x6000;
 /// Object index of the outputs' entries, in the range ETG.5001 gives output data.
@@ -44,96 +33,11 @@ pub const TX_PDO: u16 = 0x1A00;
 /// The RxPDO (outputs).
 pub const RX_PDO: u16 = 0x1600;
 
-/// Where an input field comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Source {
-    /// An axis parameter of motor 0, as GAP reads it.
-    Axis(u8),
-    /// AP 207 | AP 208 << 8, read without clearing.
-    ErrorFlags,
-}
-
-/// One field of the process data.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Field {
-    /// Its name in the manual's table.
-    pub name: &'static str,
-    /// CoE data type.
-    pub data_type: u8,
-    /// Where an input comes from (outputs: unused).
-    pub source: Source,
-}
-
-const fn input(name: &'static str, data_type: u8, source: Source) -> Field {
-    Field { name, data_type, source }
-}
-
-/// The inputs, in the manual's order (§3.4, "Data input buffer"), with the GAP it names.
-pub static INPUT_FIELDS: [Field; 12] = [
-    input("Target position", INTEGER32, Source::Axis(0)),
-    input("Actual position", INTEGER32, Source::Axis(1)),
-    input("Virtual actual position", INTEGER32, Source::Axis(233)),
-    input("Encoder position", INTEGER32, Source::Axis(209)),
-    input("Target velocity", INTEGER32, Source::Axis(2)),
-    input("Actual velocity", INTEGER32, Source::Axis(3)),
-    input("Measured velocity", INTEGER32, Source::Axis(131)),
-    // Printed "GAP 18)".
-    input("Status word", UNSIGNED32, Source::Axis(18)),
-    input("Error flags", UNSIGNED32, Source::ErrorFlags),
-    input("Scaler", INTEGER32, Source::Axis(123)),
-    input("Delta / torque", INTEGER32, Source::Axis(14)),
-    // Printed "Command for read out: 230".
-    input("Gamma", INTEGER32, Source::Axis(230)),
-];
-
-/// The outputs (§3.4, "Data output buffer").
-pub static OUTPUT_FIELDS: [Field; 2] =
-    [input("Controller mode", UNSIGNED32, Source::Axis(0)), input("Value", INTEGER32, Source::Axis(0))];
-
-/// The controller mode of the outputs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ControllerMode {
-    /// 0: the process data do not command the motor.
-    None,
-    /// 1: the value is a target position.
-    Position,
-    /// 2: the value is a velocity.
-    Velocity,
-    /// 3: the value is a torque-mode current.
-    Torque,
-    /// Any other value: treated as no operation, kept as sent.
-    Unknown(u32),
-}
-
-impl From<u32> for ControllerMode {
-    fn from(v: u32) -> ControllerMode {
-        match v {
-            0 => ControllerMode::None,
-            1 => ControllerMode::Position,
-            2 => ControllerMode::Velocity,
-            3 => ControllerMode::Torque,
-            other => ControllerMode::Unknown(other),
-        }
-    }
-}
-
-impl From<ControllerMode> for u32 {
-    fn from(m: ControllerMode) -> u32 {
-        match m {
-            ControllerMode::None => 0,
-            ControllerMode::Position => 1,
-            ControllerMode::Velocity => 2,
-            ControllerMode::Torque => 3,
-            ControllerMode::Unknown(v) => v,
-        }
-    }
-}
-
 /// The outputs as values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Outputs {
-    /// Controller mode.
-    pub mode: ControllerMode,
+    /// Controller mode, as sent (the map says what it means).
+    pub mode: u32,
     /// Value.
     pub value: i32,
 }
@@ -142,7 +46,7 @@ impl Outputs {
     /// Reads the 8 output bytes.
     pub fn parse(bytes: &[u8; OUTPUTS_LEN]) -> Outputs {
         Outputs {
-            mode: u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]).into(),
+            mode: u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
             value: i32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]),
         }
     }
@@ -150,65 +54,88 @@ impl Outputs {
     /// The 8 output bytes.
     pub fn to_bytes(self) -> [u8; OUTPUTS_LEN] {
         let mut b = [0; OUTPUTS_LEN];
-        b[..4].copy_from_slice(&u32::from(self.mode).to_le_bytes());
+        b[..4].copy_from_slice(&self.mode.to_le_bytes());
         b[4..].copy_from_slice(&self.value.to_le_bytes());
         b
     }
 
-    /// Whether these outputs command the motor.
-    pub fn commands_motor(self) -> bool {
-        matches!(self.mode, ControllerMode::Position | ControllerMode::Velocity | ControllerMode::Torque)
+    /// What these outputs do under `map`: their mode's action, if it has one.
+    pub fn action(self, map: &EtherCatDesc) -> Option<OutputAction> {
+        map.mode(self.mode).and_then(|m| m.action)
     }
 
-    /// The TMCL command these outputs stand for (none for "no operation").
-    pub fn command(self) -> Option<Command> {
-        match self.mode {
-            ControllerMode::Position => Some(Command::Mvp { motor: 0, target: MoveTarget::Abs(self.value) }),
-            ControllerMode::Velocity => Some(Command::Ror { motor: 0, velocity: self.value }),
-            ControllerMode::Torque => Some(Command::Sap { param: 14, motor: 0, value: self.value }),
-            ControllerMode::None | ControllerMode::Unknown(_) => None,
-        }
+    /// The TMCL command these outputs stand for on a module of model `spec` (none for a mode without
+    /// action).
+    pub fn command(self, spec: &ModelSpec, map: &EtherCatDesc) -> Option<Command> {
+        Some(match self.action(map)? {
+            OutputAction::MoveTo => Command::Mvp { motor: 0, target: MoveTarget::Abs(self.value) },
+            OutputAction::Rotate => Command::Ror { motor: 0, velocity: self.value },
+            OutputAction::Param(role) => Command::Sap { param: param_number(spec, role)?, motor: 0, value: self.value },
+        })
     }
 
     /// Executes the command these outputs stand for; the status of a refusal (a torque without closed
     /// loop, say) shows in the status word, there is nowhere else to report it.
-    pub fn apply<B: Board>(self, module: &mut Module<B>, now: Instant) -> Result<(), Status> {
-        match self.command() {
+    pub fn apply<B: Board>(self, module: &mut Module<B>, map: &EtherCatDesc, now: Instant) -> Result<(), Status> {
+        match self.command(module.spec(), map) {
             Some(c) => module.execute(c, now).map(|_| ()),
             None => Ok(()),
         }
     }
 }
 
-/// Reads the inputs from the module into `out` (little-endian, the manual's order). A parameter the
-/// model lacks reads 0.
-pub fn read_inputs<B: Board>(module: &mut Module<B>, out: &mut [u8; INPUTS_LEN]) {
-    for (field, slot) in INPUT_FIELDS.iter().zip(out.chunks_exact_mut(4)) {
-        let v = match field.source {
-            Source::Axis(n) => module.get_axis(n).unwrap_or(0) as u32,
-            Source::ErrorFlags => {
+/// The number of the model's axis parameter with `role`.
+fn param_number(spec: &ModelSpec, role: Role) -> Option<u8> {
+    spec.axis.role(role).map(|i| spec.axis.params[i].number)
+}
+
+/// Reads the inputs of `map` from the module into `out` (little-endian, the map's order); returns the
+/// bytes written. A parameter the model lacks (the model check rules it out) reads 0.
+pub fn read_inputs<B: Board>(module: &mut Module<B>, map: &EtherCatDesc, out: &mut [u8]) -> usize {
+    let spec = module.spec();
+    let mut n = 0;
+    for (entry, slot) in map.inputs.iter().zip(out.chunks_exact_mut(4)) {
+        let v = match entry.source {
+            InputSource::Param(role) => {
+                param_number(spec, role).and_then(|p| module.get_axis(p).ok()).unwrap_or(0) as u32
+            }
+            InputSource::ErrorAndDriverFlags => {
                 u32::from(module.error_flags()) | u32::from(module.board_timeline().driver_flags()) << 8
             }
         };
         slot.copy_from_slice(&v.to_le_bytes());
+        n += 4;
     }
+    n
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tmcl_core::model::tmcm_1310::{ETHERCAT, SPEC};
 
     #[test]
     fn outputs_round_trip() {
-        let o = Outputs { mode: ControllerMode::Velocity, value: -51200 };
+        let o = Outputs { mode: 2, value: -51200 };
         let b = o.to_bytes();
         assert_eq!(b, [2, 0, 0, 0, 0x00, 0x38, 0xff, 0xff]);
         assert_eq!(Outputs::parse(&b), o);
-        assert_eq!(Outputs::parse(&[7, 0, 0, 0, 0, 0, 0, 0]).mode, ControllerMode::Unknown(7));
+    }
+
+    #[test]
+    fn modes_by_meaning() {
+        let cmd = |mode, value| Outputs { mode, value }.command(&SPEC, &ETHERCAT);
+        assert_eq!(cmd(0, 5), None);
+        assert_eq!(cmd(1, -3000), Some(Command::Mvp { motor: 0, target: MoveTarget::Abs(-3000) }));
+        assert_eq!(cmd(2, 51200), Some(Command::Ror { motor: 0, velocity: 51200 }));
+        // Torque: the parameter with the target-current role, AP 14 on the TMCM-1310.
+        assert_eq!(cmd(3, 500), Some(Command::Sap { param: 14, motor: 0, value: 500 }));
+        assert_eq!(cmd(7, 1), None, "a mode the map does not know commands nothing");
     }
 
     #[test]
     fn forty_eight_bytes() {
-        assert_eq!(INPUTS_LEN, 48);
+        assert_eq!(ETHERCAT.inputs_len(), 48);
+        assert!(ETHERCAT.inputs_len() <= MAX_INPUTS_LEN);
     }
 }

@@ -13,18 +13,18 @@
 //! `tmcl` command line does exactly that). Nothing here reads a clock or allocates.
 
 use crate::al::{self, AlState, AlStatus, AlStatusCode, Decision, Step};
-use crate::eeprom::Eeprom;
+use crate::eeprom::{Eeprom, RestoreError, Volatile};
 use crate::esc::{Esc, SmDirection, SmMode};
 use crate::foe::{FileStore, Foe};
-use crate::layout::{SmLayout, FOE_DATA, INPUTS, MAILBOX_IN, MAILBOX_OUT, OUTPUTS};
-use crate::pdo::{self, Outputs, INPUTS_LEN, OUTPUTS_LEN};
+use crate::layout::{self, SmLayout, FOE_DATA, MAILBOX_IN, MAILBOX_OUT, OUTPUTS};
+use crate::pdo::{self, Outputs, MAX_INPUTS_LEN, OUTPUTS_LEN};
 use crate::register as reg;
 use crate::wire::datagram::{Command, Datagram};
 use crate::wire::ethernet::{self, ETHERTYPE_ETHERCAT};
 use crate::wire::frame::{self, FrameType};
 use crate::wire::{foe as foe_wire, mailbox};
-use tmcl_core::hal::Board;
-use tmcl_core::model::{InterfaceKind, ModelSpec};
+use tmcl_core::hal::{Board, Nvm};
+use tmcl_core::model::{EtherCatDesc, InterfaceKind, ModelSpec};
 use tmcl_core::module::MAILBOX_LEN;
 use tmcl_core::{Duration, Instant, Module};
 
@@ -118,7 +118,7 @@ impl Replies {
     }
 }
 
-/// The model has no EtherCAT mailbox interface.
+/// The model has no EtherCAT mailbox interface, or no EtherCAT description.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct NoEtherCat;
 
@@ -130,11 +130,40 @@ impl core::fmt::Display for NoEtherCat {
 
 impl core::error::Error for NoEtherCat {}
 
-/// The EtherCAT slave of one module.
+/// Why a slave with a store could not be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StoreError<E> {
+    /// The model has no EtherCAT interface.
+    NoEtherCat,
+    /// The SII store could not be read back.
+    Restore(RestoreError<E>),
+}
+
+impl<E: core::fmt::Debug> core::fmt::Display for StoreError<E> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            StoreError::NoEtherCat => NoEtherCat.fmt(f),
+            StoreError::Restore(e) => e.fmt(f),
+        }
+    }
+}
+
+impl<E: core::fmt::Debug> core::error::Error for StoreError<E> {}
+
+/// The EtherCAT slave of one module; `S` keeps the words a master writes into the SII EEPROM (see
+/// [`crate::eeprom`]: [`Volatile`] keeps nothing).
 #[derive(Clone, PartialEq, Eq)]
-pub struct Slave {
+pub struct Slave<S = Volatile> {
     esc: Esc,
     eeprom: Eeprom,
+    /// Where SII writes go before they count.
+    store: S,
+    /// SII words restored from the store at power-on.
+    restored: usize,
+    /// The model's identity and process-data map.
+    map: &'static EtherCatDesc,
+    /// SM3, the inputs, as long as the map's.
+    inputs: SmLayout,
     status: AlStatus,
     /// The module's EtherCAT mailbox interface.
     port: usize,
@@ -158,7 +187,7 @@ pub struct Slave {
     watchdog_due: Option<Instant>,
 }
 
-impl core::fmt::Debug for Slave {
+impl<S> core::fmt::Debug for Slave<S> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Slave").field("status", &self.status).field("esc", &self.esc).finish_non_exhaustive()
     }
@@ -166,12 +195,32 @@ impl core::fmt::Debug for Slave {
 
 impl Slave {
     /// The slave of a module of model `spec`, as after power-on: INIT, its EEPROM generated from the
-    /// model and loaded.
+    /// model and loaded; what a master writes into the EEPROM lasts as long as the slave.
     pub fn new(spec: &'static ModelSpec) -> Result<Slave, NoEtherCat> {
-        let port = spec.interfaces.iter().position(|i| i.kind == InterfaceKind::EtherCatMailbox).ok_or(NoEtherCat)?;
+        Slave::with_store(spec, Volatile).map_err(|_| NoEtherCat)
+    }
+}
+
+impl<S: Nvm> Slave<S> {
+    /// The slave of a module of model `spec`, as after power-on, whose SII writes go to `store` (at
+    /// least [`crate::eeprom::SII_STORE_LEN`] bytes): the EEPROM generated from the model with the words
+    /// kept in `store` laid over it, then loaded (the station alias among them).
+    pub fn with_store(spec: &'static ModelSpec, mut store: S) -> Result<Slave<S>, StoreError<S::Error>> {
+        let port = spec
+            .interfaces
+            .iter()
+            .position(|i| i.kind == InterfaceKind::EtherCatMailbox)
+            .ok_or(StoreError::NoEtherCat)?;
+        let map = spec.ethercat.ok_or(StoreError::NoEtherCat)?;
+        let mut eeprom = Eeprom::for_model(spec, map);
+        let restored = eeprom.restore(&mut store).map_err(StoreError::Restore)?;
         let mut slave = Slave {
             esc: Esc::new(),
-            eeprom: Eeprom::for_model(spec),
+            eeprom,
+            store,
+            restored,
+            map,
+            inputs: layout::inputs(map),
             status: AlStatus::INIT,
             port,
             replies: Replies::EMPTY,
@@ -186,7 +235,7 @@ impl Slave {
             await_outputs: None,
             watchdog_due: None,
         };
-        slave.eeprom.load_into(&mut slave.esc);
+        slave.eeprom.load_into(&mut slave.esc, true);
         slave.write_status();
         Ok(slave)
     }
@@ -204,6 +253,31 @@ impl Slave {
     /// The SII EEPROM.
     pub fn eeprom(&self) -> &Eeprom {
         &self.eeprom
+    }
+
+    /// How many SII words a master had written before, restored from the store at power-on.
+    pub fn restored_words(&self) -> usize {
+        self.restored
+    }
+
+    /// The store of SII writes.
+    pub fn store(&self) -> &S {
+        &self.store
+    }
+
+    /// The store of SII writes, to sync it (a file store's `sync`).
+    pub fn store_mut(&mut self) -> &mut S {
+        &mut self.store
+    }
+
+    /// The SyncManagers the slave expects: the mailboxes, the outputs and the inputs of its map.
+    pub fn sync_managers(&self) -> [SmLayout; 4] {
+        layout::sync_managers(self.map)
+    }
+
+    /// The model's identity and process-data map.
+    pub fn map(&self) -> &'static EtherCatDesc {
+        self.map
     }
 
     /// The module interface the mailbox serves.
@@ -248,7 +322,6 @@ impl Slave {
                 break;
             }
         }
-        self.esc.end_frame();
         self.firmware(now, module, files);
         eth.mark_processed();
         Some(len)
@@ -298,7 +371,7 @@ impl Slave {
             return false;
         }
         let region = ecat.datagrams();
-        let inputs = u32::from(INPUTS.start)..u32::from(INPUTS.start) + u32::from(INPUTS.length);
+        let inputs = u32::from(self.inputs.start)..u32::from(self.inputs.start) + u32::from(self.inputs.length);
         ecat.spans().any(|span| {
             let d = Datagram::new_unchecked(&region[span]);
             let c = d.command();
@@ -311,16 +384,16 @@ impl Slave {
     }
 
     fn refresh_inputs<B: Board>(&mut self, module: &mut Module<B>) {
-        let mut inputs = [0u8; INPUTS_LEN];
-        pdo::read_inputs(module, &mut inputs);
-        self.esc.put_inputs(INPUTS.index, &inputs);
+        let mut inputs = [0u8; MAX_INPUTS_LEN];
+        let n = pdo::read_inputs(module, self.map, &mut inputs);
+        self.esc.put_inputs(self.inputs.index, &inputs[..n]);
     }
 
     /// What the register writes of one datagram set off.
     fn after_datagram<B: Board>(&mut self, now: Instant, module: &mut Module<B>, files: &mut impl FileStore) {
         let events = self.esc.take_events();
         if events.sii_command {
-            self.eeprom.command(&mut self.esc);
+            self.eeprom.command(&mut self.esc, &mut self.store);
         }
         if events.al_control {
             self.al_control(now, module, files);
@@ -466,10 +539,10 @@ impl Slave {
             return;
         }
         self.applied = Some(outputs);
-        if outputs.commands_motor() {
+        if outputs.action(self.map).is_some() {
             self.commanded = true;
             // A refusal (torque without closed loop) shows in the status word.
-            let _ = outputs.apply(module, now);
+            let _ = outputs.apply(module, self.map, now);
         }
     }
 
@@ -532,7 +605,7 @@ impl Slave {
                 if !self.sm_as(OUTPUTS, SmMode::Buffered, SmDirection::MasterWrites) {
                     return Err(AlStatusCode::InvalidOutputs);
                 }
-                if !self.sm_as(INPUTS, SmMode::Buffered, SmDirection::MasterReads) {
+                if !self.sm_as(self.inputs, SmMode::Buffered, SmDirection::MasterReads) {
                     return Err(AlStatusCode::InvalidInputs);
                 }
                 Ok(())
@@ -575,7 +648,7 @@ impl Slave {
         for sm in [MAILBOX_OUT, MAILBOX_IN] {
             self.esc.set_sm_enabled(sm.index, mailbox);
         }
-        for sm in [OUTPUTS, INPUTS] {
+        for sm in [OUTPUTS, self.inputs] {
             self.esc.set_sm_enabled(sm.index, process_data);
         }
         match to {

@@ -27,6 +27,7 @@
 #![forbid(unsafe_code)]
 
 pub mod capacity;
+pub mod ethercat;
 pub mod interface;
 pub mod interrupt;
 pub mod layout;
@@ -37,6 +38,7 @@ pub mod port;
 pub mod tmcm_1310;
 pub mod variant;
 
+pub use ethercat::EtherCatDesc;
 pub use interface::{baud_rate, Framing, InterfaceDesc, InterfaceKind, BAUD_RATES};
 pub use interrupt::{InterruptDesc, Interrupts, Source, GLOBAL_INTERRUPTS};
 pub use layout::Layout;
@@ -90,6 +92,9 @@ pub struct ModelDesc {
     pub outputs: u8,
     /// Host interfaces; the first is the primary one.
     pub interfaces: &'static [InterfaceDesc],
+    /// What an EtherCAT master sees of the model (identity, process data), if it has an EtherCAT
+    /// interface: the SII, the process data and the ESI file are generated from it.
+    pub ethercat: Option<&'static EtherCatDesc>,
     /// The commands the model executes (binary interfaces and programs); others answer status 2.
     pub commands: CommandSet,
     /// The commands it takes in ASCII mode.
@@ -161,6 +166,8 @@ pub enum FitError {
     AsciiCommands,
     /// Protected parameters without a password parameter and a password to unlock them.
     Password,
+    /// The EtherCAT process-data map names a role the axis table lacks, or has too many inputs.
+    EtherCat,
 }
 
 impl FitError {
@@ -180,6 +187,7 @@ impl FitError {
             FitError::MissingSetting => "a feature of the model lacks the setting it needs",
             FitError::AsciiCommands => "the ASCII commands must be a subset of the model's commands",
             FitError::Password => "protected parameters need a Role::Password parameter and a password",
+            FitError::EtherCat => "the EtherCAT process data name a role the axis table lacks, or too many inputs",
         }
     }
 }
@@ -210,7 +218,8 @@ impl ModelSpec {
     ///   divisors for [`Kinematics::Tmc428`], the three reference-search settings when it has RFS, the
     ///   serial address when an interface filters by address;
     /// - the ASCII commands are commands of the model;
-    /// - protected parameters come with a password parameter and a password.
+    /// - protected parameters come with a password parameter and a password;
+    /// - the EtherCAT process-data map names only roles the axis table has, and fits the slave.
     pub const fn check(d: &ModelDesc) -> Result<Layout, FitError> {
         if d.motors == 0 || d.motors > MAX_MOTORS {
             return Err(FitError::Motors);
@@ -296,6 +305,11 @@ impl ModelSpec {
         if protected && (d.password.is_none() || d.global.role(Role::Password).is_none()) {
             return Err(FitError::Password);
         }
+        if let Some(map) = d.ethercat {
+            if ethercat::check(map, &d.axis).is_err() {
+                return Err(FitError::EtherCat);
+            }
+        }
         Ok(Layout::compute(
             d.axis.persistent() * d.motors as usize,
             d.global.persistent(),
@@ -361,6 +375,11 @@ mod tests {
         assert_eq!(ModelSpec::check(&ModelDesc { interrupt: Table::EMPTY, ..d() }), Err(FitError::InterruptConfig));
         assert_eq!(ModelSpec::check(&ModelDesc { global: Table::EMPTY, ..d() }), Err(FitError::MissingSetting));
         assert!(ModelSpec::check(&d()).is_ok());
+        // The TMCM-1310's process data name the closed loop's roles (gamma, measured velocity), which the
+        // PD28-1021's table does not have.
+        let map = Some(&tmcm_1310::ETHERCAT);
+        assert_eq!(ModelSpec::check(&ModelDesc { ethercat: map, ..d() }), Err(FitError::EtherCat));
+        assert!(ModelSpec::check(&ModelDesc { ethercat: map, ..tmcm_1310::DESC }).is_ok());
     }
 
     /// The units follow the meaning: every speed the firmware reads is in pps, every acceleration in pps/s,

@@ -344,6 +344,7 @@ pub const DESC: ModelDesc = ModelDesc {
     outputs: 2,
     // One RS485 port (§3.1), with ASCII mode (§3.4).
     interfaces: &[InterfaceDesc::RS485],
+    ethercat: None,
     commands: COMMANDS,
     // §3.4: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO,
     // UF0..UF7".

@@ -263,6 +263,7 @@ pub const DESC: ModelDesc = ModelDesc {
     inputs: 2,
     outputs: 2,
     interfaces: &[SERIAL],
+    ethercat: None,
     commands: COMMANDS,
     // §5.6.3: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SAC, SCO,
     // GCO, CCO, UF0 … UF7".

@@ -44,6 +44,7 @@
 //!   the PD28-1021 have them).
 //! - **Units**: pps and pps/s, as the TMCM-1311 (its manual p.68 gives velocities in pps).
 
+use crate::ethercat::{DataType, EtherCatDesc, InputEntry, InputSource, OutputAction, OutputMode};
 use crate::interface::InterfaceDesc;
 use crate::interrupt::{InterruptDesc, Interrupts, Source};
 use crate::param::{cited, join, Access, ParamDesc, Range, Role, Setting, Table, Unit};
@@ -416,6 +417,58 @@ pub const USB: InterfaceDesc = InterfaceDesc {
 /// UF0–UF7, §6.8.37 command 138, §6.8.39, command 139 of §5); no SAC (29), which the manual never names.
 pub const COMMANDS: CommandSet = CommandSet::ALL_NAMED.without(Opcode::Sac);
 
+const fn input(name: &'static str, data_type: DataType, role: Role) -> InputEntry {
+    InputEntry { name, data_type, source: InputSource::Param(role) }
+}
+
+/// What an EtherCAT master sees (manual chapter 3).
+///
+/// Identity: vendor ID 0x286, Trinamic Motion Control in the ETG's vendor list; product code 1310, the
+/// module number (Trinamic numbers its EtherCAT products so, and command 136 type 1 carries the same
+/// 0x051E); revision major << 16 | minor of the firmware, 0x0001000E for V1.14, as Trinamic's ESI files
+/// number revisions (0x00020003 for V2.3).
+///
+/// Process data (§3.4). **Outputs**: controller mode (UNSIGNED32) and value (SIGNED32). The manual heads
+/// the mode table "Bit" but lists 0 "no operation" among 1, 2, 3: the mode is a **value**, 0..3, not a bit
+/// mask. **Inputs**: the manual's table in its order, all **twelve** fields, 48 bytes. The text says
+/// "first 44 bytes", which would drop the last field (gamma); the table lists twelve 4-byte fields and
+/// nothing says which one to leave out, so all are mapped (`docs/decisions.md`, "EtherCAT"). The word
+/// the manual prints as "Error flags" with the bit table "0 target reached … 11 overtemperature" is read
+/// as: the status word (AP 18) carries the bit table, and the error flags field carries the module's
+/// error flags (AP 207) and the driver's flags (AP 208), read without clearing them.
+pub const ETHERCAT: EtherCatDesc = EtherCatDesc {
+    vendor_id: 0x0000_0286,
+    vendor_name: "TRINAMIC Motion Control GmbH & Co. KG",
+    product_code: 1310,
+    revision: 0x0001_000E,
+    group: "Drives",
+    mode_name: "Controller mode",
+    value_name: "Value",
+    modes: &[
+        OutputMode { code: 0, name: "No operation", action: None },
+        OutputMode { code: 1, name: "Position", action: Some(OutputAction::MoveTo) },
+        OutputMode { code: 2, name: "Velocity", action: Some(OutputAction::Rotate) },
+        // The torque-mode current in mA; the closed loop must be on (AP 14).
+        OutputMode { code: 3, name: "Torque", action: Some(OutputAction::Param(Role::TargetCurrent)) },
+    ],
+    inputs: &[
+        input("Target position", DataType::Integer32, Role::TargetPosition),
+        input("Actual position", DataType::Integer32, Role::ActualPosition),
+        input("Virtual actual position", DataType::Integer32, Role::VirtualPosition),
+        input("Encoder position", DataType::Integer32, Role::EncoderPosition),
+        input("Target velocity", DataType::Integer32, Role::TargetSpeed),
+        input("Actual velocity", DataType::Integer32, Role::ActualSpeed),
+        input("Measured velocity", DataType::Integer32, Role::MeasuredVelocity),
+        // Printed "GAP 18)".
+        input("Status word", DataType::Unsigned32, Role::StatusWord),
+        InputEntry { name: "Error flags", data_type: DataType::Unsigned32, source: InputSource::ErrorAndDriverFlags },
+        input("Scaler", DataType::Integer32, Role::CurrentScale),
+        input("Delta / torque", DataType::Integer32, Role::TargetCurrent),
+        // Printed "Command for read out: 230".
+        input("Gamma", DataType::Integer32, Role::Gamma),
+    ],
+};
+
 /// The TMCM-1310 with firmware V1.14, as a description.
 pub const DESC: ModelDesc = ModelDesc {
     id: "tmcm-1310",
@@ -439,6 +492,7 @@ pub const DESC: ModelDesc = ModelDesc {
     inputs: 8,
     outputs: 8,
     interfaces: &[USB, InterfaceDesc::ETHERCAT_MAILBOX],
+    ethercat: Some(&ETHERCAT),
     commands: COMMANDS,
     // §5: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO,
     // UF0–UF7", the PD28-1021's list.
@@ -488,6 +542,21 @@ mod tests {
         for d in AXIS_PARAMS.iter().chain(&GLOBAL_PARAMS).chain(&INTERRUPT_PARAMS) {
             assert!(d.range.contains(d.default) || !d.access.write, "{} default {}", d.name, d.default);
         }
+    }
+
+    #[test]
+    fn process_data_by_meaning_lands_on_the_manuals_numbers() {
+        // §3.4 names the parameters by number; the map names them by role: the same twelve.
+        let numbers: Vec<u8> = ETHERCAT
+            .inputs
+            .iter()
+            .filter_map(|e| match e.source {
+                InputSource::Param(role) => SPEC.axis.role(role).map(|i| SPEC.axis.params[i].number),
+                InputSource::ErrorAndDriverFlags => None,
+            })
+            .collect();
+        assert_eq!(numbers, [0, 1, 233, 209, 2, 3, 131, 18, 123, 14, 230]);
+        assert_eq!(ETHERCAT.inputs_len(), 48);
     }
 
     #[test]

@@ -36,12 +36,12 @@
 
   function connect() {
     ws = new WebSocket(`ws://${location.host}/ws`);
-    ws.onopen = () => { retry = 500; wb.connected = true; setLink(null, true); call("hello").then(hello); watch(); };
+    ws.onopen = () => { retry = 500; wb.connected = true; call("hello").then(hello); watch(); };
     ws.onclose = () => {
       wb.connected = false;
       for (const [, p] of pending) p.reject(new Error("the workbench server went away"));
       pending.clear();
-      setLink("the workbench server is not reachable; retrying", false, true);
+      setLine({ state: "offline", ok: false, error: "the workbench server is not reachable; retrying" });
       setTimeout(connect, retry); retry = Math.min(retry * 2, 5000);
     };
     ws.onmessage = (m) => {
@@ -76,7 +76,8 @@
         wb.transit.push(now - ev.t); if (wb.transit.length > 500) wb.transit.shift();
         emit("value", ev); break;
       }
-      case "link": setLink(ev.error, ev.ok); break;
+      case "link": setLine(ev); break;
+      case "epoch": newTrace(ev); break;
       case "stats": wb.stats = ev; $("rps").textContent = `${ev.rps.toFixed(0)}/s of ${ev.rate.toFixed(0)}`; break;
       case "prog": wb.program = ev; emit("prog", ev); break;
       case "debug": wb.debug = ev; emit("debug", ev); break;
@@ -86,11 +87,28 @@
     }
   }
 
-  function setLink(error, ok, serverGone) {
+  // The line's state (the server's `link` event): the pill in the header and, unless every request gets
+  // its own answer, a sentence under it. Whenever the values stop being answers, the plots get a gap.
+  const LINE_TEXT = { answering: "answering", mismatched: "mismatched replies", no_answer: "no answer",
+    replies_off: "replies off", down: "link gone · reopening", offline: "offline" };
+  function setLine(ev) {
+    wb.line = ev;
     const pill = $("link-state");
-    pill.className = "pill " + (ok ? "ok" : serverGone ? "wait" : "bad");
-    pill.textContent = ok ? "answering" : serverGone ? "offline" : "no answer";
-    pill.title = error || "";
+    const warn = ev.state === "mismatched" || ev.state === "replies_off";
+    pill.className = "pill " + (ev.state === "answering" ? "ok" : warn ? "warn" : ev.state === "offline" || ev.state === "down" ? "wait" : "bad");
+    pill.textContent = ev.state === "mismatched" ? `${ev.mismatched_recent} mismatched repl${ev.mismatched_recent === 1 ? "y" : "ies"}` : (LINE_TEXT[ev.state] || ev.state);
+    pill.title = ev.error || "";
+    const note = $("line-note");
+    note.textContent = ev.state === "answering" ? "" : ev.error || "";
+    note.className = "line-note " + (warn ? "warn" : "bad");
+    note.hidden = ev.state === "answering" || !ev.error;
+    if (!ev.ok) { const t = Date.now(); for (const p of allPlots()) p.gap(t); }
+  }
+  // A new trace: another module or the link came back. What was plotted belongs to the old one.
+  function newTrace(ev) {
+    wb.epoch = ev.n;
+    for (const p of allPlots()) p.clear();
+    say("motion-status", ev.why === "link" ? "the link is back: a new trace begins" : "another module: a new trace begins", true);
   }
 
   // Module and model ----------------------------------------------------------------------------------
@@ -103,7 +121,10 @@
     $("address").textContent = h.address;
     // Long paths keep their end, which names the port.
     $("link-name").textContent = h.link.length > 44 ? "…" + h.link.slice(-43) : h.link; $("link-name").title = h.link;
-    setLink(h.link_error, h.link_ok);
+    if (h.line) setLine(h.line);
+    if (h.epoch !== undefined && wb.epoch !== undefined && h.epoch !== wb.epoch) newTrace({ n: h.epoch, why: "module" });
+    wb.epoch = h.epoch;
+    setupMotion();
     $("m-link").textContent = h.link; $("m-address").textContent = h.address;
     $("m-version").textContent = h.version || "no answer to command 136";
     $("m-model").textContent = model ? `${model.name} (${model.id})` : "unknown: give --module MODEL";
@@ -116,8 +137,9 @@
       s.value = String(Math.min(motor, motors - 1));
       s.closest(".motor-choice").hidden = motors < 2;
     }
-    buildParams(); buildIo(); setupPlots(); buildVars();
+    buildParams(); buildIo(); setupPlots(true); buildVars(); setupProgram();
     document.title = `${model ? model.name : "TMCL module"} ${h.address} · OpenTMCL workbench`;
+    watch(); // what to poll depends on the model (its charts, its pulse divisor)
   }
 
   // Views: what is open decides what the server polls.
@@ -125,7 +147,7 @@
   function watch() {
     if (!ws || ws.readyState !== 1) return;
     const from = Number($("vars-from").value) || 0, count = Math.min(64, Math.max(1, Number($("vars-count").value) || 8));
-    call("watch", { views: [view], motor, vars: [from, count] }).catch(() => {});
+    call("watch", { views: [view], motor, vars: [from, count], extra: extraKeys() }).catch(() => {});
   }
   const tabs = [...document.querySelectorAll('[role="tab"]')];
   function selectTab(tab) {
@@ -152,7 +174,7 @@
     s.addEventListener("change", () => {
       motor = Number(s.value);
       for (const o of document.querySelectorAll(".motor-select")) o.value = s.value;
-      buildParams(); setupPlots(); watch();
+      buildParams(); setupPlots(true); watch();
     });
   }
 
@@ -235,12 +257,17 @@
     if (!Number.isInteger(value)) { r.row.classList.add("refused"); say("param-status", `${p.name}: "${text}" is not a whole number`, false); return; }
     try {
       const ok = await call("set", { param: paramArg(p), value });
-      r.row.classList.remove("refused");
+      for (const row of $("param-table").querySelectorAll("tr.refused")) row.classList.remove("refused");
       input.value = ok.value;
       say("param-status", `${p.kind === "ap" ? "SAP" : "SGP"} ${p.number}: ${p.name} = ${ok.value}${p.unit ? " " + p.unit : ""}`, true);
     } catch (err) {
       r.row.classList.add("refused");
-      say("param-status", `${p.name} = ${value} refused: ${refusal(err)}`, false);
+      // The field shows what the module keeps, not the refused value; the refusal says what was typed.
+      const kept = wb.values[keyOf(p)];
+      input.value = kept ?? ""; delete input.dataset.dirty;
+      const range = p.range ? ` (${p.name} takes ${p.range}${p.unit ? " " + p.unit : ""})` : "";
+      const why = refusal(err);
+      say("param-status", `${p.name} = ${value} refused: ${why}${why.includes(" takes ") ? "" : range}`, false);
     }
   }
   async function eeprom(what, p) {
@@ -266,41 +293,190 @@
   on("value", (ev) => { if ("v" in ev) showParam(ev.k, ev.v); });
 
   // Motion and plots ---------------------------------------------------------------------------------
-  let plots = [];
+  // Everything in the model's own units: the Speed box takes what ROR/ROL take on this model (TMC428
+  // velocity units 0..2047 on the PDx-113), the State card and the plots say the unit of each value.
+  let plots = [], panels = [];
+  const allPlots = () => plots;
   const COLORS = { actual: "#1f6feb", target: "#d4762c", encoder: "#2da44e", load: "#8250df", current: "#cf222e" };
-  function setupPlots() {
-    const keep = plots.length && plots[0].motor === motor;
-    if (keep) return;
-    const k = (n) => (n === null || n === undefined ? null : `ap.${motor}.${n}`);
-    const defs = [
-      ["position", [[k(roles.actual_position), "actual position", COLORS.actual], [k(roles.target_position), "target position", COLORS.target], [k(roles.encoder), "encoder", COLORS.encoder]]],
-      ["velocity", [[k(roles.actual_speed), "actual speed", COLORS.actual], [k(roles.target_speed), "target speed", COLORS.target]]],
-      ["load", [[k(roles.load), "load value", COLORS.load], [k(roles.current), "current scale (right axis)", COLORS.current, true]]],
-    ];
-    const windowMs = Number($("plot-window").value) * 1000;
-    plots = defs.map(([id, series]) => {
-      const list = series.filter((s) => s[0]).map(([key, label, color, right]) => ({ key, label, color, right }));
-      const canvas = $(`plot-${id}`);
-      const fresh = canvas.cloneNode(false); canvas.replaceWith(fresh);
-      const plot = new TmclPlot.Plot(fresh, list, { window: windowMs });
-      plot.motor = motor; plot.title = id;
-      const legend = $(`legend-${id}`);
-      legend.replaceChildren(...plot.series.map((s) => {
-        const box = el("input", { type: "checkbox", checked: true, "aria-label": `Show ${s.label}` });
-        box.addEventListener("change", () => { s.visible = box.checked; plot.dirty = true; if (plot.paused) plot.draw(); });
-        return el("label", {}, box, el("span", { class: "swatch", style: { background: s.color } }), s.label);
-      }));
-      return plot;
-    });
-    wb.plots = plots;
+  const PALETTE = ["#0a7b83", "#bf8700", "#8250df", "#cf222e", "#1f6feb", "#2da44e", "#d4762c", "#6e7781"];
+  const FALLBACK_MOTION = { velocity_unit: "pps", velocity_max: 2147483647, speed_min: 1, speed_max: 2147483647,
+    speed_default: 51200, position_unit: "µsteps", position_bits: 32, kinematics: "pps" };
+  const mi = () => (model && model.motion) || FALLBACK_MOTION;
+  const has = (n) => n !== null && n !== undefined;
+  function paramOf(kind, number, bank) {
+    if (!model) return null;
+    return model.params.find((p) => p.kind === kind && p.number === number && (kind === "ap" || p.bank === bank)) || null;
   }
+  // "a..b" as [a, b]; null for sets and unbounded ranges.
+  function rangeOf(text) {
+    const m = /^(-?\d+)\.\.(-?\d+)$/.exec(text || "");
+    return m ? [Number(m[1]), Number(m[2])] : null;
+  }
+  function setupMotion() {
+    const m = mi(), speed = $("speed");
+    speed.min = 0; speed.max = m.velocity_max;
+    if (!speed.dataset.touched || Number(speed.value) > m.velocity_max) speed.value = m.speed_default;
+    $("speed-unit").textContent = m.velocity_unit;
+    $("speed-range").textContent = `0..${m.velocity_max}`;
+    $("position-unit").textContent = m.position_unit;
+    const half = 2 ** (m.position_bits - 1);
+    $("position").min = -half; $("position").max = half - 1;
+  }
+  $("speed").addEventListener("input", () => { $("speed").dataset.touched = "1"; });
+  // A velocity in words; on a TMC428 model also in microsteps per second, by the pulse divisor read.
+  function velocityText(v) {
+    const m = mi();
+    if (m.kinematics !== "tmc428" || !has(m.pulse_divisor)) return `${v} ${m.velocity_unit}`;
+    const pd = wb.values[`ap.${motor}.${m.pulse_divisor}`];
+    if (pd === undefined) return `${v} ${m.velocity_unit}`;
+    const pps = m.clock_hz * v / (2 ** pd * 2048 * 32);
+    return `${v} ${m.velocity_unit} ≈ ${Math.round(pps).toLocaleString("en-US")} µsteps/s`;
+  }
+
+  // The charts the user added: per model, stored in the browser. Each entry {title, params: [{kind, number, bank}]}.
+  let charts = [];
+  const chartStore = () => `tmcl-charts-${model ? model.id : "unknown"}`;
+  function loadCharts() {
+    try { charts = JSON.parse(localStorage.getItem(chartStore()) || "[]"); } catch (e) { charts = []; }
+    if (!Array.isArray(charts)) charts = [];
+  }
+  function saveCharts() { localStorage.setItem(chartStore(), JSON.stringify(charts)); }
+  const keyOfParam = (q) => (q.kind === "ap" ? `ap.${motor}.${q.number}` : `gp.${q.bank}.${q.number}`);
+  // The values polled besides the standard ones: the charted parameters, and the TMC428 pulse divisor.
+  function extraKeys() {
+    const keys = [];
+    for (const c of charts) for (const q of c.params) keys.push(keyOfParam(q));
+    const m = mi();
+    if (m.kinematics === "tmc428" && has(m.pulse_divisor)) keys.push(`ap.${motor}.${m.pulse_divisor}`);
+    for (const k of closedLoopKeys()) keys.push(k);
+    return [...new Set(keys)];
+  }
+  function seriesOf(kind, number, bank, label, color, removable) {
+    const p = paramOf(kind, number, bank);
+    const key = kind === "ap" ? `ap.${motor}.${number}` : `gp.${bank}.${number}`;
+    return { key, label: label || (p ? p.name : `${kind.toUpperCase()} ${number}`), color, unit: p ? p.unit : "",
+      range: p ? rangeOf(p.range) : null, removable };
+  }
+  function standardPanels() {
+    const ap = (n, label, color) => (has(n) ? seriesOf("ap", n, 0, label, color) : null);
+    const defs = [
+      ["position", "Position", [ap(roles.actual_position, "actual position", COLORS.actual), ap(roles.target_position, "target position", COLORS.target), ap(roles.encoder, "encoder", COLORS.encoder)]],
+      ["velocity", "Velocity", [ap(roles.actual_speed, "actual speed", COLORS.actual), ap(roles.target_speed, "target speed", COLORS.target)]],
+      ["load", "Load and current", [ap(roles.load, "load value", COLORS.load), ap(roles.current, "current scale", COLORS.current)]],
+    ];
+    return defs.map(([id, title, list]) => ({ id, title, series: list.filter(Boolean) }));
+  }
+  function legendOf(panel) {
+    const plot = panel.plot;
+    const items = plot.series.map((s) => {
+      const box = el("input", { type: "checkbox", checked: s.visible, "aria-label": `Show ${s.label}` });
+      box.addEventListener("change", () => { s.visible = box.checked; plot.dirty = true; if (plot.paused) plot.draw(); });
+      const parts = [box, el("span", { class: "swatch", style: { background: s.color } }), s.unit ? `${s.label} [${s.unit}]` : s.label];
+      const label = el("label", {}, ...parts);
+      if (!s.removable) return label;
+      const x = el("button", { type: "button", class: "remove", text: "×", "aria-label": `Remove ${s.label} from the chart`,
+        onclick: () => removeCharted(panel, s.key) });
+      return el("span", { class: "legend-item" }, label, x);
+    });
+    panel.legend.replaceChildren(...items);
+  }
+  function figureFor(id, title, custom) {
+    if (!custom) return { fig: $(`plot-${id}`).closest("figure"), canvas: $(`plot-${id}`), legend: $(`legend-${id}`) };
+    const legend = el("span", { class: "legend" });
+    const canvas = el("canvas", { role: "img", "aria-label": `Chart of ${title}` });
+    const fig = el("figure", { class: "plot", "data-chart": id }, el("figcaption", {}, title, " ", legend), canvas);
+    $("charts").append(fig);
+    return { fig, canvas, legend };
+  }
+  function setupPlots(force) {
+    if (!force && plots.length && plots[0].motor === motor) return;
+    loadCharts();
+    $("charts").replaceChildren();
+    const windowMs = Number($("plot-window").value) * 1000;
+    const defs = standardPanels().concat(charts.map((c, n) => ({ id: `chart-${n}`, title: c.title, custom: true,
+      series: c.params.map((q, i) => seriesOf(q.kind, q.number, q.bank, null, PALETTE[i % PALETTE.length], true)) })));
+    panels = defs.map((d) => {
+      const f = figureFor(d.id, d.title, d.custom);
+      const fresh = f.canvas.cloneNode(false); f.canvas.replaceWith(fresh);
+      const plot = new TmclPlot.Plot(fresh, d.series, { window: windowMs });
+      plot.motor = motor; plot.title = d.title;
+      // A panel the model cannot fill is not drawn.
+      f.fig.hidden = d.series.length === 0;
+      const panel = { id: d.id, title: d.title, plot, fig: f.fig, legend: f.legend, custom: !!d.custom };
+      legendOf(panel);
+      return panel;
+    });
+    plots = panels.filter((p) => !p.fig.hidden).map((p) => p.plot);
+    wb.plots = plots; wb.panels = panels;
+    // What was read already goes into the new panels.
+    const panelsOpt = [el("option", { value: "new", text: "a new panel" }), ...panels.filter((p) => !p.fig.hidden).map((p, n) => el("option", { value: p.id, text: p.title }))];
+    $("chart-panel").replaceChildren(...panelsOpt);
+    buildChartChoices();
+  }
+  function buildChartChoices() {
+    const list = $("chart-params");
+    const rows = model ? model.params.filter((p) => p.read) : [];
+    list.replaceChildren(...rows.map((p) => el("option", {
+      value: `${p.kind === "ap" ? "AP" : `GP ${p.bank}:`} ${p.number} ${p.name}`,
+      text: `${p.title}${p.unit ? " [" + p.unit + "]" : ""}`,
+    })));
+  }
+  // The parameter a chart choice names: "AP 206 LoadValue", "GP 0: 66 SerialAddress", a name, or "ap 206".
+  function chartParam(text) {
+    if (!model) return null;
+    const t = text.trim();
+    let m = /^AP\s+(\d+)/i.exec(t);
+    if (m) return paramOf("ap", Number(m[1]));
+    m = /^GP\s+(\d+):?\s+(\d+)/i.exec(t);
+    if (m) return paramOf("gp", Number(m[2]), Number(m[1]));
+    m = /^GP\s+(\d+)$/i.exec(t);
+    if (m) return paramOf("gp", Number(m[1]), 0);
+    const name = t.toLowerCase();
+    return model.params.find((p) => p.read && p.name.toLowerCase() === name) ||
+      model.params.find((p) => p.read && p.title.toLowerCase() === name) || null;
+  }
+  function addChart(text, where) {
+    const p = chartParam(text);
+    if (!p) { say("motion-status", `no readable parameter "${text}" on the ${model ? model.name : "module"}`, false); return false; }
+    if (!p.read) { say("motion-status", `${p.name} cannot be read (${p.access})`, false); return false; }
+    const q = { kind: p.kind, number: p.number, bank: p.kind === "gp" ? p.bank : 0 };
+    const label = `${p.kind === "ap" ? "AP" : "GP"} ${p.number} ${p.name}`;
+    const panel = panels.find((x) => x.id === where);
+    if (panel && !panel.custom) {
+      // Into a standard panel: it becomes a chart of its own kept with that panel's title.
+      charts.push({ title: `${panel.title}: ${p.name}`, params: [q] });
+    } else if (panel && panel.custom) {
+      const c = charts[Number(panel.id.slice(6))];
+      if (c.params.some((x) => x.kind === q.kind && x.number === q.number && x.bank === q.bank)) return true;
+      c.params.push(q);
+    } else {
+      charts.push({ title: label, params: [q] });
+    }
+    saveCharts(); setupPlots(true); watch();
+    say("motion-status", `charting ${label}${p.unit ? " in " + p.unit : ""}`, true);
+    return true;
+  }
+  function removeCharted(panel, key) {
+    const c = charts[Number(panel.id.slice(6))];
+    if (!c) return;
+    c.params = c.params.filter((q) => keyOfParam(q) !== key);
+    charts = charts.filter((x) => x.params.length);
+    saveCharts(); setupPlots(true); watch();
+  }
+  $("chart-form").addEventListener("submit", (e) => {
+    e.preventDefault();
+    if (addChart($("chart-param").value, $("chart-panel").value)) $("chart-param").value = "";
+  });
+  wb.addChart = addChart;
   on("value", (ev) => {
+    // A refused read is a gap in that value's line, not a value.
+    for (const p of plots) p.push(ev.k, ev.t, "v" in ev ? ev.v : null);
     if (!("v" in ev)) return;
-    for (const p of plots) p.push(ev.k, ev.t, ev.v);
     const m = (n) => `ap.${motor}.${n}`;
-    const show = (id, n, unit) => { if (n !== null && n !== undefined && ev.k === m(n)) $(id).textContent = `${ev.v} ${unit}`; };
-    show("st-apos", roles.actual_position, "µsteps"); show("st-tpos", roles.target_position, "µsteps");
-    show("st-aspeed", roles.actual_speed, "pps"); show("st-tspeed", roles.target_speed, "pps");
+    const pos = mi().position_unit;
+    const show = (id, n, text) => { if (has(n) && ev.k === m(n)) $(id).textContent = text(ev.v); };
+    show("st-apos", roles.actual_position, (v) => `${v} ${pos}`); show("st-tpos", roles.target_position, (v) => `${v} ${pos}`);
+    show("st-aspeed", roles.actual_speed, velocityText); show("st-tspeed", roles.target_speed, velocityText);
     if (ev.k === m(roles.reached)) $("st-reached").textContent = ev.v ? "yes" : "no";
     const lamp = (id, n) => { if (ev.k === m(n)) { $(id).classList.toggle("on", !!ev.v); $(id).setAttribute("aria-label", `${$(id).textContent} switch ${ev.v ? "active" : "inactive"}`); } };
     lamp("sw-left", roles.left); lamp("sw-right", roles.right); lamp("sw-home", roles.home);
@@ -308,6 +484,8 @@
   });
   // The plot update rate: new samples of the actual position per second, shown and kept for tests.
   let lastCount = 0;
+  // The closed loop's values (filled in by the closed-loop panel).
+  let closedLoopKeys = () => [];
   setInterval(() => {
     const key = `ap.${motor}.${roles.actual_position}`;
     const n = wb.counts[key] || 0;
@@ -318,7 +496,8 @@
     try {
       const ok = await call("motion", { action, motor, value: value || 0 });
       wb.lastMotion = { action, value, t: ok.t, at: Date.now() };
-      say("motion-status", `${action.replace(/_/g, " ")}${value !== undefined ? " " + value : ""}: done`, true);
+      const unit = action.startsWith("rotate") ? " " + mi().velocity_unit : action.startsWith("move") ? " " + mi().position_unit : "";
+      say("motion-status", `${action.replace(/_/g, " ")}${value !== undefined ? " " + value + unit : ""}: done`, true);
     } catch (err) { say("motion-status", `${action.replace(/_/g, " ")}: ${refusal(err)}`, false); }
   }
   const num = (id) => { const v = Number($(id).value); return Number.isFinite(v) ? Math.trunc(v) : 0; };
@@ -342,10 +521,20 @@
     setTimeout(() => URL.revokeObjectURL(a.href), 1000);
   }
   const stamp = () => new Date().toISOString().replace(/[:.]/g, "-").slice(0, 19);
-  $("plot-csv").addEventListener("click", () => save(`tmcl-plot-${stamp()}.csv`, TmclPlot.toCsv(plots), "text/csv"));
-  $("plot-svg").addEventListener("click", () => save(`tmcl-plot-${stamp()}.svg`, TmclPlot.toSvg(plots, ["Position", "Velocity", "Load and current"]), "image/svg+xml"));
-  wb.exportCsv = () => TmclPlot.toCsv(plots);
-  wb.exportSvg = () => TmclPlot.toSvg(plots, ["Position", "Velocity", "Load and current"]);
+  // What an export is of: the module, its model, address and version, and the motor.
+  function about() {
+    const h = wb.hello || {};
+    const name = model ? `${model.name} (${model.id})` : "unknown model";
+    return { title: `${name}, module address ${h.address}, version ${h.version || "unknown"}, motor ${motor}`,
+      note: `OpenTMCL workbench on ${h.link || "?"}` };
+  }
+  const shown = () => panels.filter((p) => !p.fig.hidden);
+  const exportCsv = () => TmclPlot.toCsv(shown().map((p) => p.plot));
+  const exportSvg = () => TmclPlot.toSvg(shown().map((p) => p.plot), shown().map((p) => p.title), about());
+  $("plot-csv").addEventListener("click", () => save(`tmcl-plot-${stamp()}.csv`, exportCsv(), "text/csv"));
+  $("plot-svg").addEventListener("click", () => save(`tmcl-plot-${stamp()}.svg`, exportSvg(), "image/svg+xml"));
+  wb.exportCsv = exportCsv;
+  wb.exportSvg = exportSvg;
 
   // I/O ----------------------------------------------------------------------------------------------
   function buildIo() {
@@ -428,12 +617,19 @@
   // Program ------------------------------------------------------------------------------------------
   const editor = new TmclEditor.Editor($("editor"));
   wb.editor = editor;
-  const SAMPLE = "// A first program: back and forth between two positions.\n#include TMCLParam.tmc\n\n" +
-    "Speed = 51200\n\n    SAP APMaxPositioningSpeed, Motor0, Speed\n    SGP 0, 2, 0            // user variable 0 counts the moves\n" +
-    "Loop:\n    MVP ABS, Motor0, 25600\n    WAIT POS, Motor0, 0\n    MVP ABS, Motor0, 0\n    WAIT POS, Motor0, 0\n" +
-    "    GGP 0, 2\n    CALC ADD, 1\n    AGP 0, 2\n    JA Loop\n";
-  editor.value = localStorage.getItem("tmcl-program") ?? SAMPLE;
-  editor.onChange = () => { localStorage.setItem("tmcl-program", editor.value); downloaded = null; };
+  // The program in the editor is kept per model; a model's first program is its own sample (its speed in
+  // its own unit, from the server's tables).
+  const programStore = () => `tmcl-program-${model ? model.id : "unknown"}`;
+  let programModel;
+  function setupProgram() {
+    const id = model ? model.id : null;
+    if (programModel === id) return;
+    programModel = id;
+    const sample = model ? model.sample_program : "// Give --module MODEL to get the model's sample program.\n";
+    editor.value = localStorage.getItem(programStore()) ?? sample;
+    downloaded = null;
+  }
+  editor.onChange = () => { localStorage.setItem(programStore(), editor.value); downloaded = null; };
   let downloaded = null; // the source last downloaded
   function diagnostics(list, okText) {
     const ul = $("diagnostics");

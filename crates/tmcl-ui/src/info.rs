@@ -1,7 +1,8 @@
 //! What the page learns about the module: the model's tables as JSON, and refusals explained from them.
 
+use serde::Serialize;
 use serde_json::{json, Value};
-use tmcl_model::{ModelSpec, ParamDesc, PortKind, Table, MODELS};
+use tmcl_model::{Kinematics, ModelSpec, ParamDesc, PortKind, Range, Role, Setting, Table, MODELS};
 use tmcl_wire::Status;
 
 /// The bank of the interrupt configuration (PD28-1021 manual §5.4).
@@ -49,8 +50,128 @@ pub(crate) fn model_json(model: &'static ModelSpec) -> Value {
     json!({
         "id": model.id, "name": model.name, "manual": model.manual, "motors": model.motors,
         "user_variables": model.user_variables, "program_memory": model.program_memory,
-        "params": params, "ports": ports,
+        "params": params, "ports": ports, "motion": MotionInfo::of(model),
+        "sample_program": sample_program(model),
     })
+}
+
+/// The smallest and largest value of a range (for the page's number inputs).
+fn bounds(range: Range) -> (i64, i64) {
+    match range {
+        Range::Signed(min, max) => (i64::from(min), i64::from(max)),
+        Range::Unsigned32 => (0, i64::from(u32::MAX)),
+        Range::OneOf(set) => (
+            set.iter().map(|r| i64::from(*r.start())).min().unwrap_or(0),
+            set.iter().map(|r| i64::from(*r.end())).max().unwrap_or(0),
+        ),
+    }
+}
+
+/// What the Motion view needs to speak the model's units: the velocity unit and range that ROR, ROL and
+/// the maximum positioning speed take, a sensible speed to start with, and how to turn the model's
+/// velocity unit into microsteps per second (the PDx-113's TMC428 units, PDx-113 manual §5.7.1).
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct MotionInfo {
+    /// The unit of AP 2, 3 and 4 and of ROR/ROL (`pps`, `TMC428 v units`).
+    pub velocity_unit: &'static str,
+    /// The most ROR/ROL take (the target speed's range, PD28-1021 manual §3.7.1).
+    pub velocity_max: i64,
+    /// The smallest and largest maximum positioning speed (AP 4).
+    pub speed_min: i64,
+    pub speed_max: i64,
+    /// The speed the Motion view starts with: the factory default of AP 4.
+    pub speed_default: i64,
+    /// The unit of positions.
+    pub position_unit: &'static str,
+    /// The position counter's width: MVP takes ±2^(bits-1).
+    pub position_bits: u32,
+    /// `pps` or `tmc428`.
+    pub kinematics: &'static str,
+    /// The TMC428's clock (for `tmc428`).
+    pub clock_hz: Option<u32>,
+    /// The pulse divisor's axis parameter (for `tmc428`), read to show microsteps per second.
+    pub pulse_divisor: Option<u8>,
+}
+
+impl MotionInfo {
+    pub(crate) fn of(model: &'static ModelSpec) -> MotionInfo {
+        let by_role = |role: Role| model.axis.params.iter().find(|d| d.role == role);
+        let by_setting = |setting: Setting| model.axis.params.iter().find(|d| d.setting == Some(setting));
+        let speed = by_setting(Setting::MaxPositioningSpeed);
+        let target = by_role(Role::TargetSpeed);
+        let (speed_min, speed_max) = speed.map_or((0, i64::from(i32::MAX)), |d| bounds(d.range));
+        let velocity_max = target.map_or(speed_max, |d| bounds(d.range).1);
+        let (kinematics, clock_hz) = match model.kinematics {
+            Kinematics::Pps => ("pps", None),
+            Kinematics::Tmc428 { clock_hz } => ("tmc428", Some(clock_hz)),
+        };
+        MotionInfo {
+            velocity_unit: speed.or(target).map_or("pps", |d| d.unit.symbol()),
+            velocity_max,
+            speed_min,
+            speed_max,
+            speed_default: speed.map_or(1000, |d| i64::from(d.default)).clamp(speed_min, speed_max),
+            position_unit: by_role(Role::ActualPosition).map_or("µsteps", |d| d.unit.symbol()),
+            position_bits: model.kinematics.position_bits(),
+            kinematics,
+            clock_hz,
+            pulse_divisor: clock_hz.and(by_setting(Setting::PulseDivisor).map(|d| d.number)),
+        }
+    }
+}
+
+/// A first program for `model`: back and forth between two positions at the model's own default speed
+/// (in its own unit), counting the moves in user variable 0.
+pub(crate) fn sample_program(model: &'static ModelSpec) -> String {
+    let motion = MotionInfo::of(model);
+    let distance = if motion.position_bits < 32 { 12800 } else { 25600 };
+    format!(
+        "// A first program for the {name}: back and forth between two positions.\n\
+         #include TMCLParam.tmc\n\n\
+         Speed = {speed}           // {unit}, {min}..{max} on the {name}\n\n\
+         \x20   SAP AP{ident}, Motor0, Speed\n\
+         \x20   SGP 0, 2, 0            // user variable 0 counts the moves\n\
+         Loop:\n\
+         \x20   MVP ABS, Motor0, {distance}\n\
+         \x20   WAIT POS, Motor0, 0\n\
+         \x20   MVP ABS, Motor0, 0\n\
+         \x20   WAIT POS, Motor0, 0\n\
+         \x20   GGP 0, 2\n\
+         \x20   CALC ADD, 1\n\
+         \x20   AGP 0, 2\n\
+         \x20   JA Loop\n",
+        name = model.name,
+        ident = model
+            .axis
+            .params
+            .iter()
+            .find(|d| d.setting == Some(Setting::MaxPositioningSpeed))
+            .map_or("MaxPositioningSpeed", |d| d.ident),
+        speed = motion.speed_default,
+        unit = motion.velocity_unit,
+        min = motion.speed_min,
+        max = motion.speed_max,
+    )
+}
+
+/// Why the module refused a motion command, from the tables: the velocity or position range.
+pub(crate) fn explain_motion(model: Option<&'static ModelSpec>, velocity: bool, value: i32) -> Option<String> {
+    let model = model?;
+    let motion = MotionInfo::of(model);
+    if velocity {
+        let max = motion.velocity_max;
+        (i64::from(value).abs() > max).then(|| {
+            format!(
+                "the {} rotates at 0..{max} {} (ROR/ROL take the target speed's range)",
+                model.name, motion.velocity_unit
+            )
+        })
+    } else {
+        let half = 1i64 << (motion.position_bits - 1);
+        (!(-half..half).contains(&i64::from(value))).then(|| {
+            format!("the {} counts positions from {} to {} {}", model.name, -half, half - 1, motion.position_unit)
+        })
+    }
 }
 
 /// The descriptor of a parameter, if the model has it.
@@ -114,6 +235,26 @@ mod tests {
         assert!(j["ports"].as_array().unwrap().iter().any(|p| p["kind"] == "output"));
         assert_eq!(model_by_version("1021V142").map(|m| m.id), Some("pd28-1021"));
         assert!(model_by_version("10").is_none());
+    }
+
+    #[test]
+    fn every_model_has_its_units_and_a_program_that_assembles() {
+        for model in MODELS.iter().copied() {
+            let motion = MotionInfo::of(model);
+            assert!(motion.speed_default >= motion.speed_min && motion.speed_default <= motion.speed_max);
+            let source = sample_program(model);
+            let mut resolver = tmcl_asm::BuiltinResolver { model };
+            let program = tmcl_asm::assemble_str("sample", &source, &mut resolver);
+            assert!(program.is_ok(), "{}: {:?}", model.id, program.err());
+        }
+        let pd113 = tmcl_model::by_id("pd-113").unwrap();
+        let motion = MotionInfo::of(pd113);
+        assert_eq!((motion.velocity_unit, motion.speed_max, motion.speed_default), ("TMC428 v units", 2047, 1000));
+        assert_eq!((motion.kinematics, motion.pulse_divisor), ("tmc428", Some(154)));
+        assert!(sample_program(pd113).contains("Speed = 1000"));
+        let why = explain_motion(Some(pd113), true, 51200).unwrap();
+        assert!(why.contains("0..2047 TMC428 v units"), "{why}");
+        assert_eq!(explain_motion(Some(pd113), true, 700), None);
     }
 
     #[test]

@@ -29,7 +29,7 @@ mod server;
 #[cfg(test)]
 mod tests;
 
-pub use link::HostClient;
+pub use link::{HostClient, Reopen};
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -60,6 +60,8 @@ pub struct Options {
     pub model: Option<&'static ModelSpec>,
     /// The link in words, for the page (`/dev/ttyUSB0 at 9600 baud`).
     pub link_name: String,
+    /// How to open the link again when it goes away (`None`: the workbench waits for a restart).
+    pub reopen: Option<Reopen>,
 }
 
 /// Why the workbench could not run.
@@ -120,7 +122,8 @@ pub fn run_until(
             shutdown,
             next_page: AtomicU64::new(1),
         });
-        let link = link::Link::new(client, options.rate, options.model, options.link_name, events);
+        let link =
+            link::Link::new(client, options.rate, options.model, options.link_name, events).with_reopen(options.reopen);
         let worker = std::thread::Builder::new()
             .name("tmcl-ui-link".into())
             .spawn(move || link::run(link, queue))

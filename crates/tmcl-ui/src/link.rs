@@ -17,6 +17,7 @@
 use crate::debug::Debugger;
 pub(crate) use crate::schedule::Poll;
 use crate::schedule::{Limiter, Schedule};
+use serde::Serialize;
 use serde_json::{json, Value};
 use std::collections::{BTreeSet, HashMap};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
@@ -28,6 +29,66 @@ use tmcl_wire::{Command, Instruction, Reply, StatusKind};
 
 /// A client on whatever link the command line named.
 pub type HostClient = Client<Box<dyn Transport + Send>>;
+
+/// How to open the link again after it went away (a restarted `tmcl serve`, an unplugged USB adapter):
+/// the command line's own way of opening it, so the new client passes the same checks.
+#[derive(Clone)]
+pub struct Reopen(pub std::sync::Arc<dyn Fn() -> Result<HostClient, HostError> + Send + Sync>);
+
+impl std::fmt::Debug for Reopen {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Reopen(..)")
+    }
+}
+
+/// The state of the line as the header's indicator shows it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub(crate) enum LineState {
+    /// Every request got its own answer.
+    Answering,
+    /// Replies arrive that answer other requests (another host on the same line, or a late reply): the
+    /// values read in this time are in doubt; those that are provably not ours are not shown.
+    Mismatched,
+    /// The last request got no (usable) answer.
+    NoAnswer,
+    /// GP 255 switched the module's replies off.
+    RepliesOff,
+    /// The link itself went away; it is reopened every second.
+    Down,
+}
+
+/// The `link` event: the line's state, in words, and the count of mismatched replies.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub(crate) struct LineEvent {
+    pub e: &'static str,
+    pub state: LineState,
+    /// Whether values read now can be trusted (`answering`).
+    pub ok: bool,
+    /// What is wrong, in words (`None` while answering).
+    pub error: Option<String>,
+    /// Replies that answered another request than the one asked, since the start.
+    pub mismatched: u64,
+    /// Of those, in the last [`MISMATCH_WINDOW`].
+    pub mismatched_recent: u64,
+}
+
+/// A new trace begins (the module address or the link changed): the pages drop what they plotted.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct EpochEvent {
+    pub e: &'static str,
+    pub n: u64,
+    /// `module` or `link`.
+    pub why: &'static str,
+    pub t: f64,
+}
+
+/// How long mismatched replies keep the indicator on its warning.
+pub(crate) const MISMATCH_WINDOW: Duration = Duration::from_secs(10);
+/// How often a link that went away is opened again.
+const REOPEN_PERIOD: Duration = Duration::from_secs(1);
+/// How long the console waits for the reply of a command that may get none while replies are off.
+const QUIET_WAIT: Duration = Duration::from_millis(500);
 
 /// Work for the link thread, sent by a page's connection.
 pub(crate) type Job = Box<dyn FnOnce(&mut Link) + Send>;
@@ -41,6 +102,8 @@ pub(crate) struct Watch {
     pub motor: u8,
     /// The user variables shown: first and count (bank 2, PD28-1021 manual §5.3).
     pub vars: (u8, u8),
+    /// More values to plot (the charts of any parameter, the pulse divisor of a TMC428 model).
+    pub extra: Vec<Poll>,
 }
 
 /// The axis parameter numbers the workbench reads by meaning. A model without a table (an unknown
@@ -173,6 +236,19 @@ pub(crate) struct Link {
     backoff: Option<Instant>,
     /// A scan is under way: unanswered addresses say nothing about the link.
     pub scanning: bool,
+    /// How to open the link again.
+    reopen: Option<Reopen>,
+    /// The link went away: when it was last tried again.
+    down: Option<Instant>,
+    /// Replies that answered other requests: the total, and when each of the recent ones came.
+    mismatched: u64,
+    mismatched_at: std::collections::VecDeque<Instant>,
+    /// GP 255 switched replies off (the console said so; SGP 255, 0, 0 turns them back on).
+    pub replies_off: bool,
+    /// The trace number: one more at each change of module or link.
+    pub epoch: u64,
+    /// The line state last sent to the pages.
+    line: Option<LineEvent>,
 }
 
 impl Link {
@@ -204,6 +280,142 @@ impl Link {
             stopped: false,
             backoff: None,
             scanning: false,
+            reopen: None,
+            down: None,
+            mismatched: 0,
+            mismatched_at: std::collections::VecDeque::new(),
+            replies_off: false,
+            epoch: 0,
+            line: None,
+        }
+    }
+
+    /// Lets the link thread open the link again when it goes away.
+    pub(crate) fn with_reopen(mut self, reopen: Option<Reopen>) -> Link {
+        self.reopen = reopen;
+        self
+    }
+
+    /// The line's state now (see [`LineState`]).
+    pub(crate) fn line_event(&mut self) -> LineEvent {
+        let now = Instant::now();
+        while self.mismatched_at.front().is_some_and(|&t| now.saturating_duration_since(t) > MISMATCH_WINDOW) {
+            self.mismatched_at.pop_front();
+        }
+        let recent = self.mismatched_at.len() as u64;
+        let (state, error) = if self.down.is_some() {
+            let why = self.link_error.clone().unwrap_or_else(|| "the link went away".into());
+            (LineState::Down, Some(format!("{why}; opening {} again every second", self.link_name)))
+        } else if self.replies_off {
+            (
+                LineState::RepliesOff,
+                Some("replies are off (GP 255): SGP 255, 0, 0 in the console turns them back on".into()),
+            )
+        } else if let Some(e) = &self.link_error {
+            (LineState::NoAnswer, Some(e.clone()))
+        } else if recent > 0 {
+            let text = format!(
+                "{recent} repl{} in the last {} s answered other requests than this workbench's ({} since the start): \
+                 another host on this line? Values that are not answers to our requests are not shown",
+                if recent == 1 { "y" } else { "ies" },
+                MISMATCH_WINDOW.as_secs(),
+                self.mismatched
+            );
+            (LineState::Mismatched, Some(text))
+        } else {
+            (LineState::Answering, None)
+        };
+        LineEvent {
+            e: "link",
+            state,
+            ok: state == LineState::Answering,
+            error,
+            mismatched: self.mismatched,
+            mismatched_recent: recent,
+        }
+    }
+
+    /// Sends the line's state to the pages now (the console changed whether replies are on).
+    pub(crate) fn emit_line(&mut self) {
+        self.update_line();
+    }
+
+    /// Sends the line's state to the pages if it changed.
+    fn update_line(&mut self) {
+        let event = self.line_event();
+        if self.line.as_ref() != Some(&event) {
+            self.emit_typed(&event);
+            self.line = Some(event);
+        }
+    }
+
+    /// Counts `n` replies that answered other requests than ours.
+    pub(crate) fn note_mismatched(&mut self, n: usize) {
+        if n == 0 {
+            return;
+        }
+        let now = Instant::now();
+        self.mismatched += n as u64;
+        for _ in 0..n.min(1000) {
+            self.mismatched_at.push_back(now);
+        }
+        while self.mismatched_at.len() > 1000 {
+            self.mismatched_at.pop_front();
+        }
+        self.update_line();
+    }
+
+    /// Opens the link again if it went away and a second has passed since the last try; `true` when it
+    /// is up.
+    fn try_reopen(&mut self) -> bool {
+        let Some(last) = self.down else { return true };
+        let Some(reopen) = self.reopen.clone() else { return false };
+        if last.elapsed() < REOPEN_PERIOD {
+            return false;
+        }
+        self.down = Some(Instant::now());
+        match (reopen.0)() {
+            Ok(client) => {
+                let old = std::mem::replace(&mut self.client, client);
+                self.client.module_address = old.module_address;
+                self.client.timeout = old.timeout;
+                self.client.quiet = old.quiet;
+                self.client.match_address = old.match_address;
+                drop(old);
+                self.down = None;
+                self.link_error = None;
+                self.replies_off = false;
+                self.new_epoch("link");
+                self.debug = Debugger::default();
+                self.identify();
+                self.reschedule();
+                let hello = crate::ops::hello(self);
+                self.emit(json!({"e": "hello", "hello": hello}));
+                self.update_line();
+                true
+            }
+            Err(e) => {
+                let text = format!("the link went away ({e})");
+                if self.link_error.as_deref() != Some(text.as_str()) {
+                    self.link_error = Some(text);
+                    self.update_line();
+                }
+                false
+            }
+        }
+    }
+
+    /// Starts a new trace: the pages drop what they plotted.
+    fn new_epoch(&mut self, why: &'static str) {
+        self.epoch += 1;
+        let event = EpochEvent { e: "epoch", n: self.epoch, why, t: now_ms() };
+        self.emit_typed(&event);
+    }
+
+    /// Sends a typed event to every page.
+    pub(crate) fn emit_typed<E: Serialize>(&self, event: &E) {
+        if let Ok(text) = serde_json::to_string(event) {
+            let _ = self.events.send(Arc::from(text));
         }
     }
 
@@ -228,34 +440,59 @@ impl Link {
         let _ = self.events.send(Arc::from(event.to_string()));
     }
 
-    /// Runs `f` on the client after waiting for the rate limit; notes the link state.
+    /// Runs `f` on the client after waiting for the rate limit; notes the link state, counts the replies
+    /// that answered other requests, and notices a link that went away.
     fn on_line<R>(&mut self, f: impl FnOnce(&mut HostClient) -> Result<R, HostError>) -> Result<R, HostError> {
+        if self.down.is_some() && !self.try_reopen() {
+            let why = self.link_error.clone().unwrap_or_else(|| "the link went away".into());
+            return Err(HostError::Io(std::io::Error::new(
+                std::io::ErrorKind::NotConnected,
+                format!("{why}; waiting for it to come back"),
+            )));
+        }
         self.limiter.wait();
         self.requests += 1;
         let result = f(&mut self.client);
         if self.scanning {
             return result;
         }
+        let skipped = self.client.take_skipped().len();
+        if skipped > 0 {
+            self.note_mismatched(skipped);
+        }
         let trouble = match &result {
+            // A refusal is an answer: the line is fine.
+            Err(HostError::Status { .. }) => None,
             Err(e @ (HostError::Timeout { .. } | HostError::Io(_))) => Some(e.to_string()),
             Err(e) if e.is_reply_error() => Some(e.to_string()),
             _ => None,
         };
-        if trouble != self.link_error {
-            self.link_error = trouble;
-            self.emit(json!({"e": "link", "ok": self.link_error.is_none(), "error": self.link_error}));
+        if matches!(result, Err(HostError::Io(_))) && self.reopen.is_some() && self.down.is_none() {
+            // The port hung up or the connection closed: the link is gone, not the module.
+            self.down = Some(Instant::now());
         }
+        self.link_error = trouble;
+        self.update_line();
+        result
+    }
+
+    /// A request that may get no reply (commands 137, 242 and 255, §3.7.38, and any while GP 255 keeps
+    /// replies off): `Ok(None)` when none came within the timeout, which is then no trouble of the line.
+    pub(crate) fn request_maybe_reply(&mut self, instruction: Instruction) -> Result<Option<Reply>, HostError> {
+        let wait = if self.replies_off { QUIET_WAIT.min(self.client.timeout) } else { self.client.timeout };
+        let old = self.set_timeout(wait);
+        let result = self.on_line(|c| match c.request(instruction) {
+            Ok(reply) => Ok(Some(reply)),
+            Err(HostError::Timeout { received: 0, .. }) => Ok(None),
+            Err(e) => Err(e),
+        });
+        self.client.timeout = old;
         result
     }
 
     /// One request and its reply (PD28-1021 TMCL manual §3.1).
     pub(crate) fn request(&mut self, instruction: Instruction) -> Result<Reply, HostError> {
         self.on_line(|c| c.request(instruction))
-    }
-
-    /// A request without a reply (commands 137 and 242, §3.7.38).
-    pub(crate) fn request_no_reply(&mut self, instruction: Instruction) -> Result<(), HostError> {
-        self.on_line(|c| c.request_no_reply(instruction))
     }
 
     /// Command 136 type 0 (§3.7.38).
@@ -292,6 +529,7 @@ impl Link {
         }
         self.version = None;
         self.debug = Debugger::default();
+        self.new_epoch("module");
         self.identify();
         self.reschedule();
     }
@@ -330,6 +568,7 @@ impl Link {
             polls.extend(roles.plotted().map(|param| (Poll::Axis { param, motor }, PLOT_PERIOD)));
             let switches = [roles.reached, roles.home, roles.right, roles.left];
             polls.extend(switches.into_iter().flatten().map(|param| (Poll::Axis { param, motor }, SWITCH_PERIOD)));
+            polls.extend(w.extra.iter().map(|&p| (p, PLOT_PERIOD)));
             let program = w.views.contains("program");
             polls.push((Poll::ProgramCounter, if program { PROGRAM_PERIOD } else { PROGRAM_IDLE_PERIOD }));
             if program {
@@ -425,7 +664,16 @@ impl Link {
         if self.link_error.is_some() {
             self.backoff = Some(Instant::now() + BACKOFF);
         }
+        // A value the model's table does not allow is no answer of this module to this request: a reply
+        // to another host's request (the reply names no parameter, so one of another parameter of the same
+        // command can pass the client's check). It is counted, never shown.
+        let desc = match (poll, self.model) {
+            (Poll::Axis { param, .. }, Some(m)) => crate::info::find_param(m, true, 0, param),
+            (Poll::Global { param, bank }, Some(m)) => crate::info::find_param(m, false, bank, param),
+            _ => None,
+        };
         match result {
+            Ok(reply) if desc.is_some_and(|d| !d.range.contains(reply.value)) => self.note_mismatched(1),
             Ok(reply) => self.emit(json!({"e": "v", "k": key, "v": reply.value, "t": t})),
             Err(HostError::Status { status, .. }) => {
                 self.emit(json!({"e": "v", "k": key, "s": u8::from(status), "t": t}))
@@ -442,6 +690,8 @@ impl Link {
             self.window = (now, self.requests);
             self.emit(json!({"e": "stats", "rps": self.rps, "requests": self.requests, "rate": self.rate,
                              "polled": self.schedule.len()}));
+            // Mismatched replies age out of the warning.
+            self.update_line();
         }
     }
 }
@@ -470,7 +720,10 @@ pub(crate) fn run(mut link: Link, jobs: Receiver<Job>) {
                 continue;
             }
         }
-        if let Some(until) = link.backoff.filter(|&until| until > now) {
+        // A link that went away is opened again once a second; with replies off there is nothing to poll.
+        let idle = (link.down.is_some() && !link.try_reopen()) || link.replies_off;
+        let backoff = if idle { Some(now + IDLE) } else { link.backoff };
+        if let Some(until) = backoff.filter(|&until| until > now) {
             match jobs.recv_timeout(until - now) {
                 Ok(job) => {
                     job(&mut link);
@@ -478,7 +731,11 @@ pub(crate) fn run(mut link: Link, jobs: Receiver<Job>) {
                         return;
                     }
                 }
-                Err(RecvTimeoutError::Timeout) => link.backoff = None,
+                Err(RecvTimeoutError::Timeout) => {
+                    if !idle {
+                        link.backoff = None;
+                    }
+                }
                 Err(RecvTimeoutError::Disconnected) => return,
             }
             continue;

@@ -70,6 +70,9 @@ pub(crate) enum Op {
         motor: u8,
         #[serde(default)]
         vars: (u8, u8),
+        /// More values to plot, by key: `ap.MOTOR.NUMBER` or `gp.BANK.NUMBER` (the charts of any parameter).
+        #[serde(default)]
+        extra: Vec<String>,
     },
     /// GAP/GGP.
     Get { param: Param },
@@ -103,6 +106,23 @@ pub(crate) enum Op {
     Scan { first: u8, last: u8 },
     /// Talks to another address.
     Select { address: u8 },
+}
+
+/// The most parameters one page may chart besides the standard plots.
+const MAX_CHARTED: usize = 32;
+
+/// The poll of a value key as the events name them: `ap.MOTOR.NUMBER` or `gp.BANK.NUMBER`.
+fn poll_of_key(key: &str) -> Option<Poll> {
+    let mut parts = key.split('.');
+    let (kind, index, number) = (parts.next()?, parts.next()?.parse().ok()?, parts.next()?.parse().ok()?);
+    if parts.next().is_some() {
+        return None;
+    }
+    match kind {
+        "ap" => Some(Poll::Axis { param: number, motor: index }),
+        "gp" => Some(Poll::Global { param: number, bank: index }),
+        _ => None,
+    }
 }
 
 /// A failed request: the words, and for a refusal of the module its status.
@@ -144,9 +164,15 @@ fn value32(value: i64) -> Result<i32, Failure> {
 pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failure> {
     match op {
         Op::Hello => Ok(hello(link)),
-        Op::Watch { views, motor, vars } => {
+        Op::Watch { views, motor, vars, extra } => {
             let vars = (vars.0, vars.1.min(64));
-            link.watch(page, Some(Watch { views: views.into_iter().take(16).collect(), motor, vars }));
+            let mut polls = Vec::new();
+            for key in extra.iter().take(MAX_CHARTED) {
+                polls.push(
+                    poll_of_key(key).ok_or_else(|| format!("{key:?} names no parameter (ap.MOTOR.N or gp.BANK.N)"))?,
+                );
+            }
+            link.watch(page, Some(Watch { views: views.into_iter().take(16).collect(), motor, vars, extra: polls }));
             Ok(json!({}))
         }
         Op::Get { param } => param_request(link, param, ParamOp::Get),
@@ -193,8 +219,11 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
 }
 
 /// What the header and every view start from.
-pub(crate) fn hello(link: &Link) -> Value {
+pub(crate) fn hello(link: &mut Link) -> Value {
+    let line = link.line_event();
     json!({
+        "line": line,
+        "epoch": link.epoch,
         "version": link.version,
         "address": link.address(),
         "link": link.link_name,
@@ -266,7 +295,18 @@ fn motion(link: &mut Link, action: Motion, motor: u8, value: i32) -> Result<Valu
         Motion::ReferenceStart => Command::Rfs { action: RfsAction::Start, motor },
         Motion::ReferenceStop => Command::Rfs { action: RfsAction::Stop, motor },
     };
-    let reply = link.request(command.encode())?;
+    let reply = link.request(command.encode()).map_err(|e| {
+        let refused = e.is_status_error();
+        let mut f = Failure::from(e);
+        let velocity = matches!(action, Motion::RotateRight | Motion::RotateLeft);
+        let moves = matches!(action, Motion::MoveAbsolute | Motion::MoveRelative);
+        if refused && (velocity || moves) {
+            if let Some(why) = info::explain_motion(link.model, velocity, value) {
+                f.0["explanation"] = json!(why);
+            }
+        }
+        f
+    })?;
     Ok(json!({"status": u8::from(reply.status), "value": reply.value, "t": crate::link::now_ms()}))
 }
 
@@ -321,10 +361,61 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
             let _ = format_instruction(&stored, &mut text, None);
             Ok(with(base, json!({"reply": format!("address {address}: {text}")})))
         }
-        // 137 (factory defaults) and 242 (boot loader) send no reply (§3.7.38).
-        Opcode::Unknown(137) | Opcode::Unknown(242) => {
-            link.request_no_reply(instruction)?;
-            Ok(with(base, json!({"reply": "sent; this command has no reply"})))
+        // 137 (factory defaults), 242 (boot loader) and 255 (reset) are documented to get no reply
+        // (§3.7.38), and while GP 255 keeps replies off only GAP, GGP and GIO reply (§5.1 Table 17). A
+        // reply that does come is shown as what it is (a refusal as a refusal); "no reply" only when none came.
+        op if no_reply_expected(link, &instruction) => {
+            let opcode = u8::from(op);
+            let reply = link.request_maybe_reply(instruction).map_err(|e| {
+                let mut f = Failure::from(e);
+                f.0["sent"] = json!(sent);
+                f
+            });
+            let switches = replies_switch(&instruction);
+            let reply = match reply {
+                Ok(reply) => reply,
+                Err(f) => {
+                    // The module answered, and refused: replies stay as they were.
+                    return Err(f);
+                }
+            };
+            if let Some(off) = switches {
+                link.replies_off = off;
+            }
+            let text = match (reply, switches) {
+                (Some(r), Some(true)) => format!(
+                    "{} {}, value {}: replies are now off (GP 255); SGP 255, 0, 0 turns them back on",
+                    u8::from(r.status),
+                    r.status.description(),
+                    r.value
+                ),
+                (None, Some(true)) => {
+                    "no reply: replies are now off (GP 255); SGP 255, 0, 0 turns them back on".to_string()
+                }
+                (Some(r), Some(false)) => format!(
+                    "{} {}, value {}: replies are on again",
+                    u8::from(r.status),
+                    r.status.description(),
+                    r.value
+                ),
+                (Some(r), _) => format!("{} {}, value {}", u8::from(r.status), r.status.description(), r.value),
+                (None, Some(false)) => "no reply; replies are on again".to_string(),
+                (None, None) if link.replies_off => "no reply (replies are off, GP 255)".to_string(),
+                (None, None) => match opcode {
+                    137 => "no reply, as documented for 137: the factory defaults are being restored".into(),
+                    242 => "no reply, as documented for 242: the module is in its boot loader".into(),
+                    _ => "no reply, as documented for 255: the module is resetting".into(),
+                },
+            };
+            let mut answer = with(base, json!({"reply": text, "replied": reply.is_some()}));
+            if let Some(r) = reply {
+                answer["status"] = json!(u8::from(r.status));
+                answer["value"] = json!(r.value);
+            }
+            if switches.is_some() || link.replies_off {
+                link.emit_line();
+            }
+            Ok(answer)
         }
         _ => {
             let reply = link.request(instruction).map_err(|e| {
@@ -353,6 +444,23 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
             ))
         }
     }
+}
+
+/// Whether `instruction` is one that may get no reply: 137, 242 and 255 (§3.7.38), SGP 255 (which may
+/// switch replies off before replying), and, while replies are off, any but GAP, GGP and GIO (§5.1
+/// Table 17).
+fn no_reply_expected(link: &Link, instruction: &Instruction) -> bool {
+    let op = instruction.opcode;
+    let documented = matches!(op, Opcode::FactoryDefault | Opcode::Boot | Opcode::SoftwareReset);
+    let always = op.info().is_some_and(|i| i.always_replies);
+    documented || replies_switch(instruction).is_some() || (link.replies_off && !always)
+}
+
+/// `Some(true)` for SGP 255, 0 with a value that switches replies off, `Some(false)` for one that switches
+/// them on again (PD28-1021 manual §5.1 Table 17).
+fn replies_switch(instruction: &Instruction) -> Option<bool> {
+    (instruction.opcode == Opcode::Sgp && instruction.kind == 255 && instruction.motor == 0)
+        .then_some(instruction.value != 0)
 }
 
 /// Whether an instruction names an axis parameter (`Some((true, motor))`) or a global one

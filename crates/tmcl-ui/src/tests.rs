@@ -237,6 +237,7 @@ fn server() -> (SocketAddr, tokio::sync::oneshot::Sender<()>, std::thread::JoinH
         rate: 1000.0,
         model: None,
         link_name: "in process".into(),
+        reopen: None,
     };
     let thread = std::thread::spawn(move || {
         crate::run_until(InProcess::client(), options, |a| addr_tx.send(a).unwrap(), async {

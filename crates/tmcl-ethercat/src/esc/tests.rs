@@ -47,13 +47,18 @@ fn information_registers_and_auto_increment() {
     // APRD with ADP 0 hits this slave and comes back with ADP 1 (every slave increments).
     let (wkc, data, adp) = run(&mut esc, Command::Aprd, at(0, 0x0000), &[0; 8]);
     assert_eq!((wkc, adp), (1, 1));
-    assert_eq!(data, [0x11, 0, 0, 0, FMMUS as u8, SMS as u8, 8, 0x0F]);
+    // Type, revision and build of an ET1100-0003.
+    assert_eq!(data, [0x11, 0x00, 0x03, 0x00, FMMUS as u8, SMS as u8, 8, 0x0F]);
     // ADP 0xFFFF (the second slave) is not this one, but still incremented.
     let (wkc, _, adp) = run(&mut esc, Command::Aprd, at(0xFFFF, 0x0000), &[0; 2]);
     assert_eq!((wkc, adp), (0, 0));
-    // BRD: every slave answers; its data are ORed into what came.
-    let (wkc, data, _) = run(&mut esc, Command::Brd, at(0, 0x0000), &[0x20, 0]);
-    assert_eq!((wkc, data), (1, vec![0x31, 0]));
+    // BRD: every slave answers; its data are ORed into what came; it increments the position too
+    // (ETG.1000.4), whatever the position.
+    let (wkc, data, adp) = run(&mut esc, Command::Brd, at(0, 0x0000), &[0x20, 0]);
+    assert_eq!((wkc, data, adp), (1, vec![0x31, 0], 1));
+    let (wkc, _, adp) = run(&mut esc, Command::Bwr, at(0xFFFE, 0x0F80), &[0]);
+    assert_eq!((wkc, adp), (1, 0xFFFF));
+    assert_eq!(run(&mut esc, Command::Brw, at(7, 0x0F80), &[0]).2, 8);
     // Features: byte-oriented FMMUs, no DC.
     assert_eq!(esc.reg16(reg::FEATURES) & 0x0004, 0);
 }
@@ -136,13 +141,16 @@ fn mailbox_handshake() {
     assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1004), &[1; 12]).0, 0, "not from the start");
     assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1000), &[2; 8]).0, 1);
     assert!(esc.mailbox_message(0).is_none(), "the end was not written");
-    esc.end_frame();
-    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1008), &[3; 8]).0, 0, "a new frame must start over");
-    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1000), &[4; 16]).0, 1);
+    assert_eq!(esc.take_events().written, 0);
+    // The rest in a later frame completes it, as on the ET1100 (datasheet section I §8.2, §8.9).
+    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1008), &[3; 8]).0, 1, "a split write goes on");
     assert_eq!(esc.reg8(reg::SM + 5) & 0x08, 0x08, "SM0 status: full");
     assert!(esc.take_events().written & 1 != 0);
-    esc.end_frame();
     assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1000), &[5; 16]).0, 0, "full: refused");
+    assert_eq!(esc.mailbox_message(0), Some(&[2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3][..]));
+    esc.release_mailbox(0);
+    // Whole in one datagram, as SOEM and ethercrab write it.
+    assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1000), &[4; 16]).0, 1);
     assert_eq!(esc.mailbox_message(0), Some(&[4u8; 16][..]));
     esc.release_mailbox(0);
     assert_eq!(esc.reg8(reg::SM + 5) & 0x08, 0);
@@ -155,10 +163,14 @@ fn mailbox_handshake() {
     assert_eq!(wkc, 1);
     assert_eq!(data[..4], [9, 8, 7, 0]);
     assert!(esc.mailbox_ready(1));
-    esc.end_frame();
     assert_eq!(run(&mut esc, Command::Brd, at(0, 0x1010), &[0; 16]).0, 0, "read: empty again");
+    // A read may be split too: the first part opens, the last byte empties the mailbox.
+    assert!(esc.put_mailbox(1, &[6; 16]));
+    assert_eq!(run(&mut esc, Command::Brd, at(0, 0x1010), &[0; 10]).1, [6; 10]);
+    assert!(!esc.mailbox_ready(1), "still full until its end is read");
+    assert_eq!(run(&mut esc, Command::Brd, at(0, 0x101A), &[0; 6]), (1, vec![6; 6], 1));
+    assert!(esc.mailbox_ready(1));
     // The master cannot read its own mailbox, nor write the slave's.
-    esc.end_frame();
     assert_eq!(run(&mut esc, Command::Brd, at(0, 0x1000), &[0; 16]).0, 0);
     assert_eq!(run(&mut esc, Command::Bwr, at(0, 0x1010), &[0; 16]).0, 0);
 }
@@ -195,11 +207,12 @@ fn three_buffers_and_fmmus() {
     assert!(esc.take_outputs(2, &mut out));
     assert_eq!(out, [10, 11, 12, 13, 14, 15, 16, 17]);
     assert!(!esc.take_outputs(2, &mut out), "taken once");
-    // A write that stops short is not seen by the application.
-    esc.end_frame();
+    // A write that stops short is not seen by the application until its end is written.
     assert_eq!(run(&mut esc, Command::Lwr, 0x100, &[1, 1, 1, 1]).0, 1);
-    esc.end_frame();
     assert!(!esc.take_outputs(2, &mut out));
+    assert_eq!(run(&mut esc, Command::Lwr, 0x104, &[2, 2, 2, 2]).0, 1);
+    assert!(esc.take_outputs(2, &mut out));
+    assert_eq!(out, [1, 1, 1, 1, 2, 2, 2, 2]);
     // LRD sees only read FMMUs, LWR only write FMMUs; a logical address nobody maps counts nothing.
     assert_eq!(run(&mut esc, Command::Lrd, 0x108, &[0; 4]), (1, vec![1, 2, 3, 4], 0x108));
     assert_eq!(run(&mut esc, Command::Lrd, 0x100, &[0; 4]).0, 0);

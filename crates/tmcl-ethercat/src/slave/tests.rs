@@ -6,7 +6,9 @@ use crate::foe::FileStore;
 use crate::fuzzing::{answers, bring_up, build_frame, MAX_FRAME};
 use crate::wire::datagram::Repr as D;
 use crate::wire::foe::ErrorCode;
-use tmcl_core::model::tmcm_1310::SPEC;
+use tmcl_core::model::tmcm_1310::{ETHERCAT, SPEC};
+
+const INPUTS: SmLayout = layout::inputs(&ETHERCAT);
 use tmcl_sim::SimBoard;
 
 #[derive(Default)]
@@ -235,7 +237,7 @@ fn the_mailbox_handshake_and_repeat() {
 #[test]
 fn safe_op_holds_op_drives_leaving_op_stops() {
     let mut r = Rig::up(AlState::SafeOp);
-    let velocity = Outputs { mode: pdo::ControllerMode::Velocity, value: 51200 };
+    let velocity = Outputs { mode: 2, value: 51200 };
     for _ in 0..100 {
         r.cycle(velocity, 1);
     }
@@ -250,7 +252,7 @@ fn safe_op_holds_op_drives_leaving_op_stops() {
     assert_eq!(field(&inputs, 5), 51200, "actual velocity");
     assert!(field(&inputs, 1) > 10_000);
     // Position mode: the target in the inputs is the output value.
-    let target = Outputs { mode: pdo::ControllerMode::Position, value: -3000 };
+    let target = Outputs { mode: 1, value: -3000 };
     r.cycle(target, 1);
     assert_eq!(field(&r.inputs(), 0), -3000);
     // Back to SAFE-OP: the motor stops (velocity 0 requested at once).
@@ -260,7 +262,7 @@ fn safe_op_holds_op_drives_leaving_op_stops() {
     assert_eq!(r.module.ramp().target_velocity, 0);
     // Mode 0 leaves the motor to TMCL: in OP, a mailbox ROR is not undone by the process data.
     assert_eq!(r.al(0x0008), (0x08, 0));
-    let idle = Outputs { mode: pdo::ControllerMode::None, value: 0 };
+    let idle = Outputs { mode: 0, value: 0 };
     r.cycle(idle, 1);
     assert_eq!(r.tmcl(1, 0, 1000).0, 100);
     r.cycle(idle, 1);
@@ -354,4 +356,57 @@ fn several_datagrams_in_one_frame_as_soem_polls() {
     assert_eq!(out[0], (1, vec![2, 0]));
     assert_eq!(out[1], (1, vec![2, 0, 0, 0, 0, 0]));
     assert_eq!(out[2].0, 0, "another station");
+}
+
+#[test]
+fn a_mailbox_written_in_two_frames_is_taken_as_the_esc_does() {
+    let mut r = Rig::up(AlState::PreOp);
+    // GAP 4 (maximum positioning speed): the first 100 bytes of SM0 in one frame, the other 168 later.
+    let mut request = [0u8; MAILBOX_OUT.length as usize];
+    request[..8].copy_from_slice(&[1, 6, 4, 0, 0, 0, 0, 0]);
+    assert_eq!(r.fpwr(MAILBOX_OUT.start, &request[..100]), 1, "the first part opens SM0");
+    assert_eq!(r.fprd(reg::SM + 8 + 5, 1).1[0] & 0x08, 0, "no reply yet: SM0 is not complete");
+    assert_eq!(r.fpwr(MAILBOX_OUT.start + 100, &request[100..]), 1, "the rest completes it");
+    let (wkc, reply) = r.fprd(MAILBOX_IN.start, MAILBOX_IN.length as usize);
+    assert_eq!(wkc, 1, "SM1 holds the reply");
+    assert_eq!(reply[..4], [2, 1, 100, 6]);
+    // A part that does not begin at the start address still opens nothing.
+    assert_eq!(r.fpwr(MAILBOX_OUT.start + 8, &request[8..]), 0);
+}
+
+#[test]
+fn broadcasts_increment_the_position() {
+    let mut r = Rig::up(AlState::Init);
+    // SOEM's first frame: a BRD of the ESC type; the position comes back incremented (ETG.1000.4).
+    let mut buf = [0u8; MAX_FRAME];
+    let n = build_frame(&mut buf, &[(Command::Brd, D::physical(0, 0x0000), &[0, 0])]).unwrap();
+    r.slave.process(r.now, &mut buf[..n], &mut r.module, &mut r.files).unwrap();
+    let d = crate::wire::datagram::Datagram::new_checked(&buf[16..n]).unwrap();
+    assert_eq!((d.adp(), d.wkc(), d.data()), (1, 1, &[0x11, 0x00][..]));
+}
+
+#[test]
+fn the_alias_a_master_writes_survives_a_restart_with_a_store() {
+    use crate::eeprom::SII_STORE_LEN;
+    use tmcl_sim::MemNvm;
+    let mut store = MemNvm::new(SII_STORE_LEN);
+    {
+        let mut r = Rig::up(AlState::Init);
+        let mut slave = Slave::with_store(&SPEC, &mut store).unwrap();
+        // eepromtool -walias 0x0BAD: SII to the master, write word 4 with write enable.
+        let mut frame = |command, register, data: &[u8]| {
+            let mut buf = [0u8; MAX_FRAME];
+            let n = build_frame(&mut buf, &[(command, D::physical(0, register), data)]).unwrap();
+            slave.process(r.now, &mut buf[..n], &mut r.module, &mut r.files).unwrap();
+        };
+        frame(Command::Apwr, reg::SII_CONFIGURATION, &[2]);
+        frame(Command::Apwr, reg::SII_DATA, &[0xAD, 0x0B]);
+        frame(Command::Apwr, reg::SII_CONTROL, &[0x01, 0x02, 0x04, 0, 0, 0]);
+        assert_eq!(slave.eeprom().word(4), 0x0BAD);
+        assert_eq!(slave.esc().reg16(reg::STATION_ALIAS), 0, "the alias register waits for power-on");
+    }
+    // Power-on again with the same store: the alias is loaded; without it, it is gone.
+    let slave = Slave::with_store(&SPEC, &mut store).unwrap();
+    assert_eq!((slave.esc().reg16(reg::STATION_ALIAS), slave.restored_words()), (0x0BAD, 1));
+    assert_eq!(Slave::new(&SPEC).unwrap().esc().reg16(reg::STATION_ALIAS), 0);
 }
