@@ -12,16 +12,16 @@ def test_default_module(tmcl_module):
     assert (tmcl_module.model, tmcl_module.address) == ("pd28-1021", 1)
 
 
-@pytest.mark.tmcl(model="tmcm-1310", world="closed-loop-seizure.toml")
+@pytest.mark.tmcl(model="tmcm-1310", world="seized-shaft.toml")
 def test_closed_loop_world_through_the_marker(tmcl_module):
-    """The world file beside this test seizes the shaft at 150 degrees from 1.0 s to 1.4 s: in open loop
-    the field runs on and the rotor drops steps there (the module's time starts with the fixture)."""
+    """The world file beside this test seizes the shaft at 30 degrees for the first 3 s: in open loop
+    the field runs on and the rotor drops steps there, whenever the test gets to run."""
     assert tmcl_module.name == "TMCM-1310"
     assert tmcl_module.world.position == pytest.approx(0.0)
-    tmcl_module.request("ROR", 0, 0, 22000)  # reaches 150 degrees at about 1.15 s
-    time.sleep(1.6)
-    assert tmcl_module.world.position > 150.0
+    tmcl_module.request("ROR", 0, 0, 20000)  # 30 degrees after about 0.4 s
+    time.sleep(0.7)
     assert tmcl_module.world.lost_full_steps > 0
+    assert tmcl_module.world.position == pytest.approx(30.0, abs=2.0)
     tmcl_module.request("MST", 0, 0)
 
 
