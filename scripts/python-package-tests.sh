@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the opentmcl wheel (python/, PyO3 + maturin, abi3), installs it into a fresh venv with no
-# checkout on sys.path, and runs the package's own pytest suite (python/tests) from a copy outside the
-# checkout. Needs `tmcl` for the test that compares opentmcl.run with `tmcl run` (TMCL_BIN, else the
+# checkout on sys.path, and runs the package's own pytest suite (python/tests) and the example test file
+# (python/examples, pytrinamic's TMCM1021 and TMCM1311 against the plugin's fixture) from a copy outside
+# the checkout. Needs `tmcl` for the test that compares opentmcl.run with `tmcl run` (TMCL_BIN, else the
 # release build is made).
 #
 # Usage: scripts/python-package-tests.sh [pytest args...]
@@ -35,7 +36,9 @@ python3 -m venv "$work/venv"
     "$(grep -E '^pytest==' tests/python/requirements.txt)" \
     "$(grep -E '^pytrinamic==' tests/python/requirements.txt)" \
     "$(grep -E '^pyserial==' tests/python/requirements.txt)"
-# The suite runs from a copy outside the checkout, so that only the installed package can be imported.
+# The suite and the example test file run from a copy outside the checkout, so that only the installed
+# package can be imported.
 cp -r python/tests "$work/tests"
-cd "$work/tests"
-exec "$work/venv/bin/python" -m pytest -q -p no:cacheprovider "$@"
+cp -r python/examples "$work/examples"
+cd "$work"
+exec "$work/venv/bin/python" -m pytest -q -p no:cacheprovider tests examples "$@"

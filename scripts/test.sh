@@ -64,7 +64,8 @@ ls "${CARGO_TARGET_DIR:-target}"/package/*.crate | sed 's|.*/|packaged |'
 
 step "the crates' examples (built by cargo test above), run"
 for example in "tmcl-wire frames" "tmcl-model parameters" "tmcl-core own_board" "tmcl-sim simulated_module" \
-    "tmcl-host read_parameter" "tmcl-asm assemble" "tmcl-mcu uart_and_ring" "tmcl-run manual_program"; do
+    "tmcl-host read_parameter" "tmcl-asm assemble" "tmcl-mcu uart_and_ring" "tmcl-run manual_program" "tmcl-ethercat al_states" \
+    "tmcl-serve serve_and_read" "tmcl-ui workbench"; do
     set -- $example
     cargo run --quiet -p "$1" --example "$2" > "$logs/example-$2.log" || { cat "$logs/example-$2.log"; exit 1; }
     echo "example $1/$2 ran"

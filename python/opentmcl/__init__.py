@@ -7,6 +7,7 @@
   trace as columns (a pandas DataFrame when pandas is installed) and the instructions the module refused.
 - :func:`assemble` and :func:`disassemble` -- the TMCL assembler, its errors as :class:`AssemblyError`
   with file, line and column.
+- :meth:`Module.bus` -- several modules on one pty or TCP port, as on an RS485 bus.
 - the pytest plugin (:mod:`opentmcl.pytest_plugin`): the fixtures ``tmcl_module`` and ``tmcl_bus`` and
   the marker ``@pytest.mark.tmcl(model=..., world=...)``.
 """

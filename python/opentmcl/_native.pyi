@@ -66,7 +66,21 @@ class Module:
         world: Optional[WorldSpec] = None,
         eeprom: Optional[Union[str, "os.PathLike[str]"]] = None,
         address: int = 1,
+        link: Union[bool, str, "os.PathLike[str]", None] = None,
+        tcp: Union[bool, str, None] = None,
+        wire_timing: bool = False,
     ) -> None: ...
+    @staticmethod
+    def bus(
+        modules: Sequence[Union[str, Dict[str, Any]]],
+        link: Union[bool, str, "os.PathLike[str]", None] = None,
+        tcp: Union[bool, str, None] = None,
+        wire_timing: bool = False,
+    ) -> List["Module"]: ...
+    @property
+    def link(self) -> Optional[str]: ...
+    @property
+    def tcp_address(self) -> Optional[str]: ...
     @property
     def model(self) -> str: ...
     @property

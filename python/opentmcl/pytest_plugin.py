@@ -10,9 +10,11 @@ Installed with the package (entry point ``pytest11``), nothing to import::
 
 Fixtures (a fresh module for every test, stopped and cleaned up after it):
 
-- ``tmcl_module``: an :class:`opentmcl.Module`, configured by the ``tmcl`` marker's keywords, the same as
-  :class:`opentmcl.Module`'s (``model``, ``world``, ``eeprom``, ``address``). A relative ``world`` or
-  ``eeprom`` path is taken from the test file's directory when a file of that name is there.
+- ``tmcl_module``: an :class:`opentmcl.Module` served on a fresh pty (``.link``), configured by the
+  ``tmcl`` marker's keywords, the same as :class:`opentmcl.Module`'s (``model``, ``world``, ``eeprom``,
+  ``address``; ``tcp=True`` serves it on a loopback TCP port instead, ``link=False`` on no link). A
+  relative ``world`` or ``eeprom`` path is taken from the test file's directory when a file of that name
+  is there.
 - ``tmcl_bus``: several modules on one line (:meth:`opentmcl.Module.bus`), from the marker's ``modules``
   keyword: a list of model ids or of keyword dicts.
 - ``tmcl_connection``: a function giving pytrinamic's ``ConnectionManager`` arguments for a module
@@ -81,10 +83,26 @@ def pytrinamic_args(module: Module, module_id: int | None = None) -> str:
     raise RuntimeError(f"{module!r} is served on no link: make it with link=True or tcp=True")
 
 
+def pytrinamic_connection(module: Module, module_id: int | None = None):
+    """An open pytrinamic connection to ``module`` (close it after use); pytrinamic must be installed.
+    A TCP connection gets a socket timeout of 10 s, so that a missing reply fails instead of hanging."""
+    from pytrinamic.connections import ConnectionManager
+
+    connection = ConnectionManager(pytrinamic_args(module, module_id)).connect()
+    sock = getattr(connection, "_socket", None)
+    if sock is not None:
+        sock.settimeout(10.0)
+    return connection
+
+
 @pytest.fixture
 def tmcl_module(request: pytest.FixtureRequest) -> Iterator[Module]:
-    """A fresh virtual module for this test, as the ``tmcl`` marker says; closed after the test."""
-    module = Module(**_module_kwargs(request, _marker_kwargs(request)))
+    """A fresh virtual module for this test, as the ``tmcl`` marker says, served on a pty unless the
+    marker asks for TCP or no link; closed (link removed, EEPROM flushed) after the test."""
+    kwargs = _module_kwargs(request, _marker_kwargs(request))
+    if not kwargs.get("tcp") and "link" not in kwargs:
+        kwargs["link"] = True
+    module = Module(**kwargs)
     try:
         yield module
     finally:
@@ -102,10 +120,7 @@ def tmcl_bus(request: pytest.FixtureRequest) -> Iterator[List[Module]]:
         entry = {"model": spec} if isinstance(spec, str) else dict(spec)
         entry.setdefault("address", n + 1)
         modules.append(_module_kwargs(request, entry))
-    bus = getattr(Module, "bus", None)
-    if bus is None:
-        raise RuntimeError("this opentmcl has no Module.bus")
-    made = bus(modules, **kwargs)
+    made = Module.bus(modules, **kwargs)
     try:
         yield made
     finally:

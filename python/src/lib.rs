@@ -1,12 +1,12 @@
 //! The native part of the `opentmcl` Python package (`opentmcl._native`): virtual TMCL modules in the
 //! Python process, the assembler and disassembler, on the OpenTMCL library crates.
 //!
-//! - [`module`]: `Module`, a virtual module on its simulated board, running in real time, with direct
+//! - `module`: `Module`, a virtual module on its simulated board, running in real time, with direct
 //!   access (`request`, `get`, `set`) and its world (`World`).
-//! - [`asm`]: `assemble` and `disassemble`, with the assembler's diagnostics as `AssemblyError`.
-//! - [`run`]: `run`, a program on a simulated module far faster than real time (`tmcl-run`), its trace
+//! - `asm`: `assemble` and `disassemble`, with the assembler's diagnostics as `AssemblyError`.
+//! - `run`: `run`, a program on a simulated module far faster than real time (`tmcl-run`), its trace
 //!   as columns and the refusals.
-//! - [`names`]: parameters by name, as the firmware tables and the assembler's include file spell them.
+//! - `names`: parameters by name, as the firmware tables and the assembler's include file spell them.
 //!
 //! The Python side (`opentmcl/__init__.py`) re-exports these and adds the pytest plugin; the type hints
 //! are in `opentmcl/_native.pyi`.

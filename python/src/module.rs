@@ -5,7 +5,7 @@
 //! Python does something else. The core is event-driven, so a module nobody asks costs nothing; each
 //! request first brings it to the current instant.
 
-use crate::names::{self, Param};
+use crate::names;
 use crate::TmclError;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -87,6 +87,77 @@ pub(crate) fn start_clock(handle: &Handle) -> PyResult<std::thread::JoinHandle<(
 
 /// The shared module.
 pub(crate) type Handle = Arc<Mutex<Shared>>;
+
+/// Brings a module and its world to `now` without taking what is queued for a host.
+fn catch_up(module: &mut Core<SimBoard>, now: Instant) {
+    module.poll_port(NO_PORT, now, &mut |_: &[u8]| {});
+    module.board_timeline().advance(now);
+}
+
+/// Where a `Module`'s firmware runs: in this crate's own module with its clock thread, or in a server
+/// (`tmcl-serve`) that serves it on a link, reached between the serve loop's polls.
+#[derive(Clone)]
+pub(crate) enum Target {
+    /// Not served: the module and its clock thread.
+    Local(Handle),
+    /// Served: module `index` of the server.
+    Served {
+        /// The server's handle for direct work on its modules.
+        access: tmcl_serve::Access,
+        /// The module's place on the line.
+        index: usize,
+    },
+}
+
+impl Target {
+    /// Runs `f` on the module brought to now; an error once the module is closed.
+    pub(crate) fn with<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Core<SimBoard>, Instant) -> R + Send + 'static,
+    ) -> PyResult<R> {
+        let closed = || PyRuntimeError::new_err("the module is closed");
+        match self {
+            Target::Local(handle) => {
+                let mut shared = lock(handle)?;
+                if shared.stopped {
+                    return Err(closed());
+                }
+                let now = shared.catch_up();
+                Ok(f(&mut shared.module, now))
+            }
+            Target::Served { access, index } => access
+                .with_module(*index, move |module, now| {
+                    catch_up(module, now);
+                    f(module, now)
+                })
+                .ok_or_else(closed),
+        }
+    }
+}
+
+/// A server shared by the modules it serves (one, or a bus): stopped with the last of them.
+pub(crate) struct Served {
+    server: Option<tmcl_serve::RunningServer>,
+    /// A directory made for the pty link, removed after the server.
+    tempdir: Option<PathBuf>,
+}
+
+impl Served {
+    /// Stops the server (links removed, EEPROM files flushed) and removes the link's directory.
+    fn stop(&mut self) -> PyResult<()> {
+        let stopped = self.server.take().map_or(Ok(()), |s| s.stop());
+        if let Some(dir) = self.tempdir.take() {
+            let _ = std::fs::remove_dir_all(dir);
+        }
+        stopped.map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    }
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        let _ = self.stop();
+    }
+}
 
 /// Locks the module; a panic of another thread while it held the lock is an error here, not a second
 /// panic.
@@ -185,15 +256,14 @@ impl Reply {
 }
 
 /// The reply to `instruction`, executed as a host's request on the primary interface at `now`.
-fn reply_of(shared: &mut Shared, instruction: Instruction) -> Reply {
-    let now = shared.now();
+fn reply_of(module: &mut Core<SimBoard>, now: Instant, instruction: Instruction) -> Reply {
     let opcode = instruction.opcode.code();
-    let address = shared.module.address();
+    let address = module.address();
     let normal = |status: Status, value: i32| {
         let reply = tmcl_wire::Reply { host: 2, module: address, status, opcode, value };
         Reply { status: Some(status.into()), value: Some(value), opcode, raw: reply.to_bytes().to_vec() }
     };
-    match shared.module.execute_instruction(now, instruction) {
+    match module.execute_instruction(now, instruction) {
         Ok(Outcome::Value(v)) | Ok(Outcome::Restart(v)) => normal(Status::Ok, v),
         Ok(Outcome::EnterAscii) => normal(Status::Ok, 0),
         Ok(Outcome::Raw(raw)) => Reply { status: None, value: None, opcode, raw: raw.to_vec() },
@@ -214,37 +284,141 @@ fn opcode_of(command: &Bound<'_, PyAny>) -> PyResult<Opcode> {
 /// A virtual TMCL module in this process: the OpenTMCL firmware core on a simulated board, in real time.
 #[pyclass(module = "opentmcl._native", subclass)]
 pub struct Module {
-    pub(crate) handle: Handle,
+    pub(crate) target: Target,
     pub(crate) spec: &'static ModelSpec,
     eeprom: Option<PathBuf>,
     closed: bool,
+    /// The clock thread of a module that is not served.
     clock: Option<std::thread::JoinHandle<()>>,
+    /// The server of a served module, shared with the other modules of its bus.
+    served: Option<Arc<Mutex<Served>>>,
+    link: Option<PathBuf>,
+    tcp_address: Option<String>,
+}
+
+/// A link asked for: `True` (a new one), a path or address, or nothing.
+fn link_option(value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Option<String>>> {
+    let Some(value) = value.filter(|v| !v.is_none()) else { return Ok(None) };
+    if let Ok(flag) = value.extract::<bool>() {
+        return Ok(flag.then_some(None));
+    }
+    if let Ok(text) = value.extract::<String>() {
+        return Ok(Some(Some(text)));
+    }
+    let path: PathBuf = value.extract()?;
+    Ok(Some(Some(path.display().to_string())))
+}
+
+/// A fresh directory for a pty link, under the system's temporary directory.
+fn link_dir() -> PyResult<PathBuf> {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static NEXT: AtomicU32 = AtomicU32::new(0);
+    loop {
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("opentmcl-{}-{n}", std::process::id()));
+        match std::fs::create_dir(&dir) {
+            Ok(()) => return Ok(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(PyRuntimeError::new_err(format!("cannot make {}: {e}", dir.display()))),
+        }
+    }
+}
+
+/// What one module of a server is made of.
+struct Wanted {
+    spec: &'static ModelSpec,
+    world: tmcl_sim::World,
+    eeprom: Option<PathBuf>,
+    address: u8,
+}
+
+/// Serves `wanted` on one link (a pty, or TCP) and returns one `Module` per entry.
+fn serve(
+    wanted: Vec<Wanted>,
+    link: Option<Option<String>>,
+    tcp: Option<Option<String>>,
+    wire_timing: bool,
+) -> PyResult<Vec<Module>> {
+    let mut tempdir = None;
+    let link_option = match (link, tcp) {
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err("a module is served on one link: a pty (link=...) or TCP (tcp=...)"))
+        }
+        (Some(path), None) => {
+            let path = match path {
+                Some(path) => PathBuf::from(path),
+                None => {
+                    let dir = link_dir()?;
+                    tempdir = Some(dir.clone());
+                    dir.join("tmcl-link")
+                }
+            };
+            tmcl_serve::LinkOptions::Pty(path)
+        }
+        (None, Some(address)) => tmcl_serve::LinkOptions::Tcp(address.unwrap_or_else(|| "127.0.0.1:0".into())),
+        (None, None) => unreachable!("serve is called with a link"),
+    };
+    let modules = wanted
+        .iter()
+        .map(|w| {
+            let mut m = tmcl_serve::ModuleOptions::new(w.spec).address(w.address).world(w.world.clone());
+            m.eeprom = w.eeprom.clone();
+            m
+        })
+        .collect();
+    let mut options = tmcl_serve::Options::new(modules, vec![link_option]);
+    options.wire_timing = wire_timing;
+    let server = tmcl_serve::Server::new(options).and_then(|s| s.spawn()).map_err(|e| {
+        if let Some(dir) = &tempdir {
+            let _ = std::fs::remove_dir_all(dir);
+        }
+        PyRuntimeError::new_err(e.to_string())
+    })?;
+    let (mut link, mut tcp_address) = (None, None);
+    for info in server.links() {
+        match info {
+            tmcl_serve::LinkInfo::Pty { link: path, .. } => link = Some(path.clone()),
+            tmcl_serve::LinkInfo::Tcp { address } => tcp_address = Some(address.to_string()),
+        }
+    }
+    let access = server.access();
+    let served = Arc::new(Mutex::new(Served { server: Some(server), tempdir }));
+    Ok(wanted
+        .into_iter()
+        .enumerate()
+        .map(|(index, w)| Module {
+            target: Target::Served { access: access.clone(), index },
+            spec: w.spec,
+            eeprom: w.eeprom,
+            closed: false,
+            clock: None,
+            served: Some(Arc::clone(&served)),
+            link: link.clone(),
+            tcp_address: tcp_address.clone(),
+        })
+        .collect())
 }
 
 impl Module {
-    pub(crate) fn shared(&self) -> PyResult<MutexGuard<'_, Shared>> {
+    /// Runs `f` on the module brought to now.
+    fn with<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Core<SimBoard>, Instant) -> R + Send + 'static,
+    ) -> PyResult<R> {
         if self.closed {
             return Err(PyRuntimeError::new_err("the module is closed"));
         }
-        lock(&self.handle)
-    }
-
-    /// Wakes the clock thread: a request may have brought a deadline closer.
-    fn wake(&self) {
+        let result = self.target.with(f);
+        // A request may have brought a deadline closer: wake the clock thread.
         if let Some(clock) = &self.clock {
             clock.thread().unpark();
         }
+        result
     }
 
-    /// A request, and the clock woken after it.
+    /// A request, as a host's on the primary interface.
     fn ask(&self, instruction: Instruction) -> PyResult<Reply> {
-        let reply = reply_of(&mut *self.shared()?, instruction);
-        self.wake();
-        Ok(reply)
-    }
-
-    fn param(&self, name: &str) -> PyResult<Param> {
-        names::lookup(self.spec, name)
+        self.with(move |module, now| reply_of(module, now, instruction))
     }
 
     fn checked(reply: Reply) -> PyResult<i32> {
@@ -253,6 +427,17 @@ impl Module {
             (Some(s), _) => Err(tmcl_error(s, reply.opcode)),
             _ => Err(PyRuntimeError::new_err("no value in the reply")),
         }
+    }
+
+    /// A read, write or store of a named parameter.
+    fn named(&self, name: &str, motor: u8, value: i32, axis_op: Opcode, global_op: Opcode) -> PyResult<i32> {
+        let p = names::lookup(self.spec, name)?;
+        let i = if p.axis {
+            Instruction::new(axis_op, p.number, motor, value)
+        } else {
+            Instruction::new(global_op, p.number, p.bank, value)
+        };
+        Module::checked(self.ask(i)?)
     }
 }
 
@@ -266,19 +451,97 @@ pub(crate) fn tmcl_error(status: u8, opcode: u8) -> PyErr {
     err
 }
 
+/// One module of `Module.bus`: a model id, or a dict of `Module`'s keywords.
+fn wanted_of(entry: &Bound<'_, PyAny>, position: usize) -> PyResult<Wanted> {
+    if let Ok(model) = entry.extract::<String>() {
+        let spec = crate::model_by_id(&model)?;
+        return Ok(Wanted { spec, world: tmcl_sim::World::default(), eeprom: None, address: position as u8 + 1 });
+    }
+    let dict = entry
+        .cast::<pyo3::types::PyDict>()
+        .map_err(|_| PyValueError::new_err("a module of a bus is a model id or a dict of Module's keywords"))?;
+    for key in dict.keys() {
+        let key: String = key.extract()?;
+        if !["model", "world", "eeprom", "address"].contains(&key.as_str()) {
+            return Err(PyValueError::new_err(format!("unknown keyword {key:?} for a module of a bus")));
+        }
+    }
+    let model: String = dict.get_item("model")?.map(|m| m.extract()).transpose()?.unwrap_or_else(|| "pd28-1021".into());
+    let world = dict.get_item("world")?;
+    let eeprom: Option<PathBuf> = dict.get_item("eeprom")?.filter(|e| !e.is_none()).map(|e| e.extract()).transpose()?;
+    let address: u8 = dict.get_item("address")?.map(|a| a.extract()).transpose()?.unwrap_or(position as u8 + 1);
+    if address == 0 {
+        return Err(PyValueError::new_err("a module address is 1..255"));
+    }
+    let world = load_world(world.as_ref().filter(|w| !w.is_none()))?;
+    Ok(Wanted { spec: crate::model_by_id(&model)?, world, eeprom, address })
+}
+
 #[pymethods]
 impl Module {
     /// A virtual module of `model` (`opentmcl.models()` lists them) in `world` (a TOML world file's path
     /// or text, `docs/world.md`; default a free axis), its EEPROM in memory or in the file `eeprom`
-    /// (crash-safe, kept across restarts), answering at `address` while its EEPROM is new.
+    /// (crash-safe, kept across restarts), answering at `address` while its EEPROM is new. `link=True`
+    /// (or a path) serves it on a pty that pytrinamic and pyserial open (`.link`); `tcp=True` (or
+    /// `"HOST:PORT"`) on a loopback TCP port (`.tcp_address`) instead.
     #[new]
-    #[pyo3(signature = (model = "pd28-1021", world = None, eeprom = None, address = 1))]
-    fn new(model: &str, world: Option<&Bound<'_, PyAny>>, eeprom: Option<PathBuf>, address: u8) -> PyResult<Module> {
+    #[pyo3(signature = (model = "pd28-1021", world = None, eeprom = None, address = 1, link = None, tcp = None, wire_timing = false))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &str,
+        world: Option<&Bound<'_, PyAny>>,
+        eeprom: Option<PathBuf>,
+        address: u8,
+        link: Option<&Bound<'_, PyAny>>,
+        tcp: Option<&Bound<'_, PyAny>>,
+        wire_timing: bool,
+    ) -> PyResult<Module> {
         let spec = crate::model_by_id(model)?;
         let world = load_world(world)?;
+        if address == 0 {
+            return Err(PyValueError::new_err("a module address is 1..255"));
+        }
+        let (link, tcp) = (link_option(link)?, link_option(tcp)?);
+        if link.is_some() || tcp.is_some() {
+            let wanted = vec![Wanted { spec, world, eeprom, address }];
+            return Ok(serve(wanted, link, tcp, wire_timing)?.remove(0));
+        }
         let handle = build(spec, world, eeprom.as_deref(), address)?;
         let clock = Some(start_clock(&handle)?);
-        Ok(Module { handle, spec, eeprom, closed: false, clock })
+        Ok(Module {
+            target: Target::Local(handle),
+            spec,
+            eeprom,
+            closed: false,
+            clock,
+            served: None,
+            link: None,
+            tcp_address: None,
+        })
+    }
+
+    /// Several modules on one line, as on an RS485 bus, served on one pty (`link=True` or a path, the
+    /// default) or TCP port (`tcp=True` or `"HOST:PORT"`): `modules` lists model ids or dicts of
+    /// `Module`'s keywords (`model`, `world`, `eeprom`, `address`; addresses default to 1, 2, ...).
+    /// `wire_timing=True` times every byte at its module's baud rate. Returns the modules in line order;
+    /// the line stops when the last of them is closed.
+    #[staticmethod]
+    #[pyo3(signature = (modules, link = None, tcp = None, wire_timing = false))]
+    fn bus(
+        modules: Vec<Bound<'_, PyAny>>,
+        link: Option<&Bound<'_, PyAny>>,
+        tcp: Option<&Bound<'_, PyAny>>,
+        wire_timing: bool,
+    ) -> PyResult<Vec<Module>> {
+        if modules.is_empty() {
+            return Err(PyValueError::new_err("a bus needs at least one module"));
+        }
+        let wanted = modules.iter().enumerate().map(|(n, m)| wanted_of(m, n)).collect::<PyResult<Vec<_>>>()?;
+        let (mut link, tcp) = (link_option(link)?, link_option(tcp)?);
+        if link.is_none() && tcp.is_none() {
+            link = Some(None);
+        }
+        serve(wanted, link, tcp, wire_timing)
     }
 
     /// The model's id (`pd28-1021`).
@@ -296,7 +559,7 @@ impl Module {
     /// The address the module answers at now (GP 66).
     #[getter]
     fn address(&self) -> PyResult<u8> {
-        Ok(self.shared()?.module.address())
+        self.with(|module, _| module.address())
     }
 
     /// The EEPROM file, if the EEPROM is kept in one.
@@ -305,10 +568,22 @@ impl Module {
         self.eeprom.clone()
     }
 
-    /// The module's time in seconds since it was made.
+    /// The pty link hosts open as a serial port (`None` unless served on one).
+    #[getter]
+    fn link(&self) -> Option<PathBuf> {
+        self.link.clone()
+    }
+
+    /// The loopback TCP address hosts connect to, `"127.0.0.1:PORT"` (`None` unless served on TCP).
+    #[getter]
+    fn tcp_address(&self) -> Option<String> {
+        self.tcp_address.clone()
+    }
+
+    /// The module's time in seconds since it started.
     #[getter]
     fn time(&self) -> PyResult<f64> {
-        Ok(self.shared()?.start.elapsed().as_secs_f64())
+        self.with(|_, now| now.micros() as f64 / 1e6)
     }
 
     /// Sends one command as a host on the primary interface would, without a link, and returns the
@@ -322,10 +597,7 @@ impl Module {
         let value = i32::try_from(value)
             .or_else(|_| u32::try_from(value).map(|v| v as i32))
             .map_err(|_| PyValueError::new_err(format!("{value} is not a 32-bit value")))?;
-        let instruction = Instruction::new(opcode, r#type, motor, value);
-        let reply = reply_of(&mut *self.shared()?, instruction);
-        self.wake();
-        Ok(reply)
+        self.ask(Instruction::new(opcode, r#type, motor, value))
     }
 
     /// Reads a parameter by name (`"MaxPositioningSpeed"`, `"APActualPosition"`, `"Maximum
@@ -333,47 +605,27 @@ impl Module {
     /// `TmclError`, an unknown name `KeyError`.
     #[pyo3(signature = (name, motor = 0))]
     fn get(&self, name: &str, motor: u8) -> PyResult<i32> {
-        let p = self.param(name)?;
-        let i = if p.axis {
-            Instruction::new(Opcode::Gap, p.number, motor, 0)
-        } else {
-            Instruction::new(Opcode::Ggp, p.number, p.bank, 0)
-        };
-        Module::checked(self.ask(i)?)
+        self.named(name, motor, 0, Opcode::Gap, Opcode::Ggp)
     }
 
     /// Writes a parameter by name (SAP or SGP). A refusal (read-only, out of range) is `TmclError`.
     #[pyo3(signature = (name, value, motor = 0))]
     fn set(&self, name: &str, value: i32, motor: u8) -> PyResult<()> {
-        let p = self.param(name)?;
-        let i = if p.axis {
-            Instruction::new(Opcode::Sap, p.number, motor, value)
-        } else {
-            Instruction::new(Opcode::Sgp, p.number, p.bank, value)
-        };
-        Module::checked(self.ask(i)?).map(drop)
+        self.named(name, motor, value, Opcode::Sap, Opcode::Sgp).map(drop)
     }
 
     /// Stores a parameter's value in the EEPROM by name (STAP or STGP).
     #[pyo3(signature = (name, motor = 0))]
     fn store(&self, name: &str, motor: u8) -> PyResult<()> {
-        let p = self.param(name)?;
-        let i = if p.axis {
-            Instruction::new(Opcode::Stap, p.number, motor, 0)
-        } else {
-            Instruction::new(Opcode::Stgp, p.number, p.bank, 0)
-        };
-        Module::checked(self.ask(i)?).map(drop)
+        self.named(name, motor, 0, Opcode::Stap, Opcode::Stgp).map(drop)
     }
 
     /// Puts a program into the module's program memory (as a host's download, 132…133), not started:
-    /// a `Program`, a `.bin` image or a list of `(opcode, type, motor, value)` tuples. `autostart=True`
-    /// also starts it (129 type 0 at address 0).
+    /// a `Program`, a `.bin` image or a list of `(opcode, type, motor, value)` tuples. `start=True`
+    /// also starts it at address 0 (129 type 1).
     #[pyo3(signature = (program, start = false))]
     fn load_program(&self, program: &Bound<'_, PyAny>, start: bool) -> PyResult<()> {
         let instructions = crate::asm::instructions_of(program)?;
-        let mut shared = self.shared()?;
-        let now = shared.catch_up();
         if instructions.len() > usize::from(self.spec.program_memory) {
             return Err(PyValueError::new_err(format!(
                 "{} instructions do not fit into the {}'s {} program cells",
@@ -382,40 +634,48 @@ impl Module {
                 self.spec.program_memory
             )));
         }
-        shared.module.load_program(&instructions).map_err(|s| tmcl_error(s.into(), Opcode::StartDownload.code()))?;
-        if start {
-            shared
-                .module
-                .execute_instruction(now, Instruction::new(Opcode::RunApplication, 1, 0, 0))
-                .map_err(|s| tmcl_error(s.into(), Opcode::RunApplication.code()))?;
-        }
-        drop(shared);
-        self.wake();
-        Ok(())
+        self.with(move |module, now| {
+            module.load_program(&instructions).map_err(|s| (s, Opcode::StartDownload))?;
+            if start {
+                module
+                    .execute_instruction(now, Instruction::new(Opcode::RunApplication, 1, 0, 0))
+                    .map_err(|s| (s, Opcode::RunApplication))?;
+            }
+            Ok(())
+        })?
+        .map_err(|(s, op): (Status, Opcode)| tmcl_error(s.into(), op.code()))
     }
 
     /// The world around the motor: readings and changes (see `World`).
     #[getter]
     fn world(&self) -> World {
-        World { handle: Arc::clone(&self.handle) }
+        World { target: self.target.clone() }
     }
 
-    /// Stops the module: its EEPROM file is synced and released (a new `Module` may open it). Further
-    /// use is an error. Closing twice does nothing.
-    pub(crate) fn close(&mut self) -> PyResult<()> {
+    /// Stops the module: a served one's link is removed (with the last module of its bus), its EEPROM
+    /// file synced and released (a new `Module` may open it). Further use is an error. Closing twice
+    /// does nothing.
+    fn close(&mut self) -> PyResult<()> {
         if self.closed {
             return Ok(());
         }
-        let mut shared = lock(&self.handle)?;
+        self.closed = true;
+        if let Some(served) = self.served.take() {
+            // The last module of a server stops it.
+            return match Arc::try_unwrap(served) {
+                Ok(served) => served.into_inner().map_or(Ok(()), |mut s| s.stop()),
+                Err(_) => Ok(()),
+            };
+        }
+        let Target::Local(handle) = &self.target else { return Ok(()) };
+        let mut shared = lock(handle)?;
         shared.catch_up();
         let synced = shared.module.board_mut().eeprom().sync();
         // The EEPROM file's lock goes with the board: a fresh in-memory board takes its place.
         let spec = self.spec;
-        let old = std::mem::replace(&mut shared.module, Core::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO));
-        drop(old);
+        drop(std::mem::replace(&mut shared.module, Core::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO)));
         shared.stopped = true;
         drop(shared);
-        self.closed = true;
         if let Some(clock) = self.clock.take() {
             clock.thread().unpark();
             let _ = clock.join();
@@ -440,9 +700,14 @@ impl Module {
     }
 
     fn __repr__(&self) -> String {
-        let address = lock(&self.handle).map(|s| s.module.address()).unwrap_or(0);
+        let address = self.with(|m, _| m.address()).unwrap_or(0);
         let state = if self.closed { ", closed" } else { "" };
-        format!("<opentmcl.Module {}@{address}{state}>", self.spec.id)
+        let link = match (&self.link, &self.tcp_address) {
+            (Some(link), _) => format!(" on {}", link.display()),
+            (None, Some(address)) => format!(" on {address}"),
+            _ => String::new(),
+        };
+        format!("<opentmcl.Module {}@{address}{link}{state}>", self.spec.id)
     }
 }
 
@@ -450,14 +715,12 @@ impl Module {
 /// itself, which can be replaced.
 #[pyclass(module = "opentmcl._native")]
 pub struct World {
-    handle: Handle,
+    target: Target,
 }
 
 impl World {
-    fn read<T>(&self, f: impl FnOnce(&SimBoard) -> T) -> PyResult<T> {
-        let mut shared = lock(&self.handle)?;
-        shared.catch_up();
-        Ok(f(shared.module.board()))
+    fn read<T: Send + 'static>(&self, f: impl FnOnce(&SimBoard) -> T + Send + 'static) -> PyResult<T> {
+        self.target.with(move |module, _| f(module.board()))
     }
 }
 
@@ -469,11 +732,13 @@ impl World {
     /// the outputs are kept.
     fn load(&self, world: &Bound<'_, PyAny>) -> PyResult<()> {
         let world = load_world(Some(world))?;
-        let mut shared = lock(&self.handle)?;
-        let now = shared.catch_up();
-        shared.module.board_mut().set_world(world).map_err(|e| PyValueError::new_err(e.to_string()))?;
-        shared.module.board_timeline().advance(now);
-        Ok(())
+        self.target
+            .with(move |module, now| {
+                module.board_mut().set_world(world)?;
+                module.board_timeline().advance(now);
+                Ok(())
+            })?
+            .map_err(|e: tmcl_sim::WorldError| PyValueError::new_err(e.to_string()))
     }
 
     /// The rotor's position since power-up, in physical 1/256 microsteps.

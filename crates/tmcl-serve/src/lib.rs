@@ -53,7 +53,7 @@ mod trace;
 use std::fmt;
 use std::path::PathBuf;
 
-pub use serve::{RunningServer, Server, Stopper};
+pub use serve::{Access, RunningServer, Server, Stopper};
 
 /// Why a server could not be made or stopped.
 #[derive(Debug, thiserror::Error)]

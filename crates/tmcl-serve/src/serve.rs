@@ -82,6 +82,39 @@ impl Stopper {
     }
 }
 
+/// A piece of work the serve loop runs on its modules between two polls ([`Access`]).
+type Job = Box<dyn FnOnce(&mut [Node], Instant) + Send>;
+
+/// Work on the served modules from another thread, between the serve loop's polls: what a program that
+/// embeds the server (the Python package) uses to read and change its modules directly, without a link,
+/// while hosts talk to them on the link.
+#[derive(Clone)]
+pub struct Access {
+    jobs: std::sync::mpsc::Sender<Job>,
+    stopper: Stopper,
+}
+
+impl Access {
+    /// Runs `f` on module `index` (in line order) at the server's time now, on the serve loop's thread,
+    /// and returns its result; `None` when the server has stopped or has no such module.
+    pub fn with_module<R: Send + 'static>(
+        &self,
+        index: usize,
+        f: impl FnOnce(&mut Module<SimBoard>, Instant) -> R + Send + 'static,
+    ) -> Option<R> {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        let job: Job = Box::new(move |nodes, now| {
+            if let Some(node) = nodes.get_mut(index) {
+                let _ = tx.send(f(&mut node.module, now));
+            }
+        });
+        self.jobs.send(job).ok()?;
+        // Wake the loop from its sleep; it runs the job before it sleeps again.
+        let _ = (&*self.stopper.waker).write(&[1]);
+        rx.recv().ok()
+    }
+}
+
 /// Modules and links, open and ready to serve (see the crate docs).
 pub struct Server {
     bus: Bus,
@@ -97,6 +130,8 @@ pub struct Server {
     stopper: Stopper,
     /// The loop's end of the waker pair.
     wake: UnixStream,
+    /// Work from [`Access`] handles, and the sending end they clone.
+    jobs: (std::sync::mpsc::Sender<Job>, std::sync::mpsc::Receiver<Job>),
 }
 
 impl Server {
@@ -271,7 +306,18 @@ impl Server {
         wake.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         waker.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
         let stopper = Stopper { flag: Arc::new(AtomicBool::new(false)), waker: Arc::new(waker) };
-        Ok(Server { bus, links: opened, ecat, start, verbose, flush_on_stop: true, notes, stopper, wake })
+        Ok(Server {
+            bus,
+            links: opened,
+            ecat,
+            start,
+            verbose,
+            flush_on_stop: true,
+            notes,
+            stopper,
+            wake,
+            jobs: std::sync::mpsc::channel(),
+        })
     }
 
     /// The modules, in line order, with the addresses they answer at.
@@ -324,6 +370,11 @@ impl Server {
         self.stopper.clone()
     }
 
+    /// A handle that works on the modules directly while the server runs ([`Access::with_module`]).
+    pub fn access(&self) -> Access {
+        Access { jobs: self.jobs.0.clone(), stopper: self.stopper.clone() }
+    }
+
     /// Runs the server on a thread of its own.
     ///
     /// # Errors
@@ -333,11 +384,12 @@ impl Server {
         let links = self.links();
         let modules = self.modules();
         let stopper = self.stopper();
+        let access = self.access();
         let thread = std::thread::Builder::new()
             .name("tmcl-serve".into())
             .spawn(move || self.run())
             .map_err(|e| ServeError::Io(format!("cannot start the server's thread: {e}")))?;
-        Ok(RunningServer { stopper, thread: Some(thread), links, modules })
+        Ok(RunningServer { stopper, access, thread: Some(thread), links, modules })
     }
 
     /// Serves until the [`Stopper`] says stop; then removes the links and flushes every EEPROM.
@@ -385,12 +437,16 @@ impl Server {
             }
         }
         let (bus, links, ecat) = (&mut self.bus, &mut self.links, &mut self.ecat);
+        let jobs = &self.jobs.1;
         let mut buf = [0u8; 4096];
         let mut exclusive_checked = std::time::Instant::now();
         let mut intruders_checked = std::time::Instant::now();
         // Per link, the hosts last warned about.
         let mut warned: Vec<Vec<(u32, String)>> = vec![Vec::new(); links.len()];
         while !self.stopper.is_stopped() {
+            while let Ok(job) = jobs.try_recv() {
+                job(&mut bus.nodes, clock());
+            }
             let now = clock();
             let mut deadline = bus.poll(now, &mut |n: usize, bytes: &[u8]| queue(links, n, bytes, verbose, now));
             for (link, pending) in links.iter_mut() {
@@ -517,6 +573,7 @@ fn queue(links: &mut [(Link, Vec<u8>)], n: usize, bytes: &[u8], verbose: bool, n
 /// A server running on its own thread ([`Server::spawn`]); dropping it stops it.
 pub struct RunningServer {
     stopper: Stopper,
+    access: Access,
     thread: Option<JoinHandle<Result<(), ServeError>>>,
     links: Vec<LinkInfo>,
     modules: Vec<ModuleInfo>,
@@ -536,6 +593,11 @@ impl RunningServer {
     /// The handle that stops it.
     pub fn stopper(&self) -> Stopper {
         self.stopper.clone()
+    }
+
+    /// A handle that works on the modules directly ([`Access::with_module`]).
+    pub fn access(&self) -> Access {
+        self.access.clone()
     }
 
     /// Whether the server's thread has ended (stopped, or failed: [`RunningServer::stop`] tells how).

@@ -1,0 +1,88 @@
+"""Modules served on a pty and on TCP from the Python process: pytrinamic and pyserial as hosts, a bus of
+two models, EEPROM across a restart, links cleaned up."""
+
+import os
+import struct
+
+import pytest
+
+import opentmcl
+from opentmcl.pytest_plugin import pytrinamic_args, pytrinamic_connection
+
+serial = pytest.importorskip("serial")
+pytest.importorskip("pytrinamic")
+
+
+def frame(address, opcode, kind, motor, value):
+    body = struct.pack(">BBBBi", address, opcode, kind, motor, value)
+    return body + bytes([sum(body) & 0xFF])
+
+
+def test_pty_link_with_pyserial_and_direct_access_together():
+    with opentmcl.Module(link=True) as module:
+        assert module.link and os.path.islink(module.link) and module.tcp_address is None
+        with serial.Serial(str(module.link), 9600, timeout=5) as port:
+            port.write(frame(1, 5, 4, 0, 1234))  # SAP 4, 0, 1234 over the link
+            reply = port.read(9)
+            assert reply[2] == 100 and reply[3] == 5
+        # ... and read back directly, from the same module.
+        assert module.get("MaxPositioningSpeed") == 1234
+        link = module.link
+    assert not os.path.lexists(link)  # removed on close
+
+
+def test_tcp_with_pytrinamic():
+    from pytrinamic.modules import TMCM1021
+
+    with opentmcl.Module(tcp=True) as module:
+        host, port = module.tcp_address.rsplit(":", 1)
+        assert host == "127.0.0.1" and int(port) > 0
+        assert "socket_serial_tmcl" in pytrinamic_args(module)
+        connection = pytrinamic_connection(module)
+        try:
+            motor = TMCM1021(connection).motors[0]
+            motor.set_axis_parameter(motor.AP.MaxVelocity, 2000)
+            assert motor.get_axis_parameter(motor.AP.MaxVelocity) == 2000
+        finally:
+            connection.close()
+        assert module.get("MaxPositioningSpeed") == 2000
+
+
+def test_bus_of_two_models():
+    first, second = opentmcl.Module.bus(["pd28-1021", {"model": "pd-113", "address": 2}])
+    try:
+        assert first.link == second.link
+        assert (first.address, second.address) == (1, 2)
+        with serial.Serial(str(first.link), 9600, timeout=5) as port:
+            for address, model in ((1, "1021"), (2, "113")):
+                port.write(frame(address, 136, 1, 0, 0))  # firmware version, binary (§3.7.38)
+                reply = port.read(9)
+                assert reply[1] == address and reply[2] == 100
+            first.set("MaxPositioningSpeed", 999)
+            port.write(frame(1, 6, 4, 0, 0))
+            assert struct.unpack(">i", port.read(9)[4:8])[0] == 999
+        # Closing one keeps the line up for the other; the last one stops it.
+        first.close()
+        assert os.path.islink(second.link)
+        assert second.request("GAP", 4, 0).ok
+    finally:
+        first.close()
+        second.close()
+    assert not os.path.lexists(second.link)
+
+
+def test_eeprom_across_a_restart_of_a_served_module(tmp_path):
+    eeprom = tmp_path / "m.eeprom"
+    with opentmcl.Module(eeprom=eeprom, link=True) as module:
+        with serial.Serial(str(module.link), 9600, timeout=5) as port:
+            port.write(frame(1, 5, 4, 0, 4321))  # SAP
+            port.read(9)
+            port.write(frame(1, 7, 4, 0, 0))  # STAP: into the EEPROM
+            assert port.read(9)[2] == 100
+    with opentmcl.Module(eeprom=eeprom, tcp=True) as module:
+        assert module.get("MaxPositioningSpeed") == 4321
+
+
+def test_one_link_per_module():
+    with pytest.raises(ValueError, match="one link"):
+        opentmcl.Module(link=True, tcp=True)
