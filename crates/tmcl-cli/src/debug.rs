@@ -66,7 +66,7 @@ pub fn after_help() -> String {
 
 /// Runs `tmcl debug`.
 pub(crate) fn run(args: DebugArgs, json: bool) -> Result<(), CliError> {
-    let source = Source::load(&args.file)?;
+    let source = args.sim.load(&args.file)?;
     let module = args.sim.build(&source)?;
     let mut debugger = Debugger::new(args.sim, source, module, args.limit);
     let stdin = io::stdin();

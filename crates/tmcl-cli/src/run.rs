@@ -165,8 +165,8 @@ pub struct RunJson {
 const REFUSALS_SHOWN: usize = 20;
 
 fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
-    let source = tmcl_run::Source::load(&args.file)?;
     let setup = args.sim.setup()?;
+    let source = tmcl_run::Source::load(&args.file, setup.model)?;
     let mut simulation = Simulation::new(&source, &setup).map_err(crate::sim::setup_error)?;
     let options = Options {
         duration: args.duration,

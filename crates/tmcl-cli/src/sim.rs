@@ -43,6 +43,13 @@ impl SimOptions {
         Ok(setup)
     }
 
+    /// The program in `path`, assembled with the built-in include files of the chosen model.
+    pub fn load(&self, path: &std::path::Path) -> Result<Source, CliError> {
+        let model = tmcl_core::model::by_id(&self.module)
+            .ok_or_else(|| setup_error(SetupError::UnknownModel { id: self.module.clone() }))?;
+        Ok(Source::load(path, model)?)
+    }
+
     /// A fresh module at time 0 with the settings applied and the program loaded (not started).
     pub fn build(&self, source: &Source) -> Result<Module<SimBoard>, CliError> {
         self.setup()?.build(source, &mut crate::asm::source_line).map_err(setup_error)

@@ -18,9 +18,10 @@ Loop:
 ";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let source = Source::assemble("manual.tmc", SOURCE)?;
+    let setup = Setup::new("pd28-1021")?;
+    let source = Source::assemble("manual.tmc", SOURCE, setup.model)?;
     let options = Options::new(Duration::from_secs(3600));
-    let (trace, summary) = run(&source, &Setup::new("pd28-1021")?, &options)?;
+    let (trace, summary) = run(&source, &setup, &options)?;
     let columns: Vec<String> = trace.columns().iter().map(|c| format!("{} [{}]", c.name, c.unit.symbol())).collect();
     println!("{} rows: {}", trace.len(), columns.join(", "));
     let position = trace.column(Quantity::ActualPosition).ok_or("no position column")?;

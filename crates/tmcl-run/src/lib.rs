@@ -16,8 +16,9 @@
 //! use tmcl_run::{run, Options, Quantity, Setup, Source};
 //! use tmcl_core::Duration;
 //! // PD28-1021 manual §2.4, shortened: out and back.
-//! let source = Source::assemble("p.tmc", "MVP ABS, 0, 51200\nWAIT POS, 0, 0\nMVP ABS, 0, 0\nWAIT POS, 0, 0\nSTOP\n")?;
 //! let setup = Setup::new("pd28-1021")?;
+//! let source =
+//!     Source::assemble("p.tmc", "MVP ABS, 0, 51200\nWAIT POS, 0, 0\nMVP ABS, 0, 0\nWAIT POS, 0, 0\nSTOP\n", setup.model)?;
 //! let mut options = Options::new(Duration::from_secs(5));
 //! options.every = Duration::from_millis(100);
 //! let (trace, summary) = run(&source, &setup, &options)?;

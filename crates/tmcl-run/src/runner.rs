@@ -120,8 +120,9 @@ pub fn state_name(state: RunState) -> &'static str {
 ///
 /// ```
 /// use tmcl_run::{run, Options, Quantity, Setup, Source};
-/// let source = Source::assemble("demo.tmc", "MVP ABS, 0, 5000\nWAIT POS, 0, 0\nSTOP\n")?;
-/// let (trace, summary) = run(&source, &Setup::new("pd28-1021")?, &Options::new(tmcl_core::Duration::from_secs(2)))?;
+/// let setup = Setup::new("pd28-1021")?;
+/// let source = Source::assemble("demo.tmc", "MVP ABS, 0, 5000\nWAIT POS, 0, 0\nSTOP\n", setup.model)?;
+/// let (trace, summary) = run(&source, &setup, &Options::new(tmcl_core::Duration::from_secs(2)))?;
 /// let position = trace.column(Quantity::ActualPosition).unwrap();
 /// assert_eq!(position.last(), Some(Some(5000)));
 /// assert_eq!(summary.state, "stopped");

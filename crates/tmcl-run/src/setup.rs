@@ -142,24 +142,31 @@ pub struct Source {
     pub path: PathBuf,
 }
 
+/// Include files from disk, and the built-in ones of `model`.
+fn resolver(model: &'static ModelSpec) -> tmcl_asm::FileResolver {
+    tmcl_asm::FileResolver { include_dirs: Vec::new(), builtins: tmcl_asm::BuiltinResolver { model } }
+}
+
 impl Source {
-    /// Reads a program: TMCL source (assembled with the built-in include files and those next to it) or,
-    /// for a `.bin` file, an image (8 bytes per instruction).
-    pub fn load(path: &Path) -> Result<Source, SourceError> {
+    /// Reads a program for `model`: TMCL source, assembled with the model's built-in include files
+    /// (`TMCLParam.tmc`, `Interrupts.inc`: its own parameter names, and the names the other models give
+    /// the meanings it shares) and those next to it; or, for a `.bin` file, an image (8 bytes per
+    /// instruction).
+    pub fn load(path: &Path, model: &'static ModelSpec) -> Result<Source, SourceError> {
         if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bin")) {
             let bytes =
                 std::fs::read(path).map_err(|error| SourceError::Unreadable { path: path.to_path_buf(), error })?;
             return Source::from_image(&path.display().to_string(), &bytes);
         }
-        let program = tmcl_asm::assemble(path)
+        let program = tmcl_asm::assemble_file(path, &mut resolver(model))
             .map_err(|diagnostics| SourceError::Assembly { name: path.display().to_string(), diagnostics })?;
         Ok(Source { program, path: path.to_path_buf() })
     }
 
-    /// Assembles source text; `name` names it in diagnostics and is the base of relative `#include`s
-    /// (the built-in include files are always found).
-    pub fn assemble(name: &str, text: &str) -> Result<Source, SourceError> {
-        let program = tmcl_asm::assemble_str(name, text, &mut tmcl_asm::FileResolver::default())
+    /// Assembles source text for `model` (its built-in include files, as [`Source::load`]); `name` names it
+    /// in diagnostics and is the base of relative `#include`s.
+    pub fn assemble(name: &str, text: &str, model: &'static ModelSpec) -> Result<Source, SourceError> {
+        let program = tmcl_asm::assemble_str(name, text, &mut resolver(model))
             .map_err(|diagnostics| SourceError::Assembly { name: name.to_string(), diagnostics })?;
         Ok(Source { program, path: PathBuf::from(name) })
     }
@@ -364,14 +371,32 @@ mod tests {
 
     #[test]
     fn source_text_and_images_give_the_same_program() {
-        let text = Source::assemble("p.tmc", "Loop: ROL 0, 500\nWAIT TICKS, 0, 10\nJA Loop\n").unwrap();
+        let pd28 = model::by_id("pd28-1021").unwrap();
+        let text = Source::assemble("p.tmc", "Loop: ROL 0, 500\nWAIT TICKS, 0, 10\nJA Loop\n", pd28).unwrap();
         assert_eq!(text.label_at(0), Some("Loop"));
         let image = Source::from_image("p.bin", &text.program.to_bin()).unwrap();
         assert_eq!(image.program.instructions, text.program.instructions);
         assert!(matches!(Source::from_image("x.bin", &[1, 2, 3]), Err(SourceError::Image { .. })));
-        let Err(SourceError::Assembly { diagnostics, .. }) = Source::assemble("bad.tmc", "FROB 1\n") else {
+        let Err(SourceError::Assembly { diagnostics, .. }) = Source::assemble("bad.tmc", "FROB 1\n", pd28) else {
             panic!("an unknown mnemonic is an error")
         };
         assert_eq!(diagnostics[0].line, 1);
+    }
+
+    #[test]
+    fn the_built_in_include_files_are_the_models() {
+        // AP 129 is the TMCM-1310's closed-loop mode; the PD28-1021 has no parameter of that name.
+        let text = "#include TMCLParam.tmc\nSAP APClosedLoopMode, 0, 1\nSTOP\n";
+        let tmcm = model::by_id("tmcm-1310").unwrap();
+        let source = Source::assemble("cl.tmc", text, tmcm).unwrap();
+        let first = Command::decode(source.program.instructions[0]).unwrap();
+        assert_eq!(first, Command::Sap { param: 129, motor: 0, value: 1 });
+        let pd28 = model::by_id("pd28-1021").unwrap();
+        assert!(matches!(Source::assemble("cl.tmc", text, pd28), Err(SourceError::Assembly { .. })));
+        // A name the models share (AP 4, the maximum positioning speed) assembles for each.
+        for spec in model::MODELS {
+            let source = Source::assemble("v.tmc", "#include TMCLParam.tmc\nSAP APMaxPositioningSpeed, 0, 100\n", spec);
+            assert!(source.is_ok(), "{}", spec.id);
+        }
     }
 }

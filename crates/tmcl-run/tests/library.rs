@@ -9,6 +9,9 @@ use tmcl_run::{
 };
 use tmcl_sim::World;
 
+/// The model of the manual's programs.
+const PD28: &tmcl_core::model::ModelSpec = &tmcl_core::model::pd28_1021::SPEC;
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -26,8 +29,8 @@ fn the_library_gives_the_checked_in_traces() {
         ("pd113_first_program", "pd-113", 12, 100, None, false),
         ("tmcm1310_closed_loop", "tmcm-1310", 6, 20, Some("examples/worlds/closed-loop-seizure.toml"), true),
     ] {
-        let source = Source::load(&root().join(format!("tests/programs/{name}.tmc"))).unwrap();
         let mut setup = Setup::new(model).unwrap();
+        let source = Source::load(&root().join(format!("tests/programs/{name}.tmc")), setup.model).unwrap();
         if let Some(world) = world {
             setup = setup.with_world(World::load(root().join(world)).unwrap());
         }
@@ -43,7 +46,7 @@ fn the_library_gives_the_checked_in_traces() {
 
 #[test]
 fn a_streamed_csv_and_the_trace_in_memory_agree() {
-    let source = Source::load(&root().join("tests/programs/manual_p01_first_steps.tmc")).unwrap();
+    let source = Source::load(&root().join("tests/programs/manual_p01_first_steps.tmc"), PD28).unwrap();
     let setup = Setup::new("pd28-1021").unwrap().with_setting(Setting::Global { number: 7, bank: 2, value: 5 });
     let mut simulation = Simulation::new(&source, &setup).unwrap();
     let mut trace = Trace::new();
@@ -74,7 +77,7 @@ fn a_streamed_csv_and_the_trace_in_memory_agree() {
 #[test]
 fn setup_errors_say_what_is_wrong() {
     assert!(matches!(Setup::new("tmcm-9999"), Err(SetupError::UnknownModel { .. })));
-    let sac = Source::assemble("sac.tmc", "SAC 0, 1, 5\nSTOP\n").unwrap();
+    let sac = Source::assemble("sac.tmc", "SAC 0, 1, 5\nSTOP\n", PD28).unwrap();
     let Err(SetupError::Commands { diagnostics, model, .. }) = Simulation::new(&sac, &Setup::new("pd28-1021").unwrap())
     else {
         panic!("SAC is a PDx-113 command only")
@@ -82,7 +85,7 @@ fn setup_errors_say_what_is_wrong() {
     assert_eq!((diagnostics.len(), diagnostics[0].line, model), (1, 1, "PD28-1021"));
     assert!(Simulation::new(&sac, &Setup::new("pd-113").unwrap()).is_ok());
     let refused = Setup::new("pd28-1021").unwrap().with_setting(Setting::Axis { number: 4, value: -5 });
-    let stop = Source::assemble("stop.tmc", "STOP\n").unwrap();
+    let stop = Source::assemble("stop.tmc", "STOP\n", PD28).unwrap();
     assert!(matches!(Simulation::new(&stop, &refused), Err(SetupError::Setting { .. })));
 }
 
@@ -95,6 +98,7 @@ fn positions_are_placed_in_the_world_also_after_a_reference_search() {
         "rfs.tmc",
         "SAP 193, 0, 1\nSAP 194, 0, 100000\nSAP 4, 0, 200000\nRFS START, 0\nWait: RFS STATUS, 0\nJC NZ, Wait\n\
          MVP ABS, 0, 1280000\nWAIT POS, 0, 0\nSTOP\n",
+        PD28,
     )
     .unwrap();
     let world = World::load(root().join("examples/worlds/linear-stage.toml")).unwrap();
