@@ -22,7 +22,7 @@ use crate::nvm::{FileNvm, MemNvm, NvmError};
 use crate::profile::Profile;
 use crate::world::{Active, DriverFlag, EncoderType, Invalid, World, WorldError};
 
-mod change;
+pub mod change;
 pub use change::{Change, SwitchId};
 use tmcl_core::hal::{
     Analog, DriveState, DriverSettings, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, Quiet, StepDriver,

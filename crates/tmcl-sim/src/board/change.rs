@@ -22,11 +22,11 @@ use tmcl_core::Instant;
 /// One of the board's three reference switches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum SwitchId {
-    /// The left stop switch (negative end; AP 11, PD28-1021 manual §4 Table 15).
+    /// The left stop switch (negative end; its state is AP 11, PD28-1021 manual chapter 4, Table 15).
     Left,
-    /// The right stop switch (positive end; AP 10).
+    /// The right stop switch (positive end; AP 10, the same table).
     Right,
-    /// The home switch (reference search, AP 193).
+    /// The home switch (the reference search, AP 193, §7.1).
     Home,
 }
 
