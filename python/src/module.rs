@@ -716,7 +716,9 @@ impl Module {
 }
 
 /// The world around a module's motor: what the shaft, the load and the outputs do, and the world
-/// itself, which can be replaced.
+/// itself, which can be replaced (`load`) or changed while the module runs (the switches, `seized`,
+/// `friction`, `external_torque`, the inputs; `docs/world.md`, "Changing the world at run time"). A
+/// change reaches the firmware at once, as a world file's timeline entry at that instant.
 #[pyclass(module = "opentmcl._native")]
 pub struct World {
     target: Target,

@@ -223,7 +223,7 @@ pub struct Context {
 /// The program machine's state.
 #[derive(Debug, Clone)]
 pub struct Vm {
-    /// Run state: read it here; the crate changes it only through `Vm::set_state`, the one place it changes.
+    /// Run state: read it here; the crate changes it only through `Vm::set_state`.
     pub state: RunState,
     /// Program counter: the address of the next instruction (GP 130).
     pub pc: u16,
