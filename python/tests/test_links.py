@@ -111,6 +111,27 @@ def test_a_pty_and_tcp_at_once_each_host_gets_its_own_replies():
             connection.close()
 
 
+def test_a_bus_on_a_pty_and_tcp_at_once():
+    import socket
+
+    first, second = opentmcl.Module.bus(["pd28-1021", "pd28-1021"], link=True, tcp=True)
+    with first, second:
+        assert first.link == second.link and first.tcp_address == second.tcp_address
+        second.set("MaxPositioningSpeed", 4321)
+        host, port = first.tcp_address.rsplit(":", 1)
+        with socket.create_connection((host, int(port)), timeout=10) as tcp, serial.Serial(
+            str(first.link), 9600, timeout=5
+        ) as pty:
+            pty.write(frame(2, 6, 4, 0, 0))  # GAP 4 of module 2 on the pty
+            tcp.sendall(frame(1, 6, 4, 0, 0))  # GAP 4 of module 1 over TCP
+            reply = pty.read(9)
+            assert reply[:4] == bytes([2, 2, 100, 6]) and struct.unpack(">i", reply[4:8])[0] == 4321
+            reply = b""
+            while len(reply) < 9:
+                reply += tcp.recv(9 - len(reply))
+            assert reply[:4] == bytes([2, 1, 100, 6]) and struct.unpack(">i", reply[4:8])[0] == 51200
+
+
 def test_wire_timing_takes_one_link():
     with pytest.raises(ValueError, match="one link"):
         opentmcl.Module(link=True, tcp=True, wire_timing=True)
