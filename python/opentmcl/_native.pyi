@@ -58,6 +58,55 @@ class World:
     def supply_voltage(self) -> float: ...
     @property
     def outputs(self) -> int: ...
+    # Run-time changes (docs/world.md, "Changing the world at run time"): each is a change the firmware
+    # notices at once, as a world file's timeline entry at that instant.
+    @property
+    def left(self) -> bool:
+        """The left stop switch pressed now; set True/False to press/hold released, None to follow the position."""
+    @left.setter
+    def left(self, pressed: Optional[bool]) -> None: ...
+    @property
+    def right(self) -> bool:
+        """The right stop switch pressed now; set as `left`."""
+    @right.setter
+    def right(self, pressed: Optional[bool]) -> None: ...
+    @property
+    def home(self) -> bool:
+        """The home switch pressed now; set as `left`."""
+    @home.setter
+    def home(self, pressed: Optional[bool]) -> None: ...
+    @property
+    def seized(self) -> bool:
+        """The shaft seized now; set True to seize it where it is, False to free it."""
+    @seized.setter
+    def seized(self, seized: bool) -> None: ...
+    @property
+    def friction(self) -> float:
+        """Coulomb friction on the shaft in N·m (>= 0)."""
+    @friction.setter
+    def friction(self, friction: float) -> None: ...
+    @property
+    def external_torque(self) -> float:
+        """External torque on the shaft in N·m, positive pushes toward + (the world file's load.script)."""
+    @external_torque.setter
+    def external_torque(self, torque: float) -> None: ...
+    @property
+    def inputs(self) -> int:
+        """Digital inputs, bit n = INn."""
+    @inputs.setter
+    def inputs(self, bits: int) -> None: ...
+    @property
+    def analog(self) -> int:
+        """Analog input 0, 0..4095."""
+    @analog.setter
+    def analog(self, value: int) -> None: ...
+    @property
+    def temperature(self) -> int:
+        """Module temperature in °C."""
+    @temperature.setter
+    def temperature(self, celsius: int) -> None: ...
+    def slip_encoder(self, counts: int) -> None:
+        """The encoder gains `counts` counts now (negative: loses them)."""
 
 class Module:
     def __init__(

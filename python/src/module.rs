@@ -15,7 +15,8 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use tmcl_core::model::ModelSpec;
 use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module as Core, Outcome};
-use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
+use tmcl_sim::world::InputChange;
+use tmcl_sim::{Change, Eeprom, FileNvm, MemNvm, SimBoard, SwitchId};
 use tmcl_wire::{Command, Instruction, Opcode, Status};
 
 /// A port number no model has: [`Core::poll_port`] on it brings the module to an instant without taking
@@ -332,32 +333,34 @@ struct Wanted {
     address: u8,
 }
 
-/// Serves `wanted` on one link (a pty, or TCP) and returns one `Module` per entry.
+/// Serves `wanted` on a pty (`link`), a loopback TCP port (`tcp`) or both at once — each a host interface
+/// of its own on every module (a host on one never sees the replies to the other) — and returns one
+/// `Module` per entry.
 fn serve(
     wanted: Vec<Wanted>,
     link: Option<Option<String>>,
     tcp: Option<Option<String>>,
     wire_timing: bool,
 ) -> PyResult<Vec<Module>> {
+    if link.is_some() && tcp.is_some() && wire_timing {
+        return Err(PyValueError::new_err("wire_timing times one wire: serve on one link (link=... or tcp=...)"));
+    }
     let mut tempdir = None;
-    let link_option = match (link, tcp) {
-        (Some(_), Some(_)) => {
-            return Err(PyValueError::new_err("a module is served on one link: a pty (link=...) or TCP (tcp=...)"))
-        }
-        (Some(path), None) => {
-            let path = match path {
-                Some(path) => PathBuf::from(path),
-                None => {
-                    let dir = link_dir()?;
-                    tempdir = Some(dir.clone());
-                    dir.join("tmcl-link")
-                }
-            };
-            tmcl_serve::LinkOptions::Pty(path)
-        }
-        (None, Some(address)) => tmcl_serve::LinkOptions::Tcp(address.unwrap_or_else(|| "127.0.0.1:0".into())),
-        (None, None) => unreachable!("serve is called with a link"),
-    };
+    let mut links = Vec::new();
+    if let Some(path) = link {
+        let path = match path {
+            Some(path) => PathBuf::from(path),
+            None => {
+                let dir = link_dir()?;
+                tempdir = Some(dir.clone());
+                dir.join("tmcl-link")
+            }
+        };
+        links.push(tmcl_serve::LinkOptions::Pty(path));
+    }
+    if let Some(address) = tcp {
+        links.push(tmcl_serve::LinkOptions::Tcp(address.unwrap_or_else(|| "127.0.0.1:0".into())));
+    }
     let modules = wanted
         .iter()
         .map(|w| {
@@ -366,7 +369,7 @@ fn serve(
             m
         })
         .collect();
-    let mut options = tmcl_serve::Options::new(modules, vec![link_option]);
+    let mut options = tmcl_serve::Options::new(modules, links);
     options.wire_timing = wire_timing;
     let server = tmcl_serve::Server::new(options).and_then(|s| s.spawn()).map_err(|e| {
         if let Some(dir) = &tempdir {
@@ -483,7 +486,8 @@ impl Module {
     /// or text, `docs/world.md`; default a free axis), its EEPROM in memory or in the file `eeprom`
     /// (crash-safe, kept across restarts), answering at `address` while its EEPROM is new. `link=True`
     /// (or a path) serves it on a pty that pytrinamic and pyserial open (`.link`); `tcp=True` (or
-    /// `"HOST:PORT"`) on a loopback TCP port (`.tcp_address`) instead.
+    /// `"HOST:PORT"`) on a loopback TCP port (`.tcp_address`), or on both at once: each link is a host
+    /// interface of its own, and a host on one never sees the replies to the other.
     #[new]
     #[pyo3(signature = (model = "pd28-1021", world = None, eeprom = None, address = 1, link = None, tcp = None, wire_timing = false))]
     #[allow(clippy::too_many_arguments)]
@@ -521,7 +525,7 @@ impl Module {
     }
 
     /// Several modules on one line, as on an RS485 bus, served on one pty (`link=True` or a path, the
-    /// default) or TCP port (`tcp=True` or `"HOST:PORT"`): `modules` lists model ids or dicts of
+    /// default), a TCP port (`tcp=True` or `"HOST:PORT"`) or both: `modules` lists model ids or dicts of
     /// `Module`'s keywords (`model`, `world`, `eeprom`, `address`; addresses default to 1, 2, ...).
     /// `wire_timing=True` times every byte at its module's baud rate. Returns the modules in line order;
     /// the line stops when the last of them is closed.
@@ -712,7 +716,9 @@ impl Module {
 }
 
 /// The world around a module's motor: what the shaft, the load and the outputs do, and the world
-/// itself, which can be replaced.
+/// itself, which can be replaced (`load`) or changed while the module runs (the switches, `seized`,
+/// `friction`, `external_torque`, the inputs; `docs/world.md`, "Changing the world at run time"). A
+/// change reaches the firmware at once, as a world file's timeline entry at that instant.
 #[pyclass(module = "opentmcl._native")]
 pub struct World {
     target: Target,
@@ -721,6 +727,18 @@ pub struct World {
 impl World {
     fn read<T: Send + 'static>(&self, f: impl FnOnce(&SimBoard) -> T + Send + 'static) -> PyResult<T> {
         self.target.with(move |module, _| f(module.board()))
+    }
+
+    /// Changes the world now, through the module's counting seam (`board_mut`): the firmware's quiet
+    /// windows and resting programs end, as at a timeline entry.
+    fn change(&self, change: Change) -> PyResult<()> {
+        self.target
+            .with(move |module, _| module.board_mut().change(change))?
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    fn inputs(&self, change: InputChange) -> PyResult<()> {
+        self.change(Change::Inputs(change))
     }
 }
 
@@ -788,6 +806,114 @@ impl World {
     #[getter]
     fn outputs(&self) -> PyResult<u8> {
         self.read(|b| b.outputs())
+    }
+
+    /// Whether the left stop switch is pressed now. Set `True` to press it, `False` to hold it released,
+    /// whatever the axis position; `None` lets it follow the position again (its zone in the world file).
+    #[getter]
+    fn left(&self) -> PyResult<bool> {
+        self.read(|b| b.switch_pressed(SwitchId::Left))
+    }
+
+    #[setter]
+    fn set_left(&self, pressed: Option<bool>) -> PyResult<()> {
+        self.change(Change::Switch(SwitchId::Left, pressed))
+    }
+
+    /// Whether the right stop switch is pressed now (set as `left`).
+    #[getter]
+    fn right(&self) -> PyResult<bool> {
+        self.read(|b| b.switch_pressed(SwitchId::Right))
+    }
+
+    #[setter]
+    fn set_right(&self, pressed: Option<bool>) -> PyResult<()> {
+        self.change(Change::Switch(SwitchId::Right, pressed))
+    }
+
+    /// Whether the home switch is pressed now (set as `left`).
+    #[getter]
+    fn home(&self) -> PyResult<bool> {
+        self.read(|b| b.switch_pressed(SwitchId::Home))
+    }
+
+    #[setter]
+    fn set_home(&self, pressed: Option<bool>) -> PyResult<()> {
+        self.change(Change::Switch(SwitchId::Home, pressed))
+    }
+
+    /// Whether the shaft is seized now. Set `True` to seize it where the rotor is (it moves neither way),
+    /// `False` to free it (also from a world file's seizure window open now).
+    #[getter]
+    fn seized(&self) -> PyResult<bool> {
+        self.read(|b| b.seized())
+    }
+
+    #[setter]
+    fn set_seized(&self, seized: bool) -> PyResult<()> {
+        self.change(if seized { Change::Seize } else { Change::Free })
+    }
+
+    /// The Coulomb friction on the shaft (N·m, ≥ 0); settable.
+    #[getter]
+    fn friction(&self) -> PyResult<f64> {
+        self.read(|b| b.friction())
+    }
+
+    #[setter]
+    fn set_friction(&self, friction: f64) -> PyResult<()> {
+        self.change(Change::Friction(friction))
+    }
+
+    /// The external torque on the shaft (N·m, positive pushes toward +), as the world file's
+    /// `load.script` sets it; settable (replaces the script's value until its next entry).
+    #[getter]
+    fn external_torque(&self) -> PyResult<f64> {
+        self.read(|b| b.external_torque())
+    }
+
+    #[setter]
+    fn set_external_torque(&self, torque: f64) -> PyResult<()> {
+        self.change(Change::Load(torque))
+    }
+
+    /// The digital inputs (bit n = INn); settable.
+    #[getter(inputs)]
+    fn digital_inputs(&self) -> PyResult<u8> {
+        self.read(|b| b.world.inputs)
+    }
+
+    #[setter(inputs)]
+    fn set_digital_inputs(&self, bits: u8) -> PyResult<()> {
+        self.inputs(InputChange { digital: Some(bits), ..InputChange::default() })
+    }
+
+    /// The analog input 0 (0..=4095); settable.
+    #[getter]
+    fn analog(&self) -> PyResult<u16> {
+        self.read(|b| b.world.analog)
+    }
+
+    #[setter]
+    fn set_analog(&self, value: u16) -> PyResult<()> {
+        let analog = Some(tmcl_sim::world::Spanned::new(0..0, value));
+        self.inputs(InputChange { analog, ..InputChange::default() })
+    }
+
+    /// The module temperature (°C); settable (from 100 °C the driver warns, from 150 °C it shuts down).
+    #[getter]
+    fn temperature(&self) -> PyResult<i32> {
+        self.read(|b| b.world.temperature)
+    }
+
+    #[setter]
+    fn set_temperature(&self, celsius: i32) -> PyResult<()> {
+        self.inputs(InputChange { temperature: Some(celsius), ..InputChange::default() })
+    }
+
+    /// The encoder loses (or gains) `counts` counts now, as a world file's `faults.encoder_slip`.
+    fn slip_encoder(&self, counts: i64) -> PyResult<()> {
+        self.change(Change::EncoderSlip(counts))
     }
 
     fn __repr__(&self) -> String {

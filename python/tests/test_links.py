@@ -83,6 +83,55 @@ def test_eeprom_across_a_restart_of_a_served_module(tmp_path):
         assert module.get("MaxPositioningSpeed") == 4321
 
 
-def test_one_link_per_module():
+def test_a_pty_and_tcp_at_once_each_host_gets_its_own_replies():
+    from pytrinamic.connections import ConnectionManager
+    from pytrinamic.modules import TMCM1021
+
+    with opentmcl.Module(link=True, tcp=True) as module:
+        assert module.link and os.path.islink(module.link)
+        host, port = module.tcp_address.rsplit(":", 1)
+        assert host == "127.0.0.1" and int(port) > 0
+        assert "serial_tmcl" in pytrinamic_args(module)  # the plugin's helper takes the pty
+        module.set("MaxPositioningSpeed", 1234)
+        module.set("MaxAcceleration", 777)
+        connection = ConnectionManager(f"--interface socket_serial_tmcl --port {module.tcp_address}").connect()
+        connection._socket.settimeout(10.0)
+        try:
+            motor = TMCM1021(connection).motors[0]
+            with serial.Serial(str(module.link), 9600, timeout=5) as pty:
+                for _ in range(20):
+                    # A request on the pty, one on TCP before its reply is read: each reply goes back
+                    # on the link its request came in on.
+                    pty.write(frame(1, 6, 4, 0, 0))  # GAP 4 (maximum positioning speed)
+                    assert motor.get_axis_parameter(motor.AP.MaxAcceleration) == 777
+                    reply = pty.read(9)
+                    assert reply[2:4] == bytes([100, 6]) and struct.unpack(">i", reply[4:8])[0] == 1234
+                assert pty.in_waiting == 0, "no reply of the TCP host on the pty"
+        finally:
+            connection.close()
+
+
+def test_a_bus_on_a_pty_and_tcp_at_once():
+    import socket
+
+    first, second = opentmcl.Module.bus(["pd28-1021", "pd28-1021"], link=True, tcp=True)
+    with first, second:
+        assert first.link == second.link and first.tcp_address == second.tcp_address
+        second.set("MaxPositioningSpeed", 4321)
+        host, port = first.tcp_address.rsplit(":", 1)
+        with socket.create_connection((host, int(port)), timeout=10) as tcp, serial.Serial(
+            str(first.link), 9600, timeout=5
+        ) as pty:
+            pty.write(frame(2, 6, 4, 0, 0))  # GAP 4 of module 2 on the pty
+            tcp.sendall(frame(1, 6, 4, 0, 0))  # GAP 4 of module 1 over TCP
+            reply = pty.read(9)
+            assert reply[:4] == bytes([2, 2, 100, 6]) and struct.unpack(">i", reply[4:8])[0] == 4321
+            reply = b""
+            while len(reply) < 9:
+                reply += tcp.recv(9 - len(reply))
+            assert reply[:4] == bytes([2, 1, 100, 6]) and struct.unpack(">i", reply[4:8])[0] == 51200
+
+
+def test_wire_timing_takes_one_link():
     with pytest.raises(ValueError, match="one link"):
-        opentmcl.Module(link=True, tcp=True)
+        opentmcl.Module(link=True, tcp=True, wire_timing=True)

@@ -21,6 +21,9 @@ use crate::motor::{self, Follow, Mechanics, USTEPS_PER_FULL_STEP};
 use crate::nvm::{FileNvm, MemNvm, NvmError};
 use crate::profile::Profile;
 use crate::world::{Active, DriverFlag, EncoderType, Invalid, World, WorldError};
+
+pub mod change;
+pub use change::{Change, SwitchId};
 use tmcl_core::hal::{
     Analog, DriveState, DriverSettings, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, Quiet, StepDriver,
     SwitchInputs, Switches,
@@ -88,12 +91,15 @@ struct Switch {
     pressed: bool,
     /// The last edge: when, and the level before it.
     edge: Option<(Instant, bool)>,
+    /// Pressed (`true`) or released (`false`) at run time whatever the position ([`Change::Switch`]);
+    /// `None`: pressed within `lo..=hi`.
+    forced: Option<bool>,
 }
 
 impl Switch {
     /// Tracks the ideal contact at rotor position `x` and time `now`.
     fn track(&mut self, x: f64, now: Instant) {
-        let pressed = (self.lo..=self.hi).contains(&x);
+        let pressed = self.forced.unwrap_or_else(|| (self.lo..=self.hi).contains(&x));
         if pressed != self.pressed {
             self.edge = Some((now, self.pressed));
             self.pressed = pressed;
@@ -131,14 +137,11 @@ impl Switch {
 }
 
 /// Something that happens at a time.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 enum Event {
-    /// `inputs.timeline[n]`.
-    Inputs(usize),
-    /// The scripted load steps to this torque.
-    Script(f64),
-    /// The encoder gains this many counts.
-    Slip(i64),
+    /// A change of the world: from the world file's timeline (inputs, scripted load, encoder slip) or
+    /// scheduled at run time ([`SimBoard::schedule`]).
+    Change(Change),
     /// A fault window opens or closes.
     Faults,
 }
@@ -171,6 +174,7 @@ impl Plan {
                 bounce: s.bounce.map(|b| (Duration::from_micros(b.time.0.micros()), b.count)),
                 pressed: false,
                 edge: None,
+                forced: None,
             }))
         };
         let sw = &world.switches;
@@ -180,19 +184,19 @@ impl Plan {
             zone(&sw.home, "switches.home.at")?,
         ];
         let mut events = Vec::new();
-        for (n, c) in world.inputs.timeline.iter().enumerate() {
+        for c in &world.inputs.timeline {
             if let Some(a) = &c.analog {
                 if *a.get_ref() > 4095 {
                     return Err(Invalid::new(a.span(), "inputs.timeline.analog", "must be 0..=4095"));
                 }
             }
-            events.push((c.at.0, Event::Inputs(n)));
+            events.push((c.at.0, Event::Change(Change::Inputs(c.clone()))));
         }
         for s in &world.load.script {
-            events.push((s.at.0, Event::Script(s.torque)));
+            events.push((s.at.0, Event::Change(Change::Load(s.torque))));
         }
         for s in &world.faults.encoder_slip {
-            events.push((s.at.0, Event::Slip(s.counts)));
+            events.push((s.at.0, Event::Change(Change::EncoderSlip(s.counts))));
         }
         let mut seizures = Vec::new();
         for s in &world.faults.stall {
@@ -316,6 +320,8 @@ pub struct SimBoard {
     powered_by: Option<PowerInputs>,
     /// AP 208 bits 1..6 from fault windows.
     fault_flags: u8,
+    /// Seizure points added at run time ([`Change::Seize`]), besides the world file's windows.
+    held: Vec<f64>,
     encoder_slip: i64,
     /// Coil peak current now (A).
     coil: f64,
@@ -360,6 +366,7 @@ impl SimBoard {
             supply_factor: supply_factor(plan.supply),
             powered_by: None,
             fault_flags: 0,
+            held: Vec::new(),
             encoder_slip: 0,
             coil: 0.0,
             coil_square: 0,
@@ -568,34 +575,13 @@ impl SimBoard {
     /// Applies every event due at or before `t` (the board is at `t`).
     fn fire(&mut self, t: Instant) {
         let mut faults = self.next_event == 0;
-        while let Some(&(at, event)) = self.plan.events.get(self.next_event) {
+        while let Some((at, event)) = self.plan.events.get(self.next_event).cloned() {
             if at > t {
                 break;
             }
             self.next_event += 1;
             match event {
-                Event::Inputs(n) => {
-                    let c = &self.spec.inputs.timeline[n];
-                    let levels = &mut self.world;
-                    if let Some(d) = c.digital {
-                        levels.inputs = d;
-                    }
-                    for (bit, level) in [c.in0, c.in1, c.in2, c.in3].into_iter().enumerate() {
-                        match level {
-                            Some(true) => levels.inputs |= 1 << bit,
-                            Some(false) => levels.inputs &= !(1 << bit),
-                            None => {}
-                        }
-                    }
-                    if let Some(a) = &c.analog {
-                        levels.analog = *a.get_ref();
-                    }
-                    if let Some(temp) = c.temperature {
-                        levels.temperature = temp;
-                    }
-                }
-                Event::Script(torque) => self.plan.mech.set_script(torque),
-                Event::Slip(counts) => self.encoder_slip += counts,
+                Event::Change(change) => faults |= self.apply(change, t),
                 Event::Faults => faults = true,
             }
         }
@@ -609,7 +595,8 @@ impl SimBoard {
     /// Recomputes the fault windows' effect at `t`.
     fn apply_faults(&mut self, t: Instant) {
         let open = |from: Instant, until: Option<Instant>| from <= t && until.is_none_or(|u| t < u);
-        let seized = self.plan.seizures.iter().filter(|(_, f, u)| open(*f, *u)).map(|(p, _, _)| *p).collect();
+        let windows = self.plan.seizures.iter().filter(|(_, f, u)| open(*f, *u)).map(|(p, _, _)| *p);
+        let seized = windows.chain(self.held.iter().copied()).collect();
         self.plan.mech.set_seized(seized);
         let f = &self.spec.faults;
         self.fault_flags = f

@@ -2,7 +2,8 @@
 //! on a PC.
 //!
 //! - [`nvm`]: the EEPROM, in memory ([`MemNvm`]) or in a crash-safe file ([`FileNvm`]).
-//! - [`board`]: [`SimBoard`], the board the firmware core runs on.
+//! - [`board`]: [`SimBoard`], the board the firmware core runs on, and its world changed at run time
+//!   ([`Change`]).
 //! - [`profile`]: what the board takes from the model ([`Profile`]: encoder, driver, inputs, outputs).
 //! - [`world`]: the [`World`] around the motor, from a TOML world file (`docs/world.md`).
 //! - [`motor`]: the stepper and its load (load angle, lost steps, freewheeling).
@@ -18,7 +19,7 @@ pub mod nvm;
 pub mod profile;
 pub mod world;
 
-pub use board::{Eeprom, Feedback, SimBoard};
+pub use board::{Change, Eeprom, Feedback, SimBoard, SwitchId};
 pub use nvm::{FileNvm, MemNvm, NvmError, Options};
 pub use profile::Profile;
 pub use world::{World, WorldError};

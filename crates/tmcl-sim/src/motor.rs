@@ -332,12 +332,48 @@ impl Mechanics {
 
     /// Sets the scripted external torque (N·m).
     pub fn set_script(&mut self, torque: f64) {
+        if torque != 0.0 {
+            self.load_added();
+        }
         self.script = torque;
+    }
+
+    /// The scripted external torque now (N·m).
+    pub fn script(&self) -> f64 {
+        self.script
     }
 
     /// Sets the active seizure points (µsteps).
     pub fn set_seized(&mut self, points: Vec<f64>) {
+        if !points.is_empty() {
+            self.load_added();
+        }
         self.seized = points;
+    }
+
+    /// Whether a seizure holds the rotor now.
+    pub fn seized(&self) -> bool {
+        !self.seized.is_empty()
+    }
+
+    /// Sets the Coulomb friction (N·m, ≥ 0).
+    pub fn set_friction(&mut self, friction: f64) {
+        if friction != 0.0 {
+            self.load_added();
+        }
+        self.friction = friction;
+    }
+
+    /// The Coulomb friction (N·m).
+    pub fn friction(&self) -> f64 {
+        self.friction
+    }
+
+    /// A load came on at run time: the world is no longer trivial (the exact fast path steps aside for
+    /// good; the full computation handles any rotor, on the field or not).
+    fn load_added(&mut self) {
+        self.trivial = false;
+        self.locked = false;
     }
 
     /// Whether the rotor is known to sit exactly on a stable point of the powered field in a trivial
