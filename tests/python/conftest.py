@@ -31,6 +31,23 @@ SERVE_ONLY = {
     "test_ethercat.py": "tests the EtherCAT slave of `tmcl serve --ethercat`; the image has no EtherCAT",
 }
 
+# Single tests about `tmcl serve` and its links rather than about the module: not run with `--target qemu`.
+_LINK_IS_A_BUFFER = ("a `tmcl serve` link is a buffer, not a wire (docs/decisions.md, \"No frame lost\"); the "
+                     "image is a module on a serial line, whose UART ring and inter-byte timeout apply as on "
+                     "the real module, and QEMU's pty delivers bytes faster than any baud rate")
+SERVE_ONLY_TESTS = {
+    "test_a_stale_link_is_refused_without_a_byte_written": "kills `tmcl serve` and reads the LINK.lock it left",
+    "test_the_server_warns_about_two_hosts_on_one_link": "checks the warning `tmcl serve` logs",
+    "test_a_thousand_frames_in_one_write_on_a_pty": _LINK_IS_A_BUFFER,
+    "test_a_backlog_with_a_telegram_pause_is_answered_in_turn": _LINK_IS_A_BUFFER,
+    "test_a_frame_in_slow_pieces_is_answered": _LINK_IS_A_BUFFER,
+    "test_a_restarted_server_is_reconnected_and_the_trace_restarts": "stops and restarts `tmcl serve` on the "
+                                                                     "same link",
+    "test_replies_to_another_host_turn_the_indicator_to_a_warning": "a second host on the same `tmcl serve` "
+                                                                    "pty; the image's pty is held by "
+                                                                    "scripts/qemu-serve.sh's own processes",
+}
+
 # Tests that measure the module's timing in wall-clock milliseconds. QEMU's emulated clock falls behind the
 # host's whenever the host is busy (the emulated SysTick is late), so under QEMU they measure the host's
 # load, not the firmware. They run against `tmcl serve` (the same core); the port's clock arithmetic is
@@ -75,7 +92,7 @@ def pytest_collection_modifyitems(config, items):
     if config.getoption("--target") != "qemu":
         return
     for item in items:
-        reason = SERVE_ONLY.get(item.path.name)
+        reason = SERVE_ONLY.get(item.path.name) or SERVE_ONLY_TESTS.get(item.originalname)
         if reason:
             item.add_marker(pytest.mark.skip(reason=f"needs tmcl serve: {reason}"))
         elif item.name in WALL_CLOCK_TIMING:
