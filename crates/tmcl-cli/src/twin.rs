@@ -14,14 +14,13 @@ use crate::names::{ModelOption, Models};
 use crate::params::write_whole;
 use clap::Args;
 use serde::Serialize;
-use std::collections::VecDeque;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use tmcl_core::model::{ModelSpec, Role, Setting};
 use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
-use tmcl_host::{Client, HostError, Transport};
+use tmcl_host::{Client, Transport};
 use tmcl_sim::{Eeprom, FileNvm, SimBoard};
 use tmcl_ui::paramset::{self as params, Kind, LoadOptions, ParamFile};
 use tmcl_wire::Command;
@@ -36,49 +35,6 @@ pub struct TwinArgs {
     /// The directory to write the twin to: MODEL.eeprom, params.toml, program.tmc, world.toml.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-}
-
-/// A transport into a virtual module in this process; each request lets 1 ms of module time pass.
-struct InProcess {
-    module: Module<SimBoard>,
-    now: Instant,
-    rx: VecDeque<u8>,
-}
-
-impl InProcess {
-    fn advance(&mut self, d: Duration) {
-        self.now += tmcl_core::Duration::from_micros(d.as_micros() as u64);
-        let rx = &mut self.rx;
-        self.module.poll(self.now, &mut |b: &[u8]| rx.extend(b));
-    }
-}
-
-impl Transport for InProcess {
-    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.advance(Duration::from_millis(1));
-        let rx = &mut self.rx;
-        self.module.receive(self.now, bytes, &mut |b: &[u8]| rx.extend(b));
-        Ok(())
-    }
-
-    fn recv_exact(&mut self, buf: &mut [u8], timeout: Duration) -> Result<(), HostError> {
-        if self.rx.len() < buf.len() {
-            self.advance(timeout.min(Duration::from_millis(50)));
-        }
-        if self.rx.len() < buf.len() {
-            let received = self.rx.len();
-            self.rx.clear();
-            return Err(HostError::Timeout { waited: timeout, received });
-        }
-        for b in buf.iter_mut() {
-            *b = self.rx.pop_front().unwrap_or_default();
-        }
-        Ok(())
-    }
-
-    fn clear_input(&mut self) {
-        self.rx.clear();
-    }
 }
 
 /// The name of the twin's EEPROM image in its directory.
@@ -117,7 +73,7 @@ fn virtual_module(model: &'static ModelSpec, image: &Path) -> Result<HostClient,
     }
     let nvm = FileNvm::open(image, persist::capacity(model)).map_err(|e| CliError::Io(e.to_string()))?;
     let module = Module::new(SimBoard::for_model(model, Eeprom::File(nvm)), model, Instant::ZERO);
-    let transport = InProcess { module, now: Instant::ZERO, rx: VecDeque::new() };
+    let transport = tmcl_serve::InProcess::new(module);
     Ok(Client::new(Box::new(transport) as Box<dyn Transport + Send>).with_timeout(Duration::from_millis(200)))
 }
 

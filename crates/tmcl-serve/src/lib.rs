@@ -45,6 +45,7 @@
 
 pub mod bus;
 pub mod ethercat;
+mod in_process;
 pub mod pty;
 mod serve;
 mod tcp;
@@ -53,6 +54,7 @@ mod trace;
 use std::fmt;
 use std::path::PathBuf;
 
+pub use in_process::InProcess;
 pub use serve::{Access, RunningServer, Server, Stopper};
 
 /// Why a server could not be made or stopped.

@@ -5,72 +5,31 @@ use crate::debug::{self, Action};
 use crate::link::{HostClient, Link};
 use crate::ops::{handle, Op};
 use serde_json::{json, Value};
-use std::collections::VecDeque;
-use std::io::{self, Read, Write};
+use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::sync::Arc;
 use std::time::Duration;
 use tmcl_core::model::pd28_1021::SPEC;
 use tmcl_core::{Instant, Module};
-use tmcl_host::{Client, HostError, Transport};
+use tmcl_host::{Client, Transport};
 use tmcl_sim::SimBoard;
 
 /// A transport into a simulated PD28-1021; each request lets 1 ms of module time pass.
-struct InProcess {
-    module: Module<SimBoard>,
-    now: Instant,
-    rx: VecDeque<u8>,
+/// A host client into a virtual PD28-1021 in this process.
+fn client() -> HostClient {
+    client_for(&SPEC)
 }
 
-impl InProcess {
-    fn client() -> HostClient {
-        Self::client_for(&SPEC)
-    }
-
-    fn client_for(spec: &'static tmcl_core::model::ModelSpec) -> HostClient {
-        let module = Module::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO);
-        let transport = InProcess { module, now: Instant::ZERO, rx: VecDeque::new() };
-        Client::new(Box::new(transport) as Box<dyn Transport + Send>).with_timeout(Duration::from_millis(50))
-    }
-
-    fn advance(&mut self, d: Duration) {
-        self.now += tmcl_core::Duration::from_micros(d.as_micros() as u64);
-        let rx = &mut self.rx;
-        self.module.poll(self.now, &mut |b: &[u8]| rx.extend(b));
-    }
-}
-
-impl Transport for InProcess {
-    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.advance(Duration::from_millis(1));
-        let rx = &mut self.rx;
-        self.module.receive(self.now, bytes, &mut |b: &[u8]| rx.extend(b));
-        Ok(())
-    }
-
-    fn recv_exact(&mut self, buf: &mut [u8], timeout: Duration) -> Result<(), HostError> {
-        if self.rx.len() < buf.len() {
-            self.advance(timeout);
-        }
-        if self.rx.len() < buf.len() {
-            let received = self.rx.len();
-            self.rx.clear();
-            return Err(HostError::Timeout { waited: timeout, received });
-        }
-        for b in buf.iter_mut() {
-            *b = self.rx.pop_front().unwrap_or_default();
-        }
-        Ok(())
-    }
-
-    fn clear_input(&mut self) {
-        self.rx.clear();
-    }
+/// A host client into a virtual module of `spec` in this process, in simulated time.
+fn client_for(spec: &'static tmcl_core::model::ModelSpec) -> HostClient {
+    let module = Module::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO);
+    let transport = tmcl_serve::InProcess::new(module);
+    Client::new(Box::new(transport) as Box<dyn Transport + Send>).with_timeout(Duration::from_millis(50))
 }
 
 fn link() -> (Link, tokio::sync::broadcast::Receiver<Arc<str>>) {
     let (events, rx) = tokio::sync::broadcast::channel(4096);
-    let mut link = Link::new(InProcess::client(), 100_000.0, None, "in process".into(), events);
+    let mut link = Link::new(client(), 100_000.0, None, "in process".into(), events);
     link.identify();
     (link, rx)
 }
@@ -185,7 +144,7 @@ fn the_debugger_stops_at_breakpoints_by_single_steps() {
 #[test]
 fn the_debugger_on_a_module_whose_135_answers_the_state_alone() {
     let (events_tx, mut events) = tokio::sync::broadcast::channel(4096);
-    let client = InProcess::client_for(&tmcl_core::model::pd_113::SPEC);
+    let client = client_for(&tmcl_core::model::pd_113::SPEC);
     let mut link = Link::new(client, 100_000.0, None, "in process".into(), events_tx);
     link.identify();
     assert_eq!(link.model.map(|m| m.id), Some("pd-113"));
@@ -240,7 +199,7 @@ fn server() -> (SocketAddr, tokio::sync::oneshot::Sender<()>, std::thread::JoinH
         reopen: None,
     };
     let thread = std::thread::spawn(move || {
-        crate::run_until(InProcess::client(), options, |a| addr_tx.send(a).unwrap(), async {
+        crate::run_until(client(), options, |a| addr_tx.send(a).unwrap(), async {
             let _ = stop_rx.await;
         })
         .unwrap();
@@ -407,7 +366,7 @@ fn a_parameter_set_is_saved_loaded_and_stored() {
 #[test]
 fn the_program_view_warns_where_the_model_would_refuse() {
     let (events, _rx) = tokio::sync::broadcast::channel(4096);
-    let client = InProcess::client_for(&tmcl_core::model::pd_113::SPEC);
+    let client = client_for(&tmcl_core::model::pd_113::SPEC);
     let mut link = Link::new(client, 100_000.0, None, "in process".into(), events);
     link.identify();
     let source = "SAP 5, 0, 100\nSAP 4, 0, 51200 // §2.4\nSTOP\n";
