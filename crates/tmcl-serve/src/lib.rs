@@ -46,8 +46,10 @@
 pub mod bus;
 pub mod ethercat;
 mod in_process;
+pub mod monitor;
 pub mod pty;
 mod serve;
+pub mod share;
 mod tcp;
 mod trace;
 
@@ -55,7 +57,9 @@ use std::fmt;
 use std::path::PathBuf;
 
 pub use in_process::InProcess;
+pub use monitor::MonitorOptions;
 pub use serve::{Access, RunningServer, Server, Stopper};
+pub use share::{DeviceOptions, RunningShare, Share, ShareOptions};
 
 /// Why a server could not be made or stopped.
 #[derive(Debug, thiserror::Error)]
