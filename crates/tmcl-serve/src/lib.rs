@@ -153,12 +153,22 @@ pub struct Options {
     pub exact_ticks: bool,
     /// Log every request and reply (EtherCAT: the AL state changes) to stderr.
     pub verbose: bool,
+    /// The transaction log (`--log FILE`) and the monitor socket (`tmcl monitor`), see [`monitor`].
+    pub monitor: MonitorOptions,
 }
 
 impl Options {
     /// These modules on these links, nothing else.
     pub fn new(modules: Vec<ModuleOptions>, links: Vec<LinkOptions>) -> Options {
-        Options { modules, links, ethercat: None, wire_timing: false, exact_ticks: false, verbose: false }
+        Options {
+            modules,
+            links,
+            ethercat: None,
+            wire_timing: false,
+            exact_ticks: false,
+            verbose: false,
+            monitor: MonitorOptions::default(),
+        }
     }
 }
 

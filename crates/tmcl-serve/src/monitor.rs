@@ -174,6 +174,10 @@ pub fn decode_request(bytes: &[u8], model: Option<&'static ModelSpec>) -> Decode
         Ok(Ok(Request { address, instruction: i })) => {
             let mut text = format!("to {address}: ");
             let _ = tmcl_wire::ascii::format_instruction(&i, &mut text, None);
+            if text.contains(tmcl_wire::ascii::RAW_MNEMONIC) && !matches!(i.opcode, Opcode::Unknown(_)) {
+                // A command without a mnemonic (136, 138, 255, ...): its name.
+                text.push_str(&format!(" ({:?})", i.opcode));
+            }
             if let Some(d) = param_of(model, &i) {
                 if matches!(i.opcode, Opcode::Sap | Opcode::Sgp) {
                     text.push_str(&format!(" ({} = {})", d.name, with_unit(i.value, d.unit)));
@@ -368,6 +372,204 @@ impl Drop for Monitor {
         if let Some((_, path)) = &self.listener {
             let _ = std::fs::remove_file(path);
         }
+    }
+}
+
+/// A request seen on a link of `tmcl serve`, not answered yet.
+struct Waiting {
+    /// The frame (binary) or the line (ASCII).
+    bytes: Vec<u8>,
+    since: std::time::Instant,
+}
+
+/// One link of `tmcl serve` as the monitor follows it.
+#[derive(Default)]
+struct Track {
+    rx: Vec<u8>,
+    rx_last: Option<std::time::Instant>,
+    tx: Vec<u8>,
+    waiting: std::collections::VecDeque<Waiting>,
+    ascii: bool,
+}
+
+/// How long a request of `tmcl serve` waits for its reply before the monitor says it got none (GP 255
+/// set, 137 carried out, an address no module on the bus has).
+const SERVE_NO_REPLY: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// The transactions of `tmcl serve`'s links, pieced together from the bytes each link carries: the
+/// module's replies on a link come in the order of its requests (each is answered before the next is
+/// taken), so each reply answers the oldest request of its link with the same command number; requests
+/// it passes by got none. The second reply of 138 is an event.
+pub(crate) struct Recorder {
+    monitor: Monitor,
+    tracks: Vec<Track>,
+    names: Vec<String>,
+    models: Vec<(u8, &'static ModelSpec)>,
+}
+
+impl Recorder {
+    pub(crate) fn new(monitor: Monitor, names: Vec<String>, models: Vec<(u8, &'static ModelSpec)>) -> Recorder {
+        let tracks = names.iter().map(|_| Track::default()).collect();
+        Recorder { monitor, tracks, names, models }
+    }
+
+    pub(crate) fn monitor_mut(&mut self) -> &mut Monitor {
+        &mut self.monitor
+    }
+
+    pub(crate) fn listener(&self) -> Option<&UnixListener> {
+        self.monitor.listener()
+    }
+
+    fn model(&self, address: u8) -> Option<&'static ModelSpec> {
+        self.models.iter().find(|(a, _)| *a == address).or(self.models.first()).map(|(_, m)| *m)
+    }
+
+    /// A link's client went away: what it left unanswered is forgotten.
+    pub(crate) fn reset(&mut self, n: usize) {
+        if let Some(t) = self.tracks.get_mut(n) {
+            *t = Track::default();
+        }
+    }
+
+    /// Bytes a host sent on link `n`.
+    pub(crate) fn request(&mut self, n: usize, bytes: &[u8]) {
+        if !self.monitor.wanted() {
+            return;
+        }
+        let now = std::time::Instant::now();
+        let Some(t) = self.tracks.get_mut(n) else { return };
+        if !t.ascii
+            && t.rx_last.is_some_and(|l| now.duration_since(l).as_micros() as u64 > crate::bus::STREAM_RESYNC.micros())
+        {
+            t.rx.clear();
+        }
+        t.rx.extend_from_slice(bytes);
+        t.rx_last = Some(now);
+        if t.ascii {
+            while let Some(end) = t.rx.iter().position(|&b| b == b'\r') {
+                let line: Vec<u8> = t.rx.drain(..=end).filter(|&b| b != b'\n').collect();
+                t.waiting.push_back(Waiting { bytes: line, since: now });
+            }
+        } else {
+            while t.rx.len() >= 9 {
+                let frame: Vec<u8> = t.rx.drain(..9).collect();
+                t.waiting.push_back(Waiting { bytes: frame, since: now });
+            }
+        }
+    }
+
+    /// Bytes a module sent on link `n`.
+    pub(crate) fn reply(&mut self, n: usize, bytes: &[u8]) {
+        if !self.monitor.wanted() {
+            return;
+        }
+        let Some(t) = self.tracks.get_mut(n) else { return };
+        t.tx.extend_from_slice(bytes);
+        loop {
+            let t = &mut self.tracks[n];
+            if t.ascii {
+                let Some(end) = t.tx.iter().position(|&b| b == b'\r') else { return };
+                let line: Vec<u8> = t.tx.drain(..=end).collect();
+                // The echo of a line (GP 67) is not its reply.
+                if t.waiting.front().is_some_and(|w| w.bytes == line) {
+                    continue;
+                }
+                let asked = t.waiting.pop_front();
+                let leave = asked.as_ref().is_some_and(|w| {
+                    String::from_utf8_lossy(&w.bytes)
+                        .trim()
+                        .get(1..)
+                        .is_some_and(|c| c.trim().eq_ignore_ascii_case("BIN"))
+                });
+                if leave {
+                    t.ascii = false;
+                }
+                let mut rec = Transaction::now(&self.names[n], Outcome::Answered);
+                rec.request = asked.as_ref().map(|w| {
+                    let text = String::from_utf8_lossy(&w.bytes).trim_end().to_string();
+                    Decoded { raw: text.clone(), text: format!("ASCII {text:?}") }
+                });
+                rec.round_trip_us = asked.map(|w| w.since.elapsed().as_micros() as u64);
+                let text = String::from_utf8_lossy(&line).trim_end().to_string();
+                rec.status = text.split(' ').nth(1).and_then(|s| s.parse().ok());
+                rec.reply = Some(Decoded { raw: text.clone(), text });
+                self.monitor.record(&rec);
+                continue;
+            }
+            if t.tx.len() < 9 {
+                return;
+            }
+            let frame: Vec<u8> = t.tx.drain(..9).collect();
+            let event = frame[3] == 138 && frame[2] == 128;
+            if event {
+                let mut rec = Transaction::now(&self.names[n], Outcome::Event);
+                let (decoded, status, _) = decode_reply(&frame, None, self.model(frame[1]));
+                rec.reply = Some(decoded);
+                rec.status = status.map(u8::from);
+                self.monitor.record(&rec);
+                continue;
+            }
+            // The oldest request this reply answers; those before it got none.
+            let raw_version = |w: &Waiting| w.bytes.len() == 9 && w.bytes[1] == 136 && w.bytes[2] == 0;
+            let answers = |w: &Waiting| {
+                raw_version(w)
+                    || (w.bytes.len() == 9
+                        && (w.bytes[1] == frame[3] || w.bytes[1] == 134 || (frame[2] == 1 && frame[3] == 0)))
+            };
+            let k = t.waiting.iter().position(answers);
+            let skipped: Vec<Waiting> = match k {
+                Some(k) => t.waiting.drain(..k).collect(),
+                None => Vec::new(),
+            };
+            let asked = k.and_then(|_| self.tracks[n].waiting.pop_front());
+            for w in skipped {
+                self.no_reply(n, &w);
+            }
+            let model = self.model(asked.as_ref().map_or(frame[1], |w| w.bytes[0]));
+            let mut rec =
+                Transaction::now(&self.names[n], if asked.is_some() { Outcome::Answered } else { Outcome::Foreign });
+            let (decoded, status, note) = decode_reply(&frame, asked.as_ref().map(|w| &w.bytes[..]), model);
+            rec.request = asked.as_ref().map(|w| decode_request(&w.bytes, model));
+            rec.reply = Some(decoded);
+            rec.status = status.map(u8::from);
+            rec.note = note;
+            rec.round_trip_us = asked.as_ref().map(|w| w.since.elapsed().as_micros() as u64);
+            if asked.as_ref().is_some_and(|w| w.bytes[1] == 139) && status == Some(Status::Ok) {
+                self.tracks[n].ascii = true;
+                self.tracks[n].rx.clear();
+            }
+            self.monitor.record(&rec);
+        }
+    }
+
+    fn no_reply(&mut self, n: usize, w: &Waiting) {
+        let mut rec = Transaction::now(&self.names[n], Outcome::NoReply);
+        rec.request = Some(if self.tracks[n].ascii || w.bytes.len() != 9 {
+            let text = String::from_utf8_lossy(&w.bytes).trim_end().to_string();
+            Decoded { raw: text.clone(), text: format!("ASCII {text:?}") }
+        } else {
+            decode_request(&w.bytes, self.model(w.bytes[0]))
+        });
+        rec.round_trip_us = Some(w.since.elapsed().as_micros() as u64);
+        self.monitor.record(&rec);
+    }
+
+    /// Takes new monitor clients, writes what they can take, and says which requests got no reply.
+    pub(crate) fn tick(&mut self) {
+        self.monitor.accept();
+        self.monitor.flush();
+        for n in 0..self.tracks.len() {
+            while self.tracks[n].waiting.front().is_some_and(|w| w.since.elapsed() >= SERVE_NO_REPLY) {
+                let w = self.tracks[n].waiting.pop_front().expect("checked");
+                self.no_reply(n, &w);
+            }
+        }
+    }
+
+    /// When [`Recorder::tick`] has something to say next.
+    pub(crate) fn next_due(&self) -> Option<std::time::Instant> {
+        self.tracks.iter().filter_map(|t| t.waiting.front().map(|w| w.since + SERVE_NO_REPLY)).min()
     }
 }
 

@@ -6,6 +6,7 @@
 
 use crate::bus::{Bus, Node};
 use crate::ethercat::{FoeFiles, RawSocket};
+use crate::monitor::{Monitor, Recorder};
 use crate::pty::{Pty, PtyError};
 use crate::tcp::{accept_clients, listen};
 use crate::trace::{log_al, log_reply, log_request};
@@ -165,6 +166,8 @@ pub struct Server {
     wake: UnixStream,
     /// Work from [`Access`] handles, and the sending end they clone.
     jobs: (std::sync::mpsc::Sender<Job>, std::sync::mpsc::Receiver<Job>),
+    /// The transactions for the log file and the monitor socket.
+    recorder: Recorder,
 }
 
 impl Server {
@@ -177,7 +180,7 @@ impl Server {
     /// model cannot use, [`ServeError::Io`] for a link another server holds, a TCP port in use, an EEPROM
     /// file that cannot be opened.
     pub fn new(options: Options) -> Result<Server, ServeError> {
-        let Options { modules, links, ethercat, wire_timing, exact_ticks, verbose } = options;
+        let Options { modules, links, ethercat, wire_timing, exact_ticks, verbose, monitor } = options;
         if modules.is_empty() {
             return Err(ServeError::Config("no module to serve".into()));
         }
@@ -325,6 +328,13 @@ impl Server {
             f.sync().map_err(|e| ServeError::Io(format!("EtherCAT SII: {e}")))?;
         }
         let (stopper, wake) = Stopper::new()?;
+        let first_pty = opened.iter().find_map(|(l, _)| match l {
+            Link::Pty(p) => Some(crate::monitor::socket_beside(&p.link)),
+            Link::Tcp { .. } => None,
+        });
+        let names = opened.iter().map(|(l, _)| l.info().map(|i| i.to_string()).unwrap_or_default()).collect();
+        let models = bus.nodes.iter().map(|n| (n.module.address(), n.module.spec())).collect();
+        let recorder = Recorder::new(Monitor::open(&monitor, first_pty)?, names, models);
         Ok(Server {
             bus,
             links: opened,
@@ -336,6 +346,7 @@ impl Server {
             stopper,
             wake,
             jobs: std::sync::mpsc::channel(),
+            recorder,
         })
     }
 
@@ -449,7 +460,7 @@ impl Server {
                 }
             }
         }
-        let (bus, links, ecat) = (&mut self.bus, &mut self.links, &mut self.ecat);
+        let (bus, links, ecat, recorder) = (&mut self.bus, &mut self.links, &mut self.ecat, &mut self.recorder);
         let jobs = &self.jobs.1;
         let mut buf = [0u8; 4096];
         let mut exclusive_checked = std::time::Instant::now();
@@ -461,7 +472,11 @@ impl Server {
                 job(&mut bus.nodes, clock());
             }
             let now = clock();
-            let mut deadline = bus.poll(now, &mut |n: usize, bytes: &[u8]| queue(links, n, bytes, verbose, now));
+            let mut deadline = bus.poll(now, &mut |n: usize, bytes: &[u8]| {
+                recorder.reply(n, bytes);
+                queue(links, n, bytes, verbose, now)
+            });
+            recorder.tick();
             for (link, pending) in links.iter_mut() {
                 write_pending(link, pending, verbose, now);
             }
@@ -491,11 +506,20 @@ impl Server {
                 .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
                 .unwrap_or(MAX_SLEEP)
                 .min(MAX_SLEEP);
-            let extras: Vec<_> = ecat.as_ref().map(|e| e.socket.as_fd()).into_iter().collect();
+            let sleep = match recorder.next_due() {
+                Some(due) => sleep.min(due.saturating_duration_since(std::time::Instant::now())),
+                None => sleep,
+            };
+            let mut extras: Vec<_> = ecat.as_ref().map(|e| e.socket.as_fd()).into_iter().collect();
+            let monitor_fd = extras.len();
+            extras.extend(recorder.listener().map(|l| l.as_fd()));
             let ready = wait(links, &extras, &self.wake, sleep).map_err(|e| ServeError::Io(format!("poll: {e}")))?;
             if ready.waker {
                 let mut drain = [0u8; 16];
                 while matches!((&self.wake).read(&mut drain), Ok(n) if n > 0) {}
+            }
+            if ready.extras.get(monitor_fd).copied().unwrap_or(false) {
+                recorder.monitor_mut().accept();
             }
             if let Some(e) = ecat.as_mut() {
                 if ready.extras.first().copied().unwrap_or(false) {
@@ -523,6 +547,7 @@ impl Server {
                                 }
                                 *peer = None;
                                 bus.reset_link(n);
+                                recorder.reset(n);
                                 links[n].1.clear();
                                 0
                             }
@@ -534,7 +559,9 @@ impl Server {
                     if verbose {
                         log_request(now, &buf[..received]);
                     }
+                    recorder.request(n, &buf[..received]);
                     bus.receive(n, now, &buf[..received], &mut |k: usize, bytes: &[u8]| {
+                        recorder.reply(k, bytes);
                         queue(links, k, bytes, verbose, now)
                     });
                     let (link, pending) = &mut links[n];
@@ -543,7 +570,16 @@ impl Server {
                 let (link, pending) = &mut links[n];
                 if let Link::Tcp { listener, peer } = link {
                     let had = peer.is_some();
-                    accept_clients(listener, peer, &mut || bus.reset_link(n), verbose, clock());
+                    accept_clients(
+                        listener,
+                        peer,
+                        &mut || {
+                            bus.reset_link(n);
+                            recorder.reset(n);
+                        },
+                        verbose,
+                        clock(),
+                    );
                     if had && peer.is_none() {
                         pending.clear();
                     }

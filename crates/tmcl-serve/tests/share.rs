@@ -4,7 +4,7 @@
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-use tmcl_host::{Client, SerialTransport, TcpTransport};
+use tmcl_host::{Client, SerialTransport, TcpTransport, Transport};
 use tmcl_serve::monitor::{Outcome, Transaction};
 use tmcl_serve::{
     DeviceOptions, LinkOptions, ModuleOptions, MonitorOptions, Options, RunningServer, RunningShare, Server, Share,
@@ -234,4 +234,51 @@ fn a_device_another_process_holds_or_a_dead_link_is_refused() {
     let err = Share::new(options).err().expect("refused");
     assert!(err.to_string().contains("999999999"), "{err}");
     assert!(std::fs::symlink_metadata(dir.path().join("a")).is_err(), "no link made");
+}
+
+#[test]
+fn tmcl_serve_logs_every_transaction_of_every_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("serve.log");
+    let mut options = Options::new(
+        vec![ModuleOptions::new(pd28())],
+        vec![LinkOptions::Pty(dir.path().join("a")), LinkOptions::Tcp("127.0.0.1:0".into())],
+    );
+    options.monitor = MonitorOptions { log: Some(log.clone()), log_json: true, socket: None, stderr: false };
+    let server = Server::new(options).unwrap().spawn().unwrap();
+    let tcp = server.links()[1].to_string();
+    let mut a = open(&dir.path().join("a"));
+    let mut b = Client::new(TcpTransport::connect(&tcp).unwrap());
+    a.set_axis_parameter(4, 0, 1000).unwrap();
+    assert_eq!(b.get_axis_parameter(4, 0).unwrap(), 1000);
+    // A burst of three frames in one write, and a command that gets no reply while GP 255 is set.
+    a.transport_mut().send(&[frame(1, 6, 4, 0, 0), frame(1, 6, 6, 0, 0), frame(1, 10, 66, 0, 0)].concat()).unwrap();
+    let mut replies = [0u8; 27];
+    a.transport_mut().recv_exact(&mut replies, Duration::from_secs(5)).unwrap();
+    a.request_no_reply(tmcl_wire::Instruction::new(tmcl_wire::Opcode::Sgp, 255, 0, 1)).unwrap();
+    std::thread::sleep(Duration::from_millis(1300)); // the monitor says "no reply" after 1 s
+    a.set_global_parameter(255, 0, 0).ok();
+    drop((a, b));
+    server.stop().unwrap();
+    let logged: Vec<Transaction> =
+        std::fs::read_to_string(&log).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let a = dir.path().join("a").display().to_string();
+    let outcomes: Vec<(&str, Outcome, Option<u8>)> = logged
+        .iter()
+        .map(|t| {
+            (t.host.as_str(), t.outcome, t.request.as_ref().map(|r| u8::from_str_radix(&r.raw[3..5], 16).unwrap()))
+        })
+        .collect();
+    assert_eq!(
+        outcomes[..6],
+        [
+            (a.as_str(), Outcome::Answered, Some(5)),
+            (tcp.as_str(), Outcome::Answered, Some(6)),
+            (a.as_str(), Outcome::Answered, Some(6)),
+            (a.as_str(), Outcome::Answered, Some(6)),
+            (a.as_str(), Outcome::Answered, Some(10)),
+            (a.as_str(), Outcome::NoReply, Some(9)),
+        ]
+    );
+    assert!(logged[1].reply.as_ref().unwrap().text.ends_with("1000 pps"), "{:?}", logged[1]);
 }
