@@ -195,7 +195,8 @@ def test_the_workbench_through_share_stays_answering(pty_server, share, tmcl_bin
     """The workbench (headless Chromium) on one link of the share, pyserial hammering another: the line
     indicator stays "answering" (no reply it gets answers another host's request) and shows the module's
     values."""
-    from uitest import Ui, new_browser
+    from uitest import Ui, new_browser, screenshot_dir
+    from uitest import wait_until as ui_wait_until
 
     browser = new_browser()
     a, b = tmp_path / "a", tmp_path / "b"
@@ -211,10 +212,10 @@ def test_the_workbench_through_share_stays_answering(pty_server, share, tmcl_bin
 
     try:
         browser.get(f"{u.url}#motion")
-        wait_until(lambda: browser.execute_script("return window.workbench && window.workbench.hello"),
-                   what="the module's hello")
-        wait_until(lambda: browser.execute_script("return window.workbench.line.state") == "answering",
-                   what="the line answering")
+        ui_wait_until(lambda: browser.execute_script("return window.workbench && window.workbench.hello"),
+                      what="the module's hello")
+        ui_wait_until(lambda: browser.execute_script("return window.workbench.line.state") == "answering",
+                      what="the line answering")
         thread = threading.Thread(target=other_host, daemon=True)
         thread.start()
         deadline = time.monotonic() + 5
@@ -222,6 +223,7 @@ def test_the_workbench_through_share_stays_answering(pty_server, share, tmcl_bin
             assert browser.execute_script("return window.workbench.line.state") == "answering"
             assert browser.execute_script("return window.workbench.line.mismatched || 0") == 0
             time.sleep(0.2)
+        browser.save_screenshot(str(screenshot_dir() / "share-workbench-beside-another-host.png"))
         stop.set()
         thread.join(5)
         assert not thread.is_alive()
