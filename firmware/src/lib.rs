@@ -65,6 +65,8 @@ pub fn run() -> ! {
         let now = clock::now(&mut time);
         loop {
             let n = uart::RX.pop_into(&mut chunk);
+            // Room in the ring: the bytes the UART held back come in.
+            uart::resume();
             if n == 0 {
                 break;
             }
