@@ -334,3 +334,34 @@ def test_share_over_tcp_and_the_monitor(pty_server, share, tmcl_bin, tmp_path):
             got += sock.recv(9 - len(got))
     out, _ = mon.communicate(timeout=10)
     assert tcp in out and "GAP 4, 0" in out and "-> 100 (ok)" in out, out
+
+
+def test_share_in_front_of_the_firmware_image_under_qemu(qemu_server, share, tmcl_bin, tmp_path):
+    """The firmware image under QEMU as the real module on a serial line: pytrinamic on one link of the
+    share and `tmcl` on another, 1 000 transactions, each value its asker's."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    share(qemu_server.link, ["--pty", a, "--pty", b], ["--module", "pd28-1021"])
+    assert tmcl(tmcl_bin, "set", "--port", b, "ap", MAX_SPEED, 4321).returncode == 0
+    assert tmcl(tmcl_bin, "set", "--port", b, "ap", MAX_CURRENT, 100).returncode == 0
+    wrong, errors = [], []
+
+    def poll():
+        conn = ConnectionManager(f"--interface serial_tmcl --port {a} --data-rate 115200").connect()
+        try:
+            for _ in range(900):
+                if conn.get_axis_parameter(MAX_CURRENT, 0) != 100:
+                    wrong.append(1)
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(repr(e))
+        finally:
+            conn.close()
+
+    script = threading.Thread(target=poll)
+    script.start()
+    try:
+        for _ in range(10):
+            r = tmcl(tmcl_bin, "--json", "watch", "--port", b, "ap", MAX_SPEED, "--every", "0.001", "--count", 10)
+            assert r.returncode == 0 and all("4321" in line for line in r.stdout.splitlines()), r
+    finally:
+        script.join(120)
+    assert not errors and not wrong, (errors, len(wrong))
