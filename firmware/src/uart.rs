@@ -8,8 +8,8 @@
 //! interrupts masked, so that [`TX`] has one consumer at a time.
 
 use crate::clock::CLOCK_HZ;
-use core::sync::atomic::{AtomicBool, Ordering};
 use crate::shim::{sysctl, uart0, GPIOA};
+use core::sync::atomic::{AtomicBool, Ordering};
 use tmcl_core::iface::Sink;
 use tmcl_mcu::ring::ByteRing;
 use tmcl_mcu::uart::{baud_rate, divisors};
