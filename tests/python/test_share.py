@@ -365,3 +365,22 @@ def test_share_in_front_of_the_firmware_image_under_qemu(qemu_server, share, tmc
     finally:
         script.join(120)
     assert not errors and not wrong, (errors, len(wrong))
+
+
+def test_the_module_going_away_ends_the_share_and_its_links(serve, share, tmcl_bin, tmp_path):
+    """`tmcl serve` standing in for the module is killed with -9 while hosts use the share: the share says
+    so and ends (exit code 3), removing its links, so that hosts see a port gone, not a module that is
+    silent."""
+    module = serve("pty")
+    a = tmp_path / "a"
+    s = share(module.link, ["--pty", a])
+    with serial.Serial(str(a), 115200, timeout=2) as port:
+        port.write(frame(1, 6, 4, 0, 0))
+        assert RawReply(port.read(9)).status == 100
+        port.write(frame(1, 6, 4, 0, 0) * 100)
+        module.kill()
+        wait_until(lambda: s.proc.poll() is not None, 10, what="the share's end")
+    assert s.proc.returncode == 3, s.stderr()
+    assert "the share stops" in s.stderr(), s.stderr()
+    assert not os.path.lexists(a) and not os.path.lexists(f"{a}.lock"), "its links are removed"
+    s.proc = None
