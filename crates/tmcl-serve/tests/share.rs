@@ -282,3 +282,28 @@ fn tmcl_serve_logs_every_transaction_of_every_link() {
     );
     assert!(logged[1].reply.as_ref().unwrap().text.ends_with("1000 pps"), "{:?}", logged[1]);
 }
+
+#[test]
+fn a_reply_to_a_tcp_client_that_left_never_reaches_the_next_client() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, share) = setup(dir.path(), None);
+    let tcp = share.links()[2].to_string();
+    let mut a = open(&dir.path().join("a"));
+    a.set_axis_parameter(4, 0, 1111).unwrap();
+    a.set_axis_parameter(6, 0, 99).unwrap();
+    a.set_global_parameter(75, 0, 200).unwrap(); // every reply waits 200 ms (telegram pause, §5.1)
+    {
+        // The first client asks for AP 4 and leaves before its reply comes.
+        let mut first = std::net::TcpStream::connect(&tcp).unwrap();
+        first.write_all(&frame(1, 6, 4, 0, 0)).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(50));
+    let mut second = Client::new(TcpTransport::connect(&tcp).unwrap()).with_timeout(Duration::from_secs(5));
+    assert_eq!(second.get_axis_parameter(6, 0).unwrap(), 99, "its own reply, not the first client's");
+    assert!(second.take_skipped().is_empty(), "the first client's reply never reached it");
+    a.set_global_parameter(75, 0, 0).unwrap();
+    drop((a, second));
+    share.stop().unwrap();
+    server.stop().unwrap();
+}
