@@ -118,6 +118,16 @@ enum Device {
     Tcp(TcpStream),
 }
 
+impl Drop for Device {
+    /// Gives the port back as it was found: without the exclusive mode, which would otherwise outlive the
+    /// share on a pty whose server keeps it open (root aside, no other program could open it).
+    fn drop(&mut self) {
+        if let Device::Serial(file) = self {
+            let _ = rustix::termios::ioctl_tiocnxcl(&*file);
+        }
+    }
+}
+
 impl Device {
     fn open(options: &DeviceOptions) -> Result<Device, ServeError> {
         match options {
