@@ -37,6 +37,8 @@ pub mod pd_113;
 pub mod port;
 pub mod tmcm_1140;
 pub mod tmcm_1310;
+pub mod tmcm_3110;
+pub mod tmcm_6110;
 pub mod variant;
 
 pub use ethercat::EtherCatDesc;
