@@ -158,12 +158,8 @@ fn options(args: &ServeArgs) -> Result<Options, CliError> {
         let spec = match &args.interface {
             None => spec,
             Some(name) => model::on_interface(spec, name).ok_or_else(|| {
-                let names: Vec<&str> = spec
-                    .interfaces
-                    .iter()
-                    .map(|i| i.name)
-                    .filter(|i| model::on_interface(spec, i).is_some())
-                    .collect();
+                let names: Vec<&str> =
+                    spec.interfaces.iter().map(|i| i.name).filter(|i| model::on_interface(spec, i).is_some()).collect();
                 CliError::Usage(format!(
                     "the {} cannot be served on `{name}`; it is served on: {}",
                     spec.name,

@@ -363,10 +363,7 @@ pub fn on_interface(spec: &'static ModelSpec, interface: &str) -> Option<&'stati
     if spec.interfaces[0].name.eq_ignore_ascii_case(interface) {
         return Some(spec);
     }
-    INTERFACE_VARIANTS
-        .iter()
-        .copied()
-        .find(|v| v.id == spec.id && v.interfaces[0].name.eq_ignore_ascii_case(interface))
+    INTERFACE_VARIANTS.iter().copied().find(|v| v.id == spec.id && v.interfaces[0].name.eq_ignore_ascii_case(interface))
 }
 
 /// Finds a model by its `--module` name (case-insensitive).

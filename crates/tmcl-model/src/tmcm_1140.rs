@@ -131,7 +131,8 @@ pub(crate) const MOTION: [ParamDesc; 22] = [
         .with_unit(Unit::Microsteps),
     ParamDesc::plain(149, "Soft stop flag", "SoftStopFlag", Range::FLAG, Access::RWE, 0, PY),
     ParamDesc::plain(150, "End switch power down mode", "EndSwitchPowerDown", Range::FLAG, Access::RWE, 0, PY),
-    ParamDesc::plain(153, "Ramp divisor", "RampDivisor", r(0, 13), Access::RWE, 3, HW).with_setting(Setting::RampDivisor),
+    ParamDesc::plain(153, "Ramp divisor", "RampDivisor", r(0, 13), Access::RWE, 3, HW)
+        .with_setting(Setting::RampDivisor),
     ParamDesc::plain(154, "Pulse divisor", "PulseDivisor", r(0, 13), Access::RWE, 2, HW)
         .with_setting(Setting::PulseDivisor),
 ];
@@ -168,17 +169,8 @@ pub(crate) const BOOST: [ParamDesc; 1] = cited(&pd28_1021::AXIS_PARAMS, 200, 200
 pub(crate) const TAIL: [ParamDesc; 9] = cited(&pd28_1021::AXIS_PARAMS, 204, 215, P28);
 
 /// Axis parameters: 62 entries.
-pub static AXIS_PARAMS: [ParamDesc; 62] = join(&[
-    &MOTION,
-    &TMC262_A,
-    &TMC262_SPEEDS,
-    &TMC262_B,
-    &REF_MODE,
-    &REF_SPEEDS,
-    &REF_RESULTS,
-    &BOOST,
-    &TAIL,
-]);
+pub static AXIS_PARAMS: [ParamDesc; 62] =
+    join(&[&MOTION, &TMC262_A, &TMC262_SPEEDS, &TMC262_B, &REF_MODE, &REF_SPEEDS, &REF_RESULTS, &BOOST, &TAIL]);
 
 const G_SERIAL: [ParamDesc; 4] = cited(&pd28_1021::GLOBAL_PARAMS, 65, 68, G28);
 /// The CAN settings: kept and stored (auto, as every bank 0 parameter of 64…128), no CAN simulated.
@@ -190,7 +182,8 @@ const G_CAN: [ParamDesc; 3] = [
 ];
 const G_HOST: [ParamDesc; 5] = cited(&pd28_1021::GLOBAL_PARAMS, 75, 81, G28);
 const G_CAN2: [ParamDesc; 2] = [
-    ParamDesc::plain(82, "CAN heartbeat", "CANHeartbeat", r(0, 65535), Access::RWA, 0, PY).with_unit(Unit::Milliseconds),
+    ParamDesc::plain(82, "CAN heartbeat", "CANHeartbeat", r(0, 65535), Access::RWA, 0, PY)
+        .with_unit(Unit::Milliseconds),
     ParamDesc::plain(83, "CAN secondary address", "CANSecondaryAddress", r(0, 0x7FF), Access::RWA, 0, PY),
 ];
 const G_REST: [ParamDesc; 10] = cited(&pd28_1021::GLOBAL_PARAMS, 84, 255, G28);

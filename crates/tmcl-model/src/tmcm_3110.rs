@@ -136,8 +136,14 @@ const LEFT: [&str; 6] = [
     "Stop left 4 trigger transition",
     "Stop left 5 trigger transition",
 ];
-const LEFT_ID: [&str; 6] =
-    ["StopLeft0Trigger", "StopLeft1Trigger", "StopLeft2Trigger", "StopLeft3Trigger", "StopLeft4Trigger", "StopLeft5Trigger"];
+const LEFT_ID: [&str; 6] = [
+    "StopLeft0Trigger",
+    "StopLeft1Trigger",
+    "StopLeft2Trigger",
+    "StopLeft3Trigger",
+    "StopLeft4Trigger",
+    "StopLeft5Trigger",
+];
 const RIGHT: [&str; 6] = [
     "Stop right 0 trigger transition",
     "Stop right 1 trigger transition",
