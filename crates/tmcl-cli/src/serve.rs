@@ -10,7 +10,9 @@ use serde::Serialize;
 use std::io::{self, Write};
 use std::path::PathBuf;
 use tmcl_core::model::{self, ModelSpec};
-use tmcl_serve::{EtherCatOptions, LinkOptions, ModuleInfo, ModuleOptions, Options, ServeError, Server};
+use tmcl_serve::{
+    EtherCatOptions, LinkOptions, ModuleInfo, ModuleOptions, MonitorOptions, Options, ServeError, Server,
+};
 
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
@@ -79,6 +81,15 @@ pub struct ServeArgs {
     /// Log every request and reply to stderr (EtherCAT: the AL state changes).
     #[arg(short, long)]
     pub verbose: bool,
+    /// Append every transaction on the host links to FILE, one line each: time, link, the request and the
+    /// reply decoded with the model's names and units, status, round trip (with --json, one JSON object
+    /// each, as `tmcl monitor --json` prints them).
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// Where the monitor socket goes (default: LINK.monitor beside the first --pty link; `tmcl monitor
+    /// LINK` reads it).
+    #[arg(long, value_name = "PATH")]
+    pub monitor_socket: Option<PathBuf>,
     /// Tick the motion controller every 1 ms, and wake up for every tick while a motor moves, instead of
     /// sleeping from event to event: the reference the event-driven module is measured against (same
     /// replies, more CPU time).
@@ -118,7 +129,7 @@ impl From<ServeError> for CliError {
 
 /// Runs the server until SIGINT or SIGTERM.
 pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
-    let mut server = Server::new(options(&args)?)?;
+    let mut server = Server::new(options(&args, json)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
     server.set_flush_on_stop(false);
@@ -151,7 +162,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
 }
 
 /// The server's options from the command line.
-fn options(args: &ServeArgs) -> Result<Options, CliError> {
+fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
         let (spec, address) = parse_module(text).map_err(CliError::Usage)?;
@@ -217,6 +228,12 @@ fn options(args: &ServeArgs) -> Result<Options, CliError> {
         wire_timing: args.wire_timing,
         exact_ticks: args.exact_ticks,
         verbose: args.verbose,
+        monitor: MonitorOptions {
+            log: args.log.clone(),
+            log_json: json,
+            socket: args.monitor_socket.clone(),
+            stderr: false,
+        },
     })
 }
 
