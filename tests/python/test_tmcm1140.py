@@ -302,3 +302,41 @@ def test_a_usb_module_is_alone_on_its_link(tmcl_bin, tmp_path):
                           "--pty", str(tmp_path / "link")], capture_output=True, text=True, timeout=20)
     assert run.returncode == 2
     assert "cannot be served on `usb`" in run.stderr
+
+
+def test_ascii_over_usb(server):
+    """Command 139 and the ASCII line (the manual's §3.5): module letter A, replies `BA status value`."""
+    with LinePort(server.link) as port:
+        reply = port.request(1, 139, 0, 0, 0)
+        assert (reply.host, reply.module, reply.status, reply.opcode) == (2, 1, 100, 139), reply
+
+        def type_(line: str) -> bytes:
+            port.write(line.encode() + b"\r")
+            return port.read_until(b"\r") + port.read_until(b"\r")
+
+        assert type_("AGAP 4, 0") == b"AGAP 4, 0\rBA 100 1000\r"
+        assert type_("ASAP 4, 0, 2048") == b"ASAP 4, 0, 2048\rBA 4 2048\r", "TMC429 units: 0..2047"
+        assert type_("AGAP 135, 0") == b"AGAP 135, 0\rBA 3 0\r", "not provided"
+        port.write(b"ABIN\r")
+        assert port.read_until(b"\r") == b"ABIN\r"
+        assert port.read_until(b"\r") == b"BA 100 0\r"
+        reply = port.request(1, 6, 4, 0, 0)
+        assert (reply.status, reply.value) == (100, 1000), reply
+
+
+def test_scan_and_params_on_the_bus(tmcl_bin, serve, tmp_path):
+    """`tmcl scan` names both modules of the line by their version strings; `tmcl params` reads the
+    TMCM-1140's table in its units."""
+    import subprocess
+
+    server = serve_1140(serve, tmp_path, extra=["--interface", "rs485"], modules=["tmcm-1140@1", "pd28-1021@2"])
+    scan = subprocess.run([str(tmcl_bin), "--port", str(server.link), "scan", "--last", "3"], capture_output=True,
+                          text=True, timeout=60, stdin=subprocess.DEVNULL)
+    assert scan.returncode == 0, scan.stderr
+    assert [line.split() for line in scan.stdout.splitlines()][:2] == [["1", "1140V127"], ["2", "1021V142"]]
+    params = subprocess.run([str(tmcl_bin), "--port", str(server.link), "--address", "1", "params"],
+                            capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL)
+    assert params.returncode == 0, params.stderr
+    assert "TMCM-1140 (tmcm-1140)" in params.stdout
+    line = next(l for l in params.stdout.splitlines() if l.startswith("ap 4 "))
+    assert "TMC428 v units" in line and line.split()[-1] == "1000"
