@@ -17,10 +17,16 @@ use tmcl_serve::{
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
 pub struct ServeArgs {
-    /// The module to simulate, as MODEL or MODEL@ADDRESS. Give it several times to put several
-    /// independent modules on one line (an RS485 bus), e.g. `--module pd28-1021@1 --module pd28-1021@2`.
+    /// The module to simulate (pd28-1021, tmcm-1310, pd-113, tmcm-1140), as MODEL or MODEL@ADDRESS.
+    /// Give it several times to put several independent modules on one line (an RS485 bus), e.g.
+    /// `--module pd28-1021@1 --module pd28-1021@2`.
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
     pub module: Vec<String>,
+    /// The host interface each module is served on, by name: `usb` or `rs485` (default: the model's
+    /// first one). A TMCM-1140 is reached as through its USB port, which answers every address (one
+    /// module per link); `--interface rs485` puts it on an RS485 line, beside other modules.
+    #[arg(long, value_name = "NAME")]
+    pub interface: Option<String>,
     /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
     ///
     /// One server per LINK: while it runs, the server holds LINK.lock beside it (its PID, with a flock). A
@@ -159,7 +165,20 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
 fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
-        wanted.push(parse_module(text).map_err(CliError::Usage)?);
+        let (spec, address) = parse_module(text).map_err(CliError::Usage)?;
+        let spec = match &args.interface {
+            None => spec,
+            Some(name) => model::on_interface(spec, name).ok_or_else(|| {
+                let names: Vec<&str> =
+                    spec.interfaces.iter().map(|i| i.name).filter(|i| model::on_interface(spec, i).is_some()).collect();
+                CliError::Usage(format!(
+                    "the {} cannot be served on `{name}`; it is served on: {}",
+                    spec.name,
+                    names.join(", ")
+                ))
+            })?,
+        };
+        wanted.push((spec, address));
     }
     if wanted.len() > 1 && (args.eeprom.is_some() || args.address.is_some()) {
         return Err(CliError::Usage(
