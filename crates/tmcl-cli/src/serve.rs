@@ -119,11 +119,10 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     for note in server.notes() {
         eprintln!("tmcl serve: {note}");
     }
-    let stop = server.stopper().flag();
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, std::sync::Arc::clone(&stop))
-            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
-    }
+    server
+        .stopper()
+        .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
+        .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
     let places: Vec<String> = server.links().iter().map(ToString::to_string).collect();
     let place = places.first().cloned();
     let iface = server.ethercat_interface().map(str::to_string);

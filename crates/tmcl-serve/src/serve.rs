@@ -23,20 +23,26 @@ use tmcl_core::{Instant, Module};
 use tmcl_ethercat::Slave;
 use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
 
-/// Longest sleep without a deadline or a byte. A signal or a [`Stopper::stop`] ends a sleep at once, so
-/// this only paces the pty's exclusive-mode check; a moving module has its next event as deadline (the end
-/// of a ramp, an arrival), not its next motion tick, and costs next to nothing between events.
-const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(1);
+/// Longest sleep without a deadline or a byte. A [`Stopper::stop`] ends a sleep at once, and so does a
+/// signal given to [`Stopper::stop_on_signals`]; a moving module has its next event as deadline (the end of
+/// a ramp, an arrival), not its next motion tick, and hosts opening and closing a pty wake the loop through
+/// the pty's watch ([`Pty::hosts_changed`]), so an idle server sleeps this long. It bounds the wait for a
+/// stop asked for through [`Stopper::flag`] alone (a signal that lands just before the loop goes to sleep).
+const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// The most reply bytes held for a host that does not read them (a pty's or socket's buffer is full);
 /// beyond it the oldest are dropped, with a word on stderr.
 const MAX_PENDING: usize = 16 << 20;
 
-/// How often the processes that have a pty link open are looked up (for the warning about two hosts).
-const INTRUDER_CHECK: std::time::Duration = std::time::Duration::from_secs(2);
+/// After a host opened or closed a pty, how long the loop waits before it looks who has the pty open (the
+/// warning about two hosts) and whether a host that died left the exclusive mode set: a burst of opens and
+/// closes is looked at once, and a killed host's `flock` is gone by then (the kernel reports the close
+/// before it drops the lock).
+const HOSTS_SETTLE: std::time::Duration = std::time::Duration::from_millis(50);
 
-/// How often the pty's exclusive mode is checked for a host that died holding it.
-const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
+/// Without a watch on a pty, how often the processes that have it open are looked up, and its exclusive
+/// mode checked.
+const UNWATCHED_CHECK: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// Where the bytes come from and go to.
 pub(crate) enum Link {
@@ -79,6 +85,20 @@ impl Stopper {
     /// Whether a stop was asked for.
     pub fn is_stopped(&self) -> bool {
         self.flag.load(Ordering::Relaxed)
+    }
+
+    /// Stops the server when the process gets one of `signals` (SIGINT, SIGTERM): the flag is set and the
+    /// loop woken from its sleep at once, however long it would sleep.
+    ///
+    /// # Errors
+    ///
+    /// When the OS refuses the handler or a descriptor for the wake-up.
+    pub fn stop_on_signals(&self, signals: &[i32]) -> io::Result<()> {
+        for &signal in signals {
+            signal_hook::flag::register(signal, Arc::clone(&self.flag))?;
+            signal_hook::low_level::pipe::register(signal, self.waker.try_clone()?)?;
+        }
+        Ok(())
     }
 }
 
@@ -439,10 +459,16 @@ impl Server {
         let (bus, links, ecat) = (&mut self.bus, &mut self.links, &mut self.ecat);
         let jobs = &self.jobs.1;
         let mut buf = [0u8; 4096];
-        let mut exclusive_checked = std::time::Instant::now();
-        let mut intruders_checked = std::time::Instant::now();
-        // Per link, the hosts last warned about.
+        // Per link, the hosts last warned about, and when its hosts are to be looked at next (a pty's
+        // watch sets it when they change; without a watch, every UNWATCHED_CHECK).
         let mut warned: Vec<Vec<(u32, String)>> = vec![Vec::new(); links.len()];
+        let mut hosts_due: Vec<Option<std::time::Instant>> = links
+            .iter()
+            .map(|(link, _)| match link {
+                Link::Pty(pty) if pty.hosts_watch().is_none() => Some(std::time::Instant::now() + UNWATCHED_CHECK),
+                _ => None,
+            })
+            .collect();
         while !self.stopper.is_stopped() {
             while let Ok(job) = jobs.try_recv() {
                 job(&mut bus.nodes, clock());
@@ -458,28 +484,30 @@ impl Server {
                 log_al(verbose, now, before, e.slave.status());
                 deadline = [deadline, next].into_iter().flatten().min();
             }
-            if exclusive_checked.elapsed() >= EXCLUSIVE_CHECK {
-                for (link, _) in links.iter() {
-                    if let Link::Pty(pty) = link {
-                        pty.release_abandoned_exclusive_mode();
-                    }
+            let mut sleep = MAX_SLEEP;
+            for (n, (link, _)) in links.iter().enumerate() {
+                let (Link::Pty(pty), Some(due)) = (link, hosts_due[n]) else { continue };
+                let left = due.saturating_duration_since(std::time::Instant::now());
+                if left.is_zero() {
+                    pty.release_abandoned_exclusive_mode();
+                    warn_intruders(pty, &mut warned[n]);
+                    hosts_due[n] = pty.hosts_watch().is_none().then(|| std::time::Instant::now() + UNWATCHED_CHECK);
+                } else {
+                    sleep = sleep.min(left);
                 }
-                exclusive_checked = std::time::Instant::now();
             }
-            if intruders_checked.elapsed() >= INTRUDER_CHECK {
-                for (n, (link, _)) in links.iter().enumerate() {
-                    if let Link::Pty(pty) = link {
-                        warn_intruders(pty, &mut warned[n]);
-                    }
-                }
-                intruders_checked = std::time::Instant::now();
+            if let Some(d) = deadline {
+                sleep = sleep.min(std::time::Duration::from_micros((d - clock()).micros()));
             }
-            let sleep = deadline
-                .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
-                .unwrap_or(MAX_SLEEP)
-                .min(MAX_SLEEP);
             let ready = wait(links, ecat.as_ref().map(|e| &e.socket), &self.wake, sleep)
                 .map_err(|e| ServeError::Io(format!("poll: {e}")))?;
+            for (n, (link, _)) in links.iter().enumerate() {
+                if let Link::Pty(pty) = link {
+                    if ready.watches[n] && pty.hosts_changed() && hosts_due[n].is_none() {
+                        hosts_due[n] = Some(std::time::Instant::now() + HOSTS_SETTLE);
+                    }
+                }
+            }
             if ready.waker {
                 let mut drain = [0u8; 16];
                 while matches!((&self.wake).read(&mut drain), Ok(n) if n > 0) {}
@@ -672,6 +700,8 @@ fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
 struct Ready {
     /// Per link: it has bytes (or a TCP connection waits, or room for replies).
     links: Vec<bool>,
+    /// Per link: a pty's watch has news of hosts opening or closing it.
+    watches: Vec<bool>,
     /// EtherCAT frames wait.
     ethercat: bool,
     /// A stop was asked for.
@@ -679,7 +709,7 @@ struct Ready {
 }
 
 /// Waits until a link is readable (for TCP: the client, or the listener with a new connection) or, with
-/// replies waiting for room, writable, an EtherCAT frame arrives, a stop is asked for, or `timeout` passes
+/// replies waiting for room, writable, a host opens or closes a pty, an EtherCAT frame arrives, a stop is asked for, or `timeout` passes
 /// (with microsecond resolution: byte times at high baud rates are far below a millisecond).
 fn wait(
     links: &[(Link, Vec<u8>)],
@@ -706,11 +736,23 @@ fn wait(
         owner.push(n);
     }
     let link_fds = fds.len();
+    let mut watched = Vec::new();
+    for (n, (link, _)) in links.iter().enumerate() {
+        if let Some(fd) = match link {
+            Link::Pty(pty) => pty.hosts_watch(),
+            Link::Tcp { .. } => None,
+        } {
+            fds.push(PollFd::new(fd, PollFlags::POLLIN));
+            watched.push(n);
+        }
+    }
+    let watch_fds = fds.len();
     fds.extend(ethercat.map(|s| PollFd::new(s.as_fd(), PollFlags::POLLIN)));
     let ecat_fds = fds.len();
     fds.push(PollFd::new(waker.as_fd(), PollFlags::POLLIN));
     let timeout = nix::sys::time::TimeSpec::from_duration(timeout.max(std::time::Duration::from_micros(20)));
-    let mut woke = Ready { links: vec![false; links.len()], ethercat: false, waker: false };
+    let mut woke =
+        Ready { links: vec![false; links.len()], watches: vec![false; links.len()], ethercat: false, waker: false };
     match ppoll(&mut fds, Some(timeout), None) {
         Ok(0) => Ok(woke),
         Ok(_) => {
@@ -720,7 +762,12 @@ fn wait(
                     woke.links[owner[k]] = true;
                 }
             }
-            woke.ethercat = fds[link_fds..ecat_fds].iter().any(ready);
+            for (k, fd) in fds[link_fds..watch_fds].iter().enumerate() {
+                if ready(fd) {
+                    woke.watches[watched[k]] = true;
+                }
+            }
+            woke.ethercat = fds[watch_fds..ecat_fds].iter().any(ready);
             woke.waker = fds[ecat_fds..].iter().any(ready);
             Ok(woke)
         }
