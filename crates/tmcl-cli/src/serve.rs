@@ -10,7 +10,7 @@ use serde::Serialize;
 use std::io::{self, Write};
 use std::path::PathBuf;
 use tmcl_core::model::{self, ModelSpec};
-use tmcl_serve::{EtherCatOptions, LinkOptions, ModuleInfo, ModuleOptions, Options, ServeError, Server};
+use tmcl_serve::{EtherCatOptions, Fleet, LinkOptions, ModuleInfo, ModuleOptions, Options, ServeError, Server};
 
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
@@ -31,7 +31,7 @@ pub struct ServeArgs {
     /// and replies), so no host ever sees another's replies. The module is one: what one host sets, the
     /// others read. On a bus each link reaches every module, as if each module had that many ports wired
     /// to separate hosts (see docs/decisions.md).
-    #[arg(long, value_name = "LINK", required_unless_present_any = ["tcp", "ethercat"])]
+    #[arg(long, value_name = "LINK", required_unless_present_any = ["tcp", "ethercat", "fleet"])]
     pub pty: Vec<PathBuf>,
     /// Serve on a TCP port, HOST:PORT (e.g. localhost:2323 or 127.0.0.1:2323; a bare PORT means
     /// 127.0.0.1; port 0 picks a free one).
@@ -78,6 +78,114 @@ pub struct ServeArgs {
     /// replies, more CPU time).
     #[arg(long)]
     pub exact_ticks: bool,
+    /// Serve several lines in one process, as FILE describes them (TOML): each `[[line]]` table takes the
+    /// options above by the same names (`module`, `pty`, `tcp`: a string or a list; `address`, `eeprom`,
+    /// `eeprom_dir`, `world`, `wire_timing`, `ethercat`), and is served as `tmcl serve` with those options
+    /// would serve it, on a thread of its own. Paths in FILE are relative to FILE's directory. --verbose and
+    /// --exact-ticks apply to every line; the other options are given in FILE only. Prints one line (one
+    /// JSON object with --json) per line; see docs/serve.md, "A fleet".
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = ["pty", "tcp", "address", "eeprom", "eeprom_dir", "wire_timing", "world", "ethercat"]
+    )]
+    pub fleet: Option<PathBuf>,
+}
+
+/// One or several values: `pty = "a"` or `pty = ["a", "b"]`.
+#[derive(Debug, Default, serde::Deserialize)]
+#[serde(untagged)]
+enum OneOrMany<T> {
+    #[default]
+    None,
+    One(T),
+    Many(Vec<T>),
+}
+
+impl<T> OneOrMany<T> {
+    fn into_vec(self) -> Vec<T> {
+        match self {
+            OneOrMany::None => Vec::new(),
+            OneOrMany::One(x) => vec![x],
+            OneOrMany::Many(v) => v,
+        }
+    }
+}
+
+/// A `[[line]]` of a fleet file: the options of `tmcl serve` for one line.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LineSpec {
+    #[serde(default)]
+    module: OneOrMany<String>,
+    #[serde(default)]
+    pty: OneOrMany<PathBuf>,
+    #[serde(default)]
+    tcp: OneOrMany<String>,
+    address: Option<u8>,
+    eeprom: Option<PathBuf>,
+    eeprom_dir: Option<PathBuf>,
+    #[serde(default)]
+    wire_timing: bool,
+    world: Option<PathBuf>,
+    ethercat: Option<String>,
+}
+
+/// A fleet file.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FleetFile {
+    line: Vec<LineSpec>,
+}
+
+/// The lines of a fleet file, each as the options of `tmcl serve` (with --verbose and --exact-ticks from
+/// the command line), paths relative to the file's directory.
+fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs>, CliError> {
+    let text =
+        std::fs::read_to_string(file).map_err(|e| CliError::Input(format!("cannot read {}: {e}", file.display())))?;
+    let fleet: FleetFile = toml::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", file.display())))?;
+    let dir = file.parent().unwrap_or(std::path::Path::new(""));
+    let at = |p: PathBuf| if p.is_absolute() { p } else { dir.join(p) };
+    let mut lines = Vec::new();
+    for (n, line) in fleet.line.into_iter().enumerate() {
+        let mut module = line.module.into_vec();
+        if module.is_empty() {
+            module.push("pd28-1021".into());
+        }
+        let (pty, tcp) = (line.pty.into_vec(), line.tcp.into_vec());
+        if pty.is_empty() && tcp.is_empty() && line.ethercat.is_none() {
+            return Err(CliError::Usage(format!(
+                "{}: line {} has no link: give it `pty` or `tcp` (or `ethercat`)",
+                file.display(),
+                n + 1
+            )));
+        }
+        if line.address == Some(0) {
+            return Err(CliError::Usage(format!(
+                "{}: line {}: address 0 is no address (1-255)",
+                file.display(),
+                n + 1
+            )));
+        }
+        lines.push(ServeArgs {
+            module,
+            pty: pty.into_iter().map(at).collect(),
+            tcp,
+            address: line.address,
+            eeprom: line.eeprom.map(at),
+            eeprom_dir: line.eeprom_dir.map(at),
+            wire_timing: line.wire_timing,
+            world: line.world.map(at),
+            ethercat: line.ethercat,
+            verbose: args.verbose,
+            exact_ticks: args.exact_ticks,
+            fleet: None,
+        });
+    }
+    if lines.is_empty() {
+        return Err(CliError::Usage(format!("{}: no [[line]]", file.display())));
+    }
+    Ok(lines)
 }
 
 /// The first line of `tmcl serve --json`: what is served where.
@@ -112,6 +220,9 @@ impl From<ServeError> for CliError {
 
 /// Runs the server until SIGINT or SIGTERM.
 pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
+    if let Some(file) = &args.fleet {
+        return run_fleet(file, &args, json);
+    }
     let mut server = Server::new(options(&args)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
@@ -123,6 +234,50 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
         .stopper()
         .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
         .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+    announce(&server, json)?;
+    let _ = io::stdout().flush();
+    server.run()?;
+    Ok(())
+}
+
+/// `tmcl serve --fleet FILE`: every line of FILE on a thread of its own, until SIGINT or SIGTERM.
+fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(), CliError> {
+    let lines = fleet_lines(file, args)?.iter().map(options).collect::<Result<Vec<_>, _>>()?;
+    raise_descriptor_limit(&lines);
+    let mut fleet = Fleet::new(lines)?;
+    fleet.set_flush_on_stop(false);
+    for server in fleet.lines() {
+        for note in server.notes() {
+            eprintln!("tmcl serve: {note}");
+        }
+        server
+            .stopper()
+            .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
+            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+    }
+    for server in fleet.lines() {
+        announce(server, json)?;
+    }
+    let _ = io::stdout().flush();
+    fleet.run()?;
+    Ok(())
+}
+
+/// A fleet keeps about eight descriptors per line (the pty's two sides, its lock file and watch, the
+/// waker and the signals' wake-ups), and EEPROM files: the soft limit on open files (often 1024) is raised
+/// to the hard one when a fleet would come near it.
+fn raise_descriptor_limit(lines: &[Options]) {
+    use nix::sys::resource::{getrlimit, setrlimit, Resource};
+    let want = 64 + lines.iter().map(|l| 8 + 3 * l.links.len() + 2 * l.modules.len()).sum::<usize>() as u64;
+    if let Ok((soft, hard)) = getrlimit(Resource::RLIMIT_NOFILE) {
+        if soft < want {
+            let _ = setrlimit(Resource::RLIMIT_NOFILE, hard, hard);
+        }
+    }
+}
+
+/// The line saying what one server serves where (one JSON object with --json).
+fn announce(server: &Server, json: bool) -> Result<(), CliError> {
     let places: Vec<String> = server.links().iter().map(ToString::to_string).collect();
     let place = places.first().cloned();
     let iface = server.ethercat_interface().map(str::to_string);
@@ -138,8 +293,6 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
         on.extend(iface.map(|i| format!("EtherCAT {i}")));
         println!("{}", format_args!("serving {} on {}", names.join(", "), on.join(" and ")));
     }
-    let _ = io::stdout().flush();
-    server.run()?;
     Ok(())
 }
 
