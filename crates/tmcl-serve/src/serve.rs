@@ -141,7 +141,9 @@ pub struct Server {
     /// The host links, each with the reply bytes it did not take yet (its buffer was full): written when
     /// it can take them.
     links: Vec<(Link, Vec<u8>)>,
-    ecat: Option<EtherCat>,
+    /// Boxed: the slave is 15 KiB, and a server is moved onto the stack of the thread that runs it (each
+    /// line of a fleet has one), where it would stay resident.
+    ecat: Option<Box<EtherCat>>,
     start: std::time::Instant,
     verbose: bool,
     /// fsync the EEPROM files when the loop ends (see [`Server::set_flush_on_stop`]).
@@ -292,7 +294,7 @@ impl Server {
                         slave.eeprom().word(4)
                     ));
                 }
-                Some(EtherCat { socket, slave, files: FoeFiles::new(options.foe) })
+                Some(Box::new(EtherCat { socket, slave, files: FoeFiles::new(options.foe) }))
             }
             None => None,
         };
