@@ -58,17 +58,23 @@ fn connect(link: &std::path::Path) -> Client<SerialTransport> {
     Client::new(SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty"))
 }
 
+/// Round trips of GAP 1 over the pty of a `tmcl serve` started here, or with `PTY_LINK=LINK` of one
+/// already serving there (`scripts/pty-bench.sh` starts it, to count its system calls); `PTY_N` requests.
 fn pty_latency(n: usize) {
+    let n = std::env::var("PTY_N").ok().and_then(|v| v.parse().ok()).unwrap_or(n);
     let dir = std::env::temp_dir().join(format!("tmcl-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let link = dir.join("tmcl0");
-    let child = Process::new(env!("CARGO_BIN_EXE_tmcl"))
-        .args(["serve", "--pty"])
-        .arg(&link)
-        .stdout(Stdio::piped())
-        .spawn()
-        .expect("start tmcl serve");
-    let _server = Server(child, link.clone());
+    let given = std::env::var_os("PTY_LINK").map(std::path::PathBuf::from);
+    let link = given.clone().unwrap_or_else(|| dir.join("tmcl0"));
+    let _server = given.is_none().then(|| {
+        let child = Process::new(env!("CARGO_BIN_EXE_tmcl"))
+            .args(["serve", "--pty"])
+            .arg(&link)
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("start tmcl serve");
+        Server(child, link.clone())
+    });
     let mut client = connect(&link);
     for _ in 0..100 {
         client.get_axis_parameter(1, 0).unwrap();
