@@ -4,6 +4,8 @@
 # here with cc).
 #
 # Usage: scripts/pty-bench.sh [ROUNDS] [REQUESTS]      (default 5 rounds of 20 000 requests)
+#   BEFORE_BENCH=PATH: also the `throughput` bench of another build (its client, `--only pty`: 20 000
+#   requests to a `tmcl serve` it starts itself, this checkout's), in the same rounds.
 #   Each round runs, one after the other: the C echo (blocking read/write), the C echo waiting in poll()
 #   before each read (as a server with deadlines must), and `tmcl serve --pty` with the Rust client
 #   (`throughput --only pty`, GAP 1); each prints its median, p90, p99 round trip. Then once each under
@@ -50,11 +52,14 @@ for r in $(seq "$rounds"); do
         echo "round $r $(label "$s") $(client "$s")"
         stop
     done
+    if [[ -n "${BEFORE_BENCH:-}" ]]; then
+        echo "round $r before       $("$BEFORE_BENCH" --only pty | sed 's/^pty round trip (GAP 1, Rust client) *//')"
+    fi
 done
 
 per_request() { # the strace -c table in $1: calls per request
     awk -v n="$n" '$0 ~ /^ *[0-9.]+ +[0-9.]+ +[0-9]+ +[0-9]+/ {
-        calls = $4; name = $NF; if (calls >= n / 2) printf " %s %.2f", name, calls / n }' "$1"
+        calls = $4; name = $NF; if (name != "total" && calls >= n / 2) printf " %s %.2f", name, calls / n }' "$1"
 }
 for s in c cpoll rust; do
     start "$s"

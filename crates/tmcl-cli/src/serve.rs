@@ -83,7 +83,7 @@ pub struct ServeArgs {
     /// `eeprom_dir`, `world`, `wire_timing`, `ethercat`), and is served as `tmcl serve` with those options
     /// would serve it, on a thread of its own. Paths in FILE are relative to FILE's directory. --verbose and
     /// --exact-ticks apply to every line; the other options are given in FILE only. Prints one line (one
-    /// JSON object with --json) per line; see docs/serve.md, "A fleet".
+    /// JSON object with --json) per line; see README.md, "A fleet".
     #[arg(
         long,
         value_name = "FILE",
