@@ -412,14 +412,17 @@ fn fleet_lines(dir: &std::path::Path) -> Vec<FleetLine> {
     let mut lines = Vec::new();
     let mut k = 0usize;
     for n in 0..FLEET_USB {
-        lines.push(FleetLine { link: dir.join(format!("usb{n}")), modules: vec![("tmcm-1310", 1, k % 3 == 0)] });
+        lines.push(FleetLine {
+            link: dir.join(format!("usb{n}")),
+            modules: vec![("tmcm-1310", 1, k.is_multiple_of(3))],
+        });
         k += 1;
     }
     for b in 0..FLEET_BUSES {
         let modules = (0..FLEET_PER_BUS)
             .map(|i| {
                 k += 1;
-                (if i % 2 == 0 { "pd28-1021" } else { "pd-113" }, i as u8 + 1, (k - 1) % 3 == 0)
+                (if i % 2 == 0 { "pd28-1021" } else { "pd-113" }, i as u8 + 1, (k - 1).is_multiple_of(3))
             })
             .collect();
         lines.push(FleetLine { link: dir.join(format!("bus{b}")), modules });
