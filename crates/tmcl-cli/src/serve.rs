@@ -10,15 +10,23 @@ use serde::Serialize;
 use std::io::{self, Write};
 use std::path::PathBuf;
 use tmcl_core::model::{self, ModelSpec};
-use tmcl_serve::{EtherCatOptions, Fleet, LinkOptions, ModuleInfo, ModuleOptions, Options, ServeError, Server};
+use tmcl_serve::{
+    EtherCatOptions, Fleet, LinkOptions, ModuleInfo, ModuleOptions, MonitorOptions, Options, ServeError, Server,
+};
 
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
 pub struct ServeArgs {
-    /// The module to simulate, as MODEL or MODEL@ADDRESS. Give it several times to put several
-    /// independent modules on one line (an RS485 bus), e.g. `--module pd28-1021@1 --module pd28-1021@2`.
+    /// The module to simulate (pd28-1021, tmcm-1310, pd-113, tmcm-1140), as MODEL or MODEL@ADDRESS.
+    /// Give it several times to put several independent modules on one line (an RS485 bus), e.g.
+    /// `--module pd28-1021@1 --module pd28-1021@2`.
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
     pub module: Vec<String>,
+    /// The host interface each module is served on, by name: `usb` or `rs485` (default: the model's
+    /// first one). A TMCM-1140 is reached as through its USB port, which answers every address (one
+    /// module per link); `--interface rs485` puts it on an RS485 line, beside other modules.
+    #[arg(long, value_name = "NAME")]
+    pub interface: Option<String>,
     /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
     ///
     /// One server per LINK: while it runs, the server holds LINK.lock beside it (its PID, with a flock). A
@@ -73,21 +81,33 @@ pub struct ServeArgs {
     /// Log every request and reply to stderr (EtherCAT: the AL state changes).
     #[arg(short, long)]
     pub verbose: bool,
+    /// Append every transaction on the host links to FILE, one line each: time, link, the request and the
+    /// reply decoded with the model's names and units, status, round trip (with --json, one JSON object
+    /// each, as `tmcl monitor --json` prints them).
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// Where the monitor socket goes (default: LINK.monitor beside the first --pty link; `tmcl monitor
+    /// LINK` reads it).
+    #[arg(long, value_name = "PATH")]
+    pub monitor_socket: Option<PathBuf>,
     /// Tick the motion controller every 1 ms, and wake up for every tick while a motor moves, instead of
     /// sleeping from event to event: the reference the event-driven module is measured against (same
     /// replies, more CPU time).
     #[arg(long)]
     pub exact_ticks: bool,
     /// Serve several lines in one process, as FILE describes them (TOML): each `[[line]]` table takes the
-    /// options above by the same names (`module`, `pty`, `tcp`: a string or a list; `address`, `eeprom`,
-    /// `eeprom_dir`, `world`, `wire_timing`, `ethercat`), and is served as `tmcl serve` with those options
+    /// options above by the same names (`module`, `pty`, `tcp`: a string or a list; `interface`, `address`, `eeprom`,
+    /// `eeprom_dir`, `world`, `wire_timing`, `ethercat`, `log`, `monitor_socket`), and is served as `tmcl serve` with those options
     /// would serve it, on a thread of its own. Paths in FILE are relative to FILE's directory. --verbose and
     /// --exact-ticks apply to every line; the other options are given in FILE only. Prints one line (one
     /// JSON object with --json) per line; see README.md, "A fleet".
     #[arg(
         long,
         value_name = "FILE",
-        conflicts_with_all = ["pty", "tcp", "address", "eeprom", "eeprom_dir", "wire_timing", "world", "ethercat"]
+        conflicts_with_all = [
+            "interface", "pty", "tcp", "address", "eeprom", "eeprom_dir", "wire_timing", "world", "ethercat", "log",
+            "monitor_socket"
+        ]
     )]
     pub fleet: Option<PathBuf>,
 }
@@ -118,6 +138,7 @@ impl<T> OneOrMany<T> {
 struct LineSpec {
     #[serde(default)]
     module: OneOrMany<String>,
+    interface: Option<String>,
     #[serde(default)]
     pty: OneOrMany<PathBuf>,
     #[serde(default)]
@@ -129,6 +150,8 @@ struct LineSpec {
     wire_timing: bool,
     world: Option<PathBuf>,
     ethercat: Option<String>,
+    log: Option<PathBuf>,
+    monitor_socket: Option<PathBuf>,
 }
 
 /// A fleet file.
@@ -169,6 +192,7 @@ fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs
         }
         lines.push(ServeArgs {
             module,
+            interface: line.interface,
             pty: pty.into_iter().map(at).collect(),
             tcp,
             address: line.address,
@@ -177,6 +201,8 @@ fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs
             wire_timing: line.wire_timing,
             world: line.world.map(at),
             ethercat: line.ethercat,
+            log: line.log.map(at),
+            monitor_socket: line.monitor_socket.map(at),
             verbose: args.verbose,
             exact_ticks: args.exact_ticks,
             fleet: None,
@@ -223,7 +249,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     if let Some(file) = &args.fleet {
         return run_fleet(file, &args, json);
     }
-    let mut server = Server::new(options(&args)?)?;
+    let mut server = Server::new(options(&args, json)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
     server.set_flush_on_stop(false);
@@ -242,7 +268,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
 
 /// `tmcl serve --fleet FILE`: every line of FILE on a thread of its own, until SIGINT or SIGTERM.
 fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(), CliError> {
-    let lines = fleet_lines(file, args)?.iter().map(options).collect::<Result<Vec<_>, _>>()?;
+    let lines = fleet_lines(file, args)?.iter().map(|line| options(line, json)).collect::<Result<Vec<_>, _>>()?;
     raise_descriptor_limit(&lines);
     let mut fleet = Fleet::new(lines)?;
     fleet.set_flush_on_stop(false);
@@ -263,12 +289,12 @@ fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(),
     Ok(())
 }
 
-/// A fleet keeps about eight descriptors per line (the pty's two sides, its lock file and watch, the
+/// A fleet keeps about ten descriptors per line (the pty's two sides, its lock file and watch, the monitor socket, the
 /// waker and the signals' wake-ups), and EEPROM files: the soft limit on open files (often 1024) is raised
 /// to the hard one when a fleet would come near it.
 fn raise_descriptor_limit(lines: &[Options]) {
     use nix::sys::resource::{getrlimit, setrlimit, Resource};
-    let want = 64 + lines.iter().map(|l| 8 + 3 * l.links.len() + 2 * l.modules.len()).sum::<usize>() as u64;
+    let want = 64 + lines.iter().map(|l| 10 + 3 * l.links.len() + 2 * l.modules.len()).sum::<usize>() as u64;
     if let Ok((soft, hard)) = getrlimit(Resource::RLIMIT_NOFILE) {
         if soft < want {
             let _ = setrlimit(Resource::RLIMIT_NOFILE, hard, hard);
@@ -297,10 +323,23 @@ fn announce(server: &Server, json: bool) -> Result<(), CliError> {
 }
 
 /// The server's options from the command line.
-fn options(args: &ServeArgs) -> Result<Options, CliError> {
+fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
-        wanted.push(parse_module(text).map_err(CliError::Usage)?);
+        let (spec, address) = parse_module(text).map_err(CliError::Usage)?;
+        let spec = match &args.interface {
+            None => spec,
+            Some(name) => model::on_interface(spec, name).ok_or_else(|| {
+                let names: Vec<&str> =
+                    spec.interfaces.iter().map(|i| i.name).filter(|i| model::on_interface(spec, i).is_some()).collect();
+                CliError::Usage(format!(
+                    "the {} cannot be served on `{name}`; it is served on: {}",
+                    spec.name,
+                    names.join(", ")
+                ))
+            })?,
+        };
+        wanted.push((spec, address));
     }
     if wanted.len() > 1 && (args.eeprom.is_some() || args.address.is_some()) {
         return Err(CliError::Usage(
@@ -350,6 +389,12 @@ fn options(args: &ServeArgs) -> Result<Options, CliError> {
         wire_timing: args.wire_timing,
         exact_ticks: args.exact_ticks,
         verbose: args.verbose,
+        monitor: MonitorOptions {
+            log: args.log.clone(),
+            log_json: json,
+            socket: args.monitor_socket.clone(),
+            stderr: false,
+        },
     })
 }
 
