@@ -37,9 +37,10 @@ const MAX_PENDING: usize = 16 << 20;
 
 /// After a host opened or closed a pty, how long the loop waits before it looks who has the pty open (the
 /// warning about two hosts) and whether a host that died left the exclusive mode set: a burst of opens and
-/// closes is looked at once, and a killed host's `flock` is gone by then (the kernel reports the close
-/// before it drops the lock).
-const HOSTS_SETTLE: std::time::Duration = std::time::Duration::from_millis(50);
+/// closes is looked at once, a killed host's `flock` is gone by then (the kernel reports the close before
+/// it drops the lock), and the look through `/proc` (milliseconds on a busy machine) does not fall on a
+/// host's first requests, which come right after its open.
+const HOSTS_SETTLE: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// Without a watch on a pty, how often the processes that have it open are looked up, and its exclusive
 /// mode checked.
