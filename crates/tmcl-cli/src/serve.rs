@@ -425,3 +425,70 @@ fn with_suffix(path: &std::path::Path, suffix: &str) -> PathBuf {
     p.push(suffix);
     PathBuf::from(p)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        serve: ServeArgs,
+    }
+
+    fn args(line: &str) -> ServeArgs {
+        Cli::try_parse_from(std::iter::once("serve").chain(line.split_whitespace())).unwrap().serve
+    }
+
+    #[test]
+    fn a_fleet_file_gives_each_line_the_options_of_serve() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("fleet.toml");
+        std::fs::write(
+            &file,
+            r#"
+[[line]]
+module = "tmcm-1310"
+pty = "ports/usb0"
+world = "/abs/world.toml"
+
+[[line]]
+module = ["pd28-1021@1", "pd-113@2"]
+pty = ["ports/a", "ports/b"]
+tcp = "127.0.0.1:0"
+eeprom_dir = "eeprom"
+wire_timing = false
+"#,
+        )
+        .unwrap();
+        let lines = fleet_lines(&file, &args(&format!("--fleet {} -v", file.display()))).unwrap();
+        assert_eq!(lines.len(), 2);
+        assert_eq!(lines[0].module, ["tmcm-1310"]);
+        assert_eq!(lines[0].pty, [dir.path().join("ports/usb0")], "relative to the file's directory");
+        assert_eq!(lines[0].world.as_deref(), Some(std::path::Path::new("/abs/world.toml")));
+        assert!(lines[0].verbose && lines[1].verbose, "--verbose applies to every line");
+        assert_eq!(lines[1].module, ["pd28-1021@1", "pd-113@2"]);
+        assert_eq!(lines[1].pty, [dir.path().join("ports/a"), dir.path().join("ports/b")]);
+        assert_eq!(lines[1].tcp, ["127.0.0.1:0"]);
+        assert_eq!(lines[1].eeprom_dir, Some(dir.path().join("eeprom")));
+        let options = options(&lines[1], false).unwrap();
+        assert_eq!((options.modules.len(), options.links.len()), (2, 3));
+    }
+
+    #[test]
+    fn a_fleet_file_is_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("fleet.toml");
+        let refused = |text: &str| {
+            std::fs::write(&file, text).unwrap();
+            fleet_lines(&file, &args(&format!("--fleet {}", file.display()))).unwrap_err().to_string()
+        };
+        assert!(refused("[[line]]\nmodule = \"pd28-1021\"\n").contains("line 1 has no link"));
+        assert!(refused("[[line]]\npty = \"a\"\nspeed = 3\n").contains("unknown field `speed`"));
+        assert!(refused("line = []\n").contains("no [[line]]"));
+        // The per-line options are the file's: not on the command line beside it.
+        assert!(Cli::try_parse_from(["serve", "--fleet", "f.toml", "--pty", "a"]).is_err());
+        assert!(Cli::try_parse_from(["serve", "--fleet", "f.toml", "--exact-ticks"]).is_ok());
+    }
+}
