@@ -1,6 +1,8 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
+mod args;
 mod asm;
+mod connection;
 mod debug;
 mod error;
 mod esi;

@@ -5,8 +5,8 @@
 //! ("Maximum positioning speed"), in any case and with or without spaces. Which table: `--module MODEL`,
 //! or else the module is asked for its version string (command 136) and the model is found by it.
 
+use crate::connection::{Connection, HostClient};
 use crate::error::{reply_json, CliError};
-use crate::host::{Connection, HostClient};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::io::Write;

@@ -2,8 +2,8 @@
 //! [`tmcl_ui::paramset`] (what is saved, what a load writes and skips, what a diff compares) on the command
 //! line.
 
+use crate::connection::HostClient;
 use crate::error::CliError;
-use crate::host::HostClient;
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;

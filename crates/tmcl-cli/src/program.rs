@@ -1,8 +1,8 @@
 //! Host commands for standalone programs: `tmcl download`, `upload`, `start`, `stop`, `status`
 //! (PD28-1021 manual §3.7.38, commands 128–135), for real and virtual modules alike.
 
+use crate::connection::Connection;
 use crate::error::{CliError, EXIT_CODES};
-use crate::host::Connection;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;

@@ -1,8 +1,7 @@
 //! What `tmcl run` and `tmcl debug` share: the options that say which simulated module to build, on top
 //! of the `tmcl-run` library (which builds it, runs it and records the trace).
 
-pub(crate) use tmcl_run::trace;
-pub(crate) use tmcl_run::{parse_number, poll, Setting, Source, USER_BANK};
+pub(crate) use tmcl_run::{Setting, Source};
 
 use crate::error::CliError;
 use clap::Args;

@@ -8,8 +8,8 @@
 //! What an EEPROM image cannot carry is said, not hidden: settings without E or A in the tables (volatile,
 //! lost at power-up on the real module too) and the reply switch (GP 255).
 
+use crate::connection::{Connection, HostClient};
 use crate::error::CliError;
-use crate::host::{Connection, HostClient};
 use crate::names::{ModelOption, Models};
 use crate::params::write_whole;
 use clap::Args;

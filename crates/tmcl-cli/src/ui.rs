@@ -1,7 +1,7 @@
 //! `tmcl ui`: the browser workbench ([`tmcl_ui`]) on the module the connection options name.
 
+use crate::connection::Connection;
 use crate::error::CliError;
-use crate::host::Connection;
 use crate::names::{model_by_id, ModelOption};
 use clap::Args;
 use serde_json::json;

@@ -5,15 +5,16 @@
 //! where the model's tables say why, an `explanation`. A message that is not a known request is answered
 //! with an error, never a panic.
 
-use crate::debug::{self, Action, SOURCE_NAME};
-use crate::info::{self, model_json};
-use crate::link::{Link, Poll, Roles, Watch};
+use crate::debug::{self, SOURCE_NAME};
+use crate::info;
+use crate::link::{HelloEvent, Link, Poll, Watch};
 use crate::paramset;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::time::Duration;
 use tmcl_asm::{assemble_str, BuiltinResolver, Diagnostic};
+use tmcl_debug::remote::Action;
 use tmcl_host::HostError;
 use tmcl_wire::{format_instruction, parse_instruction, Command, Instruction, MoveTarget, Opcode, RfsAction};
 
@@ -176,7 +177,7 @@ fn value32(value: i64) -> Result<i32, Failure> {
 /// Runs one request on the link thread. `page` identifies the connection (for `watch`).
 pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failure> {
     match op {
-        Op::Hello => Ok(hello(link)),
+        Op::Hello => Ok(typed(&link.hello())),
         Op::Watch { views, motor, vars, extra } => {
             let vars = (vars.0, vars.1.min(64));
             let mut polls = Vec::new();
@@ -216,7 +217,7 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
                       "instructions": program.map(|p| p.instructions.len())}))
         }
         Op::Download { source } => download(link, &source),
-        Op::Program { action } => Ok(debug::act(link, action)?),
+        Op::Program { action } => Ok(typed(&debug::act(link, action)?)),
         Op::Breakpoints { lines } => {
             let lines: Vec<u32> = lines.into_iter().take(4096).collect();
             let effective = link.debug.set_breakpoint_lines(&lines);
@@ -229,28 +230,16 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
         Op::Scan { first, last } => scan(link, first, last),
         Op::Select { address } => {
             link.select(address);
-            let hello = hello(link);
-            link.emit(json!({"e": "hello", "hello": hello}));
-            Ok(hello)
+            let hello = link.hello();
+            link.emit_typed(&HelloEvent { e: "hello", hello: &hello });
+            Ok(typed(&hello))
         }
     }
 }
 
-/// What the header and every view start from.
-pub(crate) fn hello(link: &mut Link) -> Value {
-    let line = link.line_event();
-    json!({
-        "line": line,
-        "epoch": link.epoch,
-        "version": link.version,
-        "address": link.address(),
-        "link": link.link_name,
-        "link_ok": link.link_error().is_none(),
-        "link_error": link.link_error(),
-        "rate": link.rate,
-        "model": link.model.map(model_json),
-        "roles": Roles::of(link.model).json(),
-    })
+/// An answer as the page reads it.
+fn typed(answer: &impl Serialize) -> Value {
+    serde_json::to_value(answer).unwrap_or_else(|e| json!({"error": e.to_string()}))
 }
 
 enum ParamOp {
@@ -550,7 +539,7 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     })?;
     let lines: Vec<Option<u32>> =
         program.source_lines.iter().map(|s| (&*s.file == SOURCE_NAME).then_some(s.line)).collect();
-    link.debug.set_program(program);
+    link.debug.set_program(program, SOURCE_NAME);
     Ok(json!({"stored": total, "lines": lines, "diagnostics": [], "warnings": warnings}))
 }
 

@@ -16,9 +16,8 @@
 //! parameter is matched by its kind, bank and number, and one whose unit differs on this model (the
 //! PDx-113's TMC428 velocity units against the PD28-1021's pps) is refused, never converted silently.
 
-use crate::link::HostClient;
 use serde::{Deserialize, Serialize};
-use tmcl_host::HostError;
+use tmcl_host::{Client, HostError, Transport};
 use tmcl_model::{ModelSpec, ParamDesc, Role, Setting, MODELS};
 use tmcl_wire::{Command, Status};
 
@@ -190,7 +189,10 @@ fn is_setting(desc: &ParamDesc) -> bool {
 /// Reads every readable parameter of `model` from the module: the axis parameters of every motor, the
 /// global parameters of banks 0 and 3, and the user variables. A value the module refuses to give is
 /// left out and named in the returned notes.
-pub fn read_all(client: &mut HostClient, model: &'static ModelSpec) -> Result<(Vec<Entry>, Vec<String>), HostError> {
+pub fn read_all(
+    client: &mut Client<impl Transport>,
+    model: &'static ModelSpec,
+) -> Result<(Vec<Entry>, Vec<String>), HostError> {
     let mut entries = Vec::new();
     let mut notes = Vec::new();
     let mut tables: Vec<(Kind, u8, &'static [ParamDesc])> = Vec::new();
@@ -244,7 +246,10 @@ fn now_unix() -> u64 {
 }
 
 /// A parameter set of `model` read from the module now.
-pub fn snapshot(client: &mut HostClient, model: &'static ModelSpec) -> Result<(ParamFile, Vec<String>), HostError> {
+pub fn snapshot(
+    client: &mut Client<impl Transport>,
+    model: &'static ModelSpec,
+) -> Result<(ParamFile, Vec<String>), HostError> {
     let version = client.version_string().ok();
     let (params, notes) = read_all(client, model)?;
     let module = ModuleInfo {
@@ -322,7 +327,7 @@ pub fn check_model(file: &ParamFile, model: &'static ModelSpec, any_model: bool)
 
 /// Writes the settings of `file` to the module; one outcome per parameter.
 pub fn load(
-    client: &mut HostClient,
+    client: &mut Client<impl Transport>,
     model: &'static ModelSpec,
     file: &ParamFile,
     options: LoadOptions,
@@ -417,7 +422,7 @@ pub fn load(
 
 /// Stores every parameter of `model` that can be stored (E in the tables) in the EEPROM: STAP for each
 /// motor, STGP for banks 0 and 3 (PD28-1021 manual §3.7.7, §3.7.11).
-pub fn store_all(client: &mut HostClient, model: &'static ModelSpec) -> Result<Vec<Outcome>, HostError> {
+pub fn store_all(client: &mut Client<impl Transport>, model: &'static ModelSpec) -> Result<Vec<Outcome>, HostError> {
     let mut out = Vec::new();
     let mut tables: Vec<(Kind, u8, &'static [ParamDesc])> = Vec::new();
     for motor in 0..model.motors {
@@ -475,7 +480,11 @@ fn explain(model: &'static ModelSpec, desc: Option<&ParamDesc>, status: Status, 
 
 /// Compares the module with `file`: the settings a load would write and the user variables. Live
 /// values (positions, speeds, flags, the tick timer) are not compared: they are `live`.
-pub fn diff(client: &mut HostClient, model: &'static ModelSpec, file: &ParamFile) -> Result<Vec<Outcome>, HostError> {
+pub fn diff(
+    client: &mut Client<impl Transport>,
+    model: &'static ModelSpec,
+    file: &ParamFile,
+) -> Result<Vec<Outcome>, HostError> {
     let mut out = Vec::new();
     for entry in &file.params {
         let live = match place_of(model, entry) {
