@@ -6,10 +6,10 @@
 
 use crate::args::{parse_byte, parse_number, parse_value};
 use crate::connection::{Connection, HostClient};
-use crate::error::{reply_json, CliError, EXIT_CODES};
+use crate::error::{CliError, ReplyJson, EXIT_CODES};
 use crate::names::{self, ModelOption, ParamRef};
+use crate::output::{self, json_line};
 use clap::Subcommand;
-use serde_json::json;
 use std::io::{self, Write};
 use std::time::Duration;
 use tmcl_host::{Client, FirmwareVersion, HostError, Transport};
@@ -239,7 +239,7 @@ fn execute(cmd: HostCommand, json: bool, out: &mut dyn Write) -> Result<(), CliE
                 .request(target.instruction(target.read_opcode(), 0))
                 .map_err(|e| explain(&mut models, &mut client, target, e, None))?;
             if json {
-                writeln!(out, "{}", target.json(&reply))?;
+                json_line(out, &target.json(&reply))?;
             } else {
                 writeln!(out, "{} = {}", target.label(), target.with_unit(reply.value))?;
             }
@@ -305,7 +305,7 @@ fn explain(
 /// Prints `ok` (or the reply as JSON) for commands whose value means nothing.
 fn ok(target: &names::Target, reply: Reply, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     if json {
-        writeln!(out, "{}", target.json(&reply))?;
+        json_line(out, &target.json(&reply))?;
     } else {
         writeln!(out, "ok")?;
     }
@@ -318,14 +318,14 @@ fn version(client: &mut HostClient, json: bool, out: &mut dyn Write) -> Result<(
     let binary = client.version_binary()?;
     let decoded = FirmwareVersion::from_value_and_string(binary, &text);
     if json {
-        let value = json!({
-            "version": text,
-            "binary": binary,
-            "firmware": format!("{}.{:02}", decoded.major, decoded.minor),
-            "model": decoded.module,
-            "address": client.module_address,
-        });
-        writeln!(out, "{value}")?;
+        let value = output::Version {
+            address: client.module_address,
+            binary,
+            firmware: format!("{}.{:02}", decoded.major, decoded.minor),
+            model: decoded.module,
+            version: text,
+        };
+        json_line(out, &value)?;
     } else {
         writeln!(out, "{text}")?;
         writeln!(out, "firmware {decoded}, binary {binary:#010x}")?;
@@ -502,7 +502,7 @@ fn report_module(
         }
     };
     if json {
-        writeln!(out, "{}", json!({ "address": reply.module, "version": text }))?;
+        json_line(out, &output::Found { address: Some(reply.module), version: text })?;
     } else {
         writeln!(out, "{:>3}  {text}", reply.module)?;
     }
@@ -516,7 +516,7 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
             // The raw 136 type 0 reply has no status: the version string is the answer.
             let text = client.version_string()?;
             if json {
-                writeln!(out, "{}", json!({ "version": text }))?;
+                json_line(out, &output::Found { address: None, version: text })?;
             } else {
                 writeln!(out, "{text}")?;
             }
@@ -525,11 +525,11 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
             // Documented to get no reply when carried out (§3.7.38), but a refusal (a wrong key: status 4)
             // is answered: show what comes within the timeout, and "no reply" only when nothing did.
             match client.request_optional(instruction)? {
-                Some(reply) if json => writeln!(out, "{}", reply_json(&reply))?,
+                Some(reply) if json => json_line(out, &ReplyJson::from(&reply))?,
                 Some(reply) => writeln!(out, "status {}, value {}", reply.status, reply.value)?,
                 None if json => {
                     let sent = Sent { sent: true, opcode: u8::from(instruction.opcode), reply: None };
-                    writeln!(out, "{}", serde_json::to_string(&sent).map_err(|e| CliError::Io(e.to_string()))?)?
+                    writeln!(out, "{}", serde_json::to_string(&sent)?)?
                 }
                 None => writeln!(
                     out,
@@ -541,7 +541,7 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
         _ => {
             let reply = client.request(instruction).map_err(|e| why_silent(client, e))?;
             if json {
-                writeln!(out, "{}", reply_json(&reply))?;
+                json_line(out, &ReplyJson::from(&reply))?;
             } else {
                 writeln!(out, "status {}, value {}", reply.status, reply.value)?;
             }
@@ -588,7 +588,7 @@ fn replies_off(
     }
     if json {
         let off = RepliesOff { value, replies: "off", turn_on: "tmcl set gp 255 0" };
-        writeln!(out, "{}", serde_json::to_string(&off).map_err(|e| CliError::Io(e.to_string()))?)?;
+        writeln!(out, "{}", serde_json::to_string(&off)?)?;
     } else {
         writeln!(
             out,
@@ -671,6 +671,7 @@ mod tests {
     use super::*;
     use crate::error::{EXIT_BAD_REPLY, EXIT_IO, EXIT_STATUS, EXIT_USAGE};
     use clap::Parser;
+    use serde_json::json;
     use std::io::Read;
     use std::net::TcpListener;
     use std::thread;

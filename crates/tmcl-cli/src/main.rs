@@ -8,6 +8,7 @@ mod error;
 mod esi;
 mod host;
 mod names;
+mod output;
 mod params;
 mod program;
 mod run;
@@ -20,7 +21,7 @@ mod watch;
 use clap::{Parser, Subcommand};
 use error::{CliError, EXIT_CODES};
 use std::ffi::OsString;
-use std::io::Write;
+
 use std::process::ExitCode;
 
 /// OpenTMCL: virtual TMCL modules, and host commands for real and virtual modules.
@@ -137,7 +138,7 @@ fn main() -> ExitCode {
         Err(err) if json && err.use_stderr() => {
             let message = err.kind().as_str().map_or_else(|| err.to_string(), str::to_string);
             let usage = CliError::Usage(format!("{message}; see `tmcl --help`"));
-            let _ = writeln!(std::io::stdout(), "{}", usage.to_json());
+            let _ = output::json_line(&mut std::io::stdout(), &usage.to_json());
             let _ = err.print();
             return ExitCode::from(error::EXIT_USAGE);
         }
@@ -163,7 +164,7 @@ fn main() -> ExitCode {
         Err(CliError::Output(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::from(error::EXIT_IO),
         Err(err) => {
             if json {
-                let _ = writeln!(std::io::stdout(), "{}", err.to_json());
+                let _ = output::json_line(&mut std::io::stdout(), &err.to_json());
             }
             err.report(name);
             ExitCode::from(err.exit_code())

@@ -161,9 +161,11 @@ fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     let mut report = |t: Instant| show_progress(&bar, t);
     let progress: Option<&mut dyn FnMut(Instant)> = if bar.is_hidden() { None } else { Some(&mut report) };
     let csv = match &args.trace {
-        Some(path) => Some(Csv::new(BufWriter::new(
-            File::create(path).map_err(|e| CliError::Io(format!("cannot create {}: {e}", path.display())))?,
-        ))),
+        Some(path) => Some(Csv::new(BufWriter::new(File::create(path).map_err(|source| CliError::Write {
+            action: "create",
+            path: path.clone(),
+            source,
+        })?))),
         None => None,
     };
     let mut trace = args.plot.as_ref().map(|_| Trace::new());
@@ -180,8 +182,7 @@ fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     })?;
     if let (Some(path), Some(trace)) = (&args.plot, &trace) {
         let title = format!("{} on a simulated {}", args.file.display(), setup.model.name);
-        tmcl_run::plot::write(trace, &title, path)
-            .map_err(|e| CliError::Io(format!("cannot draw {}: {e}", path.display())))?;
+        tmcl_run::plot::write(trace, &title, path).map_err(|source| CliError::Draw { path: path.clone(), source })?;
     }
     bar.finish_and_clear();
     let summary = Summary {

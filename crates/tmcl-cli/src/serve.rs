@@ -121,8 +121,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     }
     let stop = server.stopper().flag();
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, std::sync::Arc::clone(&stop))
-            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+        signal_hook::flag::register(signal, std::sync::Arc::clone(&stop)).map_err(CliError::Signals)?;
     }
     let places: Vec<String> = server.links().iter().map(ToString::to_string).collect();
     let place = places.first().cloned();
@@ -131,7 +130,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     if json {
         let serving = modules.iter().map(|m| ServedModule { address: m.address, model: m.model.clone() }).collect();
         let line = Serving { ethercat: iface, link: place, links: places, serving };
-        println!("{}", serde_json::to_string(&line).map_err(|e| CliError::Io(e.to_string()))?);
+        println!("{}", serde_json::to_string(&line)?);
     } else {
         let names: Vec<String> =
             modules.iter().map(|ModuleInfo { name, address, .. }| format!("{name} at address {address}")).collect();
@@ -156,11 +155,15 @@ fn options(args: &ServeArgs) -> Result<Options, CliError> {
         ));
     }
     let world = match &args.world {
-        Some(path) => tmcl_sim::World::load(path).map_err(|e| CliError::Input(e.to_string()))?,
+        Some(path) => tmcl_sim::World::load(path)?,
         None => tmcl_sim::World::default(),
     };
     if let Some(dir) = &args.eeprom_dir {
-        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
+            action: "create",
+            path: dir.to_path_buf(),
+            source,
+        })?;
     }
     let mut modules = Vec::new();
     for (n, (spec, address)) in wanted.into_iter().enumerate() {

@@ -32,7 +32,7 @@ impl SimOptions {
         let mut setup = Setup::new(&self.module).map_err(setup_error)?;
         setup.settings = self.set.clone();
         if let Some(path) = &self.world {
-            let world = tmcl_sim::World::load(path).map_err(|e| CliError::Usage(e.to_string()))?;
+            let world = tmcl_sim::World::load(path)?;
             // Checked against the model here, so that the error names the file.
             SimBoard::in_memory_for(setup.model)
                 .with_world(world.clone())

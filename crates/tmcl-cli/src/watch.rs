@@ -175,8 +175,7 @@ impl Source {
 fn interrupted() -> Result<Arc<AtomicBool>, CliError> {
     let flag = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&flag))
-            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+        signal_hook::flag::register(signal, Arc::clone(&flag)).map_err(CliError::Signals)?;
     }
     Ok(flag)
 }
@@ -215,9 +214,13 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
         let elapsed = started.elapsed();
         if op.holds(value, wanted) {
             if json {
-                let row =
-                    json!({"condition": condition, "met": true, "value": value, "elapsed_s": elapsed.as_secs_f64()});
-                writeln!(out, "{row}")?;
+                let row = crate::output::Met {
+                    condition: condition.to_string(),
+                    elapsed_s: elapsed.as_secs_f64(),
+                    met: true,
+                    value,
+                };
+                crate::output::json_line(out, &row)?;
             } else {
                 writeln!(out, "{condition} after {:.3} s (value {value})", elapsed.as_secs_f64())?;
             }

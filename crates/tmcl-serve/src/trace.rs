@@ -2,11 +2,7 @@
 
 use tmcl_core::Instant;
 use tmcl_ethercat::AlStatus;
-use tmcl_wire::{Frame, Instruction, Reply, ReplyFrame, Request};
-
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02X}")).collect::<Vec<_>>().join(" ")
-}
+use tmcl_wire::{Frame, Hex, Instruction, Reply, ReplyFrame, Request};
 
 pub(crate) fn log_request(now: Instant, bytes: &[u8]) {
     let what = match Frame::new_checked(bytes).map(|f| Request::parse(&f)) {
@@ -14,7 +10,7 @@ pub(crate) fn log_request(now: Instant, bytes: &[u8]) {
         Ok(Err(e)) if bytes.len() == 9 => e.to_string(),
         _ => format!("{} bytes", bytes.len()),
     };
-    eprintln!("[{now}] -> {}  {what}", hex(bytes));
+    eprintln!("[{now}] -> {}  {what}", Hex(bytes));
 }
 
 fn describe(address: u8, i: Instruction) -> String {
@@ -26,7 +22,7 @@ pub(crate) fn log_reply(now: Instant, bytes: &[u8]) {
         Ok(Ok(r)) => format!("status {}, value {}", r.status, r.value),
         _ => format!("special reply {:?}", String::from_utf8_lossy(&bytes[1.min(bytes.len())..])),
     };
-    eprintln!("[{now}] <- {}  {what}", hex(bytes));
+    eprintln!("[{now}] <- {}  {what}", Hex(bytes));
 }
 
 /// Logs a change of the slave's AL status (with -v).

@@ -111,6 +111,50 @@ pub(crate) struct DebugError {
     pub error: String,
 }
 
+/// The `v` event: one value read, by key (`ap.MOTOR.N`, `gp.BANK.N`, `io.BANK.PORT`, `rfs.MOTOR`, `acc`,
+/// `x`): its value, or the status of the module's refusal.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ValueEvent {
+    pub e: &'static str,
+    pub k: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v: Option<i32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s: Option<u8>,
+    pub t: f64,
+}
+
+impl ValueEvent {
+    /// A value read.
+    pub(crate) fn value(k: String, v: i32, t: f64) -> ValueEvent {
+        ValueEvent { e: "v", k, v: Some(v), s: None, t }
+    }
+
+    /// A refusal with its status.
+    pub(crate) fn refused(k: String, s: u8, t: f64) -> ValueEvent {
+        ValueEvent { e: "v", k, v: None, s: Some(s), t }
+    }
+}
+
+/// The `stats` event, once a second: requests per second, the total, the rate limit, the values polled.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct StatsEvent {
+    pub e: &'static str,
+    pub rps: f64,
+    pub requests: u64,
+    pub rate: f64,
+    pub polled: usize,
+}
+
+/// The `progress` event of a long job (`download`, `scan`): how much of it is done.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ProgressEvent {
+    pub e: &'static str,
+    pub what: &'static str,
+    pub done: usize,
+    pub total: usize,
+}
+
 /// The `hello` request's answer: the link, the module and its model, and what the pages plot.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct Hello {
@@ -435,6 +479,7 @@ impl Link {
                 self.down = None;
                 self.link_error = None;
                 self.replies_off = false;
+                tracing::info!(link = %self.link_name, "the link is back");
                 self.new_epoch("link");
                 self.debug = Remote::default();
                 self.identify();
@@ -447,6 +492,7 @@ impl Link {
             Err(e) => {
                 let text = format!("the link went away ({e})");
                 if self.link_error.as_deref() != Some(text.as_str()) {
+                    tracing::warn!(link = %self.link_name, "{text}");
                     self.link_error = Some(text);
                     self.update_line();
                 }
@@ -501,7 +547,10 @@ impl Link {
             Some(Ok(report)) => {
                 self.emit_debug(report);
             }
-            Some(Err(e)) => self.emit_typed(&DebugError { e: "debug", reason: "error", error: e.to_string() }),
+            Some(Err(e)) => {
+                tracing::warn!("the debugger's run stopped: {e}");
+                self.emit_typed(&DebugError { e: "debug", reason: "error", error: e.to_string() })
+            }
         }
     }
 
@@ -525,12 +574,6 @@ impl Link {
     /// The link's trouble, if the last request failed on the line.
     pub(crate) fn link_error(&self) -> Option<&str> {
         self.link_error.as_deref()
-    }
-
-    /// Sends an event to every page.
-    pub(crate) fn emit(&self, event: Value) {
-        // No page connected is no error.
-        let _ = self.events.send(Arc::from(event.to_string()));
     }
 
     /// Runs `f` on the client after waiting for the rate limit; notes the link state, counts the replies
@@ -640,7 +683,7 @@ impl Link {
         match self.version_string() {
             Ok(text) => {
                 if !self.model_fixed {
-                    self.model = crate::info::model_by_version(&text);
+                    self.model = tmcl_model::by_version(&text);
                 }
                 self.version = Some(text);
             }
@@ -779,10 +822,8 @@ impl Link {
             Ok(reply) if desc.is_some_and(|d| d.role == tmcl_model::Role::Plain && !d.range.contains(reply.value)) => {
                 self.note_mismatched(1)
             }
-            Ok(reply) => self.emit(json!({"e": "v", "k": key, "v": reply.value, "t": t})),
-            Err(HostError::Status { status, .. }) => {
-                self.emit(json!({"e": "v", "k": key, "s": u8::from(status), "t": t}))
-            }
+            Ok(reply) => self.emit_typed(&ValueEvent::value(key, reply.value, t)),
+            Err(HostError::Status { status, .. }) => self.emit_typed(&ValueEvent::refused(key, u8::from(status), t)),
             Err(_) => {}
         }
     }
@@ -793,8 +834,13 @@ impl Link {
         if elapsed >= Duration::from_secs(1) {
             self.rps = (self.requests - self.window.1) as f64 / elapsed.as_secs_f64();
             self.window = (now, self.requests);
-            self.emit(json!({"e": "stats", "rps": self.rps, "requests": self.requests, "rate": self.rate,
-                             "polled": self.schedule.len()}));
+            self.emit_typed(&StatsEvent {
+                e: "stats",
+                rps: self.rps,
+                requests: self.requests,
+                rate: self.rate,
+                polled: self.schedule.len(),
+            });
             // Mismatched replies age out of the warning.
             self.update_line();
         }

@@ -7,7 +7,7 @@
 
 use crate::debug::{self, SOURCE_NAME};
 use crate::info;
-use crate::link::{HelloEvent, Link, Poll, Watch};
+use crate::link::{HelloEvent, Link, Poll, ProgressEvent, ValueEvent, Watch};
 use crate::paramset;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -122,6 +122,32 @@ pub(crate) enum Op {
     Select { address: u8 },
 }
 
+impl Op {
+    /// The request's name, as the page sends it (`op`), for the log.
+    pub(crate) fn name(&self) -> &'static str {
+        match self {
+            Op::Hello => "hello",
+            Op::Watch { .. } => "watch",
+            Op::Get { .. } => "get",
+            Op::Set { .. } => "set",
+            Op::Store { .. } => "store",
+            Op::Restore { .. } => "restore",
+            Op::Motion { .. } => "motion",
+            Op::Output { .. } => "output",
+            Op::Console { .. } => "console",
+            Op::Assemble { .. } => "assemble",
+            Op::Download { .. } => "download",
+            Op::Program { .. } => "program",
+            Op::Breakpoints { .. } => "breakpoints",
+            Op::SaveParams => "save_params",
+            Op::LoadParams { .. } => "load_params",
+            Op::StoreAll => "store_all",
+            Op::Scan { .. } => "scan",
+            Op::Select { .. } => "select",
+        }
+    }
+}
+
 /// The most parameters one page may chart besides the standard plots.
 const MAX_CHARTED: usize = 32;
 
@@ -160,6 +186,11 @@ impl From<String> for Failure {
 }
 
 impl Failure {
+    /// The failure in words, for the log.
+    pub(crate) fn message(&self) -> &str {
+        self.0.get("error").and_then(Value::as_str).unwrap_or("")
+    }
+
     /// The failure as the body of an answer.
     pub(crate) fn into_value(self) -> Value {
         self.0
@@ -274,7 +305,7 @@ fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Value, Failur
                 }
             };
             let key = if axis { format!("ap.{index}.{param}") } else { format!("gp.{index}.{param}") };
-            link.emit(json!({"e": "v", "k": key, "v": value, "t": crate::link::now_ms()}));
+            link.emit_typed(&ValueEvent::value(key, value, crate::link::now_ms()));
             Ok(json!({"value": value, "status": u8::from(reply.status)}))
         }
         Err(e) => {
@@ -348,8 +379,7 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
     let mut sent = String::new();
     let _ = format_instruction(&instruction, &mut sent, None);
     let bytes = tmcl_wire::Request { address: link.address(), instruction }.to_bytes();
-    let hex: Vec<String> = bytes.iter().map(|b| format!("{b:02X}")).collect();
-    let base = json!({"sent": sent, "bytes": hex.join(" ")});
+    let base = json!({"sent": sent, "bytes": tmcl_wire::Hex(&bytes).to_string()});
     let with = |mut v: Value, extra: Value| {
         if let (Some(v), Some(extra)) = (v.as_object_mut(), extra.as_object()) {
             v.extend(extra.clone());
@@ -534,7 +564,7 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     let total = program.instructions.len();
     debug::download(link, &program.instructions, |link, n| {
         if n % 8 == 0 || n == total {
-            link.emit(json!({"e": "progress", "what": "download", "done": n, "total": total}));
+            link.emit_typed(&ProgressEvent { e: "progress", what: "download", done: n, total });
         }
     })?;
     let lines: Vec<Option<u32>> =
@@ -639,7 +669,7 @@ fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
         found.extend(link.settle().into_iter().filter(|r| r.opcode == u8::from(Opcode::GetVersion)).map(|r| r.module));
         let (done, total) = (u16::from(a - first) + 1, u16::from(last - first) + 1);
         if done % 8 == 0 || a == last {
-            link.emit(json!({"e": "progress", "what": "scan", "done": done, "total": total}));
+            link.emit_typed(&ProgressEvent { e: "progress", what: "scan", done: done.into(), total: total.into() });
         }
     }
     link.set_timeout(old);
