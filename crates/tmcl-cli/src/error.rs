@@ -130,35 +130,21 @@ impl CliError {
     /// The process exit code for this failure (see [`EXIT_CODES`]).
     pub(crate) fn exit_code(&self) -> u8 {
         match self {
-            CliError::Explained { source, .. } => host_exit_code(source),
-            CliError::Usage(_)
-            | CliError::Input(_)
-            | CliError::Assembly { .. }
-            | CliError::Read { .. }
-            | CliError::Content { .. }
-            | CliError::World(_) => EXIT_USAGE,
-            CliError::Host(err) => host_exit_code(err),
-            CliError::Io(_)
-            | CliError::Output(_)
-            | CliError::Write { .. }
-            | CliError::Json(_)
-            | CliError::Signals(_)
-            | CliError::Draw { .. }
-            | CliError::Eeprom(_)
-            | CliError::Workbench(_) => EXIT_IO,
+            CliError::Explained { source, .. } | CliError::Host(source) => host_exit_code(source),
             CliError::NotMet(_) => EXIT_NOT_MET,
             CliError::Refused(_) => EXIT_STATUS,
+            _ if self.kind() == "io" => EXIT_IO,
+            _ => EXIT_USAGE,
         }
     }
 
     /// A one-word name of the failure for the JSON `kind` key.
     pub(crate) fn kind(&self) -> &'static str {
         match self {
-            CliError::Explained { source, .. } => host_kind(source),
+            CliError::Explained { source, .. } | CliError::Host(source) => host_kind(source),
             CliError::Usage(_) => "usage",
             CliError::Input(_) | CliError::Read { .. } | CliError::Content { .. } | CliError::World(_) => "input",
             CliError::Assembly { .. } => "assembly",
-            CliError::Host(err) => host_kind(err),
             CliError::Io(_)
             | CliError::Output(_)
             | CliError::Write { .. }

@@ -7,6 +7,7 @@ mod debug;
 mod error;
 mod esi;
 mod host;
+mod log;
 mod names;
 mod output;
 mod params;
@@ -32,6 +33,11 @@ struct Cli {
     /// Print results and errors as JSON objects, one per line, on standard output.
     #[arg(long, global = true)]
     json: bool,
+    /// Log more on stderr (never stdout): -v what the servers do (tmcl serve and tmcl share: every
+    /// request and reply; the workbench: pages, links), -vv details, -vvv everything. RUST_LOG, if set,
+    /// takes the place of -v (e.g. RUST_LOG=tmcl_ui=debug).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
     #[command(subcommand)]
     command: Command,
 }
@@ -155,11 +161,12 @@ fn main() -> ExitCode {
         }
         Err(err) => err.exit(),
     };
+    log::init(cli.verbose);
     let name = cli.command.name();
     let json = cli.json;
     let result = match cli.command {
-        Command::Serve(args) => serve::run(args, json),
-        Command::Share(args) => share::run(args, json),
+        Command::Serve(args) => serve::run(args, json, cli.verbose),
+        Command::Share(args) => share::run(args, json, cli.verbose),
         Command::Monitor(args) => share::monitor(args, json),
         Command::Asm(args) => asm::run_asm(args, json),
         Command::Disasm(args) => asm::run_disasm(args, json),

@@ -78,9 +78,6 @@ pub struct ServeArgs {
     /// or DIR/MODEL@ADDRESS.foe) and are reported on stderr; nothing is flashed.
     #[arg(long, value_name = "IFACE")]
     pub ethercat: Option<String>,
-    /// Log every request and reply to stderr (EtherCAT: the AL state changes).
-    #[arg(short, long)]
-    pub verbose: bool,
     /// Append every transaction on the host links to FILE, one line each: time, link, the request and the
     /// reply decoded with the model's names and units, status, round trip (with --json, one JSON object
     /// each, as `tmcl monitor --json` prints them).
@@ -127,9 +124,9 @@ impl From<ServeError> for CliError {
     }
 }
 
-/// Runs the server until SIGINT or SIGTERM.
-pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
-    let mut server = Server::new(options(&args, json)?)?;
+/// Runs the server until SIGINT or SIGTERM; with `verbose` (`-v` counted) it logs every request and reply.
+pub(crate) fn run(args: ServeArgs, json: bool, verbose: u8) -> Result<(), CliError> {
+    let mut server = Server::new(options(&args, json, verbose)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
     server.set_flush_on_stop(false);
@@ -161,7 +158,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
 }
 
 /// The server's options from the command line.
-fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
+fn options(args: &ServeArgs, json: bool, verbose: u8) -> Result<Options, CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
         let (spec, address) = parse_module(text).map_err(CliError::Usage)?;
@@ -230,7 +227,7 @@ fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
         ethercat,
         wire_timing: args.wire_timing,
         exact_ticks: args.exact_ticks,
-        verbose: args.verbose,
+        verbose: verbose > 0,
         monitor: MonitorOptions {
             log: args.log.clone(),
             log_json: json,
