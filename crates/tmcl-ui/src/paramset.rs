@@ -186,6 +186,30 @@ fn is_setting(desc: &ParamDesc) -> bool {
         || matches!(desc.role, Role::MicrostepResolution | Role::RampMode | Role::EncoderPrescaler)
 }
 
+/// Every parameter of the model's tables with its place: the axis parameters of each motor, then the
+/// global parameters of bank 0 and of the interrupt bank (the user variables are not in the tables).
+fn tabled(model: &'static ModelSpec) -> impl Iterator<Item = (Kind, u8, &'static ParamDesc)> {
+    let axes = (0..model.motors).flat_map(move |motor| model.axis.params.iter().map(move |d| (Kind::Ap, motor, d)));
+    let global = model.global.params.iter().map(|d| (Kind::Gp, 0, d));
+    let interrupt = model.interrupt.params.iter().map(|d| (Kind::Gp, INTERRUPT_BANK, d));
+    axes.chain(global).chain(interrupt)
+}
+
+impl Entry {
+    /// The entry of parameter `d` at motor or bank `index`, its value not read yet (0).
+    fn of(kind: Kind, index: u8, d: &ParamDesc) -> Entry {
+        Entry {
+            kind,
+            motor: (kind == Kind::Ap).then_some(index),
+            bank: (kind == Kind::Gp).then_some(index),
+            number: d.number,
+            name: d.ident.to_string(),
+            unit: d.unit.symbol().to_string(),
+            value: 0,
+        }
+    }
+}
+
 /// Reads every readable parameter of `model` from the module: the axis parameters of every motor, the
 /// global parameters of banks 0 and 3, and the user variables. A value the module refuses to give is
 /// left out and named in the returned notes.
@@ -195,26 +219,8 @@ pub fn read_all(
 ) -> Result<(Vec<Entry>, Vec<String>), HostError> {
     let mut entries = Vec::new();
     let mut notes = Vec::new();
-    let mut tables: Vec<(Kind, u8, &'static [ParamDesc])> = Vec::new();
-    for motor in 0..model.motors {
-        tables.push((Kind::Ap, motor, model.axis.params));
-    }
-    tables.push((Kind::Gp, 0, model.global.params));
-    tables.push((Kind::Gp, INTERRUPT_BANK, model.interrupt.params));
-    let mut wanted: Vec<Entry> = Vec::new();
-    for (kind, index, params) in tables {
-        for d in params.iter().filter(|d| d.access.read) {
-            wanted.push(Entry {
-                kind,
-                motor: (kind == Kind::Ap).then_some(index),
-                bank: (kind == Kind::Gp).then_some(index),
-                number: d.number,
-                name: d.ident.to_string(),
-                unit: d.unit.symbol().to_string(),
-                value: 0,
-            });
-        }
-    }
+    let mut wanted: Vec<Entry> =
+        tabled(model).filter(|(_, _, d)| d.access.read).map(|(kind, index, d)| Entry::of(kind, index, d)).collect();
     for n in 0..model.user_variables.min(256) {
         wanted.push(Entry {
             kind: Kind::Gp,
@@ -424,23 +430,9 @@ pub fn load(
 /// motor, STGP for banks 0 and 3 (PD28-1021 manual §3.7.7, §3.7.11).
 pub fn store_all(client: &mut Client<impl Transport>, model: &'static ModelSpec) -> Result<Vec<Outcome>, HostError> {
     let mut out = Vec::new();
-    let mut tables: Vec<(Kind, u8, &'static [ParamDesc])> = Vec::new();
-    for motor in 0..model.motors {
-        tables.push((Kind::Ap, motor, model.axis.params));
-    }
-    tables.push((Kind::Gp, 0, model.global.params));
-    tables.push((Kind::Gp, INTERRUPT_BANK, model.interrupt.params));
-    for (kind, index, params) in tables {
-        for d in params.iter().filter(|d| d.access.store) {
-            let entry = Entry {
-                kind,
-                motor: (kind == Kind::Ap).then_some(index),
-                bank: (kind == Kind::Gp).then_some(index),
-                number: d.number,
-                name: d.ident.to_string(),
-                unit: d.unit.symbol().to_string(),
-                value: 0,
-            };
+    for (kind, index, d) in tabled(model) {
+        if d.access.store {
+            let entry = Entry::of(kind, index, d);
             let store = match kind {
                 Kind::Ap => Command::Stap { param: d.number, motor: index },
                 Kind::Gp => Command::Stgp { param: d.number, bank: index },
