@@ -78,9 +78,6 @@ pub struct ServeArgs {
     /// or DIR/MODEL@ADDRESS.foe) and are reported on stderr; nothing is flashed.
     #[arg(long, value_name = "IFACE")]
     pub ethercat: Option<String>,
-    /// Log every request and reply to stderr (EtherCAT: the AL state changes).
-    #[arg(short, long)]
-    pub verbose: bool,
     /// Append every transaction on the host links to FILE, one line each: time, link, the request and the
     /// reply decoded with the model's names and units, status, round trip (with --json, one JSON object
     /// each, as `tmcl monitor --json` prints them).
@@ -161,7 +158,7 @@ struct FleetFile {
     line: Vec<LineSpec>,
 }
 
-/// The lines of a fleet file, each as the options of `tmcl serve` (with --verbose and --exact-ticks from
+/// The lines of a fleet file, each as the options of `tmcl serve` (with -v and --exact-ticks from
 /// the command line), paths relative to the file's directory.
 fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs>, CliError> {
     let text =
@@ -203,7 +200,6 @@ fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs
             ethercat: line.ethercat,
             log: line.log.map(at),
             monitor_socket: line.monitor_socket.map(at),
-            verbose: args.verbose,
             exact_ticks: args.exact_ticks,
             fleet: None,
         });
@@ -244,12 +240,12 @@ impl From<ServeError> for CliError {
     }
 }
 
-/// Runs the server until SIGINT or SIGTERM.
-pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
+/// Runs the server until SIGINT or SIGTERM; with `verbose` (`-v` counted) it logs every request and reply.
+pub(crate) fn run(args: ServeArgs, json: bool, verbose: u8) -> Result<(), CliError> {
     if let Some(file) = &args.fleet {
-        return run_fleet(file, &args, json);
+        return run_fleet(file, &args, json, verbose);
     }
-    let mut server = Server::new(options(&args, json)?)?;
+    let mut server = Server::new(options(&args, json, verbose)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
     server.set_flush_on_stop(false);
@@ -259,7 +255,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     server
         .stopper()
         .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
-        .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+        .map_err(CliError::Signals)?;
     announce(&server, json)?;
     let _ = io::stdout().flush();
     server.run()?;
@@ -267,8 +263,9 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
 }
 
 /// `tmcl serve --fleet FILE`: every line of FILE on a thread of its own, until SIGINT or SIGTERM.
-fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(), CliError> {
-    let lines = fleet_lines(file, args)?.iter().map(|line| options(line, json)).collect::<Result<Vec<_>, _>>()?;
+fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool, verbose: u8) -> Result<(), CliError> {
+    let lines =
+        fleet_lines(file, args)?.iter().map(|line| options(line, json, verbose)).collect::<Result<Vec<_>, _>>()?;
     raise_descriptor_limit(&lines);
     let mut fleet = Fleet::new(lines)?;
     fleet.set_flush_on_stop(false);
@@ -279,7 +276,7 @@ fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(),
         server
             .stopper()
             .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
-            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+            .map_err(CliError::Signals)?;
     }
     for server in fleet.lines() {
         announce(server, json)?;
@@ -311,7 +308,7 @@ fn announce(server: &Server, json: bool) -> Result<(), CliError> {
     if json {
         let serving = modules.iter().map(|m| ServedModule { address: m.address, model: m.model.clone() }).collect();
         let line = Serving { ethercat: iface, link: place, links: places, serving };
-        println!("{}", serde_json::to_string(&line).map_err(|e| CliError::Io(e.to_string()))?);
+        println!("{}", serde_json::to_string(&line)?);
     } else {
         let names: Vec<String> =
             modules.iter().map(|ModuleInfo { name, address, .. }| format!("{name} at address {address}")).collect();
@@ -323,7 +320,7 @@ fn announce(server: &Server, json: bool) -> Result<(), CliError> {
 }
 
 /// The server's options from the command line.
-fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
+fn options(args: &ServeArgs, json: bool, verbose: u8) -> Result<Options, CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
         let (spec, address) = parse_module(text).map_err(CliError::Usage)?;
@@ -347,11 +344,15 @@ fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
         ));
     }
     let world = match &args.world {
-        Some(path) => tmcl_sim::World::load(path).map_err(|e| CliError::Input(e.to_string()))?,
+        Some(path) => tmcl_sim::World::load(path)?,
         None => tmcl_sim::World::default(),
     };
     if let Some(dir) = &args.eeprom_dir {
-        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
+            action: "create",
+            path: dir.to_path_buf(),
+            source,
+        })?;
     }
     let mut modules = Vec::new();
     for (n, (spec, address)) in wanted.into_iter().enumerate() {
@@ -388,7 +389,7 @@ fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
         ethercat,
         wire_timing: args.wire_timing,
         exact_ticks: args.exact_ticks,
-        verbose: args.verbose,
+        verbose: verbose > 0,
         monitor: MonitorOptions {
             log: args.log.clone(),
             log_json: json,
@@ -462,17 +463,16 @@ wire_timing = false
 "#,
         )
         .unwrap();
-        let lines = fleet_lines(&file, &args(&format!("--fleet {} -v", file.display()))).unwrap();
+        let lines = fleet_lines(&file, &args(&format!("--fleet {}", file.display()))).unwrap();
         assert_eq!(lines.len(), 2);
         assert_eq!(lines[0].module, ["tmcm-1310"]);
         assert_eq!(lines[0].pty, [dir.path().join("ports/usb0")], "relative to the file's directory");
         assert_eq!(lines[0].world.as_deref(), Some(std::path::Path::new("/abs/world.toml")));
-        assert!(lines[0].verbose && lines[1].verbose, "--verbose applies to every line");
         assert_eq!(lines[1].module, ["pd28-1021@1", "pd-113@2"]);
         assert_eq!(lines[1].pty, [dir.path().join("ports/a"), dir.path().join("ports/b")]);
         assert_eq!(lines[1].tcp, ["127.0.0.1:0"]);
         assert_eq!(lines[1].eeprom_dir, Some(dir.path().join("eeprom")));
-        let options = options(&lines[1], false).unwrap();
+        let options = options(&lines[1], false, 0).unwrap();
         assert_eq!((options.modules.len(), options.links.len()), (2, 3));
     }
 

@@ -463,7 +463,7 @@ impl Server {
             }
         }
         if self.verbose {
-            eprintln!("[{}] stopped", self.now());
+            tracing::info!("[{}] stopped", self.now());
         }
         served.and(flushed)
     }
@@ -479,7 +479,7 @@ impl Server {
         if verbose {
             for (link, _) in &self.links {
                 if let Link::Pty(pty) = link {
-                    eprintln!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
+                    tracing::info!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
                 }
             }
         }
@@ -585,7 +585,7 @@ impl Server {
                             Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
                             _ => {
                                 if verbose {
-                                    eprintln!("[{}] connection closed", clock());
+                                    tracing::info!("[{}] connection closed", clock());
                                 }
                                 *peer = None;
                                 bus.reset_link(n);
@@ -745,7 +745,7 @@ fn serve_frames(
         if let Some(len) = e.slave.process(now, &mut frame[..n], module, &mut e.files) {
             if let Err(err) = e.socket.send(&frame[..len], &from) {
                 if verbose {
-                    eprintln!("[{now}] EtherCAT: cannot send the answer: {err}");
+                    tracing::warn!("[{now}] EtherCAT: cannot send the answer: {err}");
                 }
             }
         }
@@ -843,7 +843,7 @@ pub(crate) fn write_pending(link: &mut Link, pending: &mut Vec<u8>, verbose: boo
         let drop = pending.len() - MAX_PENDING;
         pending.drain(..drop);
         if verbose {
-            eprintln!("[{now}] the host does not read its replies: {drop} bytes dropped");
+            tracing::warn!("[{now}] the host does not read its replies: {drop} bytes dropped");
         }
     }
 }
