@@ -165,7 +165,10 @@ fn main() -> ExitCode {
     let name = cli.command.name();
     let json = cli.json;
     let result = match cli.command {
-        Command::Serve(args) => serve::run(args, json, cli.verbose),
+        Command::Serve(mut args) => {
+            args.verbose = cli.verbose > 0;
+            serve::run(args, json)
+        }
         Command::Share(args) => share::run(args, json, cli.verbose),
         Command::Monitor(args) => share::monitor(args, json),
         Command::Asm(args) => asm::run_asm(args, json),

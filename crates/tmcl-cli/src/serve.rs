@@ -78,6 +78,9 @@ pub struct ServeArgs {
     /// or DIR/MODEL@ADDRESS.foe) and are reported on stderr; nothing is flashed.
     #[arg(long, value_name = "IFACE")]
     pub ethercat: Option<String>,
+    /// Log every request and reply (EtherCAT: the AL state changes): set from the global `-v`.
+    #[arg(skip)]
+    pub verbose: bool,
     /// Append every transaction on the host links to FILE, one line each: time, link, the request and the
     /// reply decoded with the model's names and units, status, round trip (with --json, one JSON object
     /// each, as `tmcl monitor --json` prints them).
@@ -158,11 +161,10 @@ struct FleetFile {
     line: Vec<LineSpec>,
 }
 
-/// The lines of a fleet file, each as the options of `tmcl serve` (with -v and --exact-ticks from
+/// The lines of a fleet file, each as the options of `tmcl serve` (with --verbose and --exact-ticks from
 /// the command line), paths relative to the file's directory.
 fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs>, CliError> {
-    let text =
-        std::fs::read_to_string(file).map_err(|e| CliError::Input(format!("cannot read {}: {e}", file.display())))?;
+    let text = std::fs::read_to_string(file).map_err(|source| CliError::Read { path: file.to_path_buf(), source })?;
     let fleet: FleetFile = toml::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", file.display())))?;
     let dir = file.parent().unwrap_or(std::path::Path::new(""));
     let at = |p: PathBuf| if p.is_absolute() { p } else { dir.join(p) };
@@ -200,6 +202,7 @@ fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs
             ethercat: line.ethercat,
             log: line.log.map(at),
             monitor_socket: line.monitor_socket.map(at),
+            verbose: args.verbose,
             exact_ticks: args.exact_ticks,
             fleet: None,
         });
@@ -240,12 +243,12 @@ impl From<ServeError> for CliError {
     }
 }
 
-/// Runs the server until SIGINT or SIGTERM; with `verbose` (`-v` counted) it logs every request and reply.
-pub(crate) fn run(args: ServeArgs, json: bool, verbose: u8) -> Result<(), CliError> {
+/// Runs the server until SIGINT or SIGTERM.
+pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     if let Some(file) = &args.fleet {
-        return run_fleet(file, &args, json, verbose);
+        return run_fleet(file, &args, json);
     }
-    let mut server = Server::new(options(&args, json, verbose)?)?;
+    let mut server = Server::new(options(&args, json)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
     server.set_flush_on_stop(false);
@@ -263,9 +266,8 @@ pub(crate) fn run(args: ServeArgs, json: bool, verbose: u8) -> Result<(), CliErr
 }
 
 /// `tmcl serve --fleet FILE`: every line of FILE on a thread of its own, until SIGINT or SIGTERM.
-fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool, verbose: u8) -> Result<(), CliError> {
-    let lines =
-        fleet_lines(file, args)?.iter().map(|line| options(line, json, verbose)).collect::<Result<Vec<_>, _>>()?;
+fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(), CliError> {
+    let lines = fleet_lines(file, args)?.iter().map(|line| options(line, json)).collect::<Result<Vec<_>, _>>()?;
     raise_descriptor_limit(&lines);
     let mut fleet = Fleet::new(lines)?;
     fleet.set_flush_on_stop(false);
@@ -320,7 +322,7 @@ fn announce(server: &Server, json: bool) -> Result<(), CliError> {
 }
 
 /// The server's options from the command line.
-fn options(args: &ServeArgs, json: bool, verbose: u8) -> Result<Options, CliError> {
+fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
         let (spec, address) = parse_module(text).map_err(CliError::Usage)?;
@@ -389,7 +391,7 @@ fn options(args: &ServeArgs, json: bool, verbose: u8) -> Result<Options, CliErro
         ethercat,
         wire_timing: args.wire_timing,
         exact_ticks: args.exact_ticks,
-        verbose: verbose > 0,
+        verbose: args.verbose,
         monitor: MonitorOptions {
             log: args.log.clone(),
             log_json: json,
@@ -463,16 +465,19 @@ wire_timing = false
 "#,
         )
         .unwrap();
-        let lines = fleet_lines(&file, &args(&format!("--fleet {}", file.display()))).unwrap();
+        let mut fleet = args(&format!("--fleet {}", file.display()));
+        fleet.verbose = true; // the global -v (main sets it)
+        let lines = fleet_lines(&file, &fleet).unwrap();
         assert_eq!(lines.len(), 2);
         assert_eq!(lines[0].module, ["tmcm-1310"]);
         assert_eq!(lines[0].pty, [dir.path().join("ports/usb0")], "relative to the file's directory");
         assert_eq!(lines[0].world.as_deref(), Some(std::path::Path::new("/abs/world.toml")));
+        assert!(lines[0].verbose && lines[1].verbose, "--verbose applies to every line");
         assert_eq!(lines[1].module, ["pd28-1021@1", "pd-113@2"]);
         assert_eq!(lines[1].pty, [dir.path().join("ports/a"), dir.path().join("ports/b")]);
         assert_eq!(lines[1].tcp, ["127.0.0.1:0"]);
         assert_eq!(lines[1].eeprom_dir, Some(dir.path().join("eeprom")));
-        let options = options(&lines[1], false, 0).unwrap();
+        let options = options(&lines[1], false).unwrap();
         assert_eq!((options.modules.len(), options.links.len()), (2, 3));
     }
 
