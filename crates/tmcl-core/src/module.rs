@@ -25,8 +25,8 @@
 //!   protection (GP 81), coordinate storage (GP 84): none; no "do not restore" (GP 85): user variables
 //!   are always restored.
 
-use crate::drive::closed_loop::ClosedLoop;
 use crate::axis::Axes;
+use crate::drive::closed_loop::ClosedLoop;
 use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
@@ -35,9 +35,7 @@ use crate::motion::{Limits, Ramp, RampParams};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
 use crate::vm::{Program, Vm};
-use tmcl_model::capacity::{
-    MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES,
-};
+use tmcl_model::capacity::{MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES};
 use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
 pub use crate::axis::{Axis, EncoderBase};

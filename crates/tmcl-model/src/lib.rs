@@ -35,6 +35,8 @@ pub mod param;
 pub mod pd28_1021;
 pub mod pd_113;
 pub mod port;
+#[cfg(any(test, feature = "test-support"))]
+pub mod test_three_axes;
 pub mod tmcm_1310;
 pub mod variant;
 

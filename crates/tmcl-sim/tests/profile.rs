@@ -56,7 +56,8 @@ fn the_default_board_is_the_pd28_1021() {
 fn encoder_counts_per_revolution_come_from_the_model() {
     for (spec, per_rev) in [(&pd28_1021::SPEC, 1024), (&ABN_4096, 4096)] {
         let mut b = SimBoard::in_memory_for(spec);
-        b.update(0,
+        b.update(
+            0,
             Instant::ZERO,
             &DriveState { moved: 51200, resolution: 8, current: 255, enabled: true, ..DriveState::default() },
         );

@@ -189,7 +189,8 @@ impl<B: Board> Module<B> {
             up_ms: ap(Setting::CurrentScaleUpTime) as u32,
             down_ms: ap(Setting::CurrentScaleDownTime) as u32,
         };
-        let error = if ap(Setting::CurrentScaleInput) == 1 { e.abs() } else { i64::from(self.st.axes[m].cl.gamma.abs()) };
+        let error =
+            if ap(Setting::CurrentScaleInput) == 1 { e.abs() } else { i64::from(self.st.axes[m].cl.gamma.abs()) };
         let (tau, limit) = (ap(Setting::I2tTimeConstant), ap(Setting::I2tLimit));
         closed_loop::scale(&mut self.st.axes[m].cl, &p, error);
         let rms = self.setting_to_rms_ma(m, self.closed_loop_current(m).unwrap_or(0));
@@ -400,7 +401,9 @@ impl<B: Board> Module<B> {
             return c;
         }
         match self.closed_loop_current(m) {
-            Some(s) if self.st.axes[m].cl.active => (self.setting_to_rms_ma(m, s) * i64::from(self.st.axes[m].cl.gamma.signum())) as i32,
+            Some(s) if self.st.axes[m].cl.active => {
+                (self.setting_to_rms_ma(m, s) * i64::from(self.st.axes[m].cl.gamma.signum())) as i32
+            }
             _ => 0,
         }
     }
@@ -432,7 +435,10 @@ impl<B: Board> Module<B> {
         set(status::OVERTEMPERATURE, driver & crate::hal::driver_flag::OVERTEMPERATURE != 0);
         set(
             status::POSITION_HOLD,
-            self.st.axes[m].cl.active && !torque && self.st.axes[m].ramp.mode == Mode::Position && self.st.axes[m].ramp.is_idle(),
+            self.st.axes[m].cl.active
+                && !torque
+                && self.st.axes[m].ramp.mode == Mode::Position
+                && self.st.axes[m].ramp.is_idle(),
         );
         set(status::I2T_EXCEEDED, self.st.axes[m].cl.i2t_exceeded);
         w as i32

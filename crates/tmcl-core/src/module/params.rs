@@ -203,7 +203,9 @@ impl<B: Board> Module<B> {
             Role::Gamma => self.st.axes[m].cl.gamma,
             Role::VirtualPosition => self.st.axes[m].ramp.position,
             // Virtual minus actual position in closed loop; in open loop there is no such error.
-            Role::PositionError if self.st.axes[m].cl.active => self.st.axes[m].ramp.position.wrapping_sub(self.encoder_position(m)),
+            Role::PositionError if self.st.axes[m].cl.active => {
+                self.st.axes[m].ramp.position.wrapping_sub(self.encoder_position(m))
+            }
             Role::PositionError => 0,
             _ => self.st.axes[m].params[i],
         })

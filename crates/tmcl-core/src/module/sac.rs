@@ -24,7 +24,10 @@ impl<B: Board> Module<B> {
     /// The velocity registers in units (AP 2 as stored for velocity mode, AP 3), before the pulse divisor
     /// changes.
     pub(crate) fn velocity_units(&self) -> (i32, i32) {
-        (self.pps_to_units(0, self.st.axes[0].ramp.target_velocity), self.pps_to_units(0, self.st.axes[0].ramp.velocity()))
+        (
+            self.pps_to_units(0, self.st.axes[0].ramp.target_velocity),
+            self.pps_to_units(0, self.st.axes[0].ramp.velocity()),
+        )
     }
 
     /// After the pulse divisor changed: the velocity registers keep `units`, so the speed in microsteps

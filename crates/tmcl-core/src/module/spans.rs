@@ -192,7 +192,8 @@ impl<B: Board> Module<B> {
         {
             return None; // coolStep regulates; the deviation check is armed (open loop: no closed loop here)
         }
-        let prescaler = self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axes[0].params[i]);
+        let prescaler =
+            self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axes[0].params[i]);
         if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected(0) {
             return None;
         }

@@ -322,8 +322,8 @@ impl<B: Board> Module<B> {
             return false;
         }
         // Every axis stands, nothing ticks by itself, and the board is quiet for each.
-        let standing = !self.has_closed_loop()
-            && self.st.axes.iter().all(|a| a.is_standing() && a.standstill_since.is_some());
+        let standing =
+            !self.has_closed_loop() && self.st.axes.iter().all(|a| a.is_standing() && a.standstill_since.is_some());
         let mut quiet_until: Option<Option<Instant>> = standing.then_some(None);
         for m in 0..self.st.axes.count() {
             let Some(until) = quiet_until else { break };
@@ -360,8 +360,7 @@ impl<B: Board> Module<B> {
         // (instructions up to and including `now` run in it), the board's quiet window (as it was at both
         // passes), a standby or freewheeling delay, the heartbeat, a timer (sampled at the ticks).
         let timers = if self.vm.enabled != 0 { self.vm.timers } else { [None; MAX_TIMERS] };
-        let event =
-            [until, quiet_until, self.drive_due().map(|(_, d)| d), self.heartbeat_expiry()]
+        let event = [until, quiet_until, self.drive_due().map(|(_, d)| d), self.heartbeat_expiry()]
             .into_iter()
             .chain(timers)
             .flatten()

@@ -2,6 +2,7 @@
 //! frames and time exactly as a host would.
 
 mod ascii;
+mod axes;
 mod backlog;
 mod commands;
 mod params;
