@@ -2,7 +2,7 @@
 # Runs the OpenTMCL firmware on an emulated Cortex-M3 (QEMU's lm3s6965evb) with the module's UART on a pty
 # whose symlink is LINK: host software opens LINK as a serial port, exactly as with `tmcl serve --pty LINK`.
 #
-# Usage: scripts/qemu-serve.sh LINK [--module pd28-1021|tmcm-1310|pd-113] [--monitor SOCKET] [--icount]
+# Usage: scripts/qemu-serve.sh LINK [--module pd28-1021|tmcm-1310|pd-113|tmcm-1140] [--monitor SOCKET] [--icount]
 #   Builds the image (firmware/, release) when it is missing or older than its sources, starts QEMU and
 #   prints `serving PD28-1021 at address 1 on LINK` (the ready line of `tmcl serve`) once LINK works.
 #   --monitor SOCKET  QEMU's human monitor on a Unix socket (for memory dumps: scripts/qemu-budgets.sh)
@@ -36,7 +36,8 @@ case "$model" in
     pd28-1021) index=0; name=PD28-1021 ;;
     tmcm-1310) index=1; name=TMCM-1310 ;;
     pd-113) index=2; name=PDx-113 ;;
-    *) echo "qemu-serve: unknown module \`$model\`; known: pd28-1021, tmcm-1310, pd-113" >&2; exit 2 ;;
+    tmcm-1140) index=3; name=TMCM-1140 ;;
+    *) echo "qemu-serve: unknown module \`$model\`; known: pd28-1021, tmcm-1310, pd-113, tmcm-1140" >&2; exit 2 ;;
 esac
 strap=$(printf '0x544d43%02x' "$index")
 

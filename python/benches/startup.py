@@ -37,7 +37,7 @@ def fixture_time(model: str, runs: int = 100, **link) -> float:
 
 if __name__ == "__main__":
     print(f"import opentmcl: {import_time() * 1e3:.1f} ms (median of 20, cumulative, python -X importtime)")
-    for model in ("pd28-1021", "tmcm-1310", "pd-113"):
+    for model in ("pd28-1021", "tmcm-1310", "pd-113", "tmcm-1140"):
         for name, link in (("pty link (the fixture's default)", {"link": True}), ("TCP", {"tcp": True}),
                            ("no link", {})):
             print(f"module made and closed, {model}, {name}: {fixture_time(model, **link) * 1e6:.0f} µs "

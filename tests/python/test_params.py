@@ -9,7 +9,7 @@ import tomllib
 
 import pytest
 
-MODELS = ["pd28-1021", "tmcm-1310", "pd-113"]
+MODELS = ["pd28-1021", "tmcm-1310", "pd-113", "tmcm-1140"]
 # Values that change by themselves: not compared between two modules (the tick timer, the random number,
 # and the driver flags, whose standstill bit comes up a while after each start).
 LIVE = {("gp", 0, 132), ("gp", 0, 133), ("ap", 0, 208)}
@@ -39,6 +39,7 @@ CHANGES = {
     "pd28-1021": [("MaxPositioningSpeed", 30000), ("MaxCurrent", 100)],
     "tmcm-1310": [("MaxVelocity", 30000), ("MaxCurrent", 100)],
     "pd-113": [("MaxPositioningSpeed", 700), ("AbsMaxCurrent", 100)],
+    "tmcm-1140": [("MaxVelocity", 700), ("MaxCurrent", 100)],
 }
 
 

@@ -10,6 +10,7 @@ mod params;
 mod program;
 mod run;
 mod serve;
+mod share;
 mod sim;
 mod twin;
 mod ui;
@@ -37,6 +38,14 @@ enum Command {
     /// Run a virtual module on a pty (--pty LINK) or a TCP port (--tcp HOST:PORT) until SIGINT/SIGTERM.
     #[command(after_help = EXIT_CODES)]
     Serve(serve::ServeArgs),
+    /// Share one module (a real one on a serial port) between several hosts, each on a link of its own
+    /// (--pty A --pty B --tcp ADDR): one transaction at a time, each reply to the host that asked.
+    #[command(after_help = EXIT_CODES)]
+    Share(share::ShareArgs),
+    /// Watch every transaction of a `tmcl share` or `tmcl serve` as it happens: time, host, request and
+    /// reply decoded, status, round trip.
+    #[command(after_help = EXIT_CODES)]
+    Monitor(share::MonitorArgs),
     /// Assemble a TMCL source file into a .bin image (8 bytes per instruction).
     #[command(after_help = EXIT_CODES)]
     Asm(asm::AsmArgs),
@@ -72,6 +81,8 @@ impl Command {
     fn name(&self) -> &'static str {
         match self {
             Command::Serve(_) => "serve",
+            Command::Share(_) => "share",
+            Command::Monitor(_) => "monitor",
             Command::Asm(_) => "asm",
             Command::Disasm(_) => "disasm",
             Command::Run(_) => "run",
@@ -88,7 +99,7 @@ impl Command {
 /// The subcommands that talk to a module: they take the connection options.
 const HOST_COMMANDS: &[&str] = &[
     "version", "get", "set", "store", "restore", "send", "scan", "params", "wait", "watch", "download", "upload",
-    "start", "stop", "status", "ui", "twin",
+    "start", "stop", "status", "ui", "twin", "share",
 ];
 
 /// Options of the host commands that take a value and may come before the command's name: the connection
@@ -145,6 +156,8 @@ fn main() -> ExitCode {
     let json = cli.json;
     let result = match cli.command {
         Command::Serve(args) => serve::run(args, json),
+        Command::Share(args) => share::run(args, json),
+        Command::Monitor(args) => share::monitor(args, json),
         Command::Asm(args) => asm::run_asm(args, json),
         Command::Disasm(args) => asm::run_disasm(args, json),
         Command::Run(args) => run::run(args, json),

@@ -20,8 +20,8 @@ const INTERRUPT_BANK: u8 = 3;
 /// `--module MODEL`: which parameter tables the names come from.
 #[derive(Debug, Clone, Args)]
 pub struct ModelOption {
-    /// The module's model, for parameter names, ranges and units (pd28-1021, tmcm-1310, ...). Default: ask
-    /// the module for its version string (command 136) when a name needs it.
+    /// The module's model, for parameter names, ranges and units (pd28-1021, tmcm-1310, pd-113,
+    /// tmcm-1140). Default: ask the module for its version string (command 136) when a name needs it.
     #[arg(long = "module", value_name = "MODEL", global = true)]
     pub module: Option<String>,
 }

@@ -21,7 +21,8 @@ use tmcl_run::{Csv, Options, RunError, Simulation, Sink, Tee, Trace};
 pub const TRACE_HELP: &str = "\
 Trace columns (--trace OUT.csv), in this order, one row every --every ms and one at each event.
 `--drive:` marks the columns --drive adds, `--drive, closed loop:` those it adds on a closed-loop model
-(--module tmcm-1310); `TMC428 units:` the column of the TMC428 generation (--module pd-113):
+(--module tmcm-1310); `TMC428 units:` the column of the TMC428/429 generation (--module pd-113,
+tmcm-1140):
   time_s            simulated time in s, 6 decimals (µs)
   target_position   AP 0 target position, µsteps
   actual_position   AP 1 actual position, µsteps (the encoder while a closed loop is closed)
@@ -42,7 +43,7 @@ Trace columns (--trace OUT.csv), in this order, one row every --every ms and one
   status_word       --drive, closed loop: AP 18 status word, bit field (bit 2 = closed loop)
   measured_velocity --drive, closed loop: AP 131 velocity measured at the encoder, pps
   velocity_units    TMC428 units: AP 3 in the module's own unit, a TMC428 velocity -2047..2047
-                    (--module pd-113; `velocity` is the same in pps)
+                    (--module pd-113, tmcm-1140; `velocity` is the same in pps)
   event             `interrupt N` (handler entered), `stop` (STOP), `end` (a cell that does not
                     execute), `outN=V` (output changed), `target=N` (a new target position, e.g.
                     MVP; the row shows where the motor was then), `refused=pc N status S` (the

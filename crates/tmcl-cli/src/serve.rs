@@ -10,15 +10,23 @@ use serde::Serialize;
 use std::io::{self, Write};
 use std::path::PathBuf;
 use tmcl_core::model::{self, ModelSpec};
-use tmcl_serve::{EtherCatOptions, LinkOptions, ModuleInfo, ModuleOptions, Options, ServeError, Server};
+use tmcl_serve::{
+    EtherCatOptions, LinkOptions, ModuleInfo, ModuleOptions, MonitorOptions, Options, ServeError, Server,
+};
 
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
 pub struct ServeArgs {
-    /// The module to simulate, as MODEL or MODEL@ADDRESS. Give it several times to put several
-    /// independent modules on one line (an RS485 bus), e.g. `--module pd28-1021@1 --module pd28-1021@2`.
+    /// The module to simulate (pd28-1021, tmcm-1310, pd-113, tmcm-1140), as MODEL or MODEL@ADDRESS.
+    /// Give it several times to put several independent modules on one line (an RS485 bus), e.g.
+    /// `--module pd28-1021@1 --module pd28-1021@2`.
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]
     pub module: Vec<String>,
+    /// The host interface each module is served on, by name: `usb` or `rs485` (default: the model's
+    /// first one). A TMCM-1140 is reached as through its USB port, which answers every address (one
+    /// module per link); `--interface rs485` puts it on an RS485 line, beside other modules.
+    #[arg(long, value_name = "NAME")]
+    pub interface: Option<String>,
     /// Serve on a pseudo-terminal; LINK becomes a symlink to it that hosts open as a serial port.
     ///
     /// One server per LINK: while it runs, the server holds LINK.lock beside it (its PID, with a flock). A
@@ -73,6 +81,15 @@ pub struct ServeArgs {
     /// Log every request and reply to stderr (EtherCAT: the AL state changes).
     #[arg(short, long)]
     pub verbose: bool,
+    /// Append every transaction on the host links to FILE, one line each: time, link, the request and the
+    /// reply decoded with the model's names and units, status, round trip (with --json, one JSON object
+    /// each, as `tmcl monitor --json` prints them).
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// Where the monitor socket goes (default: LINK.monitor beside the first --pty link; `tmcl monitor
+    /// LINK` reads it).
+    #[arg(long, value_name = "PATH")]
+    pub monitor_socket: Option<PathBuf>,
     /// Tick the motion controller every 1 ms, and wake up for every tick while a motor moves, instead of
     /// sleeping from event to event: the reference the event-driven module is measured against (same
     /// replies, more CPU time).
@@ -112,7 +129,7 @@ impl From<ServeError> for CliError {
 
 /// Runs the server until SIGINT or SIGTERM.
 pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
-    let mut server = Server::new(options(&args)?)?;
+    let mut server = Server::new(options(&args, json)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
     server.set_flush_on_stop(false);
@@ -145,10 +162,23 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
 }
 
 /// The server's options from the command line.
-fn options(args: &ServeArgs) -> Result<Options, CliError> {
+fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
     let mut wanted = Vec::new();
     for text in &args.module {
-        wanted.push(parse_module(text).map_err(CliError::Usage)?);
+        let (spec, address) = parse_module(text).map_err(CliError::Usage)?;
+        let spec = match &args.interface {
+            None => spec,
+            Some(name) => model::on_interface(spec, name).ok_or_else(|| {
+                let names: Vec<&str> =
+                    spec.interfaces.iter().map(|i| i.name).filter(|i| model::on_interface(spec, i).is_some()).collect();
+                CliError::Usage(format!(
+                    "the {} cannot be served on `{name}`; it is served on: {}",
+                    spec.name,
+                    names.join(", ")
+                ))
+            })?,
+        };
+        wanted.push((spec, address));
     }
     if wanted.len() > 1 && (args.eeprom.is_some() || args.address.is_some()) {
         return Err(CliError::Usage(
@@ -198,6 +228,12 @@ fn options(args: &ServeArgs) -> Result<Options, CliError> {
         wire_timing: args.wire_timing,
         exact_ticks: args.exact_ticks,
         verbose: args.verbose,
+        monitor: MonitorOptions {
+            log: args.log.clone(),
+            log_json: json,
+            socket: args.monitor_socket.clone(),
+            stderr: false,
+        },
     })
 }
 

@@ -32,6 +32,8 @@ const RUNS: &[(&str, &str, &str, &[&str])] = &[
     ("tmcm1310_timer_interrupt", "3", "50", &["--module", "tmcm-1310"]),
     // PDx-113 manual §4.2: the first program, in TMC428 units (AP 4 = 1000 at pulse divisor 3).
     ("pd113_first_program", "12", "100", &["--module", "pd-113"]),
+    // TMCM-1140: a reference search on the linear stage, moves in TMC429 units, a timer interrupt blinking OUT1.
+    ("tmcm1140_stage", "30", "250", &["--module", "tmcm-1140", "--world", "examples/worlds/linear-stage.toml"]),
     // TMCM-1310 closed loop through a seizure (position error, scaler and status word with --drive).
     (
         "tmcm1310_closed_loop",
@@ -102,6 +104,8 @@ fn event_driven_traces_are_the_tick_by_tick_traces() {
             &["--module", "tmcm-1310"]
         } else if name.starts_with("pd113") {
             &["--module", "pd-113"]
+        } else if name.starts_with("tmcm1140") {
+            &["--module", "tmcm-1140"]
         } else {
             &[]
         };

@@ -37,7 +37,7 @@ mod version;
 
 pub use client::{ApplicationStatus, Client, DEFAULT_MODULE_ADDRESS, DEFAULT_QUIET, DEFAULT_TIMEOUT};
 pub use error::HostError;
-pub use serial::{openers, Opener, SerialTransport};
+pub use serial::{check_link, openers, Opener, SerialTransport};
 pub use tcp::TcpTransport;
 pub use transport::{MockTransport, Transport};
 pub use version::FirmwareVersion;

@@ -153,12 +153,12 @@ pub fn openers(path: &std::path::Path) -> Vec<Opener> {
     found
 }
 
-/// Refuses the link of a `tmcl serve` that has exited. The server writes its PID into `LINK.lock` beside
+/// Refuses the link of a `tmcl serve` (or `tmcl share`) that has exited. The server writes its PID into `LINK.lock` beside
 /// LINK and holds the file's `flock` while it runs; after a `kill -9` the link stays and may point at a
 /// pseudo-terminal that another program (a terminal, an editor) has opened since. Whether the server lives
 /// is asked of the process table (`/proc`), so that this check never takes the lock a starting server is
 /// about to take. Without a lock file, or off Linux, nothing is checked.
-fn check_link(path: &std::path::Path) -> Result<(), HostError> {
+pub fn check_link(path: &std::path::Path) -> Result<(), HostError> {
     if !std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
         return Ok(());
     }

@@ -15,8 +15,9 @@ pub const MAX_MOTORS: u8 = 1;
 pub const MAX_AXIS_PARAMS: usize = 112;
 /// Bank 0 slots (19 on the PD28-1021).
 pub const MAX_GLOBAL_PARAMS: usize = 32;
-/// Bank 3 slots (9 on the PD28-1021).
-pub const MAX_INTERRUPT_PARAMS: usize = 16;
+/// Bank 3 slots (9 on the PD28-1021; 17 on the TMCM-3110, 23 on the TMCM-6110: a trigger per stop switch
+/// of each axis).
+pub const MAX_INTERRUPT_PARAMS: usize = 24;
 /// User variables in bank 2 (the type byte addresses 0..=255).
 pub const MAX_USER_VARIABLES: usize = 256;
 /// Coordinates per axis, coordinate 0 included (20 + 1 on the PD28-1021).

@@ -37,7 +37,10 @@ pub mod pd_113;
 pub mod port;
 #[cfg(any(test, feature = "test-support"))]
 pub mod test_three_axes;
+pub mod tmcm_1140;
 pub mod tmcm_1310;
+pub mod tmcm_3110;
+pub mod tmcm_6110;
 pub mod variant;
 
 pub use ethercat::EtherCatDesc;
@@ -363,7 +366,21 @@ const fn any_protected(params: &[ParamDesc]) -> bool {
 }
 
 /// Every model this build knows.
-pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC];
+pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC, &tmcm_1140::SPEC];
+
+/// Models served on another of their interfaces than the first: the same module, its interfaces in
+/// another order (the TMCM-1140 on its RS485 port instead of USB).
+static INTERFACE_VARIANTS: &[&ModelSpec] = &[&tmcm_1140::SPEC_RS485];
+
+/// The model `spec` served on its interface named `interface` (`usb`, `rs485`): `spec` itself when that
+/// is its first interface, the variant with that interface first when the model has one, `None` when
+/// the model has no such interface to serve.
+pub fn on_interface(spec: &'static ModelSpec, interface: &str) -> Option<&'static ModelSpec> {
+    if spec.interfaces[0].name.eq_ignore_ascii_case(interface) {
+        return Some(spec);
+    }
+    INTERFACE_VARIANTS.iter().copied().find(|v| v.id == spec.id && v.interfaces[0].name.eq_ignore_ascii_case(interface))
+}
 
 /// Finds a model by its `--module` name (case-insensitive).
 pub fn by_id(id: &str) -> Option<&'static ModelSpec> {
@@ -429,5 +446,16 @@ mod tests {
     fn models_are_found_by_id() {
         assert_eq!(by_id("PD28-1021").map(|m| m.name), Some("PD28-1021"));
         assert!(by_id("tmcm-9999").is_none());
+    }
+
+    #[test]
+    fn a_model_on_another_interface() {
+        let usb = by_id("tmcm-1140").unwrap();
+        assert!(core::ptr::eq(on_interface(usb, "usb").unwrap(), usb));
+        let rs485 = on_interface(usb, "RS485").unwrap();
+        assert_eq!((rs485.id, rs485.interfaces[0].name), ("tmcm-1140", "rs485"));
+        assert!(on_interface(usb, "can").is_none(), "CAN is not simulated");
+        assert!(on_interface(by_id("pd28-1021").unwrap(), "usb").is_none());
+        assert!(on_interface(by_id("pd28-1021").unwrap(), "rs485").is_some());
     }
 }

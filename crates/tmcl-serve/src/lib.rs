@@ -46,8 +46,10 @@
 pub mod bus;
 pub mod ethercat;
 mod in_process;
+pub mod monitor;
 pub mod pty;
 mod serve;
+pub mod share;
 mod tcp;
 mod trace;
 
@@ -55,7 +57,9 @@ use std::fmt;
 use std::path::PathBuf;
 
 pub use in_process::InProcess;
+pub use monitor::MonitorOptions;
 pub use serve::{Access, RunningServer, Server, Stopper};
+pub use share::{DeviceOptions, RunningShare, Share, ShareOptions};
 
 /// Why a server could not be made or stopped.
 #[derive(Debug, thiserror::Error)]
@@ -149,12 +153,22 @@ pub struct Options {
     pub exact_ticks: bool,
     /// Log every request and reply (EtherCAT: the AL state changes) to stderr.
     pub verbose: bool,
+    /// The transaction log (`--log FILE`) and the monitor socket (`tmcl monitor`), see [`monitor`].
+    pub monitor: MonitorOptions,
 }
 
 impl Options {
     /// These modules on these links, nothing else.
     pub fn new(modules: Vec<ModuleOptions>, links: Vec<LinkOptions>) -> Options {
-        Options { modules, links, ethercat: None, wire_timing: false, exact_ticks: false, verbose: false }
+        Options {
+            modules,
+            links,
+            ethercat: None,
+            wire_timing: false,
+            exact_ticks: false,
+            verbose: false,
+            monitor: MonitorOptions::default(),
+        }
     }
 }
 

@@ -6,6 +6,7 @@
 
 use crate::bus::{Bus, Node};
 use crate::ethercat::{FoeFiles, RawSocket};
+use crate::monitor::{Monitor, Recorder};
 use crate::pty::{Pty, PtyError};
 use crate::tcp::{accept_clients, listen};
 use crate::trace::{log_al, log_reply, log_request};
@@ -44,6 +45,31 @@ pub(crate) enum Link {
     Tcp { listener: TcpListener, peer: Option<TcpStream> },
 }
 
+impl Link {
+    /// Where hosts reach it.
+    pub(crate) fn info(&self) -> Option<LinkInfo> {
+        match self {
+            Link::Pty(pty) => Some(LinkInfo::Pty { link: pty.link.clone(), device: pty.device.clone() }),
+            Link::Tcp { listener, .. } => listener.local_addr().ok().map(|address| LinkInfo::Tcp { address }),
+        }
+    }
+}
+
+/// Opens a host link: a pty behind its symlink (with `LINK.lock`), or a listening TCP port.
+pub(crate) fn open_link(options: LinkOptions) -> Result<Link, ServeError> {
+    Ok(match options {
+        LinkOptions::Pty(path) => Link::Pty(Pty::open(&path).map_err(|e| match e {
+            PtyError::Busy { .. } => ServeError::Io(e.to_string()),
+            PtyError::Io(e) => ServeError::Io(format!("cannot open a pty at {}: {e}", path.display())),
+        })?),
+        LinkOptions::Tcp(addr) => {
+            let listener = listen(&addr)?;
+            listener.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
+            Link::Tcp { listener, peer: None }
+        }
+    })
+}
+
 /// The EtherCAT side of `--ethercat`: the socket, the slave (its SII writes kept in a file or in
 /// memory), and where FoE files go.
 struct EtherCat {
@@ -64,6 +90,14 @@ pub struct Stopper {
 }
 
 impl Stopper {
+    /// A stopper and the loop's end of its waker pair (readable when a stop or a job is asked for).
+    pub(crate) fn new() -> Result<(Stopper, UnixStream), ServeError> {
+        let (waker, wake) = UnixStream::pair().map_err(|e| ServeError::Io(format!("cannot make a waker: {e}")))?;
+        wake.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
+        waker.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
+        Ok((Stopper { flag: Arc::new(AtomicBool::new(false)), waker: Arc::new(waker) }, wake))
+    }
+
     /// Asks the server to stop; it does within a moment, removing its links and flushing its EEPROMs.
     pub fn stop(&self) {
         self.flag.store(true, Ordering::Relaxed);
@@ -132,6 +166,8 @@ pub struct Server {
     wake: UnixStream,
     /// Work from [`Access`] handles, and the sending end they clone.
     jobs: (std::sync::mpsc::Sender<Job>, std::sync::mpsc::Receiver<Job>),
+    /// The transactions for the log file and the monitor socket.
+    recorder: Recorder,
 }
 
 impl Server {
@@ -144,7 +180,7 @@ impl Server {
     /// model cannot use, [`ServeError::Io`] for a link another server holds, a TCP port in use, an EEPROM
     /// file that cannot be opened.
     pub fn new(options: Options) -> Result<Server, ServeError> {
-        let Options { modules, links, ethercat, wire_timing, exact_ticks, verbose } = options;
+        let Options { modules, links, ethercat, wire_timing, exact_ticks, verbose, monitor } = options;
         if modules.is_empty() {
             return Err(ServeError::Config("no module to serve".into()));
         }
@@ -278,18 +314,7 @@ impl Server {
         };
         let mut opened = Vec::new();
         for options in links {
-            let link = match options {
-                LinkOptions::Pty(path) => Link::Pty(Pty::open(&path).map_err(|e| match e {
-                    PtyError::Busy { .. } => ServeError::Io(e.to_string()),
-                    PtyError::Io(e) => ServeError::Io(format!("cannot open a pty at {}: {e}", path.display())),
-                })?),
-                LinkOptions::Tcp(addr) => {
-                    let listener = listen(&addr)?;
-                    listener.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
-                    Link::Tcp { listener, peer: None }
-                }
-            };
-            opened.push((link, Vec::new()));
+            opened.push((open_link(options)?, Vec::new()));
         }
         // What opening wrote (journal headers, a journal reset) goes to disk now, at the start: a file
         // whose blocks are still unwritten when it is closed is flushed by the close (ext4), which would
@@ -302,10 +327,14 @@ impl Server {
         if let Some(Eeprom::File(f)) = ecat.as_mut().map(|e| e.slave.store_mut()) {
             f.sync().map_err(|e| ServeError::Io(format!("EtherCAT SII: {e}")))?;
         }
-        let (waker, wake) = UnixStream::pair().map_err(|e| ServeError::Io(format!("cannot make a waker: {e}")))?;
-        wake.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
-        waker.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
-        let stopper = Stopper { flag: Arc::new(AtomicBool::new(false)), waker: Arc::new(waker) };
+        let (stopper, wake) = Stopper::new()?;
+        let first_pty = opened.iter().find_map(|(l, _)| match l {
+            Link::Pty(p) => Some(crate::monitor::socket_beside(&p.link)),
+            Link::Tcp { .. } => None,
+        });
+        let names = opened.iter().map(|(l, _)| l.info().map(|i| i.to_string()).unwrap_or_default()).collect();
+        let models = bus.nodes.iter().map(|n| (n.module.address(), n.module.spec())).collect();
+        let recorder = Recorder::new(Monitor::open(&monitor, first_pty)?, names, models);
         Ok(Server {
             bus,
             links: opened,
@@ -317,6 +346,7 @@ impl Server {
             stopper,
             wake,
             jobs: std::sync::mpsc::channel(),
+            recorder,
         })
     }
 
@@ -335,13 +365,7 @@ impl Server {
 
     /// Where hosts reach the modules.
     pub fn links(&self) -> Vec<LinkInfo> {
-        self.links
-            .iter()
-            .filter_map(|(link, _)| match link {
-                Link::Pty(pty) => Some(LinkInfo::Pty { link: pty.link.clone(), device: pty.device.clone() }),
-                Link::Tcp { listener, .. } => listener.local_addr().ok().map(|address| LinkInfo::Tcp { address }),
-            })
-            .collect()
+        self.links.iter().filter_map(|(link, _)| link.info()).collect()
     }
 
     /// The network interface of the EtherCAT slave, if one is served.
@@ -436,7 +460,7 @@ impl Server {
                 }
             }
         }
-        let (bus, links, ecat) = (&mut self.bus, &mut self.links, &mut self.ecat);
+        let (bus, links, ecat, recorder) = (&mut self.bus, &mut self.links, &mut self.ecat, &mut self.recorder);
         let jobs = &self.jobs.1;
         let mut buf = [0u8; 4096];
         let mut exclusive_checked = std::time::Instant::now();
@@ -448,7 +472,11 @@ impl Server {
                 job(&mut bus.nodes, clock());
             }
             let now = clock();
-            let mut deadline = bus.poll(now, &mut |n: usize, bytes: &[u8]| queue(links, n, bytes, verbose, now));
+            let mut deadline = bus.poll(now, &mut |n: usize, bytes: &[u8]| {
+                recorder.reply(n, bytes);
+                queue(links, n, bytes, verbose, now)
+            });
+            recorder.tick();
             for (link, pending) in links.iter_mut() {
                 write_pending(link, pending, verbose, now);
             }
@@ -478,14 +506,23 @@ impl Server {
                 .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
                 .unwrap_or(MAX_SLEEP)
                 .min(MAX_SLEEP);
-            let ready = wait(links, ecat.as_ref().map(|e| &e.socket), &self.wake, sleep)
-                .map_err(|e| ServeError::Io(format!("poll: {e}")))?;
+            let sleep = match recorder.next_due() {
+                Some(due) => sleep.min(due.saturating_duration_since(std::time::Instant::now())),
+                None => sleep,
+            };
+            let mut extras: Vec<_> = ecat.as_ref().map(|e| e.socket.as_fd()).into_iter().collect();
+            let monitor_fd = extras.len();
+            extras.extend(recorder.listener().map(|l| l.as_fd()));
+            let ready = wait(links, &extras, &self.wake, sleep).map_err(|e| ServeError::Io(format!("poll: {e}")))?;
             if ready.waker {
                 let mut drain = [0u8; 16];
                 while matches!((&self.wake).read(&mut drain), Ok(n) if n > 0) {}
             }
+            if ready.extras.get(monitor_fd).copied().unwrap_or(false) {
+                recorder.monitor_mut().accept();
+            }
             if let Some(e) = ecat.as_mut() {
-                if ready.ethercat {
+                if ready.extras.first().copied().unwrap_or(false) {
                     serve_frames(e, &mut bus.nodes[0].module, &clock, verbose, &self.stopper)?;
                 } else {
                     // No frame waits: the time to write a file a master sent by FoE.
@@ -510,6 +547,7 @@ impl Server {
                                 }
                                 *peer = None;
                                 bus.reset_link(n);
+                                recorder.reset(n);
                                 links[n].1.clear();
                                 0
                             }
@@ -521,7 +559,9 @@ impl Server {
                     if verbose {
                         log_request(now, &buf[..received]);
                     }
+                    recorder.request(n, &buf[..received]);
                     bus.receive(n, now, &buf[..received], &mut |k: usize, bytes: &[u8]| {
+                        recorder.reply(k, bytes);
                         queue(links, k, bytes, verbose, now)
                     });
                     let (link, pending) = &mut links[n];
@@ -530,7 +570,16 @@ impl Server {
                 let (link, pending) = &mut links[n];
                 if let Link::Tcp { listener, peer } = link {
                     let had = peer.is_some();
-                    accept_clients(listener, peer, bus, n, verbose, clock());
+                    accept_clients(
+                        listener,
+                        peer,
+                        &mut || {
+                            bus.reset_link(n);
+                            recorder.reset(n);
+                        },
+                        verbose,
+                        clock(),
+                    );
                     if had && peer.is_none() {
                         pending.clear();
                     }
@@ -663,27 +712,28 @@ fn serve_frames(
     Ok(())
 }
 
-fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
+pub(crate) fn read_some(file: &mut std::fs::File, buf: &mut [u8]) -> usize {
     // WouldBlock: nothing after all; EIO cannot happen while we hold the slave open.
     file.read(buf).unwrap_or_default()
 }
 
 /// What woke [`wait`].
-struct Ready {
+pub(crate) struct Ready {
     /// Per link: it has bytes (or a TCP connection waits, or room for replies).
-    links: Vec<bool>,
-    /// EtherCAT frames wait.
-    ethercat: bool,
+    pub(crate) links: Vec<bool>,
+    /// Per extra descriptor (the EtherCAT socket; `tmcl share`'s device and monitor socket): readable.
+    pub(crate) extras: Vec<bool>,
     /// A stop was asked for.
-    waker: bool,
+    pub(crate) waker: bool,
 }
 
 /// Waits until a link is readable (for TCP: the client, or the listener with a new connection) or, with
-/// replies waiting for room, writable, an EtherCAT frame arrives, a stop is asked for, or `timeout` passes
-/// (with microsecond resolution: byte times at high baud rates are far below a millisecond).
-fn wait(
+/// replies waiting for room, writable, an extra descriptor (the EtherCAT socket) is readable, a stop is
+/// asked for, or `timeout` passes (with microsecond resolution: byte times at high baud rates are far
+/// below a millisecond).
+pub(crate) fn wait(
     links: &[(Link, Vec<u8>)],
-    ethercat: Option<&RawSocket>,
+    extras: &[std::os::fd::BorrowedFd<'_>],
     waker: &UnixStream,
     timeout: std::time::Duration,
 ) -> io::Result<Ready> {
@@ -706,11 +756,11 @@ fn wait(
         owner.push(n);
     }
     let link_fds = fds.len();
-    fds.extend(ethercat.map(|s| PollFd::new(s.as_fd(), PollFlags::POLLIN)));
+    fds.extend(extras.iter().map(|fd| PollFd::new(*fd, PollFlags::POLLIN)));
     let ecat_fds = fds.len();
     fds.push(PollFd::new(waker.as_fd(), PollFlags::POLLIN));
     let timeout = nix::sys::time::TimeSpec::from_duration(timeout.max(std::time::Duration::from_micros(20)));
-    let mut woke = Ready { links: vec![false; links.len()], ethercat: false, waker: false };
+    let mut woke = Ready { links: vec![false; links.len()], extras: vec![false; extras.len()], waker: false };
     match ppoll(&mut fds, Some(timeout), None) {
         Ok(0) => Ok(woke),
         Ok(_) => {
@@ -720,7 +770,7 @@ fn wait(
                     woke.links[owner[k]] = true;
                 }
             }
-            woke.ethercat = fds[link_fds..ecat_fds].iter().any(ready);
+            woke.extras = fds[link_fds..ecat_fds].iter().map(ready).collect();
             woke.waker = fds[ecat_fds..].iter().any(ready);
             Ok(woke)
         }
@@ -731,7 +781,7 @@ fn wait(
 
 /// Writes as much of `pending` as the link takes now; the rest waits for the link to take it (the host
 /// reads). No TCP client: a host that is not listening loses it, as on a real line.
-fn write_pending(link: &mut Link, pending: &mut Vec<u8>, verbose: bool, now: Instant) {
+pub(crate) fn write_pending(link: &mut Link, pending: &mut Vec<u8>, verbose: bool, now: Instant) {
     while !pending.is_empty() {
         let written = match link {
             Link::Pty(pty) => pty.master.write(pending),

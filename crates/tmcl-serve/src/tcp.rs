@@ -1,6 +1,5 @@
 //! The TCP link: listening, and one client at a time.
 
-use crate::bus::Bus;
 use crate::ServeError;
 use std::io;
 use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
@@ -45,8 +44,7 @@ pub(crate) fn listen(text: &str) -> Result<TcpListener, ServeError> {
 pub(crate) fn accept_clients(
     listener: &TcpListener,
     peer: &mut Option<TcpStream>,
-    bus: &mut Bus,
-    link: usize,
+    reset: &mut dyn FnMut(),
     verbose: bool,
     now: Instant,
 ) {
@@ -60,7 +58,7 @@ pub(crate) fn accept_clients(
                         eprintln!("[{now}] connection closed");
                     }
                     *peer = None;
-                    bus.reset_link(link);
+                    reset();
                 }
             }
         }
@@ -79,7 +77,7 @@ pub(crate) fn accept_clients(
         }
         *peer = Some(stream);
         // A partial frame of the previous connection must not join this one's.
-        bus.reset_link(link);
+        reset();
     }
 }
 

@@ -1,0 +1,98 @@
+"""The multi-axis siblings of the TMCM-1140, the TMCM-3110 and TMCM-6110, driven by pytrinamic's
+`TMCM3110` and `TMCM6110` classes over a pty (their USB port), every axis.
+
+Their model tables are prepared as data (`crates/tmcl-model/src/tmcm_3110.rs`, `tmcm_6110.rs`); `tmcl serve`
+serves them once the core drives more than one motor (docs/tmcm-1140.md, "The multi-axis siblings"). Until
+then `tmcl serve --module tmcm-3110` is refused as an unknown module and these tests are skipped, saying so.
+"""
+
+from __future__ import annotations
+
+import subprocess
+
+import pytest
+from pytrinamic.modules import TMCM3110, TMCM6110
+from pytrinamic.tmcl import TMCLReplyStatusError
+
+from tmcltest import pytrinamic_connection, wait_until
+
+MODELS = [("tmcm-3110", TMCM3110, 3, "3110V111"), ("tmcm-6110", TMCM6110, 6, "6110V119")]
+NOT_PROVIDED = {135}
+
+
+def served(tmcl_bin, model: str) -> bool:
+    """Whether this build serves `model` (`tmcl serve` names the models it knows when it refuses one)."""
+    run = subprocess.run([str(tmcl_bin), "serve", "--module", model, "--pty", "/nonexistent/dir/link"],
+                         capture_output=True, text=True, timeout=20, stdin=subprocess.DEVNULL)
+    return "unknown module" not in run.stderr
+
+
+@pytest.fixture(params=MODELS, ids=[m[0] for m in MODELS])
+def multi(request, serve, tmcl_bin):
+    model, cls, axes, version = request.param
+    if not served(tmcl_bin, model):
+        pytest.skip(f"the {model} is prepared as data, served once the core drives {axes} axes")
+    server = serve("pty", modules=[model])
+    with pytrinamic_connection(server) as conn:
+        yield cls(conn), axes, version
+
+
+def status_of(call) -> int:
+    with pytest.raises(TMCLReplyStatusError) as info:
+        call()
+    return info.value.status_code
+
+
+def test_version(multi):
+    module, _, version = multi
+    assert module.connection.get_version_string() == version
+    assert module.connection.send(136, 1, 0, 0).value >> 16 == int(version[:4])
+
+
+def test_every_ap_on_every_axis(multi):
+    module, axes, _ = multi
+    assert len(module.motors) == axes
+    for motor in module.motors:
+        for name, number in vars(motor.AP).items():
+            if name.startswith("_"):
+                continue
+            if number in NOT_PROVIDED:
+                assert status_of(lambda: motor.get_axis_parameter(number)) == 3, name
+            else:
+                motor.get_axis_parameter(number, signed=True)
+    assert status_of(lambda: module.connection.get_axis_parameter(1, axes)) == 4, "no such axis"
+
+
+def test_every_axis_moves_on_its_own(multi):
+    module, axes, _ = multi
+    targets = [(n + 1) * 5000 * (-1) ** n for n in range(axes)]
+    for motor, target in zip(module.motors, targets):
+        motor.linear_ramp.max_acceleration = 2000
+        motor.move_to(target)
+    wait_until(lambda: all(m.get_position_reached() for m in module.motors), 10, what="every axis at its target")
+    assert [m.actual_position for m in module.motors] == targets
+    module.motors[-1].rotate(500)
+    wait_until(lambda: module.motors[-1].actual_velocity == 500, 3, what="the last axis turning")
+    assert all(m.actual_velocity == 0 for m in module.motors[:-1])
+    module.motors[-1].stop()
+
+
+def test_gio_and_sio(multi):
+    module, _, _ = multi
+    conn = module.connection
+    for port in range(8):
+        assert conn.get_digital_input(port) in (0, 1)
+        conn.set_digital_output(port)
+        assert conn.get_digital_output(port) == 1
+        conn.clear_digital_output(port)
+        assert conn.get_digital_output(port) == 0
+    for port in (module.IO.AIN0, module.IO.AIN4):
+        assert 0 <= conn.get_analog_input(port) <= 4095
+
+
+def test_bank_3(multi):
+    module, _, _ = multi
+    for name, number in vars(module.GP3).items():
+        if not name.startswith("_"):
+            module.set_global_parameter(number, 3, 3)
+            assert module.get_global_parameter(number, 3) == 3, name
