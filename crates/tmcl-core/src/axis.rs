@@ -137,10 +137,15 @@ impl Axes {
         Axes { list: core::array::from_fn(|_| Axis::new(now)), count: count.clamp(1, MAX_MOTORS) }
     }
 
-    /// How many motors run.
+    /// How many motors run. (A build for one motor knows it at compile time: its loops over the motors
+    /// are one pass, without bounds checks.)
     #[inline(always)]
     pub fn count(&self) -> usize {
-        usize::from(self.count)
+        if MAX_MOTORS == 1 {
+            1
+        } else {
+            usize::from(self.count)
+        }
     }
 
     /// The motors that run.
