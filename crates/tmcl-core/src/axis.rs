@@ -114,6 +114,7 @@ impl Axis {
     }
 
     /// Whether the motor stands (the ramp idle and no reference search).
+    #[inline(always)]
     pub fn is_standing(&self) -> bool {
         self.ramp.is_idle() && !self.reference.is_active()
     }

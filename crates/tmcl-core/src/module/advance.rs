@@ -82,6 +82,10 @@ impl<B: Board> Module<B> {
     /// freewheeling) or must be told of a change, and which motor.
     #[inline]
     pub(crate) fn drive_due(&self) -> Option<(usize, Instant)> {
+        if self.st.axes.count() == 1 {
+            // (One motor, the common case: on the path of every instruction and tick.)
+            return self.st.axes[0].drive_due.map(|d| (0, d));
+        }
         let mut due: Option<(usize, Instant)> = None;
         for (m, axis) in self.st.axes.iter().enumerate() {
             if let Some(d) = axis.drive_due {
@@ -96,7 +100,10 @@ impl<B: Board> Module<B> {
     /// Whether every motor stands (no ramp moving, no reference search).
     #[inline]
     pub(crate) fn all_standing(&self) -> bool {
-        self.st.axes.iter().all(|a| a.ramp.is_idle() && !a.reference.is_active())
+        if self.st.axes.count() == 1 {
+            return self.st.axes[0].is_standing();
+        }
+        self.st.axes.iter().all(|a| a.is_standing())
     }
 
     /// [`Module::advance`] when a tick is due or a program runs.
