@@ -26,6 +26,11 @@ from pytrinamic.connections import ConnectionManager
 
 from tmcltest import RawReply, frame, wait_until
 
+# The firmware image under QEMU as the module: with deterministic time (`--icount`), so that a host too
+# busy to run QEMU for 5 ms in the middle of a frame does not make the image's inter-byte timeout drop it
+# (docs/decisions.md, "No frame lost").
+QEMU_ICOUNT = True
+
 READY_RE = re.compile(r"^sharing (\S+) on (.+?)(?: \(tmcl monitor --socket (\S+)\))?$")
 MAX_CURRENT, MAX_SPEED = 6, 4
 
@@ -384,3 +389,23 @@ def test_the_module_going_away_ends_the_share_and_its_links(serve, share, tmcl_b
     assert "the share stops" in s.stderr(), s.stderr()
     assert not os.path.lexists(a) and not os.path.lexists(f"{a}.lock"), "its links are removed"
     s.proc = None
+
+
+def test_tmcl_serve_log_and_monitor(serve, tmcl_bin, tmp_path):
+    """`tmcl serve --log FILE` and `tmcl monitor LINK` on a virtual module: each transaction once, with the
+    parameter's name and unit, and a refusal explained with the range."""
+    log = tmp_path / "serve.log"
+    server = serve("pty", extra=["--log", str(log)])
+    mon = subprocess.Popen([str(tmcl_bin), "monitor", str(server.link), "--count", "2"], stdout=subprocess.PIPE,
+                           text=True)
+    time.sleep(0.3)  # the server takes the monitor client in its next turn
+    assert tmcl(tmcl_bin, "get", "--port", server.link, "ap", MAX_SPEED).returncode == 0
+    assert tmcl(tmcl_bin, "set", "--port", server.link, "ap", MAX_SPEED, 0).returncode == 1
+    out, _ = mon.communicate(timeout=10)
+    lines = out.splitlines()
+    assert len(lines) == 2, out
+    assert "GAP 4, 0 (Maximum positioning speed)" in lines[0] and "-> 100 (ok): 51200 pps" in lines[0], out
+    assert "SAP 4, 0" in lines[1] and "refused: Maximum positioning speed takes 1..2147483647" in lines[1], out
+    wait_until(lambda: len(log.read_text().splitlines()) >= 2, 5, what="the log")
+    assert [line.split(" ", 1)[1] for line in log.read_text().splitlines()[:2]] == \
+        [line.split(" ", 1)[1] for line in lines]

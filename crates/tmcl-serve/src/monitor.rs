@@ -567,9 +567,10 @@ impl Recorder {
         self.monitor.record(&rec);
     }
 
-    /// Takes new monitor clients, writes what they can take, and says which requests got no reply.
+    /// Writes what the monitor clients can take, and says which requests got no reply. No system call
+    /// without a client (this runs every turn of the serve loop; new clients are taken when the loop's
+    /// wait finds the socket readable).
     pub(crate) fn tick(&mut self) {
-        self.monitor.accept();
         self.monitor.flush();
         for n in 0..self.tracks.len() {
             while self.tracks[n].waiting.front().is_some_and(|w| w.since.elapsed() >= SERVE_NO_REPLY) {

@@ -118,6 +118,16 @@ enum Device {
     Tcp(TcpStream),
 }
 
+impl Drop for Device {
+    /// Gives the port back as it was found: without the exclusive mode, which would otherwise outlive the
+    /// share on a pty whose server keeps it open (root aside, no other program could open it).
+    fn drop(&mut self) {
+        if let Device::Serial(file) = self {
+            let _ = rustix::termios::ioctl_tiocnxcl(&*file);
+        }
+    }
+}
+
 impl Device {
     fn open(options: &DeviceOptions) -> Result<Device, ServeError> {
         match options {
@@ -453,10 +463,12 @@ impl Share {
                 self.monitor.accept();
             }
             if ready.extras[0] {
-                let n = self
-                    .device
-                    .read_some(&mut buf)
-                    .map_err(|e| ServeError::Io(format!("{}: {e}; the share stops", self.device_name)))?;
+                let n = match self.device.read_some(&mut buf) {
+                    Ok(n) => n,
+                    // The module's side went away as the share was told to stop (both stopped together).
+                    Err(_) if self.stopper.is_stopped() => break,
+                    Err(e) => return Err(ServeError::Io(format!("{}: {e}; the share stops", self.device_name))),
+                };
                 if n > 0 {
                     self.device_rx.extend_from_slice(&buf[..n]);
                     self.device_last = Instant::now();

@@ -144,6 +144,11 @@ fn commands_without_reply_and_replies_off_keep_the_line_in_step() {
     assert_eq!(b.get_axis_parameter(4, 0).unwrap(), 99);
     a.set_global_parameter(255, 0, 0).unwrap();
     assert_eq!(a.get_axis_parameter(4, 0).unwrap(), 99);
+    // 137 with its key is carried out without a reply (§3.7.38): the share waits its no-reply window, and
+    // the next request, from the other host, finds the factory defaults.
+    let factory = tmcl_wire::Instruction::new(tmcl_wire::Opcode::FactoryDefault, 0, 0, 1234);
+    assert_eq!(a.request_optional(factory).unwrap(), None);
+    assert_eq!(b.get_axis_parameter(4, 0).unwrap(), 51200);
     assert!(a.take_skipped().is_empty() && b.take_skipped().is_empty());
     drop((a, b));
     share.stop().unwrap();
