@@ -106,14 +106,15 @@ impl Analog for Lm3sBoard {
 }
 
 impl SwitchInputs for Lm3sBoard {
-    fn switches(&mut self) -> Switches {
+    /// The one motor's switches (the image's models have one motor).
+    fn switches(&mut self, _motor: usize) -> Switches {
         let pins = GPIOB.data(LEFT | RIGHT | HOME).read() as u8;
         Switches { left: pins & LEFT != 0, right: pins & RIGHT != 0, home: pins & HOME != 0 }
     }
 }
 
 impl StepDriver for Lm3sBoard {
-    fn update(&mut self, _now: Instant, state: &DriveState) {
+    fn update(&mut self, _motor: usize, _now: Instant, state: &DriveState) {
         // The current, the microstep resolution and the chopper settings would go to the driver's SPI
         // port (the TMC262's SGCSCONF and DRVCTRL); the board's SSI port is wired to its display and SD
         // card, so this port drives step, direction and enable only.

@@ -1,9 +1,9 @@
 //! The TMCM-3110 (three axes) and, in [`crate::tmcm_6110`], the TMCM-6110 (six): the TMCM-1140's
 //! generation with more axes — TMC429 motion controllers in their units, a TMC262 per axis with
 //! stallGuard2 and coolStep, two reference switches per axis, eight inputs and eight outputs, USB, RS485
-//! and CAN — as data, **prepared**: the core drives one motor today ([`crate::capacity::MAX_MOTORS`]),
-//! so these descriptions are not in [`crate::MODELS`] yet and `ModelSpec::check` refuses them with
-//! [`crate::FitError::Motors`]. They go on when the core takes the number of axes from the model.
+//! and CAN — as data, **prepared**: not in [`crate::MODELS`] yet. The core takes the number of axes from
+//! the model now (`ModelDesc::motors`, up to [`crate::capacity::MAX_MOTORS`]) and `ModelSpec::check`
+//! accepts these descriptions; they carry axis 0's vectors only so far ([`VECTORS_3110`] has all).
 //!
 //! # Sources
 //!
@@ -230,21 +230,21 @@ pub static VECTORS_3110: [AxisVector; 26] = [
     global(TIMERS[0]),
     global(TIMERS[1]),
     global(TIMERS[2]),
-    of(0, v(3, "Target position reached 0", "TI_TARGET0", Source::TargetReached, None)),
-    of(1, v(4, "Target position reached 1", "TI_TARGET1", Source::TargetReached, None)),
-    of(2, v(5, "Target position reached 2", "TI_TARGET2", Source::TargetReached, None)),
-    of(0, v(15, "stallGuard axis 0", "TI_STALLGUARD0", Source::Stall, None)),
-    of(1, v(16, "stallGuard axis 1", "TI_STALLGUARD1", Source::Stall, None)),
-    of(2, v(17, "stallGuard axis 2", "TI_STALLGUARD2", Source::Stall, None)),
-    of(0, v(21, "Deviation axis 0", "TI_DEVIATION0", Source::Deviation, None)),
-    of(1, v(22, "Deviation axis 1", "TI_DEVIATION1", Source::Deviation, None)),
-    of(2, v(23, "Deviation axis 2", "TI_DEVIATION2", Source::Deviation, None)),
-    of(0, v(27, "Left stop switch 0", "TI_STOPLEFT0", Source::LeftStop, Some(27))),
-    of(0, v(28, "Right stop switch 0", "TI_STOPRIGHT0", Source::RightStop, Some(28))),
-    of(1, v(29, "Left stop switch 1", "TI_STOPLEFT1", Source::LeftStop, Some(29))),
-    of(1, v(30, "Right stop switch 1", "TI_STOPRIGHT1", Source::RightStop, Some(30))),
-    of(2, v(31, "Left stop switch 2", "TI_STOPLEFT2", Source::LeftStop, Some(31))),
-    of(2, v(32, "Right stop switch 2", "TI_STOPRIGHT2", Source::RightStop, Some(32))),
+    of(0, v(3, "Target position reached 0", "TI_TARGET0", Source::TargetReached(0), None)),
+    of(1, v(4, "Target position reached 1", "TI_TARGET1", Source::TargetReached(1), None)),
+    of(2, v(5, "Target position reached 2", "TI_TARGET2", Source::TargetReached(2), None)),
+    of(0, v(15, "stallGuard axis 0", "TI_STALLGUARD0", Source::Stall(0), None)),
+    of(1, v(16, "stallGuard axis 1", "TI_STALLGUARD1", Source::Stall(1), None)),
+    of(2, v(17, "stallGuard axis 2", "TI_STALLGUARD2", Source::Stall(2), None)),
+    of(0, v(21, "Deviation axis 0", "TI_DEVIATION0", Source::Deviation(0), None)),
+    of(1, v(22, "Deviation axis 1", "TI_DEVIATION1", Source::Deviation(1), None)),
+    of(2, v(23, "Deviation axis 2", "TI_DEVIATION2", Source::Deviation(2), None)),
+    of(0, v(27, "Left stop switch 0", "TI_STOPLEFT0", Source::LeftStop(0), Some(27))),
+    of(0, v(28, "Right stop switch 0", "TI_STOPRIGHT0", Source::RightStop(0), Some(28))),
+    of(1, v(29, "Left stop switch 1", "TI_STOPLEFT1", Source::LeftStop(1), Some(29))),
+    of(1, v(30, "Right stop switch 1", "TI_STOPRIGHT1", Source::RightStop(1), Some(30))),
+    of(2, v(31, "Left stop switch 2", "TI_STOPLEFT2", Source::LeftStop(2), Some(31))),
+    of(2, v(32, "Right stop switch 2", "TI_STOPRIGHT2", Source::RightStop(2), Some(32))),
     global(INPUTS[0]),
     global(INPUTS[1]),
     global(INPUTS[2]),
@@ -341,7 +341,7 @@ pub const DESC: ModelDesc = ModelDesc {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{FitError, ModelSpec};
+    use crate::ModelSpec;
 
     #[test]
     fn tables_are_sorted_and_defaults_in_range() {
@@ -371,8 +371,9 @@ mod tests {
 
     /// The description is whole but for what the core lacks: more than one motor.
     #[test]
-    fn waits_for_the_core_s_axes() {
-        assert_eq!(ModelSpec::check(&DESC), Err(FitError::Motors));
+    fn fits_the_core_s_axes() {
+        // The core takes the number of axes from the model now (`ModelDesc::motors`, 1 to 6).
+        assert!(ModelSpec::check(&DESC).is_ok(), "{:?}", ModelSpec::check(&DESC).err());
         assert_eq!(DESC.version_binary >> 16, 3110, "odemis reads the model from the high word");
         assert_eq!(DESC.version_binary & 0xFFFF, 0x010B);
     }
