@@ -252,17 +252,22 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
     server.set_flush_on_stop(false);
+    prepare(&server)?;
+    announce(&server, json)?;
+    let _ = io::stdout().flush();
+    server.run()?;
+    Ok(())
+}
+
+/// Before a server runs: its notes on stderr, and SIGINT/SIGTERM made to stop it.
+fn prepare(server: &Server) -> Result<(), CliError> {
     for note in server.notes() {
         eprintln!("tmcl serve: {note}");
     }
     server
         .stopper()
         .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
-        .map_err(CliError::Signals)?;
-    announce(&server, json)?;
-    let _ = io::stdout().flush();
-    server.run()?;
-    Ok(())
+        .map_err(CliError::Signals)
 }
 
 /// `tmcl serve --fleet FILE`: every line of FILE on a thread of its own, until SIGINT or SIGTERM.
@@ -272,13 +277,7 @@ fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(),
     let mut fleet = Fleet::new(lines)?;
     fleet.set_flush_on_stop(false);
     for server in fleet.lines() {
-        for note in server.notes() {
-            eprintln!("tmcl serve: {note}");
-        }
-        server
-            .stopper()
-            .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
-            .map_err(CliError::Signals)?;
+        prepare(server)?;
     }
     for server in fleet.lines() {
         announce(server, json)?;
