@@ -41,6 +41,10 @@ SERVE_ONLY_TESTS = {
                                                "timeout drops a frame whose pieces come 20 ms apart, as the "
                                                "real module does (docs/decisions.md, \"No frame lost\")",
     "test_two_modules_at_one_address_are_refused": "about `tmcl serve --module`, which the image does not take",
+    "test_the_module_going_away_ends_the_share_and_its_links": "kills `tmcl serve` standing in for the module "
+                                                               "with -9 and expects its pty to hang up; a -9 "
+                                                               "of scripts/qemu-serve.sh leaves QEMU holding "
+                                                               "the pty",
     "test_replies_to_another_host_turn_the_indicator_to_a_warning": "a second host on the same `tmcl serve` "
                                                                     "pty; the image's pty is held by "
                                                                     "scripts/qemu-serve.sh's own processes",
