@@ -43,6 +43,20 @@ def steps(server) -> tuple[int, int]:
     return signed(pending), signed(pulses)
 
 
+def wait_for_steps(server, expected: tuple[int, int], what: str) -> None:
+    """Waits up to 5 s for the step output's (pending, pulsed) to be `expected`; a failure names what it saw."""
+    seen = []
+
+    def reached() -> bool:
+        seen.append(steps(server))
+        return seen[-1] == expected
+
+    try:
+        wait_until(reached, 5, what=what)
+    except AssertionError as e:
+        raise AssertionError(f"{e}: (pending, pulsed) was {seen[-1]}, expected {expected}") from e
+
+
 def test_version(bus):
     assert bus.get_version_string() == "1021V142"
     reply = bus.send(136, 1, 0, 0)
@@ -82,15 +96,15 @@ def test_a_move_reaches_its_target_and_every_microstep_is_pulsed(qemu_server, bu
     assert bus.get_axis_parameter(1, 0, signed=True) == 51200
     assert bus.get_axis_parameter(3, 0, signed=True) == 0
     # The step output catches up within a motion tick or two after the ramp has ended.
-    wait_until(lambda: steps(qemu_server) == (0, 51200), 5, what="all step pulses given")
+    wait_for_steps(qemu_server, (0, 51200), "all step pulses given")
     bus.move_by(0, -12800)
     wait_until(lambda: bus.get_axis_parameter(8, 0) == 1, 15, interval_s=0.05, what="position reached")
-    wait_until(lambda: steps(qemu_server) == (0, 38400), 5, what="the pulses back")
+    wait_for_steps(qemu_server, (0, 38400), "the pulses back")
     # Reverse shaft (GP 90): the same step counter, the other way at the pins.
     bus.set_global_parameter(90, 0, 1)
     bus.move_to(0, 38400 + 6400)
     wait_until(lambda: bus.get_axis_parameter(8, 0) == 1, 15, interval_s=0.05, what="position reached")
-    wait_until(lambda: steps(qemu_server) == (0, 38400 - 6400), 5, what="reversed pulses")
+    wait_for_steps(qemu_server, (0, 38400 - 6400), "reversed pulses")
 
 
 def test_a_downloaded_program_runs(bus):
