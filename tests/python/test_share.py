@@ -22,9 +22,8 @@ from pathlib import Path
 
 import pytest
 import serial
-from pytrinamic.connections import ConnectionManager
 
-from tmcltest import RawReply, frame, wait_until
+from tmcltest import Poller, RawReply, frame, wait_until
 
 # The firmware image under QEMU as the module: with deterministic time (`--icount`), so that a host too
 # busy to run QEMU for 5 ms in the middle of a frame does not make the image's inter-byte timeout drop it
@@ -139,22 +138,8 @@ def test_pytrinamic_tmcl_and_the_workbench_through_share_never_mix(pty_server, s
 
     from uitest import Ui
     workbench = Ui(tmcl_bin, tmp_path, ["--port", str(c)]).start()
-    polls, wrong, errors = 8_000, [], []
-
-    def poll():
-        conn = ConnectionManager(f"--interface serial_tmcl --port {a} --data-rate 115200").connect()
-        try:
-            for _ in range(polls):
-                value = conn.get_axis_parameter(MAX_CURRENT, 0)
-                if value != 128:
-                    wrong.append(value)
-        except Exception as e:  # noqa: BLE001 - reported below
-            errors.append(repr(e))
-        finally:
-            conn.close()
-
-    script = threading.Thread(target=poll)
-    script.start()
+    polls = 8_000
+    script = Poller(a, MAX_CURRENT, 128, polls)
     cli = 0
     try:
         while script.is_alive() or polls + cli < 10_000:
@@ -170,8 +155,8 @@ def test_pytrinamic_tmcl_and_the_workbench_through_share_never_mix(pty_server, s
     finally:
         script.join(180)
         assert workbench.stop() == 0
-    assert not errors, errors
-    assert not wrong, f"{len(wrong)} wrong values on pytrinamic's link: {wrong[:5]}"
+    assert not script.errors, script.errors
+    assert not script.wrong, f"{len(script.wrong)} wrong values on pytrinamic's link: {script.wrong[:5]}"
     # A SIGTERM flushes the log; the monitor saw the same transactions live.
     wait_until(lambda: len(records) >= polls + cli, 30, what="the monitor's records")
     monitor.terminate()
@@ -348,28 +333,14 @@ def test_share_in_front_of_the_firmware_image_under_qemu(qemu_server, share, tmc
     share(qemu_server.link, ["--pty", a, "--pty", b], ["--module", "pd28-1021"])
     assert tmcl(tmcl_bin, "set", "--port", b, "ap", MAX_SPEED, 4321).returncode == 0
     assert tmcl(tmcl_bin, "set", "--port", b, "ap", MAX_CURRENT, 100).returncode == 0
-    wrong, errors = [], []
-
-    def poll():
-        conn = ConnectionManager(f"--interface serial_tmcl --port {a} --data-rate 115200").connect()
-        try:
-            for _ in range(900):
-                if conn.get_axis_parameter(MAX_CURRENT, 0) != 100:
-                    wrong.append(1)
-        except Exception as e:  # noqa: BLE001 - reported below
-            errors.append(repr(e))
-        finally:
-            conn.close()
-
-    script = threading.Thread(target=poll)
-    script.start()
+    script = Poller(a, MAX_CURRENT, 100, 900)
     try:
         for _ in range(10):
             r = tmcl(tmcl_bin, "--json", "watch", "--port", b, "ap", MAX_SPEED, "--every", "0.001", "--count", 10)
             assert r.returncode == 0 and all("4321" in line for line in r.stdout.splitlines()), r
     finally:
         script.join(120)
-    assert not errors and not wrong, (errors, len(wrong))
+    assert not script.errors and not script.wrong, (script.errors, len(script.wrong))
 
 
 def test_the_module_going_away_ends_the_share_and_its_links(serve, share, tmcl_bin, tmp_path):

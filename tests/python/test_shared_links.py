@@ -6,11 +6,9 @@ from __future__ import annotations
 
 import json
 import subprocess
-import threading
 
-from pytrinamic.connections import ConnectionManager
 
-from tmcltest import RawReply, frame
+from tmcltest import Poller, RawReply, frame
 
 MAX_CURRENT, MAX_SPEED = 6, 4  # AP 6 = 128, AP 4 = 1234 below: a mixed-up reply shows as a wrong value
 
@@ -27,22 +25,8 @@ def test_pytrinamic_and_tmcl_on_two_links_never_mix(serve, tmcl_bin, tmp_path):
     assert tmcl(tmcl_bin, "set", "--port", second, "ap", MAX_CURRENT, 128).returncode == 0
     assert tmcl(tmcl_bin, "set", "--port", second, "ap", MAX_SPEED, 1234).returncode == 0
 
-    polls, wrong, errors = 9_000, [], []
-
-    def poll():
-        conn = ConnectionManager(f"--interface serial_tmcl --port {server.link} --data-rate 115200").connect()
-        try:
-            for _ in range(polls):
-                value = conn.get_axis_parameter(MAX_CURRENT, 0)
-                if value != 128:
-                    wrong.append(value)
-        except Exception as e:  # noqa: BLE001 - reported below
-            errors.append(repr(e))
-        finally:
-            conn.close()
-
-    script = threading.Thread(target=poll)
-    script.start()
+    polls = 9_000
+    script = Poller(server.link, MAX_CURRENT, 128, polls)
     transactions = 0
     try:
         # Meanwhile on the second link: `tmcl get` one process at a time, and a `tmcl watch`.
@@ -59,8 +43,8 @@ def test_pytrinamic_and_tmcl_on_two_links_never_mix(serve, tmcl_bin, tmp_path):
                 transactions += 50
     finally:
         script.join(120)
-    assert not errors, errors
-    assert not wrong, f"{len(wrong)} wrong values on the script's link: {wrong[:5]}"
+    assert not script.errors, script.errors
+    assert not script.wrong, f"{len(script.wrong)} wrong values on the script's link: {script.wrong[:5]}"
     assert polls + transactions >= 10_000, transactions
     # The TCP link is a third interface of the same module.
     import socket

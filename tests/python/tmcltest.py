@@ -546,3 +546,35 @@ class LinePort:
         """Nothing arrives within `seconds`."""
         data, _, _ = self.read_timed(1, seconds)
         assert data == b"", f"expected no bytes within {seconds} s, got {(data + self.pending).hex(' ')}"
+
+
+class Poller:
+    """pytrinamic reading axis parameter `parameter` of motor 0 `count` times on `link`, in a thread of its
+    own, as a host script beside other hosts does: each value that is not `expected` is kept in `wrong`, an
+    exception that ends the polls in `errors`."""
+
+    def __init__(self, link, parameter: int, expected: int, count: int):
+        self.count = count
+        self.wrong: list[int] = []
+        self.errors: list[str] = []
+        self._thread = threading.Thread(target=self._run, args=(str(link), parameter, expected))
+        self._thread.start()
+
+    def _run(self, link: str, parameter: int, expected: int) -> None:
+        from pytrinamic.connections import ConnectionManager
+        conn = ConnectionManager(f"--interface serial_tmcl --port {link} --data-rate 115200").connect()
+        try:
+            for _ in range(self.count):
+                value = conn.get_axis_parameter(parameter, 0)
+                if value != expected:
+                    self.wrong.append(value)
+        except Exception as e:  # noqa: BLE001 - reported by the test through `errors`
+            self.errors.append(repr(e))
+        finally:
+            conn.close()
+
+    def is_alive(self) -> bool:
+        return self._thread.is_alive()
+
+    def join(self, timeout_s: float) -> None:
+        self._thread.join(timeout_s)
