@@ -53,6 +53,25 @@ pub(crate) enum Link {
 }
 
 impl Link {
+    /// Reads what its host sent into `buf`: `Some(n)` bytes (0: none now), or `None` when a TCP client has
+    /// gone (its connection is dropped here; the caller forgets what belonged to it).
+    pub(crate) fn read_host(&mut self, buf: &mut [u8]) -> Option<usize> {
+        match self {
+            Link::Pty(pty) => Some(read_some(&mut pty.master, buf)),
+            Link::Tcp { peer: None, .. } => Some(0),
+            Link::Tcp { peer: Some(stream), .. } => match stream.read(buf) {
+                Ok(k) if k > 0 => Some(k),
+                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => Some(0),
+                _ => {
+                    if let Link::Tcp { peer, .. } = self {
+                        *peer = None;
+                    }
+                    None
+                }
+            },
+        }
+    }
+
     /// Where hosts reach it.
     pub(crate) fn info(&self) -> Option<LinkInfo> {
         match self {
@@ -576,26 +595,15 @@ impl Server {
                     continue;
                 }
                 // The host's bytes first: they are answered before a new TCP client is let in.
-                let received = match &mut links[n].0 {
-                    Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
-                    Link::Tcp { peer, .. } => match peer {
-                        None => 0,
-                        Some(stream) => match stream.read(&mut buf) {
-                            Ok(k) if k > 0 => k,
-                            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
-                            _ => {
-                                if verbose {
-                                    tracing::info!("[{}] connection closed", clock());
-                                }
-                                *peer = None;
-                                bus.reset_link(n);
-                                recorder.reset(n);
-                                links[n].1.clear();
-                                0
-                            }
-                        },
-                    },
-                };
+                let received = links[n].0.read_host(&mut buf).unwrap_or_else(|| {
+                    if verbose {
+                        tracing::info!("[{}] connection closed", clock());
+                    }
+                    bus.reset_link(n);
+                    recorder.reset(n);
+                    links[n].1.clear();
+                    0
+                });
                 if received > 0 {
                     let now = clock();
                     if verbose {

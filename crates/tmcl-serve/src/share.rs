@@ -38,7 +38,7 @@
 //! links take turns: one request of each link that has one, then again.
 
 use crate::monitor::{decode_reply, decode_request, hex, socket_beside, Monitor, MonitorOptions, Outcome, Transaction};
-use crate::serve::{open_link, read_some, wait, write_pending, Link};
+use crate::serve::{open_link, wait, write_pending, Link};
 use crate::tcp::accept_clients;
 use crate::{LinkInfo, LinkOptions, ServeError, Stopper};
 use std::collections::HashMap;
@@ -483,20 +483,12 @@ impl Share {
                 if !ready.links[n] {
                     continue;
                 }
-                let received = match &mut self.links[n].0 {
-                    Link::Pty(pty) => read_some(&mut pty.master, &mut buf),
-                    Link::Tcp { peer, .. } => match peer {
-                        None => 0,
-                        Some(stream) => match stream.read(&mut buf) {
-                            Ok(k) if k > 0 => k,
-                            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
-                            _ => {
-                                *peer = None;
-                                self.reset_host(n);
-                                0
-                            }
-                        },
-                    },
+                let received = match self.links[n].0.read_host(&mut buf) {
+                    Some(k) => k,
+                    None => {
+                        self.reset_host(n);
+                        0
+                    }
                 };
                 if received > 0 {
                     let host = &mut self.hosts[n];
