@@ -154,6 +154,12 @@ impl Axes {
         self.list[..self.count()].iter()
     }
 
+    /// The motors that run, to change.
+    pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = &mut Axis> {
+        let count = self.count();
+        self.list[..count].iter_mut()
+    }
+
     /// Motor `m`, if the model has it.
     pub fn get(&self, m: usize) -> Option<&Axis> {
         self.list[..self.count()].get(m)

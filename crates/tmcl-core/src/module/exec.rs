@@ -75,8 +75,7 @@ impl<B: Board> Module<B> {
                 | C::Mst { .. }
                 | C::Rfs { .. }
         ) {
-            for m in 0..self.st.axes.count() {
-                let axis = &mut self.st.axes[m];
+            for axis in self.st.axes.iter_mut() {
                 axis.drive_due = Some(axis.drive_due.map_or(now, |t| t.min(now)));
             }
         }
