@@ -1,0 +1,260 @@
+//! The program machine's cycle: between two instructions it services an interrupt and looks at a
+//! WAIT in progress; then it fetches the decoded cell at the PC and runs it (PD28-1021 manual §3.6,
+//! §3.7.16–3.7.35).
+//!
+//! The machine reaches the rest of the module as a CPU reaches its bus, through [`Bus`]: a command for
+//! the module (motion, parameters, I/O, interrupt enables) goes out as a [`Command`] and comes back as
+//! the value it read or the status a host would have got; a WAIT asks whether its condition holds. The
+//! flow and arithmetic instructions (COMP, JC, JA, CSUB, RSUB, WAIT, STOP, VECT, RETI, CALC, CALCX) are
+//! the machine's own and never leave it. Each cycle returns what happened ([`Step`]); the run state
+//! changes only through [`Vm::set_state`].
+
+use super::decode::Op;
+use super::{alu, flags, Context, Program, Registers, RunState, Vm, Wait, INSTRUCTION_TIME, NO_VECTOR, STACK_DEPTH};
+use super::{MAX_VECTORS, WAIT_TICK};
+use crate::time::{Duration, Instant};
+use tmcl_wire::{Command, Status, WaitCondition};
+
+/// The program machine's own parts, lent by its bus for the span of a cycle between two bus requests.
+pub(crate) struct Parts<'a> {
+    /// Run state, PC, stack, interrupts.
+    pub vm: &'a mut Vm,
+    /// The program's registers.
+    pub regs: &'a mut Registers,
+    /// Program memory, decoded.
+    pub program: &'a Program,
+}
+
+/// What the program machine needs of the module it runs in.
+pub(crate) trait Bus {
+    /// The machine's own parts (the bus holds them, as a module holds its components).
+    fn parts(&mut self) -> Parts<'_>;
+    /// Executes a command of the module for the program at `now`: the value it reads (a command that
+    /// reads none gives any value), or the status a host would have got for it.
+    fn execute(&mut self, command: Command, now: Instant) -> Result<i32, Status>;
+    /// Whether a WAIT has ended at `now`: `Some(false)` its condition holds, `Some(true)` it timed out
+    /// (ETO), `None` not yet.
+    fn wait_over(&mut self, wait: &Wait, now: Instant) -> Option<bool>;
+}
+
+/// What one cycle of the program machine did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Step {
+    /// An instruction ran; the PC has moved on (to the next cell, a jump target, a handler, ...).
+    Executed,
+    /// An instruction the module refused (the status a host would have got): skipped, noted in
+    /// [`super::Refusals`], the program goes on.
+    Refused(Status),
+    /// A WAIT began and holds the PC until its condition or its time comes.
+    Waiting,
+    /// No instruction ran: a WAIT in progress has not ended; the machine's clock moved on to when it may
+    /// end or to the limit, whichever comes first.
+    Asleep,
+    /// The program stopped (STOP, a cell that does not run on this model, the end of memory).
+    Stopped,
+    /// The program stopped before an instruction with a breakpoint (a debugger's; the next run executes
+    /// it).
+    Breakpoint,
+}
+
+impl Vm {
+    /// Enters the handler of the highest-priority pending interrupt, if allowed (between instructions).
+    #[inline(always)]
+    pub(crate) fn service_interrupts(&mut self, regs: &Registers) {
+        if self.pending == 0 || !self.global || self.handler.is_some() {
+            return;
+        }
+        let n = self.pending.trailing_zeros() as u8; // lower number = higher priority (§3.7.34)
+        self.pending &= !(1 << n);
+        let Some(address) = self.vector(n) else { return };
+        self.handler = Some(Context { pc: self.pc, regs: *regs, wait: self.wait.take() });
+        self.pc = address;
+    }
+
+    /// Raises interrupt `n` if it is enabled and has a vector (see the module docs).
+    pub(crate) fn raise_interrupt(&mut self, n: u8) {
+        if usize::from(n) < MAX_VECTORS && self.enabled & (1 << n) != 0 && self.vector(n).is_some() {
+            self.pending |= 1 << n;
+        }
+    }
+
+    /// A WAIT that has ended: ETO if it timed out, the PC past it.
+    #[inline]
+    pub(crate) fn end_wait(&mut self, regs: &mut Registers, timeout: bool) {
+        if timeout {
+            regs.flags |= flags::TIMEOUT;
+        }
+        self.wait = None;
+        self.pc = self.pc.wrapping_add(1);
+    }
+}
+
+/// One cycle at the machine's clock, which is before `limit`: an interrupt, a WAIT in progress, a
+/// breakpoint, then the instruction at the PC.
+#[inline(always)]
+pub(crate) fn cycle<B: Bus>(bus: &mut B, limit: Instant) -> Step {
+    let Parts { vm, regs, .. } = bus.parts();
+    let t = vm.time;
+    vm.service_interrupts(regs);
+    if let Some(wait) = vm.wait {
+        match bus.wait_over(&wait, t) {
+            Some(timeout) => {
+                let Parts { vm, regs, .. } = bus.parts();
+                vm.end_wait(regs, timeout);
+            }
+            None => {
+                // Sleep until the wait can end by time, or to the limit (motion may end it). A wait that
+                // has not ended has its end after `t`, so this always moves on.
+                bus.parts().vm.time = wait.until.unwrap_or(limit).min(limit).max(t + Duration::from_micros(1));
+                return Step::Asleep;
+            }
+        }
+    }
+    let vm = bus.parts().vm;
+    if vm.has_breakpoint(vm.pc) && !core::mem::take(&mut vm.at_breakpoint) {
+        // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
+        vm.set_state(RunState::Stopped);
+        vm.at_breakpoint = true;
+        return Step::Breakpoint;
+    }
+    vm.executed += 1;
+    let step = execute(bus, t);
+    let vm = bus.parts().vm;
+    vm.time = vm.time.max(t) + INSTRUCTION_TIME;
+    step
+}
+
+/// Executes the instruction at the PC at `now` (fetch the decoded cell, run it).
+#[inline(always)]
+fn execute<B: Bus>(bus: &mut B, now: Instant) -> Step {
+    let Parts { vm, regs, program } = bus.parts();
+    let pc = vm.pc;
+    let Some((op, cell)) = program.fetch(pc) else {
+        vm.set_state(RunState::Stopped); // ran off the end of memory
+        return Step::Stopped;
+    };
+    let mut next = pc.wrapping_add(1);
+    match op {
+        // Opcode 0 (empty memory), garbage, a command the model lacks, a control command: the program
+        // ends. §3.7.23 STOP likewise.
+        Op::End | Op::Stop => {
+            vm.set_state(RunState::Stopped);
+            return Step::Stopped;
+        }
+        // §3.7.17 COMP: flags from A − operand.
+        Op::Comp => alu::comp(regs, cell.value),
+        // §3.7.18 JC.
+        Op::Jc => {
+            if alu::condition(regs.flags, cell.kind) {
+                next = jump(cell.value);
+            }
+        }
+        // §3.7.19 JA.
+        Op::Ja => next = jump(cell.value),
+        // §3.7.20 CSUB: ignored when the stack is full.
+        Op::Csub => {
+            if usize::from(vm.sp) < STACK_DEPTH {
+                vm.stack[usize::from(vm.sp)] = next;
+                vm.sp += 1;
+                next = jump(cell.value);
+            }
+        }
+        // §3.7.21 RSUB: ignored when the stack is empty.
+        Op::Rsub => {
+            if vm.sp > 0 {
+                vm.sp -= 1;
+                next = vm.stack[usize::from(vm.sp)];
+            }
+        }
+        // A WAIT for a motor the model lacks is passed over like a command with status 4 (our decision).
+        Op::Pass => {}
+        // §3.7.22 WAIT: waiting is a state; the PC stays on the WAIT until it ends. The motor byte names the
+        // motor POS, REFSW, LIMSW and RFS watch.
+        Op::Wait => {
+            let ticks = if cell.value == -1 { regs.accumulator } else { cell.value };
+            // −1 takes the value from A for every condition (§3.7.22 shows it only for TICKS); a negative
+            // value, which the manual forbids without saying what it does, waits no time (TICKS) or has no
+            // timeout (the others).
+            let span = Duration::from_micros(WAIT_TICK.micros() * ticks.max(0) as u64);
+            let condition = WaitCondition::from_code(cell.kind).unwrap_or(WaitCondition::Ticks);
+            let until = match condition {
+                WaitCondition::Ticks => Some(now + span),
+                _ if ticks > 0 => Some(now + span),
+                _ => None,
+            };
+            let wait = Wait { condition, motor: cell.motor, until };
+            let over = bus.wait_over(&wait, now);
+            let Parts { vm, regs, .. } = bus.parts();
+            return match over {
+                Some(timeout) => {
+                    if timeout {
+                        regs.flags |= flags::TIMEOUT;
+                    }
+                    vm.pc = next;
+                    Step::Executed
+                }
+                None => {
+                    vm.wait = Some(wait);
+                    Step::Waiting
+                }
+            };
+        }
+        // §3.7.34 VECT.
+        Op::Vect => {
+            if let Some(v) = vm.vectors.get_mut(usize::from(cell.kind)) {
+                *v = u16::try_from(cell.value).unwrap_or(NO_VECTOR);
+            }
+        }
+        // §3.7.35 RETI: restores A, X, flags and the PC (and a preempted WAIT).
+        Op::Reti => {
+            if let Some(ctx) = vm.handler.take() {
+                *regs = ctx.regs;
+                vm.wait = ctx.wait;
+                next = ctx.pc;
+            }
+        }
+        // §3.7.16 CALC, §3.7.28 CALCX on the program's registers; a division by 0 is refused.
+        Op::Calc | Op::Calcx => {
+            let done =
+                if op == Op::Calc { alu::calc(regs, cell.kind, cell.value) } else { alu::calcx(regs, cell.kind) };
+            vm.pc = next;
+            if let Err(status) = done {
+                vm.refusals.note(now, pc, cell, status);
+                return Step::Refused(status);
+            }
+            return Step::Executed;
+        }
+        // The rest of the module. §3.6.5: in standalone mode a command that reads a value loads the
+        // accumulator (FW V1.35: RFS STATUS too, setting the flags).
+        Op::Command | Op::Load => {
+            let Ok(command) = Command::decode(cell) else {
+                vm.set_state(RunState::Stopped); // (cannot happen: decoded when written)
+                return Step::Stopped;
+            };
+            let done = bus.execute(command, now);
+            let Parts { vm, regs, .. } = bus.parts();
+            vm.pc = next;
+            return match done {
+                Ok(v) => {
+                    if op == Op::Load {
+                        regs.load(v);
+                    }
+                    Step::Executed
+                }
+                // Refused: skipped, the program goes on; noted for a simulator (`vm/refusal.rs`).
+                Err(status) => {
+                    vm.refusals.note(now, pc, cell, status);
+                    Step::Refused(status)
+                }
+            };
+        }
+    }
+    vm.pc = next;
+    Step::Executed
+}
+
+/// A jump target from a value: out-of-range targets land past memory, which stops the program.
+#[inline(always)]
+fn jump(address: i32) -> u16 {
+    u16::try_from(address).unwrap_or(u16::MAX)
+}
