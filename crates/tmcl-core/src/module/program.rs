@@ -7,7 +7,7 @@ use crate::hal::Board;
 use crate::model::{Setting, Source};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
-use crate::vm::{self, Bus, Parts, Program, Registers, RunState, Step, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
+use crate::vm::{self, Bus, Parts, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
 use tmcl_model::capacity::MAX_MOTORS;
 use tmcl_wire::{Command, Instruction, Status, WaitCondition, FRAME_LEN};
 
@@ -37,24 +37,7 @@ impl<B: Board> Module<B> {
     /// jumped over turns of a loop in a fixed point (`module/spin.rs`): then the program's and the motion
     /// controller's clocks have moved on, past `limit`.
     pub(crate) fn run_program(&mut self, limit: Instant, budget: &mut u32) -> bool {
-        while self.vm.state == RunState::Running && self.vm.time < limit && *budget > 0 {
-            let pc = self.vm.pc;
-            let t = self.vm.time;
-            match vm::cycle(self, limit) {
-                Step::Asleep => continue,
-                Step::Breakpoint => return false,
-                _ => {}
-            }
-            *budget -= 1;
-            if self.drive_due().is_some_and(|(_, d)| d <= t) {
-                return false; // the board hears of it before the next instruction (see `module/advance.rs`)
-            }
-            // A jump back: perhaps a loop in a fixed point.
-            if self.vm.pc <= pc && self.spin_pass() {
-                return true;
-            }
-        }
-        false
+        vm::run(self, limit, budget)
     }
 
     /// Whether a wait has ended at `now`: `Some(false)` met, `Some(true)` timed out (ETO), `None` not yet.
@@ -402,5 +385,18 @@ impl<B: Board> Bus for Module<B> {
     #[inline]
     fn wait_over(&mut self, wait: &Wait, now: Instant) -> Option<bool> {
         self.wait_done(*wait, now)
+    }
+
+    /// A command that changed what the driver sees (a parameter, a stop) has its board update due at
+    /// once (`module/advance.rs`). Only a command can bring it forward: an update due before the run is
+    /// within the limit `advance` gave it.
+    #[inline(always)]
+    fn must_act(&self, now: Instant) -> bool {
+        self.drive_due().is_some_and(|(_, d)| d <= now)
+    }
+
+    #[inline(always)]
+    fn jumped_back(&mut self) -> bool {
+        self.spin_pass()
     }
 }

@@ -18,9 +18,9 @@ use tmcl_wire::{Command, Instruction, WaitCondition};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[repr(u8)]
 pub enum Op {
-    /// Ends the program: empty memory, garbage, a command the model lacks, a control command.
-    #[default]
-    End,
+    // The machine's own instructions that cannot end the program, start a wait, end a handler or reach
+    // the module: nothing happens between two of them but the clock (see `vm/machine.rs`). First, so that
+    // [`Op::is_plain`] is one comparison.
     /// COMP (§3.7.17).
     Comp,
     /// JC (§3.7.18), the condition in the type byte.
@@ -31,26 +31,39 @@ pub enum Op {
     Csub,
     /// RSUB (§3.7.21).
     Rsub,
-    /// WAIT (§3.7.22), the condition in the type byte.
-    Wait,
     /// A WAIT for a motor the model lacks: passed over like a command refused with status 4 (our
     /// decision, see `module/program.rs`).
     Pass,
-    /// STOP (§3.7.23).
-    Stop,
     /// VECT (§3.7.34).
     Vect,
-    /// RETI (§3.7.35).
-    Reti,
     /// CALC (§3.7.16), the operation in the type byte.
     Calc,
     /// CALCX (§3.7.28), the operation in the type byte.
     Calcx,
+    /// Ends the program: empty memory, garbage, a command the model lacks, a control command.
+    #[default]
+    End,
+    /// STOP (§3.7.23).
+    Stop,
+    /// WAIT (§3.7.22), the condition in the type byte.
+    Wait,
+    /// RETI (§3.7.35).
+    Reti,
     /// A command for the rest of the module (motion, parameters, I/O, interrupts): through the
     /// [`crate::vm::Bus`].
     Command,
     /// The same, for a command that reads a value: it loads the accumulator (§3.6.5; RFS STATUS too).
     Load,
+}
+
+impl Op {
+    /// One of the machine's own instructions that change nothing but its registers, stack, vectors and
+    /// PC: between two of them no interrupt becomes serviceable, no WAIT begins or ends, the run state
+    /// stays.
+    #[inline(always)]
+    pub(crate) fn is_plain(self) -> bool {
+        (self as u8) <= (Op::Calcx as u8)
+    }
 }
 
 /// Decodes one cell for `spec`'s model.

@@ -11,7 +11,7 @@
 
 use super::decode::Op;
 use super::{alu, flags, Context, Program, Registers, RunState, Vm, Wait, INSTRUCTION_TIME, NO_VECTOR, STACK_DEPTH};
-use super::{MAX_VECTORS, WAIT_TICK};
+use super::{MAX_PROGRAM, MAX_VECTORS, WAIT_TICK};
 use crate::time::{Duration, Instant};
 use tmcl_wire::{Command, Status, WaitCondition};
 
@@ -35,26 +35,28 @@ pub(crate) trait Bus {
     /// Whether a WAIT has ended at `now`: `Some(false)` its condition holds, `Some(true)` it timed out
     /// (ETO), `None` not yet.
     fn wait_over(&mut self, wait: &Wait, now: Instant) -> Option<bool>;
+    /// After a command for the module at `now`: whether the module must act before the next instruction
+    /// (the board hears of a change at its instant), so that the machine returns to it.
+    fn must_act(&self, now: Instant) -> bool;
+    /// After a jump back (the PC not past where it was): a loop may spin in a fixed point, which the
+    /// module may jump over in whole turns. Returns whether it did: then the clocks have moved on.
+    fn jumped_back(&mut self) -> bool;
 }
 
-/// What one cycle of the program machine did.
+/// What one instruction did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Step {
-    /// An instruction ran; the PC has moved on (to the next cell, a jump target, a handler, ...).
+    /// It ran; the PC has moved on (to the next cell, a jump target, a handler, ...).
     Executed,
-    /// An instruction the module refused (the status a host would have got): skipped, noted in
-    /// [`super::Refusals`], the program goes on.
+    /// It went to the module ([`Bus::execute`]): `Ok` it ran, `Err` the module refused it with the status
+    /// a host would have got — skipped, noted in [`super::Refusals`], the program goes on.
+    Commanded(Result<(), Status>),
+    /// The machine refused it (a division by 0, status 4): skipped and noted as the module's refusals.
     Refused(Status),
     /// A WAIT began and holds the PC until its condition or its time comes.
     Waiting,
-    /// No instruction ran: a WAIT in progress has not ended; the machine's clock moved on to when it may
-    /// end or to the limit, whichever comes first.
-    Asleep,
     /// The program stopped (STOP, a cell that does not run on this model, the end of memory).
     Stopped,
-    /// The program stopped before an instruction with a breakpoint (a debugger's; the next run executes
-    /// it).
-    Breakpoint,
 }
 
 impl Vm {
@@ -89,39 +91,85 @@ impl Vm {
     }
 }
 
-/// One cycle at the machine's clock, which is before `limit`: an interrupt, a WAIT in progress, a
-/// breakpoint, then the instruction at the PC.
+/// Runs the program up to (not including) `limit`, at most `budget` instructions: each cycle services
+/// an interrupt, looks at a WAIT in progress and at a breakpoint, then runs the instruction at the PC.
+/// Returns whether the module jumped over turns of a loop ([`Bus::jumped_back`]); then the clocks have
+/// moved on, past `limit`. It returns early after a command the module must act on ([`Bus::must_act`]).
 #[inline(always)]
-pub(crate) fn cycle<B: Bus>(bus: &mut B, limit: Instant) -> Step {
-    let Parts { vm, regs, .. } = bus.parts();
-    let t = vm.time;
-    vm.service_interrupts(regs);
-    if let Some(wait) = vm.wait {
-        match bus.wait_over(&wait, t) {
-            Some(timeout) => {
-                let Parts { vm, regs, .. } = bus.parts();
-                vm.end_wait(regs, timeout);
-            }
-            None => {
-                // Sleep until the wait can end by time, or to the limit (motion may end it). A wait that
-                // has not ended has its end after `t`, so this always moves on.
-                bus.parts().vm.time = wait.until.unwrap_or(limit).min(limit).max(t + Duration::from_micros(1));
-                return Step::Asleep;
+pub(crate) fn run<B: Bus>(bus: &mut B, limit: Instant, budget: &mut u32) -> bool {
+    // (Breakpoints change only from outside, between runs.)
+    let breakpoints = bus.parts().vm.breakpoints != [0; MAX_PROGRAM / 64];
+    loop {
+        let Parts { vm, regs, .. } = bus.parts();
+        if vm.state != RunState::Running || vm.time >= limit || *budget == 0 {
+            return false;
+        }
+        let t = vm.time;
+        vm.service_interrupts(regs);
+        if let Some(wait) = vm.wait {
+            match bus.wait_over(&wait, t) {
+                Some(timeout) => {
+                    let Parts { vm, regs, .. } = bus.parts();
+                    vm.end_wait(regs, timeout);
+                }
+                None => {
+                    // Sleep until the wait can end by time, or to the limit (motion may end it). A wait that
+                    // has not ended has its end after `t`, so this always moves on.
+                    bus.parts().vm.time = wait.until.unwrap_or(limit).min(limit).max(t + Duration::from_micros(1));
+                    continue;
+                }
             }
         }
+        if !breakpoints {
+            // A run of plain instructions: nothing happens between two of them but the clock (no interrupt
+            // becomes serviceable, no WAIT, the run state stays), so only the limit, the budget and the
+            // jumps back are looked at. `fit`: the instructions that fit before the limit and the budget.
+            let fit = (limit - t).micros().div_ceil(INSTRUCTION_TIME.micros()).min(u64::from(*budget)) as u32;
+            let mut left = fit;
+            loop {
+                let Parts { vm, regs, program } = bus.parts();
+                let pc = vm.pc;
+                let Some(op) = program.op(pc).filter(|op| op.is_plain()) else { break };
+                let now = vm.time;
+                plain(vm, regs, program, op, pc, now);
+                vm.time = now + INSTRUCTION_TIME;
+                vm.executed += 1;
+                left -= 1;
+                if vm.pc <= pc && bus.jumped_back() {
+                    *budget -= fit - left;
+                    return true;
+                }
+                if left == 0 {
+                    break;
+                }
+            }
+            *budget -= fit - left;
+            if left != fit {
+                continue; // (the next instruction is not plain, or the run is over: looked at from the top)
+            }
+        }
+        let vm = bus.parts().vm;
+        if breakpoints && vm.has_breakpoint(vm.pc) && !core::mem::take(&mut vm.at_breakpoint) {
+            // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
+            vm.set_state(RunState::Stopped);
+            vm.at_breakpoint = true;
+            return false;
+        }
+        vm.executed += 1;
+        *budget -= 1;
+        let pc = vm.pc;
+        let step = execute(bus, t);
+        let vm = bus.parts().vm;
+        vm.time = t + INSTRUCTION_TIME;
+        if let Step::Commanded(_) = step {
+            if bus.must_act(t) {
+                return false; // the board hears of it before the next instruction
+            }
+        }
+        if bus.parts().vm.pc <= pc && bus.jumped_back() {
+            return true;
+        }
     }
-    let vm = bus.parts().vm;
-    if vm.has_breakpoint(vm.pc) && !core::mem::take(&mut vm.at_breakpoint) {
-        // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
-        vm.set_state(RunState::Stopped);
-        vm.at_breakpoint = true;
-        return Step::Breakpoint;
-    }
-    vm.executed += 1;
-    let step = execute(bus, t);
-    let vm = bus.parts().vm;
-    vm.time = vm.time.max(t) + INSTRUCTION_TIME;
-    step
 }
 
 /// Executes the instruction at the PC at `now` (fetch the decoded cell, run it).
@@ -133,6 +181,9 @@ fn execute<B: Bus>(bus: &mut B, now: Instant) -> Step {
         vm.set_state(RunState::Stopped); // ran off the end of memory
         return Step::Stopped;
     };
+    if op.is_plain() {
+        return plain(vm, regs, program, op, pc, now);
+    }
     let mut next = pc.wrapping_add(1);
     match op {
         // Opcode 0 (empty memory), garbage, a command the model lacks, a control command: the program
@@ -141,33 +192,6 @@ fn execute<B: Bus>(bus: &mut B, now: Instant) -> Step {
             vm.set_state(RunState::Stopped);
             return Step::Stopped;
         }
-        // §3.7.17 COMP: flags from A − operand.
-        Op::Comp => alu::comp(regs, cell.value),
-        // §3.7.18 JC.
-        Op::Jc => {
-            if alu::condition(regs.flags, cell.kind) {
-                next = jump(cell.value);
-            }
-        }
-        // §3.7.19 JA.
-        Op::Ja => next = jump(cell.value),
-        // §3.7.20 CSUB: ignored when the stack is full.
-        Op::Csub => {
-            if usize::from(vm.sp) < STACK_DEPTH {
-                vm.stack[usize::from(vm.sp)] = next;
-                vm.sp += 1;
-                next = jump(cell.value);
-            }
-        }
-        // §3.7.21 RSUB: ignored when the stack is empty.
-        Op::Rsub => {
-            if vm.sp > 0 {
-                vm.sp -= 1;
-                next = vm.stack[usize::from(vm.sp)];
-            }
-        }
-        // A WAIT for a motor the model lacks is passed over like a command with status 4 (our decision).
-        Op::Pass => {}
         // §3.7.22 WAIT: waiting is a state; the PC stays on the WAIT until it ends. The motor byte names the
         // motor POS, REFSW, LIMSW and RFS watch.
         Op::Wait => {
@@ -199,12 +223,6 @@ fn execute<B: Bus>(bus: &mut B, now: Instant) -> Step {
                 }
             };
         }
-        // §3.7.34 VECT.
-        Op::Vect => {
-            if let Some(v) = vm.vectors.get_mut(usize::from(cell.kind)) {
-                *v = u16::try_from(cell.value).unwrap_or(NO_VECTOR);
-            }
-        }
         // §3.7.35 RETI: restores A, X, flags and the PC (and a preempted WAIT).
         Op::Reti => {
             if let Some(ctx) = vm.handler.take() {
@@ -213,17 +231,8 @@ fn execute<B: Bus>(bus: &mut B, now: Instant) -> Step {
                 next = ctx.pc;
             }
         }
-        // §3.7.16 CALC, §3.7.28 CALCX on the program's registers; a division by 0 is refused.
-        Op::Calc | Op::Calcx => {
-            let done =
-                if op == Op::Calc { alu::calc(regs, cell.kind, cell.value) } else { alu::calcx(regs, cell.kind) };
-            vm.pc = next;
-            if let Err(status) = done {
-                vm.refusals.note(now, pc, cell, status);
-                return Step::Refused(status);
-            }
-            return Step::Executed;
-        }
+        // (Run by `plain` above.)
+        Op::Comp | Op::Jc | Op::Ja | Op::Csub | Op::Rsub | Op::Pass | Op::Vect | Op::Calc | Op::Calcx => {}
         // The rest of the module. §3.6.5: in standalone mode a command that reads a value loads the
         // accumulator (FW V1.35: RFS STATUS too, setting the flags).
         Op::Command | Op::Load => {
@@ -239,15 +248,72 @@ fn execute<B: Bus>(bus: &mut B, now: Instant) -> Step {
                     if op == Op::Load {
                         regs.load(v);
                     }
-                    Step::Executed
+                    Step::Commanded(Ok(()))
                 }
                 // Refused: skipped, the program goes on; noted for a simulator (`vm/refusal.rs`).
                 Err(status) => {
                     vm.refusals.note(now, pc, cell, status);
-                    Step::Refused(status)
+                    Step::Commanded(Err(status))
                 }
             };
         }
+    }
+    vm.pc = next;
+    Step::Executed
+}
+
+/// Runs one of the machine's own plain instructions ([`Op::is_plain`]) at `pc`, at `now`.
+#[inline(always)]
+fn plain(vm: &mut Vm, regs: &mut Registers, program: &Program, op: Op, pc: u16, now: Instant) -> Step {
+    let cell = program.cells[usize::from(pc)];
+    let mut next = pc.wrapping_add(1);
+    match op {
+        // §3.7.17 COMP: flags from A − operand.
+        Op::Comp => alu::comp(regs, cell.value),
+        // §3.7.18 JC.
+        Op::Jc => {
+            if alu::condition(regs.flags, cell.kind) {
+                next = jump(cell.value);
+            }
+        }
+        // §3.7.19 JA.
+        Op::Ja => next = jump(cell.value),
+        // §3.7.20 CSUB: ignored when the stack is full.
+        Op::Csub => {
+            if usize::from(vm.sp) < STACK_DEPTH {
+                vm.stack[usize::from(vm.sp)] = next;
+                vm.sp += 1;
+                next = jump(cell.value);
+            }
+        }
+        // §3.7.21 RSUB: ignored when the stack is empty.
+        Op::Rsub => {
+            if vm.sp > 0 {
+                vm.sp -= 1;
+                next = vm.stack[usize::from(vm.sp)];
+            }
+        }
+        // A WAIT for a motor the model lacks is passed over like a command with status 4 (our decision).
+        Op::Pass => {}
+        // §3.7.34 VECT.
+        Op::Vect => {
+            if let Some(v) = vm.vectors.get_mut(usize::from(cell.kind)) {
+                *v = u16::try_from(cell.value).unwrap_or(NO_VECTOR);
+            }
+        }
+        // §3.7.16 CALC, §3.7.28 CALCX on the program's registers; a division by 0 is refused.
+        Op::Calc | Op::Calcx => {
+            let done =
+                if op == Op::Calc { alu::calc(regs, cell.kind, cell.value) } else { alu::calcx(regs, cell.kind) };
+            vm.pc = next;
+            if let Err(status) = done {
+                vm.refusals.note(now, pc, cell, status);
+                return Step::Refused(status);
+            }
+            return Step::Executed;
+        }
+        // (Not plain: run by `execute`.)
+        Op::End | Op::Stop | Op::Wait | Op::Reti | Op::Command | Op::Load => {}
     }
     vm.pc = next;
     Step::Executed

@@ -33,7 +33,7 @@ pub(crate) mod machine;
 pub mod refusal;
 
 pub(crate) use decode::Op;
-pub(crate) use machine::{cycle, Bus, Parts, Step};
+pub(crate) use machine::{run, Bus, Parts};
 pub use refusal::{Refusal, Refusals};
 
 use crate::model::ModelSpec;
@@ -170,10 +170,13 @@ impl Program {
     #[inline(always)]
     pub(crate) fn fetch(&self, address: u16) -> Option<(Op, Instruction)> {
         let a = usize::from(address);
-        match (self.ops.get(a), self.cells.get(a)) {
-            (Some(op), Some(cell)) => Some((*op, *cell)),
-            _ => None,
-        }
+        (a < MAX_PROGRAM).then(|| (self.ops[a], self.cells[a]))
+    }
+
+    /// The decoded op at `address`, if inside memory.
+    #[inline(always)]
+    pub(crate) fn op(&self, address: u16) -> Option<Op> {
+        self.ops.get(usize::from(address)).copied()
     }
 
     /// The instruction at `address`, if inside memory.
