@@ -1,5 +1,6 @@
-//! Running programs on the module: the step, the waits, the interrupts, and the control commands 128–135
-//! (the program machine's state is [`crate::vm`]'s).
+//! Running programs on the module: the module as the program machine's bus (`vm::Bus`: the commands a
+//! program gives, the WAIT conditions, the hooks), the interrupt sources, and the control commands
+//! 128–135 (the machine itself, its state and its cycle, is [`crate::vm`]'s).
 
 use super::{Module, Origin};
 use crate::hal::prelude::*;

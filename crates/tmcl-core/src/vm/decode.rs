@@ -2,7 +2,7 @@
 //! written, not at every step.
 //!
 //! A cell's [`Op`] is decided against the model when the cell is written — a download (command 132's
-//! mode), [`crate::module::Module::load_program`], the program read from the EEPROM at start-up — and
+//! mode), `Module::load_program`, the program read from the EEPROM at start-up — and
 //! kept beside the cell's byte image. Everything that makes a cell end the program is decided here:
 //! opcode 0 (empty memory), a number that names no command, a command the model lacks, a type byte the
 //! command does not know, a control command (128–139, 242, 255: direct mode only). The machine then runs

@@ -324,3 +324,98 @@ fn plain(vm: &mut Vm, regs: &mut Registers, program: &Program, op: Op, pc: u16, 
 fn jump(address: i32) -> u16 {
     u16::try_from(address).unwrap_or(u16::MAX)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tmcl_wire::{CalcOp, Condition};
+
+    /// A bus with nothing behind it but a log: the machine runs without a module.
+    struct Bench {
+        vm: Vm,
+        regs: Registers,
+        program: Program,
+        commands: std::vec::Vec<Command>,
+        jumps_back: u32,
+    }
+
+    impl Bus for Bench {
+        fn parts(&mut self) -> Parts<'_> {
+            Parts { vm: &mut self.vm, regs: &mut self.regs, program: &self.program }
+        }
+        fn execute(&mut self, command: Command, _: Instant) -> Result<i32, Status> {
+            self.commands.push(command);
+            match command {
+                Command::Gap { param: 1, .. } => Ok(42),
+                _ => Err(Status::InvalidValue),
+            }
+        }
+        fn wait_over(&mut self, wait: &Wait, now: Instant) -> Option<bool> {
+            wait.until.is_some_and(|u| now >= u).then_some(false)
+        }
+        fn must_act(&self, _: Instant) -> bool {
+            false
+        }
+        fn jumped_back(&mut self) -> bool {
+            self.jumps_back += 1;
+            false
+        }
+    }
+
+    fn bench(program: &[Command]) -> Bench {
+        let spec = crate::model::MODELS[0];
+        let mut b = Bench {
+            vm: Vm::default(),
+            regs: Registers::default(),
+            program: Program::default(),
+            commands: std::vec::Vec::new(),
+            jumps_back: 0,
+        };
+        for (a, c) in program.iter().enumerate() {
+            b.program.set(a, c.encode(), spec);
+        }
+        b.vm.set_state(RunState::Running);
+        b
+    }
+
+    #[test]
+    fn the_machine_runs_its_own_instructions_and_asks_the_bus_for_the_rest() {
+        let mut b = bench(&[
+            Command::Calc { op: CalcOp::Add, operand: 1 },
+            Command::Comp { operand: 3 },
+            Command::Jc { condition: Condition::Lower, address: 0 },
+            Command::Gap { param: 1, motor: 0 },
+            Command::Sap { param: 4, motor: 0, value: -5 },
+            Command::Calc { op: CalcOp::Div, operand: 0 },
+            Command::Stop,
+        ]);
+        let mut budget = 100;
+        assert!(!run(&mut b, Instant::from_secs(1), &mut budget));
+        // Three turns of the loop (9), GAP, SAP, CALC DIV, STOP; two jumps back, and STOP leaves the PC
+        // where it was (the hook sees the machine stopped).
+        assert_eq!((b.vm.executed(), budget, b.jumps_back), (13, 87, 3));
+        assert_eq!(b.vm.state(), RunState::Stopped);
+        assert_eq!(b.vm.time, Instant::from_micros(13 * 20));
+        assert_eq!(b.regs.accumulator, 42, "GAP loads the accumulator; the refused CALC DIV leaves it");
+        assert_eq!(b.commands, [Command::Gap { param: 1, motor: 0 }, Command::Sap { param: 4, motor: 0, value: -5 }]);
+        let refused: std::vec::Vec<(u16, Status)> = b.vm.refusals().since(0).map(|r| (r.pc, r.status)).collect();
+        assert_eq!(refused, [(4, Status::InvalidValue), (5, Status::InvalidValue)]);
+    }
+
+    #[test]
+    fn a_wait_is_a_state_and_the_limit_and_budget_hold() {
+        let mut b =
+            bench(&[Command::Wait { condition: WaitCondition::Ticks, motor: 0, ticks: 2 }, Command::Ja { address: 1 }]);
+        let mut budget = 100;
+        run(&mut b, Instant::from_millis(5), &mut budget);
+        assert_eq!((b.vm.pc, b.vm.wait.map(|w| w.until)), (0, Some(Some(Instant::from_millis(20)))));
+        assert_eq!(b.vm.time, Instant::from_millis(5), "asleep up to the limit");
+        run(&mut b, Instant::from_millis(21), &mut budget);
+        // The WAIT ends at 20 ms, then JA runs at 20.00 and 20.02 ms ... up to the limit: 50 of them, budget
+        // allowing; then the budget ends a run.
+        assert_eq!((b.vm.wait, b.vm.executed()), (None, 51));
+        let mut budget = 3;
+        run(&mut b, Instant::from_secs(1), &mut budget);
+        assert_eq!((b.vm.executed(), budget), (54, 0));
+    }
+}

@@ -1,12 +1,16 @@
 //! The TMCL program machine: standalone mode (PD28-1021 manual §3.3, §3.6.3–3.6.6, §3.7.16–3.7.38,
 //! chapter 8).
 //!
-//! Data lives here ([`Vm`], [`Program`], [`Registers`]); the stepping is in the module's `program.rs`,
-//! because instructions act on the whole module (motion, parameters, I/O).
+//! The machine's state ([`Vm`], [`Program`], [`Registers`]) and its cycle (`machine.rs`) live here; it
+//! reaches the rest of the module only through a narrow bus trait (`machine::Bus`: run a command, ask
+//! whether a WAIT has ended, two hooks), which the module implements (`module/program.rs`), so nothing
+//! here imports the module. Program memory is decoded once, when a cell is written (`decode.rs`), and
+//! the arithmetic is shared with the host's direct-mode CALC and CALCX (`alu.rs`).
 //!
-//! The machine: `step` fetches the instruction at the PC, decodes it to a command, runs
-//! it, then checks the interrupts. Waiting is a state ([`Wait`]), never a loop. It runs a bounded number of
-//! instructions per poll, each taking [`INSTRUCTION_TIME`] of simulated time.
+//! The machine: between two instructions it services an interrupt and looks at a WAIT in progress, then
+//! runs the decoded cell at the PC; each instruction reports what it did (`machine::Step`), and the run
+//! state changes only through [`Vm::set_state`]. Waiting is a state ([`Wait`]), never a loop. It runs a
+//! bounded number of instructions per poll, each taking [`INSTRUCTION_TIME`] of simulated time.
 //!
 //! Decisions (the manual is silent; see docs/decisions.md):
 //! - **Instruction time.** Each instruction takes 20 µs of module time (about 50 000 commands per second,
