@@ -3,16 +3,16 @@
 //!
 //! **Turns.** The loop takes every job waiting in the queue before the next poll request, so a console
 //! command or a debugger step waits at most for the one poll request already on the line. While the
-//! debugger runs a program to a breakpoint (by single steps, see [`crate::debug`]) steps and polls take
-//! turns, so the plots and the other pages stay live.
+//! debugger runs a program to a breakpoint (by single steps: the workbench's `debug` module) steps and
+//! polls take turns, so the plots and the other pages stay live.
 //!
 //! **Rate.** Every request, jobs and polls alike, goes through one [`Limiter`]: never more requests per
 //! second than the line carries (`baud / 180` on a serial port: a 9-byte request and a 9-byte reply of
 //! 10-bit characters), and a fixed cap on a pty or TCP link, which have no baud rate of their own.
 //!
 //! **Events.** Every value read is sent to the pages as it arrives (a JSON text on a broadcast channel,
-//! see [`crate::server`]); so are changes of the link state, the debugger's stops, progress of long jobs,
-//! and once a second the requests per second on the line.
+//! which the web server hands to every open page); so are changes of the link state, the debugger's stops,
+//! progress of long jobs, and once a second the requests per second on the line.
 
 use crate::info::model_json;
 pub(crate) use crate::schedule::Poll;
