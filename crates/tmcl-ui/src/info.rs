@@ -1,7 +1,7 @@
-//! What the page learns about the module: the model's tables as JSON, and refusals explained from them.
+//! What the page learns about the module: the model's tables ([`ModelInfo`]), and refusals explained from
+//! them.
 
 use serde::Serialize;
-use serde_json::{json, Value};
 use tmcl_model::{Kinematics, ModelSpec, ParamDesc, PortKind, Range, Role, Setting, Table};
 use tmcl_wire::Status;
 
@@ -9,45 +9,117 @@ use tmcl_wire::Status;
 pub(crate) const INTERRUPT_BANK: u8 = 3;
 
 /// One parameter as the page's table shows it.
-fn param_json(kind: &str, bank: Option<u8>, d: &ParamDesc) -> Value {
-    json!({
-        "kind": kind, "bank": bank, "number": d.number, "name": d.ident, "title": d.name,
-        "unit": d.unit.symbol(), "range": d.range.to_string(), "access": d.access.to_string(),
-        "read": d.access.read, "write": d.access.write, "store": d.access.store,
-        "default": d.default, "section": d.section,
-    })
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ParamInfo {
+    /// `ap` or `gp`.
+    pub kind: &'static str,
+    /// The bank of a global parameter (`null` for axis parameters).
+    pub bank: Option<u8>,
+    pub number: u8,
+    /// The identifier (`MaxPositioningSpeed`).
+    pub name: &'static str,
+    /// The manual's name.
+    pub title: &'static str,
+    pub unit: &'static str,
+    /// The range in words (`1..2147483647`).
+    pub range: String,
+    /// `R`, `RW`, `RWE`, ...
+    pub access: String,
+    pub read: bool,
+    pub write: bool,
+    pub store: bool,
+    pub default: i32,
+    /// The manual's section.
+    pub section: &'static str,
+}
+
+impl ParamInfo {
+    fn of(kind: &'static str, bank: Option<u8>, d: &'static ParamDesc) -> ParamInfo {
+        ParamInfo {
+            kind,
+            bank,
+            number: d.number,
+            name: d.ident,
+            title: d.name,
+            unit: d.unit.symbol(),
+            range: d.range.to_string(),
+            access: d.access.to_string(),
+            read: d.access.read,
+            write: d.access.write,
+            store: d.access.store,
+            default: d.default,
+            section: d.section,
+        }
+    }
+}
+
+/// One port as the I/O view shows it.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct PortInfo {
+    pub bank: u8,
+    pub port: u8,
+    /// `input`, `analog`, `temperature` or `output`.
+    pub kind: &'static str,
+    pub name: &'static str,
 }
 
 /// The model as the page needs it: names, tables, ports, counts.
-pub(crate) fn model_json(model: &'static ModelSpec) -> Value {
-    let table = |kind: &str, bank: Option<u8>, t: &Table| -> Vec<Value> {
-        t.params.iter().map(|d| param_json(kind, bank, d)).collect()
-    };
-    let mut params = table("ap", None, &model.axis);
-    params.extend(table("gp", Some(0), &model.global));
-    params.extend(table("gp", Some(INTERRUPT_BANK), &model.interrupt));
-    let ports: Vec<Value> = model
-        .ports
-        .iter()
-        .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs))
-        .map(|p| {
-            let kind = match p.kind {
-                PortKind::DigitalInput(_) | PortKind::EncoderNearZero => "input",
-                PortKind::Analog(_) | PortKind::Analog10(_) => "analog",
-                PortKind::Temperature => "temperature",
-                PortKind::Output(_) => "output",
-                PortKind::AllInputs | PortKind::AllOutputs => "all",
-            };
-            json!({"bank": p.bank, "port": p.port, "kind": kind, "name": p.name})
-        })
-        .collect();
-    json!({
-        "id": model.id, "name": model.name, "manual": model.manual, "motors": model.motors,
-        "user_variables": model.user_variables, "program_memory": model.program_memory,
-        "params": params, "ports": ports, "motion": MotionInfo::of(model),
-        "closed_loop": ClosedLoopInfo::of(model),
-        "sample_program": sample_program(model),
-    })
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ModelInfo {
+    pub id: &'static str,
+    pub name: &'static str,
+    pub manual: &'static str,
+    pub motors: u8,
+    pub user_variables: u16,
+    pub program_memory: u16,
+    /// The axis parameters, then banks 0 and 3.
+    pub params: Vec<ParamInfo>,
+    /// The ports the I/O view shows (not the all-inputs/all-outputs words).
+    pub ports: Vec<PortInfo>,
+    pub motion: MotionInfo,
+    pub closed_loop: Option<ClosedLoopInfo>,
+    /// A first program for the editor.
+    pub sample_program: String,
+}
+
+impl ModelInfo {
+    pub(crate) fn of(model: &'static ModelSpec) -> ModelInfo {
+        let table = |kind, bank, t: &'static Table| t.params.iter().map(move |d| ParamInfo::of(kind, bank, d));
+        let params = table("ap", None, &model.axis)
+            .chain(table("gp", Some(0), &model.global))
+            .chain(table("gp", Some(INTERRUPT_BANK), &model.interrupt))
+            .collect();
+        let ports = model
+            .ports
+            .iter()
+            .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs))
+            .map(|p| PortInfo {
+                bank: p.bank,
+                port: p.port,
+                kind: match p.kind {
+                    PortKind::DigitalInput(_) | PortKind::EncoderNearZero => "input",
+                    PortKind::Analog(_) | PortKind::Analog10(_) => "analog",
+                    PortKind::Temperature => "temperature",
+                    PortKind::Output(_) => "output",
+                    PortKind::AllInputs | PortKind::AllOutputs => "all",
+                },
+                name: p.name,
+            })
+            .collect();
+        ModelInfo {
+            id: model.id,
+            name: model.name,
+            manual: model.manual,
+            motors: model.motors,
+            user_variables: model.user_variables,
+            program_memory: model.program_memory,
+            params,
+            ports,
+            motion: MotionInfo::of(model),
+            closed_loop: ClosedLoopInfo::of(model),
+            sample_program: sample_program(model),
+        }
+    }
 }
 
 /// The smallest and largest value of a range (for the page's number inputs).
@@ -291,7 +363,7 @@ mod tests {
     #[test]
     fn the_tables_as_json() {
         let m = tmcl_model::by_id("pd28-1021").unwrap();
-        let j = model_json(m);
+        let j = serde_json::to_value(ModelInfo::of(m)).unwrap();
         let params = j["params"].as_array().unwrap();
         let speed = params.iter().find(|p| p["kind"] == "ap" && p["number"] == 4).unwrap();
         assert_eq!(speed["name"], "MaxPositioningSpeed");
