@@ -82,7 +82,7 @@ impl Models {
             ParamRef::Axis { param, motor } => (param, true, Some(motor)),
             ParamRef::Global { param, bank } => (param, false, bank),
         };
-        if let Some(number) = parse_number(text) {
+        if let Some(number) = param_number(text) {
             let index = index.unwrap_or(0);
             let desc = self.known.and_then(|m| table_of(m, axis, index)).and_then(|t| find(t, number));
             return Ok(Target { axis, number, index, desc, model: self.known });
@@ -325,11 +325,8 @@ impl Target {
 }
 
 /// A parameter number: decimal or 0x hexadecimal, 0..255.
-fn parse_number(text: &str) -> Option<u8> {
-    match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
-        Some(hex) => u8::from_str_radix(hex, 16).ok(),
-        None => text.parse().ok(),
-    }
+fn param_number(text: &str) -> Option<u8> {
+    crate::args::parse_number(text).and_then(|n| u8::try_from(n).ok())
 }
 
 /// Which tables `tmcl params` lists.
