@@ -8,11 +8,11 @@ use crate::connection::{Connection, HostClient};
 use crate::error::CliError;
 use crate::names::{ModelOption, Models, ParamRef, Target};
 use clap::{Args, Subcommand, ValueEnum};
-use serde_json::json;
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use tmcl_core::model::Role;
 use tmcl_wire::{Instruction, Opcode, RfsAction};
 
 /// Options of `tmcl wait`.
@@ -35,8 +35,8 @@ pub struct WaitArgs {
 /// What `tmcl wait` waits for.
 #[derive(Debug, Clone, Subcommand)]
 pub enum WaitFor {
-    /// Until the motor has reached its target position: the position reached flag AP 8 reads 1
-    /// (PD28-1021 manual §4 Table 15; on a closed-loop module, within the position window AP 134).
+    /// Until the motor has reached its target position: the model's position reached flag (AP 8, PD28-1021
+    /// manual §4 Table 15) reads 1 (on a closed-loop module, within the position window AP 134).
     Reached {
         /// Motor number.
         #[arg(long, short, default_value_t = 0)]
@@ -194,7 +194,16 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
     let mut models = Models::new(&args.model)?;
     let (source, op, wanted) = match &args.what {
         WaitFor::Reached { motor } => {
-            let target = models.resolve(ParamRef::Axis { param: "8", motor: *motor }, &mut client)?;
+            // By meaning: the model's position-reached flag; AP 8, which every TMCL module shares (PD28-1021
+            // manual §4 Table 15), when the module's version is not one of our tables.
+            let model = match models.get(&mut client) {
+                Ok(model) => Some(model),
+                Err(CliError::Host(e)) => return Err(e.into()),
+                Err(_) => None,
+            };
+            let flag = model.and_then(|m| m.axis.role(Role::PositionReached).map(|i| m.axis.params[i].number));
+            let number = flag.unwrap_or(8).to_string();
+            let target = models.resolve(ParamRef::Axis { param: &number, motor: *motor }, &mut client)?;
             (Source::Param(target), Comparison::Eq, 1)
         }
         WaitFor::Reference { motor } => (Source::Reference { motor: *motor }, Comparison::Eq, 0),
@@ -203,7 +212,13 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
         }
     };
     let condition = match &args.what {
-        WaitFor::Reached { motor } => format!("motor {motor} reached its target (ap 8 == 1)"),
+        WaitFor::Reached { motor } => {
+            let number = match &source {
+                Source::Param(target) => target.number,
+                _ => 8,
+            };
+            format!("motor {motor} reached its target (ap {number} == 1)")
+        }
         WaitFor::Reference { motor } => format!("the reference search of motor {motor} ended (RFS STATUS == 0)"),
         WaitFor::Value { .. } => format!("{} {} {wanted}", source.label(), op.symbol()),
     };
@@ -305,12 +320,8 @@ pub(crate) fn watch(args: WatchArgs, json: bool, out: &mut dyn Write) -> Result<
             values.push(source.read(&mut client)?);
         }
         if json {
-            let mut row = serde_json::Map::new();
-            row.insert("time_s".into(), json!(t.as_millis() as f64 / 1000.0));
-            for (label, value) in labels.iter().zip(&values) {
-                row.insert(label.clone(), json!(value));
-            }
-            writeln!(out, "{}", serde_json::Value::Object(row))?;
+            let time_s = t.as_millis() as f64 / 1000.0;
+            crate::output::json_line(out, &crate::output::WatchRow { time_s, labels: &labels, values: &values })?;
         } else {
             write!(out, "{:>10.3}", t.as_secs_f64())?;
             for value in &values {
