@@ -5,8 +5,7 @@ use serde::Serialize;
 use tmcl_model::{Kinematics, ModelSpec, ParamDesc, PortKind, Range, Role, Setting, Table};
 use tmcl_wire::Status;
 
-/// The bank of the interrupt configuration (PD28-1021 manual §5.4).
-pub(crate) const INTERRUPT_BANK: u8 = 3;
+use tmcl_model::names::INTERRUPT_BANK;
 
 /// One parameter as the page's table shows it.
 #[derive(Debug, Clone, Serialize)]
@@ -313,16 +312,12 @@ pub(crate) fn explain_motion(model: Option<&'static ModelSpec>, velocity: bool, 
 
 /// The descriptor of a parameter, if the model has it.
 pub(crate) fn find_param(model: &'static ModelSpec, axis: bool, index: u8, number: u8) -> Option<&'static ParamDesc> {
-    let table = match (axis, index) {
-        (true, _) => &model.axis,
-        (false, 0) => &model.global,
-        (false, INTERRUPT_BANK) => &model.interrupt,
-        (false, _) => return None,
-    };
-    table.params.iter().find(|d| d.number == number)
+    tmcl_model::names::find(model, axis, index, number)
 }
 
-/// Why the module refused a parameter request, in words, from what the tables say (as `tmcl set` does).
+/// Why the module refused a parameter request, in words, from what the tables say (as `tmcl set` does:
+/// [`tmcl_model::names::explain`]). `value` is the value of a write; `store` whether it was a store or
+/// restore.
 pub(crate) fn explain(
     model: Option<&'static ModelSpec>,
     axis: bool,
@@ -330,29 +325,9 @@ pub(crate) fn explain(
     number: u8,
     status: Status,
     value: Option<i32>,
+    store: bool,
 ) -> Option<String> {
-    let desc = model.and_then(|m| find_param(m, axis, index, number));
-    let kind = if axis { "axis" } else { "global" };
-    Some(match (model, desc, status) {
-        (Some(model), None, Status::WrongType) => format!("the {} has no {kind} parameter {number}", model.name),
-        (_, Some(d), Status::WrongType) if value.is_some() && !d.access.write => {
-            format!("{} is read-only ({})", d.ident, d.access)
-        }
-        (_, Some(d), Status::WrongType) if value.is_none() && !d.access.read => {
-            format!("{} cannot be read ({})", d.ident, d.access)
-        }
-        (_, Some(d), Status::InvalidValue) if value.is_some_and(|v| !d.range.contains(v)) => {
-            format!("{} takes {}", d.ident, d.range)
-        }
-        (_, Some(d), Status::InvalidValue) if value.is_none() && !d.access.store => {
-            format!("{} cannot be stored in the EEPROM ({})", d.ident, d.access)
-        }
-        (_, _, Status::PasswordProtected) => {
-            "the parameter is password protected: write the password to the model's password parameter first".into()
-        }
-        (_, _, Status::EepromLocked) => "the configuration EEPROM is locked".into(),
-        _ => return None,
-    })
+    tmcl_model::names::explain(model, axis, index, number, status, value, store).map(|r| r.to_string())
 }
 
 #[cfg(test)]
@@ -400,11 +375,11 @@ mod tests {
     #[test]
     fn refusals_in_words() {
         let m = tmcl_model::by_id("pd28-1021");
-        let why = explain(m, true, 0, 4, Status::InvalidValue, Some(0)).unwrap();
+        let why = explain(m, true, 0, 4, Status::InvalidValue, Some(0), false).unwrap();
         assert_eq!(why, "MaxPositioningSpeed takes 1..2147483647");
-        let why = explain(m, true, 0, 8, Status::WrongType, Some(1)).unwrap();
+        let why = explain(m, true, 0, 8, Status::WrongType, Some(1), false).unwrap();
         assert_eq!(why, "PositionReachedFlag is read-only (R)");
-        assert!(explain(m, true, 0, 250, Status::WrongType, None).unwrap().contains("no axis parameter 250"));
-        assert_eq!(explain(None, true, 0, 4, Status::InvalidCommand, None), None);
+        assert!(explain(m, true, 0, 250, Status::WrongType, None, false).unwrap().contains("no axis parameter 250"));
+        assert_eq!(explain(None, true, 0, 4, Status::InvalidCommand, None, false), None);
     }
 }

@@ -438,8 +438,9 @@ fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Answer, Failu
             if let Some(status) = failure.status {
                 let status = tmcl_wire::Status::from(status);
                 // A store of a parameter without E is refused as an invalid value by some firmware.
-                let value = if matches!(op, ParamOp::Store | ParamOp::Restore) { None } else { value };
-                if let Some(why) = info::explain(link.model, axis, index, param, status, value) {
+                let store = matches!(op, ParamOp::Store | ParamOp::Restore);
+                let value = if store { None } else { value };
+                if let Some(why) = info::explain(link.model, axis, index, param, status, value, store) {
                     failure.explanation = Some(why);
                 }
             }
@@ -620,7 +621,9 @@ fn console(link: &mut Link, line: &str) -> Result<Answer, Failure> {
                 if let (Some(status), Some((axis, index))) = (f.status, param_place(&instruction)) {
                     let value = matches!(instruction.opcode, Opcode::Sap | Opcode::Sgp).then_some(instruction.value);
                     let status = tmcl_wire::Status::from(status);
-                    if let Some(why) = info::explain(link.model, axis, index, instruction.kind, status, value) {
+                    let store = matches!(instruction.opcode, Opcode::Stap | Opcode::Stgp | Opcode::Rsap | Opcode::Rsgp);
+                    let (kind, model) = (instruction.kind, link.model);
+                    if let Some(why) = info::explain(model, axis, index, kind, status, value, store) {
                         f.explanation = Some(why);
                     }
                 }
