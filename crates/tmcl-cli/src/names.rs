@@ -12,7 +12,7 @@ use std::io::Write;
 use tmcl_core::model::names::{self as by_name, NameError, INTERRUPT_BANK};
 use tmcl_core::model::{self, ModelSpec, ParamDesc, Table, Unit};
 use tmcl_host::HostError;
-use tmcl_wire::{Instruction, Opcode, Reply, Status};
+use tmcl_wire::{Instruction, Opcode, Reply};
 
 /// `--module MODEL`: which parameter tables the names come from.
 #[derive(Debug, Clone, Args)]
@@ -409,6 +409,7 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
 mod tests {
     use super::*;
     use tmcl_core::model::Range;
+    use tmcl_wire::Status;
 
     fn pd28() -> &'static ModelSpec {
         model::by_id("pd28-1021").unwrap()

@@ -1,7 +1,7 @@
 //! `tmcl wait` and `tmcl watch`: poll a module until something is true, or print values as they change.
 //!
-//! Both only read (GAP, GGP, GIO, RFS STATUS), one request at a time, so they never ask faster than the
-//! line answers, and they work on real and virtual modules alike.
+//! The polling itself is the host library's ([`tmcl_host::poll`]): both only read, one request at a time.
+//! Here: the arguments, the names of what is read, and the printing.
 
 use crate::args::{parse_byte, parse_seconds, parse_value};
 use crate::connection::{Connection, HostClient};
@@ -9,11 +9,11 @@ use crate::error::CliError;
 use crate::names::{ModelOption, Models, ParamRef, Target};
 use clap::{Args, Subcommand, ValueEnum};
 use std::io::Write;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use tmcl_core::model::Role;
-use tmcl_wire::{Instruction, Opcode, RfsAction};
+use tmcl_host::poll::{self, Comparison, Reading};
 
 /// Options of `tmcl wait`.
 #[derive(Debug, Clone, Args)]
@@ -77,51 +77,8 @@ pub enum Kind {
     Io,
 }
 
-/// A comparison of `tmcl wait value`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Comparison {
-    Eq,
-    Ne,
-    Lt,
-    Le,
-    Gt,
-    Ge,
-}
-
-impl Comparison {
-    fn holds(self, a: i32, b: i32) -> bool {
-        match self {
-            Comparison::Eq => a == b,
-            Comparison::Ne => a != b,
-            Comparison::Lt => a < b,
-            Comparison::Le => a <= b,
-            Comparison::Gt => a > b,
-            Comparison::Ge => a >= b,
-        }
-    }
-
-    fn symbol(self) -> &'static str {
-        match self {
-            Comparison::Eq => "==",
-            Comparison::Ne => "!=",
-            Comparison::Lt => "<",
-            Comparison::Le => "<=",
-            Comparison::Gt => ">",
-            Comparison::Ge => ">=",
-        }
-    }
-}
-
 fn parse_comparison(text: &str) -> Result<Comparison, String> {
-    Ok(match text.to_ascii_lowercase().as_str() {
-        "eq" | "==" | "=" => Comparison::Eq,
-        "ne" | "!=" => Comparison::Ne,
-        "lt" | "<" => Comparison::Lt,
-        "le" | "<=" => Comparison::Le,
-        "gt" | ">" => Comparison::Gt,
-        "ge" | ">=" => Comparison::Ge,
-        _ => return Err(format!("`{text}` is no comparison: use eq, ne, lt, le, gt or ge")),
-    })
+    text.parse()
 }
 
 /// One value to read: a parameter or a port.
@@ -161,13 +118,14 @@ impl Source {
         }
     }
 
-    fn read(&self, client: &mut HostClient) -> Result<i32, CliError> {
-        let instruction = match self {
-            Source::Param(target) => target.instruction(target.read_opcode(), 0),
-            Source::Port { port, bank } => Instruction::new(Opcode::Gio, *port, *bank, 0),
-            Source::Reference { motor } => return Ok(client.reference_search(RfsAction::Status, *motor)?),
-        };
-        Ok(client.request(instruction)?.value)
+    /// What the module is asked.
+    fn reading(&self) -> Reading {
+        match self {
+            Source::Param(target) if target.axis => Reading::Axis { param: target.number, motor: target.index },
+            Source::Param(target) => Reading::Global { param: target.number, bank: target.index },
+            Source::Port { port, bank } => Reading::Port { port: *port, bank: *bank },
+            Source::Reference { motor } => Reading::Reference { motor: *motor },
+        }
     }
 }
 
@@ -178,14 +136,6 @@ fn interrupted() -> Result<Arc<AtomicBool>, CliError> {
         signal_hook::flag::register(signal, Arc::clone(&flag)).map_err(CliError::Signals)?;
     }
     Ok(flag)
-}
-
-/// Sleeps until `deadline`, waking up early on an interrupt.
-fn pause_until(deadline: Instant, stop: &AtomicBool) {
-    while !stop.load(Ordering::Relaxed) {
-        let Some(left) = deadline.checked_duration_since(Instant::now()) else { return };
-        std::thread::sleep(left.min(Duration::from_millis(50)));
-    }
 }
 
 /// `tmcl wait`.
@@ -223,11 +173,9 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
         WaitFor::Value { .. } => format!("{} {} {wanted}", source.label(), op.symbol()),
     };
     let stop = interrupted()?;
-    let started = Instant::now();
-    loop {
-        let value = source.read(&mut client)?;
-        let elapsed = started.elapsed();
-        if op.holds(value, wanted) {
+    let waited = poll::wait_until(&mut client, source.reading(), op, wanted, args.every, args.within, &stop)?;
+    let (why, value) = match waited {
+        poll::Waited::Met { value, elapsed } => {
             if json {
                 let row = crate::output::Met {
                     condition: condition.to_string(),
@@ -241,20 +189,12 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
             }
             return Ok(());
         }
-        let gave_up = args.within.is_some_and(|w| elapsed >= w);
-        if gave_up || stop.load(Ordering::Relaxed) {
-            let why = match args.within {
-                Some(w) if gave_up => format!("within {} s", w.as_secs_f64()),
-                _ => "before the interrupt".into(),
-            };
-            return Err(CliError::NotMet(format!("not {why}: {condition} (last value {value})")));
+        poll::Waited::TimedOut { value } => {
+            (format!("within {} s", args.within.unwrap_or_default().as_secs_f64()), value)
         }
-        let pause = match args.within {
-            Some(w) => args.every.min(w.saturating_sub(elapsed)),
-            None => args.every,
-        };
-        pause_until(Instant::now() + pause, &stop);
-    }
+        poll::Waited::Stopped { value } => ("before the interrupt".to_string(), value),
+    };
+    Err(CliError::NotMet(format!("not {why}: {condition} (last value {value})")))
 }
 
 /// Options of `tmcl watch`.
@@ -308,33 +248,22 @@ pub(crate) fn watch(args: WatchArgs, json: bool, out: &mut dyn Write) -> Result<
         out.flush()?;
     }
     let stop = interrupted()?;
-    let started = Instant::now();
-    let mut rows = 0u64;
-    while !stop.load(Ordering::Relaxed) {
-        let t = started.elapsed();
-        if args.duration.is_some_and(|d| t > d) || args.count.is_some_and(|n| rows >= n) {
-            break;
-        }
-        let mut values = Vec::with_capacity(sources.len());
-        for source in &sources {
-            values.push(source.read(&mut client)?);
-        }
+    let readings: Vec<Reading> = sources.iter().map(Source::reading).collect();
+    let limits = poll::Limits { count: args.count, duration: args.duration };
+    poll::watch(&mut client, &readings, args.every, limits, &stop, |t, values| -> Result<(), CliError> {
         if json {
             let time_s = t.as_millis() as f64 / 1000.0;
-            crate::output::json_line(out, &crate::output::WatchRow { time_s, labels: &labels, values: &values })?;
+            crate::output::json_line(out, &crate::output::WatchRow { time_s, labels: &labels, values })?;
         } else {
             write!(out, "{:>10.3}", t.as_secs_f64())?;
-            for value in &values {
+            for value in values {
                 write!(out, "  {value:>width$}")?;
             }
             writeln!(out)?;
         }
         out.flush()?;
-        rows += 1;
-        // Row n is due n × every after the start; never before the module has answered the last one.
-        pause_until(started + args.every.saturating_mul(u32::try_from(rows).unwrap_or(u32::MAX)), &stop);
-    }
-    Ok(())
+        Ok(())
+    })
 }
 
 #[cfg(test)]
@@ -343,9 +272,7 @@ mod tests {
 
     #[test]
     fn comparisons() {
-        for (text, a, b, holds) in [("ge", 5, 5, true), (">", 5, 5, false), ("lt", -1, 0, true), ("!=", 1, 1, false)] {
-            assert_eq!(parse_comparison(text).unwrap().holds(a, b), holds, "{a} {text} {b}");
-        }
-        assert!(parse_comparison("~").is_err());
+        assert_eq!(parse_comparison(">="), Ok(Comparison::Ge));
+        assert!(parse_comparison("~").unwrap_err().contains("use eq, ne, lt, le, gt or ge"));
     }
 }
