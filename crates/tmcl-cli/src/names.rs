@@ -96,7 +96,7 @@ pub(crate) fn lookup_number(model: &'static ModelSpec, target: Target) -> Target
     Target { desc, model: Some(model), ..target }
 }
 
-/// Finds a parameter of `model` by name ([`tmcl_model::names::lookup`]); `index` is the motor of an axis
+/// Finds a parameter of `model` by name ([`tmcl_core::model::names::lookup`]); `index` is the motor of an axis
 /// parameter or the bank of a global one.
 pub(crate) fn lookup(model: &'static ModelSpec, text: &str, axis: bool, index: Option<u8>) -> Result<Target, CliError> {
     match by_name::lookup(model, text, axis, if axis { None } else { index }) {
@@ -224,7 +224,7 @@ impl Target {
     }
 
     /// A refusal of the module, explained from the tables where they say why
-    /// ([`tmcl_model::names::explain`]).
+    /// ([`tmcl_core::model::names::explain`]).
     pub(crate) fn explain(&self, err: HostError, value: Option<i32>) -> CliError {
         let HostError::Status { status, .. } = &err else { return err.into() };
         let Some(refusal) = by_name::explain(self.model, self.axis, self.index, self.number, *status, value, false)
