@@ -293,6 +293,9 @@ mod tests {
         assert!(err.ends_with("did you mean MaxPositioningSpeed?"), "{err}");
         let err = lookup(pd28(), "speed", true, None).unwrap_err().to_string();
         assert!(err.ends_with("did you mean one of TargetSpeed, ActualSpeed, MinimumSpeed?"), "{err}");
+        // The Python package's `module.get("maxspd")` names it too.
+        let err = lookup(pd28(), "maxspd", true, None).unwrap_err().to_string();
+        assert!(err.contains("MaxPositioningSpeed"), "{err}");
         let err = lookup(pd28(), "MaxPositionSpeed", true, None).unwrap_err().to_string();
         assert_eq!(
             err,
