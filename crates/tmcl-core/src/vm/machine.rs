@@ -97,8 +97,9 @@ impl Vm {
 /// moved on, past `limit`. It returns early after a command the module must act on ([`Bus::must_act`]).
 #[inline(always)]
 pub(crate) fn run<B: Bus>(bus: &mut B, limit: Instant, budget: &mut u32) -> bool {
-    // (Breakpoints change only from outside, between runs.)
-    let breakpoints = bus.parts().vm.breakpoints != [0; MAX_PROGRAM / 64];
+    // Whether any breakpoint is set: they change only from outside, between runs; looked at once, when the
+    // first instruction is due (a run that only finds its WAIT going on does not pay for it).
+    let mut breakpoints: Option<bool> = None;
     loop {
         let Parts { vm, regs, .. } = bus.parts();
         if vm.state != RunState::Running || vm.time >= limit || *budget == 0 {
@@ -120,6 +121,7 @@ pub(crate) fn run<B: Bus>(bus: &mut B, limit: Instant, budget: &mut u32) -> bool
                 }
             }
         }
+        let breakpoints = *breakpoints.get_or_insert_with(|| bus.parts().vm.breakpoints != [0; MAX_PROGRAM / 64]);
         if !breakpoints {
             // A run of plain instructions: nothing happens between two of them but the clock (no interrupt
             // becomes serviceable, no WAIT, the run state stays), so only the limit, the budget and the
