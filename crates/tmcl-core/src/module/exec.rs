@@ -173,8 +173,8 @@ impl<B: Board> Module<B> {
                 value(0)
             }
             // §3.7.32 EI / §3.7.33 DI: interrupt n (Table 12) or 255 = global.
-            C::Ei { interrupt } => self.enable_interrupt(interrupt, true),
-            C::Di { interrupt } => self.enable_interrupt(interrupt, false),
+            C::Ei { interrupt } => self.vm.enable_interrupt(&self.spec.interrupts, interrupt, true).and(value(0)),
+            C::Di { interrupt } => self.vm.enable_interrupt(&self.spec.interrupts, interrupt, false).and(value(0)),
             // Standalone-only program flow, run by the program machine (and refused from the host above),
             // and user functions, which the standard firmware does not have (§3.7.36).
             C::Comp { .. }
@@ -333,28 +333,11 @@ impl<B: Board> Module<B> {
         value(0)
     }
 
-    /// EI n / DI n (§3.7.32, §3.7.33): interrupt n of the model's table, or 255 = globally; DI n also
-    /// drops n's pending request.
-    fn enable_interrupt(&mut self, interrupt: u8, on: bool) -> Exec {
-        if interrupt == crate::model::GLOBAL_INTERRUPTS {
-            self.vm.global = on;
-        } else if self.spec.interrupts.find(interrupt).is_some() {
-            let bit = 1u64 << interrupt;
-            self.vm.enabled = if on { self.vm.enabled | bit } else { self.vm.enabled & !bit };
-            if !on {
-                self.vm.pending &= !bit;
-            }
-        } else {
-            return Err(Status::WrongType);
-        }
-        value(0)
-    }
-
     /// Command 135's value (§3.7.38). PDx-113 manual §5.5: the state alone (0 stop, 1 run, 2 step,
     /// 3 reset), type "don't care".
     fn get_status(&self, kind: StatusKind) -> i32 {
         if self.spec.app_status == AppStatusReply::Plain {
-            return self.vm.state.code();
+            return self.vm.state().code();
         }
         match kind {
             StatusKind::MemoryPointer => self.application_status(false),

@@ -12,6 +12,7 @@
 use super::decode::Op;
 use super::{alu, flags, Context, Program, Registers, RunState, Vm, Wait, INSTRUCTION_TIME, NO_VECTOR, STACK_DEPTH};
 use super::{MAX_PROGRAM, MAX_VECTORS, WAIT_TICK};
+use crate::model::{Interrupts, GLOBAL_INTERRUPTS};
 use crate::time::{Duration, Instant};
 use tmcl_wire::{Command, Status, WaitCondition};
 
@@ -78,6 +79,24 @@ impl Vm {
         if usize::from(n) < MAX_VECTORS && self.enabled & (1 << n) != 0 && self.vector(n).is_some() {
             self.pending |= 1 << n;
         }
+    }
+
+    /// EI n / DI n (§3.7.32, §3.7.33): interrupt n of the model's table (§3.6.6.1, Table 12), or 255 =
+    /// globally; DI n also drops n's pending request. A number the model has no interrupt for: status 3
+    /// (wrong type: the type byte names it).
+    pub(crate) fn enable_interrupt(&mut self, irqs: &Interrupts, n: u8, on: bool) -> Result<(), Status> {
+        if n == GLOBAL_INTERRUPTS {
+            self.global = on;
+        } else if irqs.find(n).is_some() {
+            let bit = 1u64 << n;
+            self.enabled = if on { self.enabled | bit } else { self.enabled & !bit };
+            if !on {
+                self.pending &= !bit;
+            }
+        } else {
+            return Err(Status::WrongType);
+        }
+        Ok(())
     }
 
     /// A WAIT that has ended: ETO if it timed out, the PC past it.
