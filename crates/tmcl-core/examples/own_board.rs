@@ -53,13 +53,13 @@ impl Analog for Bench {
     }
 }
 impl SwitchInputs for Bench {
-    fn switches(&mut self) -> Switches {
+    fn switches(&mut self, _motor: usize) -> Switches {
         Switches::default()
     }
 }
 impl StepDriver for Bench {
     /// The firmware reports the microsteps it made since the last update.
-    fn update(&mut self, _now: Instant, state: &DriveState) {
+    fn update(&mut self, _motor: usize, _now: Instant, state: &DriveState) {
         let moved = state.moved << (8 - state.resolution.min(8));
         self.position += if state.reverse { -moved } else { moved };
     }

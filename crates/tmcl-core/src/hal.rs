@@ -5,6 +5,10 @@
 //! reads its load ([`LoadSensor`]) and encoder ([`EncoderCounter`]) through these traits only, each
 //! small enough for a board to implement what it has. The simulator (`tmcl-sim`) implements them; a
 //! microcontroller port implements them over its peripherals.
+//!
+//! What belongs to a motor — its stop switches, driver, load measurement and encoder — is asked for by
+//! the motor's index (`motor`, 0 to the model's motors − 1); a one-motor board is only ever asked for
+//! motor 0.
 
 use crate::time::Instant;
 use core::fmt::Debug;
@@ -92,7 +96,7 @@ pub mod driver_flag {
 pub trait SwitchInputs {
     /// The reference switches, as they are now (the board knows where the axis is from
     /// [`StepDriver::update`]).
-    fn switches(&mut self) -> Switches;
+    fn switches(&mut self, motor: usize) -> Switches;
 }
 
 /// What the step generator asks of the motor driver, passed to [`StepDriver::update`].
@@ -179,18 +183,18 @@ pub trait StepDriver {
     /// that what the core reads between those ticks would have read as before the run: the switches,
     /// inputs, flags and the load value (every new load measurement reads `load`), and the encoder
     /// counts moving monotonically with the step counter.
-    fn update(&mut self, now: Instant, state: &DriveState);
+    fn update(&mut self, motor: usize, now: Instant, state: &DriveState);
 
     /// Applies driver settings that change rarely. A board without them ignores the call (the default).
-    fn configure(&mut self, settings: &DriverSettings) {
-        let _ = settings;
+    fn configure(&mut self, motor: usize, settings: &DriverSettings) {
+        let _ = (motor, settings);
     }
 
     /// Whether, at `now` and with the driver last updated to `state`, the board is in a [`Quiet`]
     /// window, and how far it reaches. `None` (the default, for a board that cannot tell): the core
     /// reports every motion tick.
-    fn quiet(&mut self, now: Instant, state: &DriveState) -> Option<Quiet> {
-        let _ = (now, state);
+    fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet> {
+        let _ = (motor, now, state);
         None
     }
 }
@@ -199,19 +203,22 @@ pub trait StepDriver {
 pub trait LoadSensor {
     /// The load value 0..=1023 of the last measurement (AP 206); 0 = maximum load. A board without a
     /// load measurement reads 1023, no load (the default).
-    fn load(&mut self) -> u16 {
+    fn load(&mut self, motor: usize) -> u16 {
+        let _ = motor;
         1023
     }
 
     /// How many load measurements the driver has taken since power-up (wrapping). Each new one is a new
     /// [`LoadSensor::load`] reading: the core runs one coolStep step per measurement
     /// ([`crate::drive::coolstep`]). A board without them never measures (the default, 0).
-    fn load_measurements(&mut self) -> u32 {
+    fn load_measurements(&mut self, motor: usize) -> u32 {
+        let _ = motor;
         0
     }
 
     /// The driver's error flags (AP 208 on the PD28-1021); none by default.
-    fn driver_flags(&mut self) -> u8 {
+    fn driver_flags(&mut self, motor: usize) -> u8 {
+        let _ = motor;
         0
     }
 }
@@ -222,7 +229,8 @@ pub trait EncoderCounter {
     /// [`tmcl_model::Encoder::counts_per_rev`] per revolution). A board without an encoder reads 0.
     /// With an SSI encoder selected ([`DriverSettings::ssi_encoder`]) the reading is the absolute angle
     /// within one revolution, 0..counts per revolution; the firmware counts the turns.
-    fn encoder_counts(&mut self) -> i64 {
+    fn encoder_counts(&mut self, motor: usize) -> i64 {
+        let _ = motor;
         0
     }
 }
@@ -242,14 +250,18 @@ forward! {
     Inputs { fn digital_inputs(&mut self) -> u8; }
     Outputs { fn set_outputs(&mut self, bits: u8); }
     Analog { fn analog_input(&mut self, channel: u8) -> u16; fn temperature(&mut self) -> i32; fn supply_voltage(&mut self) -> u16; }
-    SwitchInputs { fn switches(&mut self) -> Switches; }
+    SwitchInputs { fn switches(&mut self, motor: usize) -> Switches; }
     StepDriver {
-        fn update(&mut self, now: Instant, state: &DriveState);
-        fn configure(&mut self, settings: &DriverSettings);
-        fn quiet(&mut self, now: Instant, state: &DriveState) -> Option<Quiet>;
+        fn update(&mut self, motor: usize, now: Instant, state: &DriveState);
+        fn configure(&mut self, motor: usize, settings: &DriverSettings);
+        fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet>;
     }
-    LoadSensor { fn load(&mut self) -> u16; fn load_measurements(&mut self) -> u32; fn driver_flags(&mut self) -> u8; }
-    EncoderCounter { fn encoder_counts(&mut self) -> i64; }
+    LoadSensor {
+        fn load(&mut self, motor: usize) -> u16;
+        fn load_measurements(&mut self, motor: usize) -> u32;
+        fn driver_flags(&mut self, motor: usize) -> u8;
+    }
+    EncoderCounter { fn encoder_counts(&mut self, motor: usize) -> i64; }
 }
 
 /// Everything a module needs from its board: one trait per capability, so a board implements what it

@@ -14,6 +14,8 @@
 //! - [`drive`]: coolStep, stop on stall, the encoder checks, the closed loop and the emulated TMC428, as
 //!   pure functions and state of their own.
 //! - [`iface`]: per host interface a framer, an outbox and an ASCII line.
+//! - [`axis`]: one motor's state ([`axis::Axis`]: parameters, ramp, reference search, coolStep, encoder,
+//!   closed loop), one per motor of the model ([`axis::Axes`]).
 //! - [`vm`]: the program machine's state: program memory, registers, run state, stack, interrupts.
 //! - [`module`]: [`Module`], the root that ties the components together and the only part that knows
 //!   all of them: bytes in and replies out (`module/host.rs`, `module/ascii.rs`), the dispatcher
@@ -26,6 +28,7 @@
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 
+pub mod axis;
 pub mod drive;
 pub mod hal;
 pub mod iface;

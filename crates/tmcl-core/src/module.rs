@@ -25,21 +25,20 @@
 //!   protection (GP 81), coordinate storage (GP 84): none; no "do not restore" (GP 85): user variables
 //!   are always restored.
 
+use crate::axis::Axes;
 use crate::drive::closed_loop::ClosedLoop;
-use crate::drive::coolstep::CoolStep;
 use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
 use crate::model::{Kinematics, ModelSpec, Setting};
-use crate::motion::{Limits, Ramp, RampParams, Reference};
+use crate::motion::{Limits, Ramp, RampParams};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
 use crate::vm::{Program, Vm};
-use tmcl_model::capacity::{
-    MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES,
-};
+use tmcl_model::capacity::{MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES};
 use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
+pub use crate::axis::{Axis, EncoderBase};
 pub use crate::drive::error_flags;
 pub use crate::iface::MAILBOX_LEN;
 pub use crate::vm::{flags, Registers};
@@ -72,25 +71,14 @@ pub(crate) struct EventRequest {
     pub port: u8,
 }
 
-/// The encoder counter's reference point: AP 209 = `value` + (counts − `counts`) × prescaler.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct EncoderBase {
-    /// Encoder counts (logical direction) at the reference.
-    pub counts: i64,
-    /// AP 209 at the reference.
-    pub value: i32,
-}
-
 /// Everything the firmware keeps in RAM, except program memory and the program machine: no heap.
 #[derive(Debug, Clone)]
 pub struct State {
-    pub(crate) axis: [i32; MAX_AXIS_PARAMS],
+    /// The motors, one [`Axis`] each (`crate::axis`).
+    pub(crate) axes: Axes,
     pub(crate) global: [i32; MAX_GLOBAL_PARAMS],
     pub(crate) interrupt: [i32; MAX_INTERRUPT_PARAMS],
     pub(crate) user: [i32; MAX_USER_VARIABLES],
-    pub(crate) coords: [i32; MAX_COORDINATES],
-    pub(crate) ramp: Ramp,
-    pub(crate) reference: Reference,
     /// The program's registers.
     pub(crate) regs: Registers,
     /// The host's registers (direct-mode CALC and friends), kept apart so that a host never disturbs a
@@ -101,7 +89,7 @@ pub struct State {
     pub(crate) ports: [Port; crate::iface::PORTS],
     /// The interface whose command runs (a 138 event goes back there).
     pub(crate) asking_port: u8,
-    /// Time up to which motion has been simulated (tick aligned).
+    /// Time up to which motion has been simulated (tick aligned; one clock for every motor).
     pub(crate) motion_time: Instant,
     /// The latest time the module has been told.
     pub(crate) now: Instant,
@@ -111,51 +99,23 @@ pub struct State {
     /// When the last command addressed to this module arrived (GP 68 heartbeat).
     pub(crate) last_command: Instant,
     pub(crate) heartbeat_tripped: bool,
-    /// Since when the motor stands still (`None` while it moves).
-    pub(crate) standstill_since: Option<Instant>,
-    /// The last tick changed the speed (boost current, AP 200).
-    pub(crate) ramping: bool,
-    pub(crate) encoder: EncoderBase,
-    /// AP 207.
-    pub(crate) error_flags: u8,
     /// The outputs as last set (bit n = OUTn).
     pub(crate) outputs: u8,
     /// GP 65 as it was at the last start (a new baud rate needs a restart, manual §5.1).
     pub(crate) active_baud: u8,
     /// Password-protected parameters may be written (see [`crate::model::Role::Password`]).
     pub(crate) unlocked: bool,
-    /// Steps moved since the board was last updated.
-    pub(crate) unreported_steps: i64,
-    /// What the board was last told (with `moved` = 0), to skip updates that change nothing.
-    pub(crate) last_drive: Option<DriveState>,
-    /// When the board was last told.
-    pub(crate) board_time: Instant,
-    /// When the driver current next changes on its own (standby, freewheeling), if it will.
-    pub(crate) drive_due: Option<Instant>,
-    /// The coolStep regulator (AP 168–183).
-    pub(crate) coolstep: CoolStep,
-    /// The board's stallGuard2 measurement count at the last look.
-    pub(crate) load_measurements: u32,
-    /// Encoder counts at the last look (clear-on-null).
-    pub(crate) last_counts: i64,
-    /// The closed loop (closed-loop models).
-    pub(crate) cl: ClosedLoop,
-    /// An SSI encoder's last reading and the counts it adds up to.
-    pub(crate) ssi: (i64, i64),
     /// The TMC428 registers SAC reaches that no firmware state stands behind (TMC428-generation models).
     pub(crate) tmc428: crate::drive::tmc428::Tmc428Regs,
 }
 
 impl State {
-    fn new(now: Instant) -> State {
+    fn new(motors: u8, now: Instant) -> State {
         State {
-            axis: [0; MAX_AXIS_PARAMS],
+            axes: Axes::new(motors, now),
             global: [0; MAX_GLOBAL_PARAMS],
             interrupt: [0; MAX_INTERRUPT_PARAMS],
             user: [0; MAX_USER_VARIABLES],
-            coords: [0; MAX_COORDINATES],
-            ramp: Ramp::default(),
-            reference: Reference::Idle,
             regs: Registers::default(),
             host_regs: Registers::default(),
             event: EventRequest::default(),
@@ -167,29 +127,21 @@ impl State {
             rng: RNG_SEED,
             last_command: now,
             heartbeat_tripped: false,
-            standstill_since: Some(now),
-            ramping: false,
-            encoder: EncoderBase::default(),
-            error_flags: 0,
             outputs: 0,
             active_baud: 0,
             unlocked: false,
-            unreported_steps: 0,
-            last_drive: None,
-            board_time: now,
-            drive_due: None,
-            coolstep: CoolStep::new(),
-            load_measurements: 0,
-            last_counts: 0,
-            cl: ClosedLoop::default(),
-            ssi: (0, 0),
             tmc428: Default::default(),
         }
     }
 
-    /// The closed loop's state (closed-loop models).
+    /// The motors.
+    pub fn axes(&self) -> &Axes {
+        &self.axes
+    }
+
+    /// The closed loop's state of motor 0 (closed-loop models).
     pub fn closed_loop(&self) -> &ClosedLoop {
-        &self.cl
+        &self.axes[0].cl
     }
 
     /// The state of host interface `port` (framer, outbox, ASCII line), if the core has it.
@@ -265,7 +217,7 @@ impl<B: Board> Module<B> {
         Module {
             board: Seam::new(board),
             spec,
-            st: State::new(now),
+            st: State::new(spec.motors, now),
             vm: Vm::default(),
             program: Program::default(),
             exact: false,
@@ -321,15 +273,26 @@ impl<B: Board> Module<B> {
         self.st.host_regs
     }
 
-    /// The error flags AP 207 reads (see [`error_flags`]), without clearing them as a GAP 207 does: for an
-    /// observer that must not take them from the host (the EtherCAT process data).
+    /// Motor 0's error flags AP 207 reads (see [`error_flags`]), without clearing them as a GAP 207 does:
+    /// for an observer that must not take them from the host (the EtherCAT process data). Another motor's:
+    /// [`Axis::error_flags`] of [`Module::axis`].
     pub fn error_flags(&self) -> u8 {
-        self.st.error_flags
+        self.st.axes[0].error_flags
     }
 
-    /// The ramp generator (positions, velocity).
+    /// Motor 0's ramp generator (positions, velocity); another motor's: [`Axis::ramp`] of [`Module::axis`].
     pub fn ramp(&self) -> &Ramp {
-        &self.st.ramp
+        &self.st.axes[0].ramp
+    }
+
+    /// Motor `m`'s state, if the model has motor `m`.
+    pub fn axis(&self, m: usize) -> Option<&Axis> {
+        self.st.axes.get(m)
+    }
+
+    /// How many motors the module drives (the model's, 1 to [`tmcl_model::capacity::MAX_MOTORS`]).
+    pub fn motors(&self) -> usize {
+        self.st.axes.count()
     }
 
     /// The module (primary) address: GP 66, or 1 for a model without one.
@@ -361,8 +324,8 @@ impl<B: Board> Module<B> {
 
     /// The value of the axis parameter with `setting`, if the model has one.
     #[inline]
-    pub(crate) fn ap(&self, setting: Setting) -> Option<i32> {
-        self.spec.axis.setting(setting).map(|i| self.st.axis[i])
+    pub(crate) fn ap(&self, m: usize, setting: Setting) -> Option<i32> {
+        self.spec.axis.setting(setting).map(|i| self.st.axes[m].params[i])
     }
 
     /// The value of the bank 0 parameter with `setting`, if the model has one.
@@ -378,27 +341,27 @@ impl<B: Board> Module<B> {
     }
 
     /// Sets the axis parameter with `setting` (results the firmware produces, e.g. AP 196/197).
-    pub(crate) fn set_ap(&mut self, setting: Setting, v: i32) {
+    pub(crate) fn set_ap(&mut self, m: usize, setting: Setting, v: i32) {
         if let Some(i) = self.spec.axis.setting(setting) {
-            self.st.axis[i] = v;
+            self.st.axes[m].params[i] = v;
         }
     }
 
     /// A velocity in the model's unit as microsteps per second (the ramp's unit).
     #[inline]
-    pub(crate) fn units_to_pps(&self, v: i32) -> i32 {
+    pub(crate) fn units_to_pps(&self, m: usize, v: i32) -> i32 {
         match self.spec.kinematics {
             Kinematics::Pps => v,
-            k => k.velocity_to_pps(v, self.ap(Setting::PulseDivisor).unwrap_or(0)),
+            k => k.velocity_to_pps(v, self.ap(m, Setting::PulseDivisor).unwrap_or(0)),
         }
     }
 
     /// A velocity in microsteps per second in the model's unit.
     #[inline]
-    pub(crate) fn pps_to_units(&self, pps: i32) -> i32 {
+    pub(crate) fn pps_to_units(&self, m: usize, pps: i32) -> i32 {
         match self.spec.kinematics {
             Kinematics::Pps => pps,
-            k => k.pps_to_velocity(pps, self.ap(Setting::PulseDivisor).unwrap_or(0)),
+            k => k.pps_to_velocity(pps, self.ap(m, Setting::PulseDivisor).unwrap_or(0)),
         }
     }
 
@@ -411,16 +374,19 @@ impl<B: Board> Module<B> {
         }
         // Replies already queued (the reply of 255 itself) still go out.
         let outboxes = self.st.ports.each_mut().map(|p| core::mem::take(&mut p.outbox));
-        self.st = State::new(now);
+        self.st = State::new(spec.motors, now);
         for (port, outbox) in self.st.ports.iter_mut().zip(outboxes) {
             port.outbox = outbox;
         }
-        self.st.ramp.set_position_bits(spec.kinematics.position_bits());
-        for (i, d) in spec.axis.params.iter().enumerate() {
-            self.st.axis[i] = d.default;
-            if d.access.persistent() {
-                if let Ok(v) = persist::load_axis(&mut self.board, spec, i) {
-                    self.st.axis[i] = if d.range.contains(v) { v } else { d.default };
+        for m in 0..self.st.axes.count() {
+            let axis = &mut self.st.axes[m];
+            axis.ramp.set_position_bits(spec.kinematics.position_bits());
+            for (i, d) in spec.axis.params.iter().enumerate() {
+                axis.params[i] = d.default;
+                if d.access.persistent() {
+                    if let Ok(v) = persist::load_axis(&mut self.board, spec, m, i) {
+                        axis.params[i] = if d.range.contains(v) { v } else { d.default };
+                    }
                 }
             }
         }
@@ -444,17 +410,24 @@ impl<B: Board> Module<B> {
         }
         // §3.7.24: with GP 84 = 1 the coordinates are copied back at start-up.
         if self.gp_flag(Setting::CoordinateStorage) {
-            for n in 1..=spec.coordinates {
-                self.st.coords[usize::from(n)] = persist::load_coordinate(&mut self.board, spec, n).unwrap_or(0);
+            for m in 0..self.st.axes.count() {
+                for n in 1..=spec.coordinates {
+                    self.st.axes[m].coords[usize::from(n)] =
+                        persist::load_coordinate(&mut self.board, spec, m, n).unwrap_or(0);
+                }
             }
         }
         self.st.active_baud = self.gp(Setting::BaudRate).unwrap_or(0) as u8;
-        self.configure_driver();
-        let counts = self.encoder_counts_now();
-        self.st.encoder = EncoderBase { counts, value: 0 };
-        self.st.last_counts = counts;
+        for m in 0..self.st.axes.count() {
+            self.configure_driver(m);
+            let counts = self.encoder_counts_now(m);
+            self.st.axes[m].encoder = EncoderBase { counts, value: 0 };
+            self.st.axes[m].last_counts = counts;
+        }
         self.board.set_outputs(0);
-        self.update_board(now);
+        for m in 0..self.st.axes.count() {
+            self.update_board(m, now);
+        }
         self.vm = Vm::default();
         self.vm.time = now;
         self.read_program();
@@ -473,16 +446,16 @@ impl<B: Board> Module<B> {
         }
     }
 
-    pub(crate) fn ramp_params(&self) -> RampParams {
+    pub(crate) fn ramp_params(&self, m: usize) -> RampParams {
         // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
         let (v, a) =
-            (self.ap(Setting::MaxPositioningSpeed).unwrap_or(1), self.ap(Setting::MaxAcceleration).unwrap_or(1));
-        let v_min = self.ap(Setting::MinimumSpeed).unwrap_or(0);
+            (self.ap(m, Setting::MaxPositioningSpeed).unwrap_or(1), self.ap(m, Setting::MaxAcceleration).unwrap_or(1));
+        let v_min = self.ap(m, Setting::MinimumSpeed).unwrap_or(0);
         match self.spec.kinematics {
             Kinematics::Pps => RampParams { max_speed: v, max_accel: a, min_speed: v_min },
             k => {
-                let pulse = self.ap(Setting::PulseDivisor).unwrap_or(0);
-                let ramp = self.ap(Setting::RampDivisor).unwrap_or(0);
+                let pulse = self.ap(m, Setting::PulseDivisor).unwrap_or(0);
+                let ramp = self.ap(m, Setting::RampDivisor).unwrap_or(0);
                 RampParams {
                     max_speed: k.velocity_to_pps(v, pulse).max(1),
                     max_accel: k.acceleration_to_pps2(a, pulse, ramp).max(1),
@@ -493,22 +466,22 @@ impl<B: Board> Module<B> {
     }
 
     /// Logical switch states (AP 9, 10, 11): GP 79 reverses the polarity of the end switches.
-    pub(crate) fn switches(&mut self) -> (bool, bool, bool) {
-        let s = self.board.switches();
+    pub(crate) fn switches(&mut self, m: usize) -> (bool, bool, bool) {
+        let s = self.board.switches(m);
         let invert = self.gp_flag(Setting::EndSwitchPolarity);
         (s.left ^ invert, s.right ^ invert, s.home)
     }
 
-    pub(crate) fn limits(&mut self) -> Limits {
-        if self.st.reference.is_active() {
+    pub(crate) fn limits(&mut self, m: usize) -> Limits {
+        if self.st.axes[m].reference.is_active() {
             // The reference search handles the switches itself (§7.1: AP 12/13 do not affect it).
             return Limits::default();
         }
-        let (left, right, _) = self.switches();
+        let (left, right, _) = self.switches(m);
         let enabled = |disable: Option<i32>| disable.unwrap_or(0) == 0;
         Limits {
-            block_negative: left && enabled(self.ap(Setting::LeftSwitchDisable)),
-            block_positive: right && enabled(self.ap(Setting::RightSwitchDisable)),
+            block_negative: left && enabled(self.ap(m, Setting::LeftSwitchDisable)),
+            block_positive: right && enabled(self.ap(m, Setting::RightSwitchDisable)),
         }
     }
 
@@ -523,29 +496,29 @@ impl<B: Board> Module<B> {
 
     /// Time after the motor stopped given in `setting` (10 ms units), if the model has it and it is set.
     #[inline]
-    fn delay(&self, setting: Setting) -> Option<Duration> {
-        self.ap(setting).filter(|d| *d > 0).map(|d| Duration::from_millis(d as u64 * 10))
+    fn delay(&self, m: usize, setting: Setting) -> Option<Duration> {
+        self.ap(m, setting).filter(|d| *d > 0).map(|d| Duration::from_millis(d as u64 * 10))
     }
 
     /// The current setting now (AP 6, 7, 200, 204, 214, 167) and whether the driver is on.
     #[inline]
-    pub(crate) fn current(&self, now: Instant) -> (u8, bool) {
-        if self.ap(Setting::ChopperOffTime) == Some(0) {
+    pub(crate) fn current(&self, m: usize, now: Instant) -> (u8, bool) {
+        if self.ap(m, Setting::ChopperOffTime) == Some(0) {
             return (0, false); // AP 167 = 0 "completely disables all driver transistors"
         }
-        if let Some(current) = self.closed_loop_current() {
+        if let Some(current) = self.closed_loop_current(m) {
             // The closed loop sets the current itself (scaling, torque mode): no standby, no freewheeling.
             return (current, true);
         }
-        match self.st.standstill_since {
-            None => (self.regulated_current(self.run_current()), true),
+        match self.st.axes[m].standstill_since {
+            None => (self.regulated_current(m, self.run_current(m)), true),
             Some(since) => {
                 let still = now - since;
-                let run = self.ap(Setting::RunCurrent).unwrap_or(255);
-                if self.delay(Setting::FreewheelingDelay).is_some_and(|d| still >= d) {
+                let run = self.ap(m, Setting::RunCurrent).unwrap_or(255);
+                if self.delay(m, Setting::FreewheelingDelay).is_some_and(|d| still >= d) {
                     (0, false)
-                } else if self.delay(Setting::PowerDownDelay).is_some_and(|d| still >= d) {
-                    (self.ap(Setting::StandbyCurrent).unwrap_or(run) as u8, true)
+                } else if self.delay(m, Setting::PowerDownDelay).is_some_and(|d| still >= d) {
+                    (self.ap(m, Setting::StandbyCurrent).unwrap_or(run) as u8, true)
                 } else {
                     (run as u8, true)
                 }
@@ -556,28 +529,28 @@ impl<B: Board> Module<B> {
     /// The current for a moving motor before coolStep: the boost current AP 200 while the speed changes
     /// (if not 0), else the run current AP 6 (Table 22). AP 200 is not looked up while cruising.
     #[inline]
-    pub(crate) fn run_current(&self) -> i32 {
-        let boost = if self.st.ramping { self.ap(Setting::BoostCurrent).unwrap_or(0) } else { 0 };
+    pub(crate) fn run_current(&self, m: usize) -> i32 {
+        let boost = if self.st.axes[m].ramping { self.ap(m, Setting::BoostCurrent).unwrap_or(0) } else { 0 };
         if boost != 0 {
             boost
         } else {
-            self.ap(Setting::RunCurrent).unwrap_or(255)
+            self.ap(m, Setting::RunCurrent).unwrap_or(255)
         }
     }
 
-    pub(crate) fn update_board(&mut self, now: Instant) {
-        let (current, enabled) = self.current(now);
+    pub(crate) fn update_board(&mut self, m: usize, now: Instant) {
+        let (current, enabled) = self.current(m, now);
         let state = DriveState {
-            moved: self.st.unreported_steps,
-            position: self.st.ramp.position,
-            velocity: self.st.ramp.velocity(),
-            resolution: self.microstep_resolution(),
+            moved: self.st.axes[m].unreported_steps,
+            position: self.st.axes[m].ramp.position,
+            velocity: self.st.axes[m].ramp.velocity(),
+            resolution: self.microstep_resolution(m),
             current,
             enabled,
             reverse: self.gp_flag(Setting::ReverseShaft),
         };
-        self.st.drive_due = self.st.standstill_since.and_then(|since| {
-            [self.delay(Setting::PowerDownDelay), self.delay(Setting::FreewheelingDelay)]
+        self.st.axes[m].drive_due = self.st.axes[m].standstill_since.and_then(|since| {
+            [self.delay(m, Setting::PowerDownDelay), self.delay(m, Setting::FreewheelingDelay)]
                 .into_iter()
                 .flatten()
                 .map(|d| since + d)
@@ -585,36 +558,43 @@ impl<B: Board> Module<B> {
                 .min()
         });
         let unchanged = DriveState { moved: 0, ..state };
-        if state.moved == 0 && self.st.last_drive == Some(unchanged) {
+        if state.moved == 0 && self.st.axes[m].last_drive == Some(unchanged) {
             return;
         }
-        self.st.unreported_steps = 0;
-        self.st.last_drive = Some(unchanged);
-        self.st.board_time = now;
-        self.board.update(now, &state);
+        self.st.axes[m].unreported_steps = 0;
+        self.st.axes[m].last_drive = Some(unchanged);
+        self.st.axes[m].board_time = now;
+        self.board.update(m, now, &state);
+    }
+
+    /// Tells the board every motor's drive state at `now` (after a command that may have changed any).
+    pub(crate) fn update_boards(&mut self, now: Instant) {
+        for m in 0..self.st.axes.count() {
+            self.update_board(m, now);
+        }
     }
 
     /// Brings the board to `now` before a read of something that changes with its own clock (a bouncing
     /// switch, the driver's standstill flag): an update with what it was last told, if it has not heard
     /// from the module since. Outside the motion ticks the board's clock would otherwise be wherever the
     /// caller's polls left it.
-    pub(crate) fn sync_board(&mut self, now: Instant) {
-        if now <= self.st.board_time {
+    pub(crate) fn sync_board(&mut self, m: usize, now: Instant) {
+        if now <= self.st.axes[m].board_time {
             return;
         }
-        self.update_board(now);
-        if self.st.board_time < now {
-            if let Some(state) = self.st.last_drive {
-                self.st.board_time = now;
+        self.update_board(m, now);
+        if self.st.axes[m].board_time < now {
+            if let Some(state) = self.st.axes[m].last_drive {
+                self.st.axes[m].board_time = now;
                 // The same state again, only to bring the board's clock on: no change (`module/seam.rs`).
-                self.board.timeline().update(now, &state);
+                self.board.timeline().update(m, now, &state);
             }
         }
     }
 
     /// The microstep resolution as a power of two (AP 140); 8 (256 microsteps) for a model without it.
     #[inline]
-    pub(crate) fn microstep_resolution(&self) -> u8 {
-        self.spec.axis.role(crate::model::Role::MicrostepResolution).map_or(8, |i| self.st.axis[i] as u8)
+    pub(crate) fn microstep_resolution(&self, m: usize) -> u8 {
+        self.spec.axis.role(crate::model::Role::MicrostepResolution).map_or(8, |i| self.st.axes[m].params[i] as u8)
     }
 }

@@ -100,7 +100,7 @@ pub fn read_inputs<B: Board>(module: &mut Module<B>, map: &EtherCatDesc, out: &m
                 param_number(spec, role).and_then(|p| module.get_axis(p).ok()).unwrap_or(0) as u32
             }
             InputSource::ErrorAndDriverFlags => {
-                u32::from(module.error_flags()) | u32::from(module.board_timeline().driver_flags()) << 8
+                u32::from(module.error_flags()) | u32::from(module.board_timeline().driver_flags(0)) << 8
             }
         };
         slot.copy_from_slice(&v.to_le_bytes());

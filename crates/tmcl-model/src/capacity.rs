@@ -3,14 +3,14 @@
 //! arrays with the same constants, so a model that does not fit fails to compile instead of panicking
 //! or overlapping memory at start-up.
 
-/// Motors (axes) the core drives.
-pub const MAX_MOTORS: u8 = 1;
+/// Motors (axes) the core drives: a model has 1 to this many (the TMCM-6110 family has six).
+pub const MAX_MOTORS: u8 = 6;
 /// Axis parameter slots per motor (the PD28-1021 has 58, the TMCM-1310 97).
 pub const MAX_AXIS_PARAMS: usize = 112;
 /// Bank 0 slots (19 on the PD28-1021).
 pub const MAX_GLOBAL_PARAMS: usize = 32;
 /// Bank 3 slots (9 on the PD28-1021).
-pub const MAX_INTERRUPT_PARAMS: usize = 16;
+pub const MAX_INTERRUPT_PARAMS: usize = 24;
 /// User variables in bank 2 (the type byte addresses 0..=255).
 pub const MAX_USER_VARIABLES: usize = 256;
 /// Coordinates per axis, coordinate 0 included (20 + 1 on the PD28-1021).

@@ -2,26 +2,29 @@
 //! event that raises it ([`Source`]) and the bank 3 parameter that configures it, so the firmware fires a
 //! model's vectors from its table and knows nothing of their numbers.
 
-use crate::capacity::{MAX_TIMERS, MAX_VECTORS};
+use crate::capacity::{MAX_MOTORS, MAX_TIMERS, MAX_VECTORS};
 
 /// The global interrupt switch of EI/DI (PD28-1021 manual §3.7.32).
 pub const GLOBAL_INTERRUPTS: u8 = 255;
 
-/// The event behind an interrupt vector. Every source belongs to axis 0 (the firmware drives one axis).
+/// The event behind an interrupt vector. The motion sources name their motor (0 = the first): Table 12
+/// of the PD28-1021 manual numbers them per axis ("Target position reached 0", "stallGuard axis 0",
+/// "Deviation axis 0", "Left stop switch 0", "Right stop switch 0") and leaves the numbers between for
+/// further axes (3.., 15.., 21.., 27/28..).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Source {
     /// Timer n: fires every period (its configuration parameter, in ms; 0 = off).
     Timer(u8),
-    /// The target position was reached.
-    TargetReached,
-    /// stallGuard stopped the motor.
-    Stall,
-    /// The encoder deviation check stopped the motor.
-    Deviation,
-    /// A transition of the left stop switch (its configuration parameter selects which).
-    LeftStop,
-    /// A transition of the right stop switch.
-    RightStop,
+    /// Motor n reached its target position.
+    TargetReached(u8),
+    /// stallGuard stopped motor n.
+    Stall(u8),
+    /// The encoder deviation check stopped motor n.
+    Deviation(u8),
+    /// A transition of motor n's left stop switch (its configuration parameter selects which).
+    LeftStop(u8),
+    /// A transition of motor n's right stop switch.
+    RightStop(u8),
     /// A transition of digital input n.
     Input(u8),
 }
@@ -29,7 +32,7 @@ pub enum Source {
 impl Source {
     /// Whether the source is a level whose transitions raise it (switches and inputs).
     pub const fn is_level(self) -> bool {
-        matches!(self, Source::LeftStop | Source::RightStop | Source::Input(_))
+        matches!(self, Source::LeftStop(_) | Source::RightStop(_) | Source::Input(_))
     }
 }
 
@@ -63,9 +66,9 @@ pub struct Interrupts {
     /// Bit n: vector n watches a switch or an input level.
     pub levels_mask: u64,
     timers: [u8; MAX_TIMERS],
-    target_reached: u8,
-    stall: u8,
-    deviation: u8,
+    target_reached: [u8; MAX_MOTORS as usize],
+    stall: [u8; MAX_MOTORS as usize],
+    deviation: [u8; MAX_MOTORS as usize],
 }
 
 impl Interrupts {
@@ -78,9 +81,9 @@ impl Interrupts {
             timers_mask: 0,
             levels_mask: 0,
             timers: [NONE; MAX_TIMERS],
-            target_reached: NONE,
-            stall: NONE,
-            deviation: NONE,
+            target_reached: [NONE; MAX_MOTORS as usize],
+            stall: [NONE; MAX_MOTORS as usize],
+            deviation: [NONE; MAX_MOTORS as usize],
         };
         let mut i = 0;
         while i < list.len() {
@@ -96,19 +99,22 @@ impl Interrupts {
                     t.timers[n as usize] = d.number;
                     t.timers_mask |= bit;
                 }
-                Source::TargetReached => {
-                    assert!(t.target_reached == NONE, "two target-reached vectors");
-                    t.target_reached = d.number;
+                Source::TargetReached(m) => {
+                    assert!((m as usize) < MAX_MOTORS as usize, "a motor the firmware does not drive");
+                    assert!(t.target_reached[m as usize] == NONE, "two target-reached vectors for a motor");
+                    t.target_reached[m as usize] = d.number;
                 }
-                Source::Stall => {
-                    assert!(t.stall == NONE, "two stall vectors");
-                    t.stall = d.number;
+                Source::Stall(m) => {
+                    assert!((m as usize) < MAX_MOTORS as usize, "a motor the firmware does not drive");
+                    assert!(t.stall[m as usize] == NONE, "two stall vectors for a motor");
+                    t.stall[m as usize] = d.number;
                 }
-                Source::Deviation => {
-                    assert!(t.deviation == NONE, "two deviation vectors");
-                    t.deviation = d.number;
+                Source::Deviation(m) => {
+                    assert!((m as usize) < MAX_MOTORS as usize, "a motor the firmware does not drive");
+                    assert!(t.deviation[m as usize] == NONE, "two deviation vectors for a motor");
+                    t.deviation[m as usize] = d.number;
                 }
-                Source::LeftStop | Source::RightStop | Source::Input(_) => t.levels_mask |= bit,
+                Source::LeftStop(_) | Source::RightStop(_) | Source::Input(_) => t.levels_mask |= bit,
             }
             i += 1;
         }
@@ -132,22 +138,22 @@ impl Interrupts {
         self.timers.get(n).copied().filter(|v| *v != NONE)
     }
 
-    /// The vector number of the target-reached interrupt.
+    /// The vector number of motor `motor`'s target-reached interrupt, if the model has one.
     #[inline]
-    pub fn target_reached(&self) -> Option<u8> {
-        (self.target_reached != NONE).then_some(self.target_reached)
+    pub fn target_reached(&self, motor: usize) -> Option<u8> {
+        self.target_reached.get(motor).copied().filter(|v| *v != NONE)
     }
 
-    /// The vector number of the stall interrupt.
+    /// The vector number of motor `motor`'s stall interrupt, if the model has one.
     #[inline]
-    pub fn stall(&self) -> Option<u8> {
-        (self.stall != NONE).then_some(self.stall)
+    pub fn stall(&self, motor: usize) -> Option<u8> {
+        self.stall.get(motor).copied().filter(|v| *v != NONE)
     }
 
-    /// The vector number of the deviation interrupt.
+    /// The vector number of motor `motor`'s deviation interrupt, if the model has one.
     #[inline]
-    pub fn deviation(&self) -> Option<u8> {
-        (self.deviation != NONE).then_some(self.deviation)
+    pub fn deviation(&self, motor: usize) -> Option<u8> {
+        self.deviation.get(motor).copied().filter(|v| *v != NONE)
     }
 
     /// Number of vectors.

@@ -35,6 +35,8 @@ pub mod param;
 pub mod pd28_1021;
 pub mod pd_113;
 pub mod port;
+#[cfg(any(test, feature = "test-support"))]
+pub mod test_three_axes;
 pub mod tmcm_1140;
 pub mod tmcm_1310;
 pub mod tmcm_3110;
@@ -186,7 +188,9 @@ impl FitError {
             FitError::ProgramMemory => "program memory is 0 or exceeds capacity::MAX_PROGRAM",
             FitError::Io => "inputs/outputs exceed 8, or a port names a bit the model does not have",
             FitError::Interfaces => "a model has 1..=capacity::MAX_INTERFACES interfaces",
-            FitError::InterruptConfig => "an interrupt's configuration parameter is missing from bank 3",
+            FitError::InterruptConfig => {
+                "an interrupt's configuration parameter is missing from bank 3, or it names a motor the model lacks"
+            }
             FitError::MissingSetting => "a feature of the model lacks the setting it needs",
             FitError::AsciiCommands => "the ASCII commands must be a subset of the model's commands",
             FitError::Password => "protected parameters need a Role::Password parameter and a password",
@@ -216,7 +220,8 @@ impl ModelSpec {
     ///   [`capacity`];
     /// - every port names an input or output bit the model has;
     /// - 1..=[`MAX_INTERFACES`] interfaces;
-    /// - every interrupt's configuration parameter exists in bank 3, and timers and transitions have one;
+    /// - every interrupt's configuration parameter exists in bank 3, timers and transitions have one, and
+    ///   every motion source names a motor of the model;
     /// - the settings the model's features need: the ramp's maximum speed and acceleration, the TMC428
     ///   divisors for [`Kinematics::Tmc428`], the three reference-search settings when it has RFS, the
     ///   serial address when an interface filters by address;
@@ -267,6 +272,17 @@ impl ModelSpec {
         while i < d.interrupts.list.len() {
             let irq = &d.interrupts.list[i];
             let needs = matches!(irq.source, Source::Timer(_)) || irq.source.is_level();
+            let motor = match irq.source {
+                Source::TargetReached(m)
+                | Source::Stall(m)
+                | Source::Deviation(m)
+                | Source::LeftStop(m)
+                | Source::RightStop(m) => m,
+                Source::Timer(_) | Source::Input(_) => 0,
+            };
+            if motor >= d.motors {
+                return Err(FitError::InterruptConfig);
+            }
             match irq.config {
                 Some(n) if !d.interrupt.contains(n) => return Err(FitError::InterruptConfig),
                 None if needs => return Err(FitError::InterruptConfig),
@@ -350,7 +366,8 @@ const fn any_protected(params: &[ParamDesc]) -> bool {
 }
 
 /// Every model this build knows.
-pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC, &tmcm_1140::SPEC];
+pub static MODELS: &[&ModelSpec] =
+    &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC, &tmcm_1140::SPEC, &tmcm_3110::SPEC, &tmcm_6110::SPEC];
 
 /// Models served on another of their interfaces than the first: the same module, its interfaces in
 /// another order (the TMCM-1140 on its RS485 port instead of USB).
@@ -384,7 +401,8 @@ mod tests {
     #[test]
     fn each_capacity_is_checked() {
         let d = || pd28_1021::DESC;
-        assert_eq!(ModelSpec::check(&ModelDesc { motors: 2, ..d() }), Err(FitError::Motors));
+        assert_eq!(ModelSpec::check(&ModelDesc { motors: MAX_MOTORS + 1, ..d() }), Err(FitError::Motors));
+        assert_eq!(ModelSpec::check(&ModelDesc { motors: 0, ..d() }), Err(FitError::Motors));
         assert_eq!(ModelSpec::check(&ModelDesc { coordinates: 21, ..d() }), Err(FitError::Coordinates));
         assert_eq!(ModelSpec::check(&ModelDesc { outputs: 1, ..d() }), Err(FitError::Io), "OUT1 has no bit");
         assert_eq!(ModelSpec::check(&ModelDesc { interfaces: &[], ..d() }), Err(FitError::Interfaces));

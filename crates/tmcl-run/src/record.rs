@@ -193,7 +193,7 @@ impl Recorder {
         }
         let outputs = module.board().outputs();
         let inputs = module.board_timeline().digital_inputs();
-        let s = module.board_timeline().switches();
+        let s = module.board_timeline().switches(0);
         let switches = u8::from(s.home) | u8::from(s.left) << 1 | u8::from(s.right) << 2;
         if self.last_levels != Some((inputs, outputs, switches)) {
             self.last_levels = Some((inputs, outputs, switches));

@@ -24,7 +24,7 @@ fn bench(world: &str, velocity: i32, back_and_forth: bool, ticks: u32) -> (f64, 
     // Warm up.
     for _ in 0..1000 {
         t += Duration::from_millis(1);
-        board.update(t, black_box(&state));
+        board.update(0, t, black_box(&state));
     }
     let start = Wall::now();
     for i in 0..ticks {
@@ -32,7 +32,7 @@ fn bench(world: &str, velocity: i32, back_and_forth: bool, ticks: u32) -> (f64, 
             (state.moved, state.velocity) = (-state.moved, -state.velocity);
         }
         t += Duration::from_millis(1);
-        board.update(t, black_box(&state));
+        board.update(0, t, black_box(&state));
     }
     let ns = start.elapsed().as_nanos() as f64 / f64::from(ticks);
     (ns, board)
@@ -67,7 +67,7 @@ fn main() {
     // Freewheeling under a spring: the rotor integrates at 0.1 ms steps; one `advance` of 1 ms.
     let world = World::from_toml_str("[load.spring]\nrate = 0.0005\nrest = 90\n[motor]\ndamping = 0.0\n").unwrap();
     let mut board = SimBoard::in_memory(16).with_world(world).unwrap();
-    board.update(Instant::ZERO, &DriveState { resolution: 8, enabled: false, ..DriveState::default() });
+    board.update(0, Instant::ZERO, &DriveState { resolution: 8, enabled: false, ..DriveState::default() });
     let n = 200_000u32;
     let start = Wall::now();
     for i in 1..=n {

@@ -330,6 +330,11 @@ pub struct SimBoard {
     outputs: u8,
     drive: DriveState,
     updated: Instant,
+    /// Motors 1.. of a model with several: each an axis of its own in a world of its own (the same world
+    /// as motor 0's by default, [`SimBoard::set_world`]; one of them alone: [`SimBoard::set_world_of`]).
+    /// Only their motor, switches, driver and encoder are used: the EEPROM, inputs, outputs and analog
+    /// values are this board's.
+    axes: Vec<SimBoard>,
 }
 
 impl SimBoard {
@@ -375,8 +380,13 @@ impl SimBoard {
             updated: Instant::ZERO,
             spec: world,
             plan,
+            axes: Vec::new(),
         };
         board.fire(Instant::ZERO);
+        for _ in 1..profile.motors.max(1) {
+            let axis = SimBoard::for_profile(Profile { motors: 1, ..profile }, Eeprom::Memory(MemNvm::new(0)));
+            board.axes.push(axis);
+        }
         board
     }
 
@@ -393,8 +403,53 @@ impl SimBoard {
 
     /// Puts the board into `world`, as at power-up: the rotor at `axis.start`, inputs and faults as at
     /// time 0, the energy figure and stallGuard2 reset. The EEPROM, the profile and the outputs are kept.
+    ///
+    /// Every motor of a model with several gets its own axis in a copy of `world` (one world per axis);
+    /// [`SimBoard::set_world_of`] puts one motor into a world of its own.
     pub fn set_world(&mut self, world: World) -> Result<(), WorldError> {
         world.check()?;
+        for axis in &mut self.axes {
+            axis.set_world(world.clone())?;
+        }
+        self.set_own_world(world)
+    }
+
+    /// Puts motor `motor`'s axis into `world`, as [`SimBoard::set_world`] does for all of them. A motor the
+    /// board lacks: nothing happens (`Ok`).
+    pub fn set_world_of(&mut self, motor: usize, world: World) -> Result<(), WorldError> {
+        world.check()?;
+        match motor {
+            0 => self.set_own_world(world),
+            m => self.axes.get_mut(m - 1).map_or(Ok(()), |axis| axis.set_own_world(world)),
+        }
+    }
+
+    /// The axis of motor `motor` (0: this board itself), to read it or change its world; `None` for a
+    /// motor the board lacks.
+    pub fn axis_mut(&mut self, motor: usize) -> Option<&mut SimBoard> {
+        match motor {
+            0 => Some(self),
+            m => self.axes.get_mut(m - 1),
+        }
+    }
+
+    /// The axis of motor `motor` (0: this board itself), to read it.
+    pub fn axis(&self, motor: usize) -> Option<&SimBoard> {
+        match motor {
+            0 => Some(self),
+            m => self.axes.get(m - 1),
+        }
+    }
+
+    /// How many motors the board simulates.
+    pub fn motors(&self) -> usize {
+        1 + self.axes.len()
+    }
+
+    /// Motor 0's world (this board's), keeping the further axes.
+    fn set_own_world(&mut self, world: World) -> Result<(), WorldError> {
+        world.check()?;
+        let axes = std::mem::take(&mut self.axes);
         let fresh = SimBoard::for_profile(self.profile, Eeprom::Memory(MemNvm::new(0)));
         let eeprom = std::mem::replace(&mut self.eeprom, fresh.eeprom);
         let clock = self.clock.take();
@@ -411,6 +466,7 @@ impl SimBoard {
             powered_by: None, // new mechanics (torque per amp, undervoltage): compute the power afresh
             spec: world,
             plan,
+            axes,
             ..fresh
         };
         self.fire(Instant::ZERO);
@@ -524,7 +580,8 @@ impl SimBoard {
     /// standstill flag, AP 208 bit 7, also comes up by itself, but the firmware reads it only with the
     /// board brought to the instant of the read.)
     pub fn next_event(&self) -> Option<Instant> {
-        [self.timeline_event(), self.next_bounce()].into_iter().flatten().min()
+        let own = [self.timeline_event(), self.next_bounce()].into_iter().flatten().min();
+        self.axes.iter().filter_map(SimBoard::next_event).chain(own).min()
     }
 
     /// The next timeline entry.
@@ -540,6 +597,9 @@ impl SimBoard {
     /// Runs the world forward to `now` (timeline, faults, a freewheeling rotor, the energy figure) with
     /// the driver as last updated. Earlier times are ignored.
     pub fn advance(&mut self, now: Instant) {
+        for axis in &mut self.axes {
+            axis.advance(now);
+        }
         if now <= self.now {
             return;
         }
@@ -877,14 +937,20 @@ impl Outputs for SimBoard {
 }
 
 impl SwitchInputs for SimBoard {
-    fn switches(&mut self) -> Switches {
+    fn switches(&mut self, motor: usize) -> Switches {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].switches(0);
+        }
         self.sync();
         Switches { left: self.level(0), right: self.level(1), home: self.level(2) }
     }
 }
 
 impl StepDriver for SimBoard {
-    fn update(&mut self, now: Instant, state: &DriveState) {
+    fn update(&mut self, motor: usize, now: Instant, state: &DriveState) {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].update(0, now, state);
+        }
         self.advance(now);
         self.drive = *state;
         self.power();
@@ -930,12 +996,18 @@ impl StepDriver for SimBoard {
         self.updated = now;
     }
 
-    fn configure(&mut self, settings: &DriverSettings) {
+    fn configure(&mut self, motor: usize, settings: &DriverSettings) {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].configure(0, settings);
+        }
         self.driver.settings = *settings;
         self.power();
     }
 
-    fn quiet(&mut self, now: Instant, state: &DriveState) -> Option<Quiet> {
+    fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet> {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].quiet(0, now, state);
+        }
         self.sync();
         self.quiet_window(now, state)
     }
@@ -944,17 +1016,26 @@ impl StepDriver for SimBoard {
 /// The load measurement: stallGuard2 when the model's driver is a TMC262 (else no measurement is taken
 /// in [`StepDriver::update`], and the load stays 1023).
 impl LoadSensor for SimBoard {
-    fn load(&mut self) -> u16 {
+    fn load(&mut self, motor: usize) -> u16 {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].load(0);
+        }
         self.sync();
         self.driver.load()
     }
 
-    fn load_measurements(&mut self) -> u32 {
+    fn load_measurements(&mut self, motor: usize) -> u32 {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].load_measurements(0);
+        }
         self.sync();
         self.driver.measurements()
     }
 
-    fn driver_flags(&mut self) -> u8 {
+    fn driver_flags(&mut self, motor: usize) -> u8 {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].driver_flags(0);
+        }
         self.sync();
         self.flags()
     }
@@ -962,7 +1043,10 @@ impl LoadSensor for SimBoard {
 
 /// The model's encoder (none: 0 counts).
 impl EncoderCounter for SimBoard {
-    fn encoder_counts(&mut self) -> i64 {
+    fn encoder_counts(&mut self, motor: usize) -> i64 {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].encoder_counts(0);
+        }
         self.sync();
         self.counts()
     }
@@ -1013,6 +1097,6 @@ mod tests {
         m.poll(t + Duration::from_secs(4), &mut |_: &[u8]| {});
         let shaft = m.board().shaft();
         assert!((10_000..10_200).contains(&shaft), "stopped at the right switch: {shaft}");
-        assert!(m.board_mut().switches().right);
+        assert!(m.board_mut().switches(0).right);
     }
 }

@@ -52,6 +52,8 @@ pub struct Profile {
     pub outputs: u8,
     /// Peak coil current in mA at current setting 255, low and high range (the model's `peak_current_ma`).
     pub peak_current_ma: [u16; 2],
+    /// Number of motors (the model's, 1 to 6): a [`crate::SimBoard`] simulates an axis for each.
+    pub motors: u8,
 }
 
 impl Profile {
@@ -67,6 +69,7 @@ impl Profile {
             inputs: d.inputs,
             outputs: d.outputs,
             peak_current_ma: d.peak_current_ma,
+            motors: d.motors,
         }
     }
 

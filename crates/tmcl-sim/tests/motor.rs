@@ -43,7 +43,7 @@ fn run_board(b: &mut SimBoard, from: Instant, ms: u64, velocity: i32, current: u
         t += Duration::from_millis(1);
         let s =
             DriveState { moved: per_tick, velocity, resolution: 8, current, enabled: true, ..DriveState::default() };
-        b.update(t, &s);
+        b.update(0, t, &s);
     }
     t
 }
@@ -91,7 +91,7 @@ proptest! {
                 reverse: k.reverse,
                 position: 0,
             };
-            b.update(t, &s);
+            b.update(0, t, &s);
             let m = k.moved << (8 - k.resolution);
             expected += if k.reverse { -m } else { m };
             prop_assert_eq!(b.shaft(), expected);
@@ -115,7 +115,7 @@ proptest! {
             t += Duration::from_millis(1);
             // Current 255: 1 A peak, 0.707 A RMS → 0.0606 N·m.
             let s = DriveState { moved, velocity: 51200, resolution: 8, current: 255, enabled: true, ..DriveState::default() };
-            b.update(t, &s);
+            b.update(0, t, &s);
             prop_assert_eq!(b.lost_full_steps(), 0);
             prop_assert!((b.commanded() - b.shaft()).abs() <= 256, "lag {}", b.commanded() - b.shaft());
         }
@@ -253,10 +253,10 @@ fn a_spring_back_drives_a_freewheeling_rotor() {
 fn without_current_the_rotor_stays_and_snaps_back_in_whole_periods() {
     let mut b = SimBoard::in_memory(16);
     let off = DriveState { moved: 700, resolution: 8, enabled: false, ..DriveState::default() };
-    b.update(Instant::from_millis(1), &off);
+    b.update(0, Instant::from_millis(1), &off);
     assert_eq!((b.shaft(), b.commanded()), (0, 700));
     let on = DriveState { moved: 0, resolution: 8, current: 100, enabled: true, ..DriveState::default() };
-    b.update(Instant::from_millis(2), &on);
+    b.update(0, Instant::from_millis(2), &on);
     // 700 µsteps ahead is nearer to one period (1024) than to zero: the rotor jumps to 700 − 1024.
     assert_eq!(b.shaft(), -324);
     assert_eq!(b.lost_full_steps(), 4);
@@ -283,20 +283,20 @@ fn stallguard_value_falls_with_the_load() {
 fn stallguard_threshold_filter_and_minimum_speed() {
     let available = 0.06 / 0.7 * std::f64::consts::FRAC_1_SQRT_2;
     let mut b = board(&format!("[load]\nfriction = {}", 0.5 * available));
-    b.configure(&DriverSettings { stall_threshold: 10, ..DriverSettings::default() });
+    b.configure(0, &DriverSettings { stall_threshold: 10, ..DriverSettings::default() });
     let t = run_board(&mut b, Instant::ZERO, 50, 51200, 255);
     let load = b.feedback().load;
     assert!((671..=673).contains(&load), "AP 174 = 10 shifts by 160: {load}");
     // Filtered: one measurement per 4 full steps (1024 µsteps).
-    b.configure(&DriverSettings { stall_filter: true, ..DriverSettings::default() });
-    let before = b.load_measurements();
+    b.configure(0, &DriverSettings { stall_filter: true, ..DriverSettings::default() });
+    let before = b.load_measurements(0);
     let t = run_board(&mut b, t, 100, 51200, 255); // 5120 µsteps... 20 full steps
-    assert_eq!(b.load_measurements() - before, 5);
+    assert_eq!(b.load_measurements(0) - before, 5);
     // Below 0.2 rev/s (40 full steps/s): no measurement, the value is held.
-    let before = b.load_measurements();
+    let before = b.load_measurements(0);
     let held = b.feedback().load;
     run_board(&mut b, t, 1000, 5000, 255);
-    assert_eq!(b.load_measurements(), before);
+    assert_eq!(b.load_measurements(0), before);
     assert_eq!(b.feedback().load, held);
 }
 
@@ -304,16 +304,16 @@ fn stallguard_threshold_filter_and_minimum_speed() {
 fn energy_is_current_squared_times_time() {
     for (current, high, amps) in [(255u8, false, 1.0), (127, false, 0.5), (255, true, 2.0), (7, false, 1.0 / 32.0)] {
         let mut b = SimBoard::in_memory(16);
-        b.configure(&DriverSettings { high_range: high, ..DriverSettings::default() });
+        b.configure(0, &DriverSettings { high_range: high, ..DriverSettings::default() });
         let s = DriveState { current, enabled: true, resolution: 8, ..DriveState::default() };
-        b.update(Instant::ZERO, &s);
+        b.update(0, Instant::ZERO, &s);
         b.advance(Instant::from_secs(2));
         let expected = amps * amps * 2.0;
         assert!((b.energy() - expected).abs() < 1e-9, "current {current}: {} vs {expected}", b.energy());
         assert_eq!(b.coil_current(), amps);
     }
     let mut b = SimBoard::in_memory(16);
-    b.update(Instant::ZERO, &DriveState { current: 255, enabled: false, ..DriveState::default() });
+    b.update(0, Instant::ZERO, &DriveState { current: 255, enabled: false, ..DriveState::default() });
     b.advance(Instant::from_secs(5));
     assert_eq!(b.energy(), 0.0, "off: no current");
 }
@@ -339,7 +339,7 @@ fn timeline_inputs_faults_and_encoder_slip() {
          [[faults.supply_drop]]\nfrom = 4\nuntil = 5\nvoltage = 6\n",
     );
     let s = DriveState { current: 255, enabled: true, resolution: 8, ..DriveState::default() };
-    b.update(Instant::ZERO, &s);
+    b.update(0, Instant::ZERO, &s);
     assert_eq!((b.digital_inputs(), b.analog_input(0)), (2, 100));
     b.advance(Instant::from_millis(600));
     assert_eq!((b.digital_inputs(), b.analog_input(0)), (3, 4000));
@@ -365,7 +365,7 @@ fn timeline_inputs_faults_and_encoder_slip() {
 fn scripted_load_pushes_the_rotor() {
     let mut b = board("[[load.script]]\nat = 1\ntorque = 0.03\n[[load.script]]\nat = 2\ntorque = 0\n");
     let s = DriveState { current: 255, enabled: true, resolution: 8, ..DriveState::default() };
-    b.update(Instant::ZERO, &s);
+    b.update(0, Instant::ZERO, &s);
     b.advance(Instant::from_millis(1500));
     // 0.03 of 0.0606 N·m: sin φ ≈ 0.495 → about 30° = 84 µsteps ahead of the field.
     let lead = b.shaft() - b.commanded();
@@ -382,16 +382,16 @@ fn switch_polarity_and_bounce() {
     );
     let at = |ms| Instant::from_millis(ms);
     let s = DriveState { resolution: 8, current: 100, enabled: true, ..DriveState::default() };
-    b.update(at(0), &s);
-    let sw = b.switches();
+    b.update(0, at(0), &s);
+    let sw = b.switches(0);
     assert!(!sw.left && !sw.right && !sw.home, "left pressed but active low: reads inactive");
-    b.update(at(1), &DriveState { moved: 1000, ..s });
-    assert!(b.switches().left, "released: reads active");
+    b.update(0, at(1), &DriveState { moved: 1000, ..s });
+    assert!(b.switches(0).left, "released: reads active");
     // The home switch closed at 1 ms; 5 slots of 1 ms: closed, open, closed, open, closed.
     let levels: Vec<bool> = (1..8)
         .map(|ms| {
             b.advance(at(ms));
-            b.switches().home
+            b.switches(0).home
         })
         .collect();
     assert_eq!(levels, [true, false, true, false, true, true, true]);

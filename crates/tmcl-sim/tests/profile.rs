@@ -32,7 +32,7 @@ fn run_board(b: &mut SimBoard, ms: u64) {
             enabled: true,
             ..DriveState::default()
         };
-        b.update(t, &s);
+        b.update(0, t, &s);
     }
 }
 
@@ -57,11 +57,12 @@ fn encoder_counts_per_revolution_come_from_the_model() {
     for (spec, per_rev) in [(&pd28_1021::SPEC, 1024), (&ABN_4096, 4096)] {
         let mut b = SimBoard::in_memory_for(spec);
         b.update(
+            0,
             Instant::ZERO,
             &DriveState { moved: 51200, resolution: 8, current: 255, enabled: true, ..DriveState::default() },
         );
         assert_eq!(b.shaft(), 51200);
-        assert_eq!(b.encoder_counts(), per_rev, "{}", spec.name);
+        assert_eq!(b.encoder_counts(0), per_rev, "{}", spec.name);
         assert_eq!(b.feedback().encoder_counts, per_rev);
     }
 }
@@ -73,7 +74,7 @@ fn a_model_without_an_encoder_reads_0_counts() {
     assert_eq!(b.profile().encoder, None, "kept through the new world");
     run_board(&mut b, 100);
     assert!(b.shaft() > 5000);
-    assert_eq!((b.encoder_counts(), b.feedback().encoder_counts), (0, 0), "no encoder: nothing counts, nothing slips");
+    assert_eq!((b.encoder_counts(0), b.feedback().encoder_counts), (0, 0), "no encoder: nothing counts, nothing slips");
 
     // The firmware on it: the encoder position stays 0 while the motor turns.
     let mut m = Module::new(SimBoard::in_memory_for(&NO_ENCODER), &NO_ENCODER, Instant::ZERO);
@@ -87,13 +88,13 @@ fn a_model_without_an_encoder_reads_0_counts() {
 fn only_the_tmc262_measures_the_load() {
     let mut pd28 = SimBoard::in_memory_for(&pd28_1021::SPEC);
     run_board(&mut pd28, 100);
-    assert!(pd28.load_measurements() > 0, "stallGuard2 measures at 1 rev/s");
+    assert!(pd28.load_measurements(0) > 0, "stallGuard2 measures at 1 rev/s");
 
     let mut b = SimBoard::in_memory_for(&TMC24X);
     assert!(!b.profile().measures_load());
     run_board(&mut b, 100);
-    assert_eq!((b.load_measurements(), b.load()), (0, 1023), "no measurement: no load");
-    assert_eq!(b.driver_flags() & 1, 0, "no stall flag");
+    assert_eq!((b.load_measurements(0), b.load(0)), (0, 1023), "no measurement: no load");
+    assert_eq!(b.driver_flags(0) & 1, 0, "no stall flag");
     assert_eq!(b.feedback().load, 1023);
 }
 

@@ -41,6 +41,7 @@ use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Mode, RampParams, TICK};
 use crate::time::{Duration, Instant};
 use crate::vm::{RunState, BUDGET};
+use tmcl_model::capacity::MAX_MOTORS;
 use tmcl_wire::{Opcode, Status};
 
 /// One microsecond.
@@ -77,18 +78,40 @@ impl<B: Board> Module<B> {
         self.advance_ticks(now);
     }
 
+    /// The earliest instant at which a motor's driver current changes by itself (standby,
+    /// freewheeling) or must be told of a change, and which motor.
+    #[inline]
+    pub(crate) fn drive_due(&self) -> Option<(usize, Instant)> {
+        let mut due: Option<(usize, Instant)> = None;
+        for (m, axis) in self.st.axes.iter().enumerate() {
+            if let Some(d) = axis.drive_due {
+                if due.is_none_or(|(_, t)| d < t) {
+                    due = Some((m, d));
+                }
+            }
+        }
+        due
+    }
+
+    /// Whether every motor stands (no ramp moving, no reference search).
+    #[inline]
+    pub(crate) fn all_standing(&self) -> bool {
+        self.st.axes.iter().all(|a| a.ramp.is_idle() && !a.reference.is_active())
+    }
+
     /// [`Module::advance`] when a tick is due or a program runs.
     fn advance_ticks(&mut self, now: Instant) {
         self.st.now = now;
-        // The ramp parameters in force for the ticks, read again whenever the program has run. When no
-        // tick is due (a frame between two ticks), none runs in this call: the loop's first pass takes
-        // `tick_at` before the program runs and breaks on it. So the lookups are skipped and the
+        let motors = self.st.axes.count();
+        // The ramp parameters in force for the ticks, per motor, read again whenever the program has run.
+        // When no tick is due (a frame between two ticks), none runs in this call: the loop's first pass
+        // takes `tick_at` before the program runs and breaks on it. So the lookups are skipped and the
         // placeholder is never used.
-        let mut params = if self.st.motion_time + TICK <= now {
-            self.ramp_params()
-        } else {
-            RampParams { max_speed: 0, max_accel: 0, min_speed: 0 }
-        };
+        let placeholder = RampParams { max_speed: 0, max_accel: 0, min_speed: 0 };
+        let mut params = [placeholder; MAX_MOTORS as usize];
+        if self.st.motion_time + TICK <= now {
+            self.read_ramp_params(&mut params);
+        }
         let mut budget = BUDGET;
         let closed_loop = self.has_closed_loop();
         // A program spinning in a fixed point is looked for in advances only (`module/spin.rs`).
@@ -101,13 +124,13 @@ impl<B: Board> Module<B> {
             // runs out), or an instruction changed it (a parameter, a stop): the board hears of it at that
             // time, after the instructions up to then — however often the caller polls.
             if self.vm.state == RunState::Running {
-                let due = self.st.drive_due.filter(|d| *d < tick_at && *d <= now);
+                let due = self.drive_due().map(|(_, d)| d).filter(|d| *d < tick_at && *d <= now);
                 let executed = self.vm.executed;
                 let limit = due.map_or(tick_at, |d| tick_at.min(d + MICROSECOND));
                 // (It returns early after an instruction that changed what the driver sees.)
                 if self.run_program(limit.min(horizon), &mut budget) {
                     // Whole turns of a loop in a fixed point jumped over, ticks and all.
-                    params = self.ramp_params();
+                    self.read_ramp_params(&mut params);
                     continue;
                 }
                 if budget == 0 {
@@ -115,56 +138,29 @@ impl<B: Board> Module<B> {
                 }
                 if self.vm.executed != executed && tick_at <= now {
                     // An instruction may have changed AP 4, 5 or 130: the next ticks use what is in force.
-                    params = self.ramp_params();
+                    self.read_ramp_params(&mut params);
                 }
             }
-            if let Some(d) = self.st.drive_due.filter(|d| *d < tick_at && *d <= now) {
-                self.update_board(d); // the next delay, if any, lies after `d`
+            if let Some((m, d)) = self.drive_due().filter(|(_, d)| *d < tick_at && *d <= now) {
+                self.update_board(m, d); // the next delay, if any, lies after `d`
                 continue;
             }
             if tick_at > now {
                 break;
             }
-            // The heartbeat stops the motor for every tick after it ran out, whether a poll between the
+            // The heartbeat stops the motors for every tick after it ran out, whether a poll between the
             // ticks or this check sees it first.
             self.check_heartbeat(tick_at);
-            if self.st.ramp.is_idle() && !self.st.reference.is_active() {
+            if self.all_standing() {
                 if self.idle_jump(now) {
                     continue;
                 }
-            } else if !self.exact && self.take_span(now, &params) {
+            } else if !self.exact && motors == 1 && self.take_span(now, &params[0]) {
+                // (Spans are taken for a one-motor model; several motors tick, with the same result.)
                 continue;
             }
-            // A reference search looks at its switch after every microstep (sub-ticks), so that the
-            // switching points, and with them the zero point, are exact to the microstep (§7.1).
-            let parts = if self.st.reference.is_active() {
-                (u64::from(self.st.ramp.velocity().unsigned_abs()) / 1000 + 1).min(TICK.micros())
-            } else {
-                1
-            };
-            // (Most ticks are one part: no 64-bit division for them.)
-            let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
-            for k in 1..=parts {
-                let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
-                let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
-                // The switches as they are at the start of this (part of a) tick, a bouncing one too: the
-                // board's clock there, not where the last update or the caller's poll left it.
-                self.sync_board(t - Duration::from_micros(dt));
-                let limits = self.limits();
-                let r = self.st.ramp.tick(Duration::from_micros(dt), &params, limits);
-                self.st.ramping = r.ramping;
-                let steps = if closed_loop { self.closed_loop_tick(r.steps, dt as i64) } else { r.steps };
-                self.st.unreported_steps += steps;
-                let moving = self.st.ramp.velocity() != 0;
-                match (moving, self.st.standstill_since) {
-                    (true, Some(_)) => self.st.standstill_since = None,
-                    (false, None) => self.st.standstill_since = Some(t),
-                    _ => {}
-                }
-                self.update_board(t);
-                if self.st.reference.is_active() {
-                    self.step_reference();
-                }
+            for (m, params) in params.iter().enumerate().take(motors) {
+                self.tick_axis(m, tick_at, params, closed_loop);
             }
             self.st.motion_time = tick_at;
             self.tick_done(tick_at);
@@ -173,44 +169,102 @@ impl<B: Board> Module<B> {
         self.after_advance(now);
     }
 
+    /// The ramp parameters in force, for every motor.
+    #[inline]
+    fn read_ramp_params(&self, params: &mut [RampParams; MAX_MOTORS as usize]) {
+        for (m, p) in params.iter_mut().enumerate().take(self.st.axes.count()) {
+            *p = self.ramp_params(m);
+        }
+    }
+
+    /// Motor `m`'s motion tick ending at `tick_at`: the ramp, the closed loop, the standstill, the board,
+    /// the reference search.
+    #[inline]
+    fn tick_axis(&mut self, m: usize, tick_at: Instant, params: &RampParams, closed_loop: bool) {
+        // A reference search looks at its switch after every microstep (sub-ticks), so that the
+        // switching points, and with them the zero point, are exact to the microstep (§7.1).
+        let parts = if self.st.axes[m].reference.is_active() {
+            (u64::from(self.st.axes[m].ramp.velocity().unsigned_abs()) / 1000 + 1).min(TICK.micros())
+        } else {
+            1
+        };
+        // (Most ticks are one part: no 64-bit division for them.)
+        let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
+        for k in 1..=parts {
+            let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
+            let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
+            // The switches as they are at the start of this (part of a) tick, a bouncing one too: the
+            // board's clock there, not where the last update or the caller's poll left it.
+            self.sync_board(m, t - Duration::from_micros(dt));
+            let limits = self.limits(m);
+            let axis = &mut self.st.axes[m];
+            let r = axis.ramp.tick(Duration::from_micros(dt), params, limits);
+            axis.ramping = r.ramping;
+            let steps = if closed_loop { self.closed_loop_tick(m, r.steps, dt as i64) } else { r.steps };
+            let axis = &mut self.st.axes[m];
+            axis.unreported_steps += steps;
+            let moving = axis.ramp.velocity() != 0;
+            match (moving, axis.standstill_since) {
+                (true, Some(_)) => axis.standstill_since = None,
+                (false, None) => axis.standstill_since = Some(t),
+                _ => {}
+            }
+            self.update_board(m, t);
+            if self.st.axes[m].reference.is_active() {
+                self.step_reference(m);
+            }
+        }
+    }
+
     /// What follows every motion tick (and a span, at its last tick `t`), after the board has been
-    /// updated: the drive's readings, the 138 event, the interrupt sources.
+    /// updated: the drive's readings of every motor, the 138 event, the interrupt sources.
     #[inline(always)]
     pub(super) fn tick_done(&mut self, t: Instant) {
-        self.drive_tick();
+        for m in 0..self.st.axes.count() {
+            self.drive_tick(m);
+        }
         self.check_event(t);
         if self.vm.enabled != 0 {
             self.sample_interrupts(t);
         }
     }
 
-    /// The axis stands: jumps over the ticks up to the last tick boundary before the next timed event
+    /// Every motor stands: jumps over the ticks up to the last tick boundary before the next timed event
     /// (or `now`), if no tick until then can do anything. Returns whether it jumped.
     fn idle_jump(&mut self, now: Instant) -> bool {
         let watching = self.needs_every_tick();
+        let motors = self.st.axes.count();
         // Interrupts on switch or input levels sample every tick: in a quiet window of the board the
         // levels stay as they are, so the ticks up to its end may be jumped over too.
-        let quiet_until = if !watching {
-            None
-        } else if self.has_closed_loop() || self.exact || self.st.standstill_since.is_none() {
-            // A closed-loop model measures its velocity over the last ticks (AP 131); a motor that has
-            // just stopped starts its standstill at the next tick, as a sampled tick has it.
-            return false;
-        } else {
-            let state = self.st.last_drive.unwrap_or_default();
-            match self.board.quiet(self.st.motion_time, &state) {
-                Some(q) => q.until.map(|u| u - MICROSECOND),
-                None => return false,
+        let mut quiet_until = None;
+        if watching {
+            if self.has_closed_loop() || self.exact || self.st.axes.iter().any(|a| a.standstill_since.is_none()) {
+                // A closed-loop model measures its velocity over the last ticks (AP 131); a motor that has
+                // just stopped starts its standstill at the next tick, as a sampled tick has it.
+                return false;
             }
-        };
+            for m in 0..motors {
+                let state = self.st.axes[m].last_drive.unwrap_or_default();
+                match self.board.quiet(m, self.st.motion_time, &state) {
+                    Some(q) => {
+                        if let Some(u) = q.until.map(|u| u - MICROSECOND) {
+                            quiet_until = Some(quiet_until.map_or(u, |q: Instant| q.min(u)));
+                        }
+                    }
+                    None => return false,
+                }
+            }
+        }
         // A stop outside the ramp (a stall, a deviation, the end of a reference search) leaves the motor
         // standing: the standby and freewheeling delays run from the last tick.
-        if self.st.standstill_since.is_none() {
-            self.st.standstill_since = Some(self.st.motion_time);
-            // The board hears of it (not before it last heard from the module), and of the standby timer.
-            self.update_board(self.st.motion_time.max(self.st.board_time));
+        for m in 0..motors {
+            if self.st.axes[m].standstill_since.is_none() {
+                self.st.axes[m].standstill_since = Some(self.st.motion_time);
+                // The board hears of it (not before it last heard from the module), and of the standby timer.
+                self.update_board(m, self.st.motion_time.max(self.st.axes[m].board_time));
+            }
         }
-        let until = [self.program_deadline(), self.timer_deadline(), self.st.drive_due, quiet_until]
+        let until = [self.program_deadline(), self.timer_deadline(), self.drive_due().map(|(_, d)| d), quiet_until]
             .into_iter()
             .flatten()
             .fold(now, Instant::min);
@@ -220,7 +274,9 @@ impl<B: Board> Module<B> {
         }
         let ticks = (until - self.st.motion_time).micros() / TICK.micros();
         self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
-        self.st.ramping = false;
+        for m in 0..motors {
+            self.st.axes[m].ramping = false;
+        }
         if watching {
             // In place of sampled ticks, what the last of them does: the encoder followed (its counts and the
             // last zero passed are all that count), the 138 event, the interrupt sources.
@@ -242,8 +298,8 @@ impl<B: Board> Module<B> {
     /// Standby and freewheeling delays that have run out by `now`, each at its own time.
     #[inline]
     fn apply_drive_due(&mut self, now: Instant) {
-        while let Some(d) = self.st.drive_due.filter(|d| *d <= now) {
-            self.update_board(d);
+        while let Some((m, d)) = self.drive_due().filter(|(_, d)| *d <= now) {
+            self.update_board(m, d);
         }
     }
 
@@ -251,54 +307,70 @@ impl<B: Board> Module<B> {
     /// tick is sampled (unless the board is quiet, see [`Module::idle_jump`]).
     #[inline]
     fn needs_every_tick(&self) -> bool {
-        self.vm.enabled & self.spec.interrupts.levels_mask != 0 || self.st.cl.engaged()
+        self.vm.enabled & self.spec.interrupts.levels_mask != 0 || self.st.axes.iter().any(|a| a.cl.engaged())
     }
 
     /// One step of the reference search after a motion tick (§7.1).
-    fn step_reference(&mut self) {
-        let (left, right, home) = self.switches();
+    fn step_reference(&mut self, m: usize) {
+        let (left, right, home) = self.switches(m);
         let levels = SwitchLevels { left, right, home };
-        let (fast, slow) = self.reference_speeds();
-        let position = self.st.ramp.position;
-        match self.st.reference.step(levels, position, fast, slow) {
+        let (fast, slow) = self.reference_speeds(m);
+        let position = self.st.axes[m].ramp.position;
+        match self.st.axes[m].reference.step(levels, position, fast, slow) {
             Action::Continue => {}
             Action::Rotate(v) => {
-                self.st.ramp.hard_stop();
-                self.st.ramp.rotate(v);
+                self.st.axes[m].ramp.hard_stop();
+                self.st.axes[m].ramp.rotate(v);
             }
             Action::Done { zero, far_distance } => {
-                self.st.ramp.hard_stop();
+                self.st.axes[m].ramp.hard_stop();
                 // AP 197: "position value just before the counter is zeroed"; AP 196: end switch distance.
-                self.set_ap(Setting::LastReferencePosition, position);
+                self.set_ap(m, Setting::LastReferencePosition, position);
                 if let Some(d) = far_distance {
-                    self.set_ap(Setting::EndSwitchDistance, d);
+                    self.set_ap(m, Setting::EndSwitchDistance, d);
                 }
-                self.st.ramp.mode = Mode::Position;
-                self.st.ramp.set_position(position.wrapping_sub(zero));
-                self.st.ramp.target_position = self.st.ramp.position;
-                self.relabel(zero.wrapping_neg());
+                self.st.axes[m].ramp.mode = Mode::Position;
+                self.st.axes[m].ramp.set_position(position.wrapping_sub(zero));
+                self.st.axes[m].ramp.target_position = self.st.axes[m].ramp.position;
+                self.relabel(m, zero.wrapping_neg());
             }
-            Action::Failed => self.st.ramp.hard_stop(),
+            Action::Failed => self.st.axes[m].ramp.hard_stop(),
         }
     }
 
     /// The search and switch speeds of the reference search in microsteps per second (AP 194, 195).
-    pub(crate) fn reference_speeds(&self) -> (i32, i32) {
-        let speed = |s| self.units_to_pps(self.ap(s).unwrap_or(0));
+    pub(crate) fn reference_speeds(&self, m: usize) -> (i32, i32) {
+        let speed = |s| self.units_to_pps(m, self.ap(m, s).unwrap_or(0));
         (speed(Setting::ReferenceSearchSpeed), speed(Setting::ReferenceSwitchSpeed))
     }
 
     /// §3.7.37: the second reply of command 138 when an MVP's target is reached, on the interface that
     /// asked for it.
     fn check_event(&mut self, now: Instant) {
-        let ramp = &self.st.ramp;
-        if self.st.event.pending && ramp.mode == Mode::Position && ramp.is_idle() && self.target_reached() {
+        if self.st.event.pending && self.event_reached() {
             self.st.event.pending = false;
             let op = Opcode::RequestTargetReachedEvent.code();
             let port = usize::from(self.st.event.port);
             let framing = self.interface(port).map_or(crate::model::Framing::Binary, |i| i.framing);
             self.push_reply(port, framing, op, Ok((Status::TargetReached, self.st.event.mask, op)), now);
         }
+    }
+
+    /// Whether every motor of the 138 event's mask has reached its target: in position mode, standing,
+    /// at the target. §3.7.37 gives the value as a bit per motor but not how several motors' arrivals are
+    /// reported; ours: one reply once all of them stand at their targets (the PD28-1021's one motor: as
+    /// before).
+    fn event_reached(&mut self) -> bool {
+        for m in 0..self.st.axes.count() {
+            if self.st.event.mask & (1 << m) == 0 {
+                continue;
+            }
+            let ramp = &self.st.axes[m].ramp;
+            if !(ramp.mode == Mode::Position && ramp.is_idle() && self.target_reached(m)) {
+                return false;
+            }
+        }
+        true
     }
 
     /// When the heartbeat runs out (GP 68), if it is armed: the first time more than its milliseconds
@@ -313,7 +385,9 @@ impl<B: Board> Module<B> {
     fn check_heartbeat(&mut self, now: Instant) {
         if self.heartbeat_expiry().is_some_and(|expiry| now > expiry) {
             self.st.heartbeat_tripped = true;
-            self.st.ramp.rotate(0);
+            for m in 0..self.st.axes.count() {
+                self.st.axes[m].ramp.rotate(0);
+            }
             self.st.event.pending = false;
         }
     }
@@ -322,9 +396,10 @@ impl<B: Board> Module<B> {
     pub(crate) fn next_deadline(&mut self) -> Option<Instant> {
         let mut next: Option<Instant> = self.st.ports.iter().filter_map(|p| p.outbox.next_due()).min();
         let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
-        if !self.st.ramp.is_idle() || self.st.reference.is_active() {
-            // Moving: the tick after the span the ramp can take from here (none: the next tick).
-            let ticks = self.span_ahead() + 1;
+        if !self.all_standing() {
+            // Moving: the tick after the span the ramp can take from here (none: the next tick; several
+            // motors take no spans).
+            let ticks = if self.st.axes.count() == 1 { self.span_ahead() + 1 } else { 1 };
             consider(self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
         } else if self.st.event.pending || self.needs_every_tick() {
             match self.idle_quiet_until() {
@@ -343,13 +418,16 @@ impl<B: Board> Module<B> {
         for t in [program, self.timer_deadline()].into_iter().flatten() {
             consider(t.max(self.st.now));
         }
-        if let Some(since) = self.st.standstill_since {
-            for delay in
-                [self.delay(Setting::PowerDownDelay), self.delay(Setting::FreewheelingDelay)].into_iter().flatten()
-            {
-                let t = since + delay;
-                if t > self.st.now {
-                    consider(t);
+        for m in 0..self.st.axes.count() {
+            if let Some(since) = self.st.axes[m].standstill_since {
+                for delay in [self.delay(m, Setting::PowerDownDelay), self.delay(m, Setting::FreewheelingDelay)]
+                    .into_iter()
+                    .flatten()
+                {
+                    let t = since + delay;
+                    if t > self.st.now {
+                        consider(t);
+                    }
                 }
             }
         }
@@ -365,7 +443,13 @@ impl<B: Board> Module<B> {
         if self.st.event.pending || self.has_closed_loop() || self.exact {
             return None;
         }
-        let state = self.st.last_drive.unwrap_or_default();
-        self.board.quiet(self.st.motion_time, &state).map(|q| q.until)
+        let mut until: Option<Instant> = None;
+        for m in 0..self.st.axes.count() {
+            let state = self.st.axes[m].last_drive.unwrap_or_default();
+            if let Some(u) = self.board.quiet(m, self.st.motion_time, &state)?.until {
+                until = Some(until.map_or(u, |t| t.min(u)));
+            }
+        }
+        Some(until)
     }
 }

@@ -21,126 +21,126 @@ impl<B: Board> Module<B> {
     }
 
     /// One full step in microsteps of the resolution in force.
-    fn full_step(&self) -> i64 {
-        1i64 << self.microstep_resolution().min(8)
+    fn full_step(&self, m: usize) -> i64 {
+        1i64 << self.microstep_resolution(m).min(8)
     }
 
     /// The closed-loop conversion of encoder counts to microsteps: counts · AP 202 · 2^res / AP 210,
     /// if the model sets its encoder that way.
-    pub(crate) fn counts_to_usteps(&self, counts: i64) -> Option<i64> {
-        let per_rev = i128::from(self.ap(Setting::EncoderResolution)?.max(1));
-        let full_steps = i128::from(self.ap(Setting::MotorFullSteps).unwrap_or(200));
-        let usteps = i128::from(counts) * full_steps * i128::from(self.full_step()) / per_rev;
+    pub(crate) fn counts_to_usteps(&self, m: usize, counts: i64) -> Option<i64> {
+        let per_rev = i128::from(self.ap(m, Setting::EncoderResolution)?.max(1));
+        let full_steps = i128::from(self.ap(m, Setting::MotorFullSteps).unwrap_or(200));
+        let usteps = i128::from(counts) * full_steps * i128::from(self.full_step(m)) / per_rev;
         Some(usteps.clamp(i64::MIN.into(), i64::MAX.into()) as i64)
     }
 
     /// Encoder counts per electrical period (4 full steps): AP 210 · 4 / AP 202.
-    fn counts_per_period(&self) -> i64 {
-        let per_rev = i64::from(self.ap(Setting::EncoderResolution).unwrap_or(1).max(1));
-        let full_steps = i64::from(self.ap(Setting::MotorFullSteps).unwrap_or(200).max(1));
+    fn counts_per_period(&self, m: usize) -> i64 {
+        let per_rev = i64::from(self.ap(m, Setting::EncoderResolution).unwrap_or(1).max(1));
+        let full_steps = i64::from(self.ap(m, Setting::MotorFullSteps).unwrap_or(200).max(1));
         per_rev * 4 / full_steps
     }
 
     /// Ends a running encoder initialisation early: the field goes back to the step counter. Returns how
     /// far the field moves for that.
-    fn abort_init(&mut self) -> i64 {
-        let Init::Running { start_offset, .. } = self.st.cl.init else { return 0 };
-        let back = start_offset - self.st.cl.field_offset;
-        self.st.cl.field_offset = start_offset;
-        self.st.cl.init = Init::Idle;
+    fn abort_init(&mut self, m: usize) -> i64 {
+        let Init::Running { start_offset, .. } = self.st.axes[m].cl.init else { return 0 };
+        let back = start_offset - self.st.axes[m].cl.field_offset;
+        self.st.axes[m].cl.field_offset = start_offset;
+        self.st.axes[m].cl.init = Init::Idle;
         back
     }
 
     /// The peak coil current at current setting 255 in the range in force (AP 179 where the model has it).
-    fn peak_ma(&self) -> i64 {
-        let high = self.ap(Setting::CurrentRange) == Some(0);
+    fn peak_ma(&self, m: usize) -> i64 {
+        let high = self.ap(m, Setting::CurrentRange) == Some(0);
         i64::from(self.spec.peak_current_ma[usize::from(high)])
     }
 
     /// RMS coil current in mA for a current setting.
-    fn setting_to_rms_ma(&self, setting: u8) -> i64 {
-        i64::from(setting) * self.peak_ma() * 10_000 / (255 * SQRT2_E4)
+    fn setting_to_rms_ma(&self, m: usize, setting: u8) -> i64 {
+        i64::from(setting) * self.peak_ma(m) * 10_000 / (255 * SQRT2_E4)
     }
 
     /// The current setting for an RMS current in mA.
-    fn rms_ma_to_setting(&self, ma: i64) -> u8 {
-        (ma.abs() * 255 * SQRT2_E4 / (self.peak_ma().max(1) * 10_000)).clamp(0, 255) as u8
+    fn rms_ma_to_setting(&self, m: usize, ma: i64) -> u8 {
+        (ma.abs() * 255 * SQRT2_E4 / (self.peak_ma(m).max(1) * 10_000)).clamp(0, 255) as u8
     }
 
     /// The current the closed loop drives, if it drives the motor now (initialising, closed, torque mode).
     #[inline]
-    pub(crate) fn closed_loop_current(&self) -> Option<u8> {
-        let cl = &self.st.cl;
+    pub(crate) fn closed_loop_current(&self, m: usize) -> Option<u8> {
+        let cl = &self.st.axes[m].cl;
         if !cl.engaged() {
             return None;
         }
-        let run = self.ap(Setting::RunCurrent).unwrap_or(255).clamp(0, 255);
+        let run = self.ap(m, Setting::RunCurrent).unwrap_or(255).clamp(0, 255);
         if !cl.active {
             return Some(run as u8); // initialising
         }
         if cl.i2t_limiting {
-            return Some(self.ap(Setting::StandbyCurrent).unwrap_or(run).clamp(0, 255) as u8);
+            return Some(self.ap(m, Setting::StandbyCurrent).unwrap_or(run).clamp(0, 255) as u8);
         }
         if let Some((_, actual)) = cl.torque {
-            return Some(self.rms_ma_to_setting(i64::from(actual)));
+            return Some(self.rms_ma_to_setting(m, i64::from(actual)));
         }
         Some((run * i32::from(cl.scaler) / 255) as u8)
     }
 
     /// The position the encoder gives now, in microsteps (AP 209).
-    fn actual_now(&mut self) -> i64 {
-        let counts = self.encoder_counts_now();
-        i64::from(self.encoder_value(counts))
+    fn actual_now(&mut self, m: usize) -> i64 {
+        let counts = self.encoder_counts_now(m);
+        i64::from(self.encoder_value(m, counts))
     }
 
     /// One motion tick of a closed-loop model, after the ramp moved `step` microsteps in `dt_us`: measures
     /// the rotor, opens or closes the loop, runs the initialisation or the controller, and returns how far
     /// the field moves (what the board is told). In open loop that is the ramp's step.
     #[inline(never)] // out of the open-loop tick's way
-    pub(crate) fn closed_loop_tick(&mut self, step: i64, dt_us: i64) -> i64 {
-        let actual = self.actual_now();
-        let moved = actual - self.st.cl.actual;
-        let whole_ms = self.st.cl.record_move(moved, dt_us);
-        self.st.cl.actual = actual;
-        self.sync_loop(actual);
-        if let Init::Running { .. } = self.st.cl.init {
-            return self.init_tick(step, dt_us);
+    pub(crate) fn closed_loop_tick(&mut self, m: usize, step: i64, dt_us: i64) -> i64 {
+        let actual = self.actual_now(m);
+        let moved = actual - self.st.axes[m].cl.actual;
+        let whole_ms = self.st.axes[m].cl.record_move(moved, dt_us);
+        self.st.axes[m].cl.actual = actual;
+        self.sync_loop(m, actual);
+        if let Init::Running { .. } = self.st.axes[m].cl.init {
+            return self.init_tick(m, step, dt_us);
         }
-        if !self.st.cl.active {
+        if !self.st.axes[m].cl.active {
             return step;
         }
-        let res = self.microstep_resolution();
-        let virtual_pos = i64::from(self.st.ramp.position);
+        let res = self.microstep_resolution(m);
+        let virtual_pos = i64::from(self.st.axes[m].ramp.position);
         // Everything relative to the rotor (the counters wrap; their differences do not).
         let e = i64::from((virtual_pos as i32).wrapping_sub(actual as i32));
-        let field_before = e - step + self.st.cl.field_offset;
-        let beta = closed_loop::beta_usteps(self.ap(Setting::CommutationLimit).unwrap_or(255), res);
-        let command = if let Some((target, current)) = self.st.cl.torque {
+        let field_before = e - step + self.st.axes[m].cl.field_offset;
+        let beta = closed_loop::beta_usteps(self.ap(m, Setting::CommutationLimit).unwrap_or(255), res);
+        let command = if let Some((target, current)) = self.st.axes[m].cl.torque {
             // Torque mode: the ramp stands at the rotor, the field leads it by β in the current's direction.
-            let slope = i64::from(self.ap(Setting::TorqueSlope).unwrap_or(0));
+            let slope = i64::from(self.ap(m, Setting::TorqueSlope).unwrap_or(0));
             let current = if slope == 0 {
                 target
             } else {
                 let d = (slope * dt_us / 1_000_000).max(1);
                 i64::from(current).clamp(i64::from(target) - d, i64::from(target) + d) as i32
             };
-            self.st.cl.torque = Some((target, current));
-            self.st.ramp.hard_stop();
-            self.st.ramp.mode = Mode::Position;
-            self.st.ramp.set_position(actual as i32);
+            self.st.axes[m].cl.torque = Some((target, current));
+            self.st.axes[m].ramp.hard_stop();
+            self.st.axes[m].ramp.mode = Mode::Position;
+            self.st.axes[m].ramp.set_position(actual as i32);
             FieldCommand { field: beta * i64::from(current.signum()), hold: 0 }
         } else {
-            let ap = |s| i64::from(self.ap(s).unwrap_or(0));
+            let ap = |s| i64::from(self.ap(m, s).unwrap_or(0));
             let params = LoopParams {
                 beta,
-                max_lead: 2 * self.full_step() - 1,
+                max_lead: 2 * self.full_step(m) - 1,
                 gain: ap(Setting::CorrectionGain),
                 max_correction: ap(Setting::MaxCorrectionVelocity),
                 hold_gain: ap(Setting::HoldGain),
                 hold_limit: ap(Setting::HoldLimit),
                 dt_us,
             };
-            let standing = self.st.ramp.is_idle();
+            let standing = self.st.axes[m].ramp.is_idle();
             let input = LoopInput {
                 virtual_pos: e,
                 step,
@@ -148,36 +148,36 @@ impl<B: Board> Module<B> {
                 actual: 0,
                 rotor_move: moved,
                 field: field_before,
-                hold: self.st.cl.hold,
+                hold: self.st.axes[m].cl.hold,
             };
             closed_loop::control(&params, &input)
         };
-        let e = i64::from((self.st.ramp.position).wrapping_sub(actual as i32));
-        self.st.cl.hold = command.hold;
-        self.st.cl.field_offset = command.field - e;
-        self.st.cl.error = e.clamp(i32::MIN.into(), i32::MAX.into()) as i32;
+        let e = i64::from((self.st.axes[m].ramp.position).wrapping_sub(actual as i32));
+        self.st.axes[m].cl.hold = command.hold;
+        self.st.axes[m].cl.field_offset = command.field - e;
+        self.st.axes[m].cl.error = e.clamp(i32::MIN.into(), i32::MAX.into()) as i32;
         // Gamma: the field's lead beyond the ramp's step (the load angle), 256 = 90°.
-        let lead = if self.st.cl.torque.is_some() { command.field } else { command.field - step };
-        self.st.cl.gamma = (lead * 256 / self.full_step()).clamp(-256, 256) as i32;
+        let lead = if self.st.axes[m].cl.torque.is_some() { command.field } else { command.field - step };
+        self.st.axes[m].cl.gamma = (lead * 256 / self.full_step(m)).clamp(-256, 256) as i32;
         if whole_ms {
-            self.regulate_current(e);
+            self.regulate_current(m, e);
         }
         // Following error (AP 125): stop where the rotor is.
-        let max = i64::from(self.ap(Setting::MaxFollowingError).unwrap_or(0));
+        let max = i64::from(self.ap(m, Setting::MaxFollowingError).unwrap_or(0));
         if max > 0 && e.abs() > max {
             self.st.regs.flags |= flags::DEVIATION;
-            self.fault_stop(error_flags::DEVIATION, self.spec.interrupts.deviation());
-            self.st.ramp.set_position(actual as i32);
-            self.st.cl.field_offset = command.field;
-            self.st.cl.hold = 0;
+            self.fault_stop(m, error_flags::DEVIATION, self.spec.interrupts.deviation(m));
+            self.st.axes[m].ramp.set_position(actual as i32);
+            self.st.axes[m].cl.field_offset = command.field;
+            self.st.axes[m].cl.hold = 0;
         }
         command.field - field_before
     }
 
     /// Current scaling and I²t, once per tick while the loop is closed.
-    fn regulate_current(&mut self, e: i64) {
+    fn regulate_current(&mut self, m: usize, e: i64) {
         let dt_us = 1000;
-        let ap = |s| self.ap(s).unwrap_or(0);
+        let ap = |s| self.ap(m, s).unwrap_or(0);
         let p = ScaleParams {
             enabled: ap(Setting::CurrentScaleEnable) == 1,
             min: ap(Setting::CurrentScaleMin).clamp(0, 255) as u8,
@@ -189,57 +189,58 @@ impl<B: Board> Module<B> {
             up_ms: ap(Setting::CurrentScaleUpTime) as u32,
             down_ms: ap(Setting::CurrentScaleDownTime) as u32,
         };
-        let error = if ap(Setting::CurrentScaleInput) == 1 { e.abs() } else { i64::from(self.st.cl.gamma.abs()) };
+        let error =
+            if ap(Setting::CurrentScaleInput) == 1 { e.abs() } else { i64::from(self.st.axes[m].cl.gamma.abs()) };
         let (tau, limit) = (ap(Setting::I2tTimeConstant), ap(Setting::I2tLimit));
-        closed_loop::scale(&mut self.st.cl, &p, error);
-        let rms = self.setting_to_rms_ma(self.closed_loop_current().unwrap_or(0));
-        closed_loop::i2t(&mut self.st.cl, rms, dt_us, i64::from(tau), i64::from(limit));
+        closed_loop::scale(&mut self.st.axes[m].cl, &p, error);
+        let rms = self.setting_to_rms_ma(m, self.closed_loop_current(m).unwrap_or(0));
+        closed_loop::i2t(&mut self.st.axes[m].cl, rms, dt_us, i64::from(tau), i64::from(limit));
     }
 
     /// Closes or opens the loop as AP 129 and the initialisation say (a write of AP 129, every tick).
-    pub(crate) fn sync_loop(&mut self, actual: i64) {
-        let want = self.ap(Setting::ClosedLoop) == Some(1) && self.st.cl.init == Init::Done;
-        if want && !self.st.cl.active {
-            self.close_loop(actual);
-        } else if !want && self.st.cl.active {
-            self.open_loop();
+    pub(crate) fn sync_loop(&mut self, m: usize, actual: i64) {
+        let want = self.ap(m, Setting::ClosedLoop) == Some(1) && self.st.axes[m].cl.init == Init::Done;
+        if want && !self.st.axes[m].cl.active {
+            self.close_loop(m, actual);
+        } else if !want && self.st.axes[m].cl.active {
+            self.open_loop(m);
         }
     }
 
     /// AP 129 was written: the loop closes (or opens) at once, between two ticks.
-    pub(crate) fn closed_loop_switched(&mut self) {
-        let actual = self.actual_now();
-        self.st.cl.actual = actual;
-        self.sync_loop(actual);
+    pub(crate) fn closed_loop_switched(&mut self, m: usize) {
+        let actual = self.actual_now(m);
+        self.st.axes[m].cl.actual = actual;
+        self.sync_loop(m, actual);
     }
 
     /// The encoder's input (AP 201) or scale (AP 202, 210, 140) was written: the encoder position carries
     /// on from `at`, the value it had. A closed (or closing) loop opens and needs a new initialisation
     /// (AP 132 reads 0, AP 133 0): its calibration and the meaning of its positions changed under it —
     /// our decision; otherwise a loop would chase a rotor that only seemed to jump.
-    pub(crate) fn encoder_rescaled(&mut self, at: i32, input_changed: bool) {
+    pub(crate) fn encoder_rescaled(&mut self, m: usize, at: i32, input_changed: bool) {
         if input_changed {
-            self.configure_driver();
-            self.st.ssi = (0, 0);
+            self.configure_driver(m);
+            self.st.axes[m].ssi = (0, 0);
         }
-        self.set_encoder(at);
-        if self.st.cl.active {
-            self.open_loop();
+        self.set_encoder(m, at);
+        if self.st.axes[m].cl.active {
+            self.open_loop(m);
         }
         // A running initialisation's field goes back to the step counter at once; a done one is void.
-        self.st.unreported_steps += self.abort_init();
-        if self.st.cl.init == Init::Done {
-            self.st.cl.init = Init::Idle;
+        self.st.axes[m].unreported_steps += self.abort_init(m);
+        if self.st.axes[m].cl.init == Init::Done {
+            self.st.axes[m].cl.init = Init::Idle;
         }
     }
 
     /// Closes the loop where the rotor is: the ramp takes the rotor's position, nothing moves.
-    fn close_loop(&mut self, actual: i64) {
-        let field = i64::from(self.st.ramp.position) + self.st.cl.field_offset;
-        self.st.ramp.hard_stop();
-        self.st.ramp.set_position(actual as i32);
-        let scaler = self.ap(Setting::CurrentScaleMax).unwrap_or(255).clamp(0, 255) as u8;
-        let cl = &mut self.st.cl;
+    fn close_loop(&mut self, m: usize, actual: i64) {
+        let field = i64::from(self.st.axes[m].ramp.position) + self.st.axes[m].cl.field_offset;
+        self.st.axes[m].ramp.hard_stop();
+        self.st.axes[m].ramp.set_position(actual as i32);
+        let scaler = self.ap(m, Setting::CurrentScaleMax).unwrap_or(255).clamp(0, 255) as u8;
+        let cl = &mut self.st.axes[m].cl;
         cl.active = true;
         cl.field_offset = field - actual;
         cl.hold = 0;
@@ -249,10 +250,10 @@ impl<B: Board> Module<B> {
     }
 
     /// Opens the loop: the step counter continues from where the field is.
-    fn open_loop(&mut self) {
-        let field = i64::from(self.st.ramp.position) + self.st.cl.field_offset;
-        self.st.ramp.set_position(field as i32);
-        let cl = &mut self.st.cl;
+    fn open_loop(&mut self, m: usize) {
+        let field = i64::from(self.st.axes[m].ramp.position) + self.st.axes[m].cl.field_offset;
+        self.st.axes[m].ramp.set_position(field as i32);
+        let cl = &mut self.st.axes[m].cl;
         cl.active = false;
         cl.field_offset = 0;
         cl.torque = None;
@@ -260,24 +261,24 @@ impl<B: Board> Module<B> {
     }
 
     /// One tick of the encoder initialisation (see [`closed_loop`]'s docs); returns the field's move.
-    fn init_tick(&mut self, step: i64, dt_us: i64) -> i64 {
-        let Init::Running { elapsed_us, start_counts, start_offset, ok } = self.st.cl.init else { return step };
-        if step != 0 || !self.st.ramp.is_idle() {
+    fn init_tick(&mut self, m: usize, step: i64, dt_us: i64) -> i64 {
+        let Init::Running { elapsed_us, start_counts, start_offset, ok } = self.st.axes[m].cl.init else { return step };
+        if step != 0 || !self.st.axes[m].ramp.is_idle() {
             // A move aborts the sequence.
-            return step + self.abort_init();
+            return step + self.abort_init(m);
         }
-        let before = self.st.cl.field_offset;
+        let before = self.st.axes[m].cl.field_offset;
         let phase = INIT_PHASE.micros();
         let t = elapsed_us + dt_us as u64;
-        let period = 4 * self.full_step();
-        let counts = self.encoder_counts_now();
+        let period = 4 * self.full_step(m);
+        let counts = self.encoder_counts_now(m);
         let (mut start, mut ok) = (start_counts, ok);
         if elapsed_us < phase && t >= phase {
             start = counts;
         }
         if elapsed_us < 2 * phase && t >= 2 * phase {
             // The forward move is over: did the encoder count one electrical period, in our direction?
-            let expected = self.counts_per_period();
+            let expected = self.counts_per_period(m);
             let got = counts - start;
             ok = Some(expected > 0 && (got - expected).abs() * 4 <= expected);
         }
@@ -287,142 +288,144 @@ impl<B: Board> Module<B> {
             t if t < 3 * phase => period - period * (t - 2 * phase) as i64 / phase as i64,
             _ => 0,
         };
-        self.st.cl.field_offset = start_offset + offset;
+        self.st.axes[m].cl.field_offset = start_offset + offset;
         if t >= 3 * phase {
             if ok == Some(true) {
-                self.st.cl.init = Init::Done;
+                self.st.axes[m].cl.init = Init::Done;
                 // AP 112: the counts at electrical angle 0 (the field's angle at the start is known).
-                let field = i64::from(self.st.ramp.position) + start_offset;
+                let field = i64::from(self.st.axes[m].ramp.position) + start_offset;
                 let angle = field.rem_euclid(period);
-                let per_rev = i64::from(self.ap(Setting::EncoderResolution).unwrap_or(1).max(1));
-                let zero = (counts - angle * self.counts_per_period() / period).rem_euclid(per_rev);
-                self.set_ap(Setting::EncoderOffset, zero as i32);
+                let per_rev = i64::from(self.ap(m, Setting::EncoderResolution).unwrap_or(1).max(1));
+                let zero = (counts - angle * self.counts_per_period(m) / period).rem_euclid(per_rev);
+                self.set_ap(m, Setting::EncoderOffset, zero as i32);
                 // The encoder now reads the step counter.
-                let position = self.st.ramp.position;
-                self.st.encoder = super::EncoderBase { counts, value: position };
-                self.st.cl.actual = i64::from(position);
+                let position = self.st.axes[m].ramp.position;
+                self.st.axes[m].encoder = super::EncoderBase { counts, value: position };
+                self.st.axes[m].cl.actual = i64::from(position);
             } else {
-                self.st.cl.init = Init::Failed;
+                self.st.axes[m].cl.init = Init::Failed;
             }
         } else {
-            self.st.cl.init = Init::Running { elapsed_us: t, start_counts: start, start_offset, ok };
+            self.st.axes[m].cl.init = Init::Running { elapsed_us: t, start_counts: start, start_offset, ok };
         }
-        let moved = self.st.cl.field_offset - before;
-        if self.st.cl.init == Init::Done {
+        let moved = self.st.axes[m].cl.field_offset - before;
+        if self.st.axes[m].cl.init == Init::Done {
             // AP 129 written during the initialisation closes the loop now that it is done (our decision,
             // docs/decisions.md); the field stays where it is.
-            self.sync_loop(self.st.cl.actual);
+            self.sync_loop(m, self.st.axes[m].cl.actual);
         }
         moved
     }
 
     /// AP 132 := 1: starts the encoder initialisation (at rest, with the loop open; status 4 otherwise —
     /// our decision).
-    pub(crate) fn start_encoder_init(&mut self, v: i32) -> Result<(), Status> {
+    pub(crate) fn start_encoder_init(&mut self, m: usize, v: i32) -> Result<(), Status> {
         if v != 1 {
             return Ok(()); // 0: nothing to do
         }
-        if self.st.cl.active || !self.st.ramp.is_idle() || self.st.reference.is_active() {
+        if self.st.axes[m].cl.active || !self.st.axes[m].ramp.is_idle() || self.st.axes[m].reference.is_active() {
             return Err(Status::InvalidValue);
         }
-        let offset = self.st.cl.field_offset;
-        self.st.cl.init = Init::Running { elapsed_us: 0, start_counts: 0, start_offset: offset, ok: None };
-        self.st.cl.actual = self.actual_now();
+        let offset = self.st.axes[m].cl.field_offset;
+        self.st.axes[m].cl.init = Init::Running { elapsed_us: 0, start_counts: 0, start_offset: offset, ok: None };
+        self.st.axes[m].cl.actual = self.actual_now(m);
         Ok(())
     }
 
     /// AP 14: enters torque mode with a target current (the loop must be closed: status 4 otherwise —
     /// our decision; torque needs the encoder to commutate).
-    pub(crate) fn set_torque(&mut self, ma: i32) -> Result<(), Status> {
-        if !self.st.cl.active {
+    pub(crate) fn set_torque(&mut self, m: usize, ma: i32) -> Result<(), Status> {
+        if !self.st.axes[m].cl.active {
             return Err(Status::InvalidValue);
         }
-        let current = self.st.cl.torque.map_or(0, |(_, c)| c);
-        self.st.cl.torque = Some((ma, current));
-        self.st.reference.stop();
+        let current = self.st.axes[m].cl.torque.map_or(0, |(_, c)| c);
+        self.st.axes[m].cl.torque = Some((ma, current));
+        self.st.axes[m].reference.stop();
         self.st.event.pending = false;
         Ok(())
     }
 
     /// Leaves torque mode (every motion command).
     #[inline]
-    pub(crate) fn leave_torque_mode(&mut self) {
-        self.st.cl.torque = None;
+    pub(crate) fn leave_torque_mode(&mut self, m: usize) {
+        self.st.axes[m].cl.torque = None;
     }
 
     /// Moves the counters' zero by `delta` (SAP 1, the end of a reference search): in closed loop the
     /// encoder position moves with the step counter, so that the loop sees no error.
-    pub(crate) fn relabel(&mut self, delta: i32) {
-        if self.st.cl.active {
-            self.st.encoder.value = self.st.encoder.value.wrapping_add(delta);
-            self.st.cl.actual += i64::from(delta);
+    pub(crate) fn relabel(&mut self, m: usize, delta: i32) {
+        if self.st.axes[m].cl.active {
+            self.st.axes[m].encoder.value = self.st.axes[m].encoder.value.wrapping_add(delta);
+            self.st.axes[m].cl.actual += i64::from(delta);
         }
     }
 
     /// Whether the target is reached: the ramp at its target in position mode and, in closed loop, the
     /// rotor within the window (AP 134) of it.
     #[inline]
-    pub(crate) fn target_reached(&mut self) -> bool {
-        if !self.st.cl.active {
-            return self.st.ramp.position_reached();
+    pub(crate) fn target_reached(&mut self, m: usize) -> bool {
+        if !self.st.axes[m].cl.active {
+            return self.st.axes[m].ramp.position_reached();
         }
-        let ramp = &self.st.ramp;
-        let done = ramp.mode == Mode::Position && ramp.is_idle() && self.st.cl.torque.is_none();
-        let window = i64::from(self.ap(Setting::PositionWindow).unwrap_or(0));
-        done && i64::from(self.st.cl.error).abs() <= window
+        let ramp = &self.st.axes[m].ramp;
+        let done = ramp.mode == Mode::Position && ramp.is_idle() && self.st.axes[m].cl.torque.is_none();
+        let window = i64::from(self.ap(m, Setting::PositionWindow).unwrap_or(0));
+        done && i64::from(self.st.axes[m].cl.error).abs() <= window
     }
 
     /// AP 131: the measured velocity (0 when nothing is measured: open loop at rest).
-    pub(crate) fn measured_velocity(&self) -> i32 {
-        if !self.st.cl.engaged() && self.st.ramp.is_idle() {
+    pub(crate) fn measured_velocity(&self, m: usize) -> i32 {
+        if !self.st.axes[m].cl.engaged() && self.st.axes[m].ramp.is_idle() {
             0
         } else {
-            self.st.cl.measured_velocity()
+            self.st.axes[m].cl.measured_velocity()
         }
     }
 
     /// AP 16: the measured velocity is within AP 17 of the ramp's, and the ramp is not accelerating.
-    pub(crate) fn velocity_reached(&self) -> bool {
-        let window = i64::from(self.ap(Setting::VelocityWindow).unwrap_or(0));
-        let ramp = &self.st.ramp;
+    pub(crate) fn velocity_reached(&self, m: usize) -> bool {
+        let window = i64::from(self.ap(m, Setting::VelocityWindow).unwrap_or(0));
+        let ramp = &self.st.axes[m].ramp;
         let target = match ramp.mode {
             Mode::Velocity => ramp.target_velocity,
             Mode::Position => ramp.velocity(),
         };
-        !self.st.ramping
+        !self.st.axes[m].ramping
             && ramp.velocity() == target
-            && (i64::from(self.measured_velocity()) - i64::from(ramp.velocity())).abs() <= window
+            && (i64::from(self.measured_velocity(m)) - i64::from(ramp.velocity())).abs() <= window
     }
 
     /// AP 19: the closed loop's coil current, signed by the torque's direction, mA RMS; 0 in open loop.
-    pub(crate) fn actual_torque_current(&self) -> i32 {
-        if let Some((_, c)) = self.st.cl.torque {
+    pub(crate) fn actual_torque_current(&self, m: usize) -> i32 {
+        if let Some((_, c)) = self.st.axes[m].cl.torque {
             return c;
         }
-        match self.closed_loop_current() {
-            Some(s) if self.st.cl.active => (self.setting_to_rms_ma(s) * i64::from(self.st.cl.gamma.signum())) as i32,
+        match self.closed_loop_current(m) {
+            Some(s) if self.st.axes[m].cl.active => {
+                (self.setting_to_rms_ma(m, s) * i64::from(self.st.axes[m].cl.gamma.signum())) as i32
+            }
             _ => 0,
         }
     }
 
     /// AP 18: the status word.
-    pub(crate) fn status_word(&mut self) -> i32 {
+    pub(crate) fn status_word(&mut self, m: usize) -> i32 {
         let mut w = 0u32;
         let mut set = |bit: u32, on: bool| {
             if on {
                 w |= bit
             }
         };
-        let (left, right, home) = self.switches();
-        let reached = self.st.ramp.mode == Mode::Position && self.target_reached();
-        let torque = self.st.cl.torque.is_some();
+        let (left, right, home) = self.switches(m);
+        let reached = self.st.axes[m].ramp.mode == Mode::Position && self.target_reached(m);
+        let torque = self.st.axes[m].cl.torque.is_some();
         let supply = self.board.supply_voltage();
-        let driver = self.board.driver_flags();
+        let driver = self.board.driver_flags(m);
         set(status::TARGET_REACHED, reached);
-        set(status::VELOCITY_REACHED, self.velocity_reached());
-        set(status::CLOSED_LOOP, self.st.cl.active);
-        set(status::POSITION_MODE, !torque && self.st.ramp.mode == Mode::Position);
-        set(status::VELOCITY_MODE, !torque && self.st.ramp.mode == Mode::Velocity);
+        set(status::VELOCITY_REACHED, self.velocity_reached(m));
+        set(status::CLOSED_LOOP, self.st.axes[m].cl.active);
+        set(status::POSITION_MODE, !torque && self.st.axes[m].ramp.mode == Mode::Position);
+        set(status::VELOCITY_MODE, !torque && self.st.axes[m].ramp.mode == Mode::Velocity);
         set(status::TORQUE_MODE, torque);
         set(status::HOME, home);
         set(status::LEFT, left);
@@ -432,9 +435,12 @@ impl<B: Board> Module<B> {
         set(status::OVERTEMPERATURE, driver & crate::hal::driver_flag::OVERTEMPERATURE != 0);
         set(
             status::POSITION_HOLD,
-            self.st.cl.active && !torque && self.st.ramp.mode == Mode::Position && self.st.ramp.is_idle(),
+            self.st.axes[m].cl.active
+                && !torque
+                && self.st.axes[m].ramp.mode == Mode::Position
+                && self.st.axes[m].ramp.is_idle(),
         );
-        set(status::I2T_EXCEEDED, self.st.cl.i2t_exceeded);
+        set(status::I2T_EXCEEDED, self.st.axes[m].cl.i2t_exceeded);
         w as i32
     }
 }

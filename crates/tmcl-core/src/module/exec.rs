@@ -75,7 +75,10 @@ impl<B: Board> Module<B> {
                 | C::Mst { .. }
                 | C::Rfs { .. }
         ) {
-            self.st.drive_due = Some(self.st.drive_due.map_or(now, |t| t.min(now)));
+            for m in 0..self.st.axes.count() {
+                let axis = &mut self.st.axes[m];
+                axis.drive_due = Some(axis.drive_due.map_or(now, |t| t.min(now)));
+            }
         }
         match command {
             // §3.7.1 ROR: velocity mode, then AP 2 = velocity (a negative velocity turns left).
@@ -87,28 +90,28 @@ impl<B: Board> Module<B> {
             // §3.7.3 MST: velocity mode, target speed 0 (the printed "axis parameter #0" is a typo for AP 2),
             // decelerating with AP 5.
             C::Mst { motor } => {
-                self.motor(motor)?;
-                self.start_rotation(0);
+                let m = self.motor(motor)?;
+                self.start_rotation(m, 0);
                 value(0)
             }
             // §3.7.4 MVP ABS/REL/COORD: AP 0 = new target, position mode (AP 128 = 0).
             C::Mvp { motor, target } => self.mvp(motor, target),
             // §3.7.5 SAP: RAM only.
             C::Sap { param, motor, value: v } => {
-                self.motor(motor).and_then(|()| self.write_axis(param, v, now)).map(|()| Outcome::Value(v))
+                self.motor(motor).and_then(|m| self.write_axis(m, param, v, now)).map(|()| Outcome::Value(v))
             }
             // §3.7.6 GAP.
             C::Gap { param, motor } => {
-                self.motor(motor)?;
-                value(self.read_axis(param, Some(now))?)
+                let m = self.motor(motor)?;
+                value(self.read_axis(m, param, Some(now))?)
             }
             // §3.7.7 STAP: E parameters only.
             C::Stap { param, motor } => {
-                self.motor(motor).and_then(|()| self.store_axis(param)).map(|()| Outcome::Value(0))
+                self.motor(motor).and_then(|m| self.store_axis(m, param)).map(|()| Outcome::Value(0))
             }
             // §3.7.8 RSAP: E parameters only.
             C::Rsap { param, motor } => {
-                self.motor(motor).and_then(|()| self.restore_axis(param)).map(|()| Outcome::Value(0))
+                self.motor(motor).and_then(|m| self.restore_axis(m, param)).map(|()| Outcome::Value(0))
             }
             // §3.7.9 SGP.
             C::Sgp { param, bank, value: v } => self.write_global(param, bank, v, now).map(|()| Outcome::Value(v)),
@@ -121,8 +124,8 @@ impl<B: Board> Module<B> {
             C::Rsgp { param, bank } => self.restore_global(param, bank).map(|()| Outcome::Value(0)),
             // §3.7.13 RFS START/STOP/STATUS.
             C::Rfs { action, motor } => {
-                self.motor(motor)?;
-                value(self.reference_search(action)?)
+                let m = self.motor(motor)?;
+                value(self.reference_search(m, action)?)
             }
             // §3.7.14 SIO: bank 2 outputs; port 255 sets all from a bit vector, −1 takes it from A.
             C::Sio { port, bank, value: v } => self.sio(port, bank, v, origin),
@@ -134,9 +137,9 @@ impl<B: Board> Module<B> {
             C::Calcx { op } => self.calcx(op, origin),
             // §3.7.29 AAP: axis parameter ← A.
             C::Aap { param, motor } => {
-                self.motor(motor)?;
+                let m = self.motor(motor)?;
                 let a = self.regs(origin).accumulator;
-                self.write_axis(param, a, now)?;
+                self.write_axis(m, param, a, now)?;
                 value(a)
             }
             // §3.7.30 AGP: global parameter ← A.
@@ -151,11 +154,14 @@ impl<B: Board> Module<B> {
             // §3.7.25 GCO; motor 255 copies EEPROM → RAM.
             C::Gco { coord, motor: 255 } => self.copy_coordinates(coord, false).map(|()| Outcome::Value(0)),
             C::Gco { coord, motor } => {
-                self.motor(motor)?;
-                value(self.st.coords[self.coord_index(coord)?])
+                let m = self.motor(motor)?;
+                value(self.st.axes[m].coords[self.coord_index(coord)?])
             }
             // §3.7.26 CCO: coordinate ← actual position; the reply carries it.
-            C::Cco { coord, motor } => self.set_coordinate(coord, motor, self.st.ramp.position),
+            C::Cco { coord, motor } => {
+                let m = self.motor(motor)?;
+                self.set_coordinate(coord, motor, self.st.axes[m].ramp.position)
+            }
             // §3.7.27 ACO: coordinate ← accumulator (as its description says; its "internal function" line says the
             // actual position).
             C::Aco { coord, motor } => {
@@ -244,30 +250,30 @@ impl<B: Board> Module<B> {
 
     /// SCO, CCO, ACO: coordinate `coord` ← `v` (through to the EEPROM with GP 84 = 1); the reply carries it.
     fn set_coordinate(&mut self, coord: u8, motor: u8, v: i32) -> Exec {
-        self.motor(motor)?;
-        self.write_coordinate(coord, v)?;
+        let m = self.motor(motor)?;
+        self.write_coordinate(m, coord, v)?;
         value(v)
     }
 
     /// ROR, ROL: velocity mode towards `velocity` (AP 2's unit), checked against AP 2's range; the
     /// reply carries `reply`.
     fn rotate(&mut self, motor: u8, velocity: i32, reply: i32) -> Exec {
-        self.motor(motor)?;
+        let m = self.motor(motor)?;
         self.velocity_in_range(velocity)?;
-        self.start_rotation(self.units_to_pps(velocity));
+        self.start_rotation(m, self.units_to_pps(m, velocity));
         value(reply)
     }
 
     /// MVP: a move to an absolute position, by an offset, or to a stored coordinate (§3.7.4).
     fn mvp(&mut self, motor: u8, target: MoveTarget) -> Exec {
-        self.motor(motor)?;
+        let m = self.motor(motor)?;
         let to = match target {
             MoveTarget::Abs(p) => p,
             // "an offset to the actual position ... must not exceed the above mentioned limits".
-            MoveTarget::Rel(d) => self.relative_base().checked_add(d).ok_or(Status::InvalidValue)?,
+            MoveTarget::Rel(d) => self.relative_base(m).checked_add(d).ok_or(Status::InvalidValue)?,
             MoveTarget::Coord(n) => {
                 let n = usize::try_from(n).ok().filter(|n| *n <= usize::from(self.spec.coordinates));
-                self.st.coords[n.ok_or(Status::InvalidValue)?]
+                self.st.axes[m].coords[n.ok_or(Status::InvalidValue)?]
             }
         };
         // The target must be a position the counter holds (PDx-113 manual §5.7.4: −2^23 … 2^23 − 1,
@@ -277,7 +283,7 @@ impl<B: Board> Module<B> {
                 return Err(Status::InvalidValue);
             }
         }
-        self.start_move(to);
+        self.start_move(m, to);
         value(match target {
             MoveTarget::Abs(v) | MoveTarget::Rel(v) | MoveTarget::Coord(v) => v,
         })
@@ -426,35 +432,37 @@ impl<B: Board> Module<B> {
 
     /// What MVP REL counts from: AP 127 (TMCM-1316's options: 0 the last target, 1 the ramp's position,
     /// 2 the encoder), or the actual position for a model without it (PD28-1021 §3.7.4).
-    fn relative_base(&mut self) -> i32 {
-        match self.ap(Setting::RelativePositioning) {
-            Some(0) => self.st.ramp.target_position,
-            Some(2) => self.encoder_position(),
-            _ => self.st.ramp.position,
+    fn relative_base(&mut self, m: usize) -> i32 {
+        match self.ap(m, Setting::RelativePositioning) {
+            Some(0) => self.st.axes[m].ramp.target_position,
+            Some(2) => self.encoder_position(m),
+            _ => self.st.axes[m].ramp.position,
         }
     }
 
-    fn motor(&self, motor: u8) -> Result<(), Status> {
+    /// The motor byte of a command: a motor of the model, else status 4 (PD28-1021 manual §3.5: the
+    /// motor/bank byte; chapter 3's status table: 4 = invalid value).
+    pub(crate) fn motor(&self, motor: u8) -> Result<usize, Status> {
         if motor < self.spec.motors {
-            Ok(())
+            Ok(usize::from(motor))
         } else {
             Err(ParamError::NoSuchMotor.into())
         }
     }
 
-    fn start_rotation(&mut self, velocity: i32) {
-        self.leave_torque_mode();
-        self.st.reference.stop();
-        self.st.ramp.rotate(velocity);
-        self.st.error_flags = 0; // AP 207: "cleared ... when a motion command runs"
+    fn start_rotation(&mut self, m: usize, velocity: i32) {
+        self.leave_torque_mode(m);
+        self.st.axes[m].reference.stop();
+        self.st.axes[m].ramp.rotate(velocity);
+        self.st.axes[m].error_flags = 0; // AP 207: "cleared ... when a motion command runs"
         self.st.event.pending = false;
     }
 
-    fn start_move(&mut self, target: i32) {
-        self.leave_torque_mode();
-        self.st.reference.stop();
-        self.st.ramp.move_to(target);
-        self.st.error_flags = 0;
+    fn start_move(&mut self, m: usize, target: i32) {
+        self.leave_torque_mode(m);
+        self.st.axes[m].reference.stop();
+        self.st.axes[m].ramp.move_to(target);
+        self.st.axes[m].error_flags = 0;
         match self.st.event.mode {
             Some(EventMode::Next) => {
                 self.st.event.mode = None;
@@ -477,7 +485,8 @@ impl<B: Board> Module<B> {
         match kind {
             PortKind::DigitalInput(bit) => i32::from((self.board.digital_inputs() >> bit) & 1),
             PortKind::AllInputs => i32::from(self.board.digital_inputs()),
-            PortKind::EncoderNearZero => i32::from(self.encoder_near_zero()),
+            // (The encoder of motor 0: the models with this port have one motor.)
+            PortKind::EncoderNearZero => i32::from(self.encoder_near_zero(0)),
             PortKind::Analog(ch) => i32::from(self.board.analog_input(ch).min(4095)),
             PortKind::Analog10(ch) => i32::from(self.board.analog_input(ch).min(4095) >> 2),
             PortKind::Temperature => self.board.temperature(),
@@ -487,34 +496,34 @@ impl<B: Board> Module<B> {
     }
 
     /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions.
-    fn reference_search(&mut self, action: RfsAction) -> Result<i32, Status> {
+    fn reference_search(&mut self, m: usize, action: RfsAction) -> Result<i32, Status> {
         match action {
             RfsAction::Start => {
                 // AP 193 is range-checked on write, so it always decodes.
-                let value = self.ap(Setting::ReferenceSearchMode).ok_or(Status::NotAvailable)?;
+                let value = self.ap(m, Setting::ReferenceSearchMode).ok_or(Status::NotAvailable)?;
                 let mode = SearchMode::decode(value, self.spec.reference_modes).ok_or(Status::InvalidValue)?;
-                let (fast, slow) = self.reference_speeds();
+                let (fast, slow) = self.reference_speeds(m);
                 if fast == 0 || slow == 0 {
                     // A search at speed 0 would never end: refused (our decision).
                     return Err(Status::InvalidValue);
                 }
-                self.st.error_flags = 0;
+                self.st.axes[m].error_flags = 0;
                 self.st.event.pending = false;
-                self.leave_torque_mode();
-                if let Action::Rotate(v) = self.st.reference.start(mode, fast) {
-                    self.st.ramp.hard_stop();
-                    self.st.ramp.rotate(v);
+                self.leave_torque_mode(m);
+                if let Action::Rotate(v) = self.st.axes[m].reference.start(mode, fast) {
+                    self.st.axes[m].ramp.hard_stop();
+                    self.st.axes[m].ramp.rotate(v);
                 }
                 Ok(0)
             }
             RfsAction::Stop => {
-                if self.st.reference.is_active() {
-                    self.st.reference.stop();
-                    self.st.ramp.rotate(0);
+                if self.st.axes[m].reference.is_active() {
+                    self.st.axes[m].reference.stop();
+                    self.st.axes[m].ramp.rotate(0);
                 }
                 Ok(0)
             }
-            RfsAction::Status => Ok(self.st.reference.status()),
+            RfsAction::Status => Ok(self.st.axes[m].reference.status()),
         }
     }
 }

@@ -102,7 +102,7 @@ impl<B: Board> Module<B> {
                 self.handle_frame(port, iface, frame, now);
                 // A command that only reads changes nothing the driver sees; anything else may.
                 if !CommandSet::READ_ONLY.contains_code(frame[1]) {
-                    self.update_board(now);
+                    self.update_boards(now);
                 }
                 self.st.ports[port].outbox.flush(now, sink);
             }
@@ -122,7 +122,7 @@ impl<B: Board> Module<B> {
         self.st.heartbeat_tripped = false;
         self.handle_instruction(port, iface, instruction, now);
         if !CommandSet::READ_ONLY.contains_code(message[1]) {
-            self.update_board(now);
+            self.update_boards(now);
         }
         self.st.ports[port].outbox.flush(now, sink);
     }
@@ -188,7 +188,7 @@ impl<B: Board> Module<B> {
             Ok(Outcome::EnterAscii) => self.enter_ascii(0),
             _ => {}
         }
-        self.update_board(now);
+        self.update_boards(now);
         result
     }
 

@@ -41,18 +41,18 @@ impl<B: Board> Module<B> {
     }
 
     /// STAP (§3.7.7): an E parameter's RAM value into the EEPROM.
-    pub(crate) fn store_axis(&mut self, number: u8) -> Result<(), Status> {
+    pub(crate) fn store_axis(&mut self, m: usize, number: u8) -> Result<(), Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.store)?;
         self.unlocked_for(d)?;
-        persist::store_axis(&mut self.board, self.spec, i, self.st.axis[i])?;
+        persist::store_axis(&mut self.board, self.spec, m, i, self.st.axes[m].params[i])?;
         Ok(())
     }
 
     /// RSAP (§3.7.8): an E parameter back from the EEPROM (its default if the stored value is out of range).
-    pub(crate) fn restore_axis(&mut self, number: u8) -> Result<(), Status> {
+    pub(crate) fn restore_axis(&mut self, m: usize, number: u8) -> Result<(), Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.store)?;
-        let v = persist::load_axis(&mut self.board, self.spec, i)?;
-        self.st.axis[i] = if d.range.contains(v) { v } else { d.default };
+        let v = persist::load_axis(&mut self.board, self.spec, m, i)?;
+        self.st.axes[m].params[i] = if d.range.contains(v) { v } else { d.default };
         Ok(())
     }
 
@@ -106,19 +106,31 @@ impl<B: Board> Module<B> {
         permitted(&self.spec.global, number, allowed)
     }
 
-    /// GAP: an axis parameter's value (chapter 4, Table 15). A library call from outside, as a host's
-    /// GAP is: a read may change state (AP 207 clears on read), so it counts as an input
+    /// GAP of motor 0: an axis parameter's value (chapter 4, Table 15). A library call from outside, as a
+    /// host's GAP is: a read may change state (AP 207 clears on read), so it counts as an input
     /// (`module/seam.rs`).
     pub fn get_axis(&mut self, number: u8) -> Result<i32, Status> {
-        self.board.input();
-        self.read_axis(number, None)
+        self.get_axis_of(0, number)
     }
 
-    /// SAP without the frame: writes an axis parameter (RAM only) at `now`, as a library call from outside
-    /// (an input, `module/seam.rs`).
-    pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+    /// GAP of motor `motor` (status 4 for a motor the model lacks), as [`Module::get_axis`].
+    pub fn get_axis_of(&mut self, motor: u8, number: u8) -> Result<i32, Status> {
         self.board.input();
-        self.write_axis(number, v, now)
+        let m = self.motor(motor)?;
+        self.read_axis(m, number, None)
+    }
+
+    /// SAP of motor 0 without the frame: writes an axis parameter (RAM only) at `now`, as a library call
+    /// from outside (an input, `module/seam.rs`).
+    pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+        self.set_axis_of(0, number, v, now)
+    }
+
+    /// SAP of motor `motor` (status 4 for a motor the model lacks), as [`Module::set_axis`].
+    pub fn set_axis_of(&mut self, motor: u8, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+        self.board.input();
+        let m = self.motor(motor)?;
+        self.write_axis(m, number, v, now)
     }
 
     /// GGP without the frame: a global parameter, as a library call from outside (an input: GP 133 draws
@@ -140,65 +152,67 @@ impl<B: Board> Module<B> {
     /// driver's flags (standstill after 2²⁰ clocks without a step) or the status word made of them — is
     /// read with the board brought to `now` first ([`Module::sync_board`]), so that it is the value at the
     /// instant of the read however often the module was polled before.
-    pub(crate) fn read_axis(&mut self, number: u8, now: Option<Instant>) -> Result<i32, Status> {
+    pub(crate) fn read_axis(&mut self, m: usize, number: u8, now: Option<Instant>) -> Result<i32, Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.read)?;
         if let Some(now) = now {
             if matches!(
                 d.role,
                 Role::HomeSwitch | Role::RightSwitch | Role::LeftSwitch | Role::DriverFlags | Role::StatusWord
             ) {
-                self.sync_board(now);
+                self.sync_board(m, now);
             }
         }
-        let ramp = &self.st.ramp;
+        let ramp = &self.st.axes[m].ramp;
         Ok(match d.role {
-            Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axis[i],
+            Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axes[m].params[i],
             Role::TargetPosition => ramp.target_position,
-            Role::ActualPosition if self.st.cl.active => self.encoder_position(),
+            Role::ActualPosition if self.st.axes[m].cl.active => self.encoder_position(m),
             Role::ActualPosition => ramp.position,
             // TMC428: in position mode the ramp sets v_target itself (see `hardware_target_speed`).
             Role::TargetSpeed if ramp.mode == Mode::Position && self.spec.driver == Driver::Tmc428Tmc24x => {
                 self.hardware_target_speed()
             }
-            Role::TargetSpeed => self.pps_to_units(ramp.target_velocity),
-            Role::ActualSpeed => self.pps_to_units(ramp.velocity()),
-            Role::PositionReached => i32::from(self.target_reached()),
+            Role::TargetSpeed => self.pps_to_units(m, ramp.target_velocity),
+            Role::ActualSpeed => self.pps_to_units(m, ramp.velocity()),
+            Role::PositionReached => i32::from(self.target_reached(m)),
             Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
             // TMC428: 2 velocity; in position mode what was written, 0 (ramp) or 1 (soft).
             Role::RampModeTmc428 if ramp.mode == Mode::Velocity => 2,
-            Role::RampModeTmc428 => i32::from(self.st.axis[i] == 1),
-            Role::HomeSwitch => i32::from(self.switches().2),
-            Role::RightSwitch => i32::from(self.switches().1),
-            Role::LeftSwitch => i32::from(self.switches().0),
+            Role::RampModeTmc428 => i32::from(self.st.axes[m].params[i] == 1),
+            Role::HomeSwitch => i32::from(self.switches(m).2),
+            Role::RightSwitch => i32::from(self.switches(m).1),
+            Role::LeftSwitch => i32::from(self.switches(m).0),
             // AP 180: the current scale 0..31 in use (current / 8, Table 22), after coolStep.
-            Role::ActualCurrent => i32::from(self.current(self.st.now).0 >> 3),
-            Role::LoadValue => i32::from(self.board.load().min(1023)),
+            Role::ActualCurrent => i32::from(self.current(m, self.st.now).0 >> 3),
+            Role::LoadValue => i32::from(self.board.load(m).min(1023)),
             // AP 207: "cleared automatically when read".
-            Role::ErrorFlags => i32::from(core::mem::take(&mut self.st.error_flags)),
-            Role::DriverFlags => i32::from(self.board.driver_flags()),
-            Role::EncoderPosition => self.encoder_position(),
-            Role::EncoderAbsolute => self.encoder_absolute(),
-            Role::TargetCurrent => self.st.cl.torque.map_or(self.st.axis[i], |(t, _)| t),
-            Role::VelocityReached => i32::from(self.velocity_reached()),
-            Role::StatusWord => self.status_word(),
-            Role::ActualTorqueCurrent => self.actual_torque_current(),
-            Role::I2tSum => self.st.cl.i2t.clamp(0, i64::from(i32::MAX)) as i32,
-            Role::I2tExceedCount => self.st.cl.i2t_count as i32,
-            Role::CurrentScale => i32::from(self.st.cl.scaler),
-            Role::MeasuredVelocity => self.measured_velocity(),
-            Role::EncoderInit => self.st.cl.init.code(),
-            Role::ClosedLoopActive => i32::from(self.st.cl.active),
-            Role::Gamma => self.st.cl.gamma,
-            Role::VirtualPosition => self.st.ramp.position,
+            Role::ErrorFlags => i32::from(core::mem::take(&mut self.st.axes[m].error_flags)),
+            Role::DriverFlags => i32::from(self.board.driver_flags(m)),
+            Role::EncoderPosition => self.encoder_position(m),
+            Role::EncoderAbsolute => self.encoder_absolute(m),
+            Role::TargetCurrent => self.st.axes[m].cl.torque.map_or(self.st.axes[m].params[i], |(t, _)| t),
+            Role::VelocityReached => i32::from(self.velocity_reached(m)),
+            Role::StatusWord => self.status_word(m),
+            Role::ActualTorqueCurrent => self.actual_torque_current(m),
+            Role::I2tSum => self.st.axes[m].cl.i2t.clamp(0, i64::from(i32::MAX)) as i32,
+            Role::I2tExceedCount => self.st.axes[m].cl.i2t_count as i32,
+            Role::CurrentScale => i32::from(self.st.axes[m].cl.scaler),
+            Role::MeasuredVelocity => self.measured_velocity(m),
+            Role::EncoderInit => self.st.axes[m].cl.init.code(),
+            Role::ClosedLoopActive => i32::from(self.st.axes[m].cl.active),
+            Role::Gamma => self.st.axes[m].cl.gamma,
+            Role::VirtualPosition => self.st.axes[m].ramp.position,
             // Virtual minus actual position in closed loop; in open loop there is no such error.
-            Role::PositionError if self.st.cl.active => self.st.ramp.position.wrapping_sub(self.encoder_position()),
+            Role::PositionError if self.st.axes[m].cl.active => {
+                self.st.axes[m].ramp.position.wrapping_sub(self.encoder_position(m))
+            }
             Role::PositionError => 0,
-            _ => self.st.axis[i],
+            _ => self.st.axes[m].params[i],
         })
     }
 
     /// SAP/AAP: writes an axis parameter (RAM only).
-    pub(crate) fn write_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
+    pub(crate) fn write_axis(&mut self, m: usize, number: u8, v: i32, now: Instant) -> Result<(), Status> {
         let (i, d) = self.axis_desc(number, |d| d.access.write)?;
         if !d.range.contains(v) {
             return Err(ParamError::OutOfRange.into());
@@ -210,7 +224,7 @@ impl<B: Board> Module<B> {
             (matches!(d.setting, Some(Setting::EncoderMode | Setting::EncoderResolution | Setting::MotorFullSteps))
                 || d.role == Role::MicrostepResolution)
                 && self.has_closed_loop();
-        let encoder_before = if rescales { self.encoder_position() } else { 0 };
+        let encoder_before = if rescales { self.encoder_position(m) } else { 0 };
         // The pulse divisor (AP 154) scales the TMC428's clock: the velocity registers keep their values
         // in units, so AP 2 and AP 3 read the same and the speed in microsteps per second follows.
         let velocities = (d.setting == Some(Setting::PulseDivisor)).then(|| self.velocity_units());
@@ -218,46 +232,47 @@ impl<B: Board> Module<B> {
             // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
             // result to target position" relies on it).
             Role::TargetPosition => {
-                self.leave_torque_mode();
-                self.st.ramp.move_to(v)
+                self.leave_torque_mode(m);
+                self.st.axes[m].ramp.move_to(v)
             }
             Role::ActualPosition => {
-                self.relabel(v.wrapping_sub(self.st.ramp.position));
-                self.st.ramp.set_position(v)
+                self.relabel(m, v.wrapping_sub(self.st.axes[m].ramp.position));
+                self.st.axes[m].ramp.set_position(v)
             }
             // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
-            Role::TargetSpeed => self.st.ramp.target_velocity = self.units_to_pps(v),
+            Role::TargetSpeed => self.st.axes[m].ramp.target_velocity = self.units_to_pps(m, v),
             // Listed RW in Table 15: accepted, no effect: the ramp generator owns the actual speed.
             Role::ActualSpeed => {}
             Role::RampMode => {
-                self.st.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
+                self.st.axes[m].ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
             }
             // TMC428: 2 velocity mode; 0 ramp and 1 soft are position mode (the soft approach is not
             // simulated).
             Role::RampModeTmc428 => {
-                self.st.ramp.mode = if v == 2 { Mode::Velocity } else { Mode::Position };
-                self.st.axis[i] = v;
+                self.st.axes[m].ramp.mode = if v == 2 { Mode::Velocity } else { Mode::Position };
+                self.st.axes[m].params[i] = v;
             }
             // In closed loop the step counter moves with the encoder, so that the loop sees no error.
-            Role::EncoderPosition if self.st.cl.active => {
-                let delta = v.wrapping_sub(self.encoder_position());
-                self.st.ramp.set_position(self.st.ramp.position.wrapping_add(delta));
-                self.relabel(delta);
+            Role::EncoderPosition if self.st.axes[m].cl.active => {
+                let delta = v.wrapping_sub(self.encoder_position(m));
+                let ramp = &mut self.st.axes[m].ramp;
+                ramp.set_position(ramp.position.wrapping_add(delta));
+                self.relabel(m, delta);
             }
-            Role::EncoderPosition => self.set_encoder(v),
+            Role::EncoderPosition => self.set_encoder(m, v),
             Role::TargetCurrent => {
-                self.set_torque(v)?;
-                self.st.axis[i] = v;
+                self.set_torque(m, v)?;
+                self.st.axes[m].params[i] = v;
             }
-            Role::EncoderInit => self.start_encoder_init(v)?,
-            Role::ClearI2t => self.st.cl.i2t_exceeded = false,
-            Role::I2tExceedCount => self.st.cl.i2t_count = v as u32,
+            Role::EncoderInit => self.start_encoder_init(m, v)?,
+            Role::ClearI2t => self.st.axes[m].cl.i2t_exceeded = false,
+            Role::I2tExceedCount => self.st.axes[m].cl.i2t_count = v as u32,
             Role::EncoderPrescaler => {
-                let now_value = self.encoder_position();
-                self.st.axis[i] = v;
-                self.set_encoder(now_value);
+                let now_value = self.encoder_position(m);
+                self.st.axes[m].params[i] = v;
+                self.set_encoder(m, now_value);
             }
-            _ => self.st.axis[i] = v,
+            _ => self.st.axes[m].params[i] = v,
         }
         // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
         // range), the closed loop switched on or off, the encoder's input or scale. The driver's take
@@ -266,15 +281,15 @@ impl<B: Board> Module<B> {
             d.setting,
             Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange | Setting::EncoderMode)
         ) {
-            self.sync_board(now);
+            self.sync_board(m, now);
         }
         match d.setting {
-            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange) => self.configure_driver(),
-            Some(Setting::ClosedLoop) => self.closed_loop_switched(),
+            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange) => self.configure_driver(m),
+            Some(Setting::ClosedLoop) => self.closed_loop_switched(m),
             _ => {}
         }
         if rescales {
-            self.encoder_rescaled(encoder_before, d.setting == Some(Setting::EncoderMode));
+            self.encoder_rescaled(m, encoder_before, d.setting == Some(Setting::EncoderMode));
         }
         if let Some(units) = velocities {
             self.set_velocity_units(units);
@@ -372,12 +387,12 @@ impl<B: Board> Module<B> {
     }
 
     /// Sets a coordinate; with GP 84 = 1 coordinates 1..20 also go to the EEPROM (§3.7.24).
-    pub(crate) fn write_coordinate(&mut self, coord: u8, v: i32) -> Result<(), Status> {
+    pub(crate) fn write_coordinate(&mut self, m: usize, coord: u8, v: i32) -> Result<(), Status> {
         let n = self.coord_index(coord)?;
         if n > 0 && self.gp_flag(Setting::CoordinateStorage) {
-            persist::store_coordinate(&mut self.board, self.spec, coord, v)?;
+            persist::store_coordinate(&mut self.board, self.spec, m, coord, v)?;
         }
-        self.st.coords[n] = v;
+        self.st.axes[m].coords[n] = v;
         Ok(())
     }
 
@@ -385,44 +400,49 @@ impl<B: Board> Module<B> {
     pub(crate) fn copy_coordinates(&mut self, coord: u8, to_eeprom: bool) -> Result<(), Status> {
         let n = self.coord_index(coord)? as u8;
         let range = if n == 0 { 1..=self.spec.coordinates } else { n..=n };
-        for c in range {
-            if to_eeprom {
-                persist::store_coordinate(&mut self.board, self.spec, c, self.st.coords[usize::from(c)])?;
-            } else {
-                self.st.coords[usize::from(c)] = persist::load_coordinate(&mut self.board, self.spec, c)?;
+        // Motor 255: every motor's coordinates (§3.7.24 gives it for the one motor of the PD28-1021).
+        for m in 0..self.st.axes.count() {
+            for c in range.clone() {
+                if to_eeprom {
+                    let v = self.st.axes[m].coords[usize::from(c)];
+                    persist::store_coordinate(&mut self.board, self.spec, m, c, v)?;
+                } else {
+                    self.st.axes[m].coords[usize::from(c)] =
+                        persist::load_coordinate(&mut self.board, self.spec, m, c)?;
+                }
             }
         }
         Ok(())
     }
 
     /// AP 209 = value at the reference + counts since × p / 512 (§6.2).
-    pub(crate) fn encoder_position(&mut self) -> i32 {
-        let counts = self.encoder_counts_now();
-        self.encoder_value(counts)
+    pub(crate) fn encoder_position(&mut self, m: usize) -> i32 {
+        let counts = self.encoder_counts_now(m);
+        self.encoder_value(m, counts)
     }
 
     /// Sets AP 209 to `v` at the counts the encoder reads now.
-    pub(crate) fn set_encoder(&mut self, v: i32) {
-        let counts = self.encoder_counts_now();
-        self.st.encoder = crate::module::EncoderBase { counts, value: v };
+    pub(crate) fn set_encoder(&mut self, m: usize, v: i32) {
+        let counts = self.encoder_counts_now(m);
+        self.st.axes[m].encoder = crate::module::EncoderBase { counts, value: v };
         // Clear-on-null (AP 210 + 4) looks for zero crossings from here on: not between a reading from
         // before (taken when it was last on, perhaps long ago) and the next one, which would depend on
         // when that next one is taken.
-        self.st.last_counts = counts;
+        self.st.axes[m].last_counts = counts;
     }
 
     /// AP 215: the absolute single-turn value 0..counts per revolution − 1 (0..1023 on the PD28-1021),
     /// independent of the prescaler (§6.2).
-    pub(crate) fn encoder_absolute(&mut self) -> i32 {
-        self.encoder_counts_now().rem_euclid(i64::from(self.counts_per_rev())) as i32
+    pub(crate) fn encoder_absolute(&mut self, m: usize) -> i32 {
+        self.encoder_counts_now(m).rem_euclid(i64::from(self.counts_per_rev())) as i32
     }
 
     /// GIO 11, 0: the encoder is within 1/256 of a revolution (±4 counts, ±1.4° on the PD28-1021) of its
     /// absolute zero (our tolerance; §6.2 gives none).
-    pub(crate) fn encoder_near_zero(&mut self) -> bool {
+    pub(crate) fn encoder_near_zero(&mut self, m: usize) -> bool {
         let per_rev = self.counts_per_rev() as i32;
         let tolerance = (per_rev / 256).max(1);
-        let a = self.encoder_absolute();
+        let a = self.encoder_absolute(m);
         !(tolerance..=per_rev - tolerance).contains(&a)
     }
 

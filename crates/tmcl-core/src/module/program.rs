@@ -11,6 +11,7 @@ use crate::vm::{
     flags, Context, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM, MAX_VECTORS,
     NO_VECTOR, STACK_DEPTH, WAIT_TICK,
 };
+use tmcl_model::capacity::MAX_MOTORS;
 use tmcl_wire::{Command, Condition, Instruction, Status, WaitCondition, FRAME_LEN};
 
 impl<B: Board> Module<B> {
@@ -77,7 +78,7 @@ impl<B: Board> Module<B> {
             let pc = self.vm.pc;
             self.step_instruction(t);
             self.vm.time = self.vm.time.max(t) + INSTRUCTION_TIME;
-            if self.st.drive_due.is_some_and(|d| d <= t) {
+            if self.drive_due().is_some_and(|(_, d)| d <= t) {
                 return false; // the board hears of it before the next instruction (see `module/advance.rs`)
             }
             // A jump back: perhaps a loop in a fixed point.
@@ -133,7 +134,11 @@ impl<B: Board> Module<B> {
                 }
             }
             // §3.7.22 WAIT: waiting is a state; the PC stays on the WAIT until it ends.
-            Command::Wait { condition, ticks, .. } => {
+            // The motor byte names the motor POS, REFSW, LIMSW and RFS watch; a WAIT for a motor the model
+            // lacks is passed over like a command with status 4 (our decision).
+            Command::Wait { condition, motor, .. }
+                if condition != WaitCondition::Ticks && usize::from(motor) >= self.st.axes.count() => {}
+            Command::Wait { condition, motor, ticks } => {
                 let ticks = if ticks == -1 { self.st.regs.accumulator } else { ticks };
                 // −1 takes the value from A for every condition (§3.7.22 shows it only for TICKS); a negative
                 // value, which the manual forbids without saying what it does, waits no time (TICKS) or has
@@ -144,7 +149,7 @@ impl<B: Board> Module<B> {
                     _ if ticks > 0 => Some(now + span),
                     _ => None,
                 };
-                let wait = Wait { condition, until };
+                let wait = Wait { condition, motor, until };
                 match self.wait_done(wait, now) {
                     Some(timeout) => {
                         if timeout {
@@ -198,16 +203,17 @@ impl<B: Board> Module<B> {
 
     /// Whether a wait has ended at `now`: `Some(false)` met, `Some(true)` timed out (ETO), `None` not yet.
     fn wait_done(&mut self, wait: Wait, now: Instant) -> Option<bool> {
+        let m = usize::from(wait.motor);
         let met = match wait.condition {
             WaitCondition::Ticks => return wait.until.is_some_and(|u| now >= u).then_some(false),
-            WaitCondition::Pos => self.target_reached() && self.st.ramp.velocity() == 0,
+            WaitCondition::Pos => self.target_reached(m) && self.st.axes[m].ramp.velocity() == 0,
             // WAIT REFSW: the reference (home) switch; WAIT LIMSW: a limit (stop) switch (§3.7.22).
-            WaitCondition::RefSw => self.switches().2,
+            WaitCondition::RefSw => self.switches(m).2,
             WaitCondition::LimSw => {
-                let (l, r, _) = self.switches();
+                let (l, r, _) = self.switches(m);
                 l || r
             }
-            WaitCondition::Rfs => !self.st.reference.is_active(),
+            WaitCondition::Rfs => !self.st.axes[m].reference.is_active(),
         };
         if met {
             Some(false)
@@ -275,28 +281,39 @@ impl<B: Board> Module<B> {
                 }
             }
         }
-        let reached =
-            self.st.ramp.mode == crate::motion::Mode::Position && self.st.ramp.is_idle() && self.target_reached();
-        if reached && !self.vm.was_reached {
-            if let Some(n) = irqs.target_reached() {
-                self.raise_interrupt(n);
+        // Target reached, per motor: an edge of "standing at the target in position mode".
+        let mut reached_now = 0u8;
+        for m in 0..self.st.axes.count() {
+            let ramp = &self.st.axes[m].ramp;
+            let reached = ramp.mode == crate::motion::Mode::Position && ramp.is_idle() && self.target_reached(m);
+            if reached {
+                reached_now |= 1 << m;
+                if self.vm.was_reached & (1 << m) == 0 {
+                    if let Some(n) = irqs.target_reached(m) {
+                        self.raise_interrupt(n);
+                    }
+                }
             }
         }
-        self.vm.was_reached = reached;
+        self.vm.was_reached = reached_now;
         let watched = self.vm.enabled & irqs.levels_mask;
         if watched == 0 {
             self.vm.last_levels = None;
             return;
         }
-        let (left, right, _) = self.switches();
+        let mut stops = [(false, false); MAX_MOTORS as usize];
+        for (m, stop) in stops.iter_mut().enumerate().take(self.st.axes.count()) {
+            let (left, right, _) = self.switches(m);
+            *stop = (left, right);
+        }
         let inputs = self.board.digital_inputs();
         let mut levels = 0u64;
         // Every level source is sampled (not only the enabled ones), so that one enabled later compares
         // with its real level.
         for d in irqs.list.iter().filter(|d| d.source.is_level()) {
             let level = match d.source {
-                Source::LeftStop => left,
-                Source::RightStop => right,
+                Source::LeftStop(m) => stops.get(usize::from(m)).is_some_and(|s| s.0),
+                Source::RightStop(m) => stops.get(usize::from(m)).is_some_and(|s| s.1),
                 Source::Input(bit) => (inputs >> bit) & 1 == 1,
                 _ => false,
             };

@@ -16,24 +16,27 @@ impl<B: Board> Module<B> {
     /// saying so). The sign is the direction of travel, as the register is signed (±2047). A velocity
     /// written in position mode is kept for the next velocity mode (ROR/ROL) and read there again.
     pub(crate) fn hardware_target_speed(&self) -> i32 {
-        let p = self.ramp_params();
-        let v_max = self.ap(Setting::MaxPositioningSpeed).unwrap_or(0);
-        self.st.ramp.driving(&p) * v_max
+        let p = self.ramp_params(0);
+        let v_max = self.ap(0, Setting::MaxPositioningSpeed).unwrap_or(0);
+        self.st.axes[0].ramp.driving(&p) * v_max
     }
 
     /// The velocity registers in units (AP 2 as stored for velocity mode, AP 3), before the pulse divisor
     /// changes.
     pub(crate) fn velocity_units(&self) -> (i32, i32) {
-        (self.pps_to_units(self.st.ramp.target_velocity), self.pps_to_units(self.st.ramp.velocity()))
+        (
+            self.pps_to_units(0, self.st.axes[0].ramp.target_velocity),
+            self.pps_to_units(0, self.st.axes[0].ramp.velocity()),
+        )
     }
 
     /// After the pulse divisor changed: the velocity registers keep `units`, so the speed in microsteps
     /// per second follows the new divisor (TMC428 datasheet: µstep rate = f_CLK · v / (2^pulse_div ·
     /// 2048 · 32); the divisor scales the clock the velocity counts in).
     pub(crate) fn set_velocity_units(&mut self, (target, actual): (i32, i32)) {
-        self.st.ramp.target_velocity = self.units_to_pps(target);
-        let actual = self.units_to_pps(actual);
-        self.st.ramp.set_velocity(actual);
+        self.st.axes[0].ramp.target_velocity = self.units_to_pps(0, target);
+        let actual = self.units_to_pps(0, actual);
+        self.st.axes[0].ramp.set_velocity(actual);
     }
 
     /// SAC `bus`, `bytes`, `data`: one datagram to the motion controller; the 32-bit answer.
@@ -65,10 +68,10 @@ impl<B: Board> Module<B> {
         if at(&regs.motors[2]) {
             s |= status::XEQT3;
         }
-        if self.st.ramp.position == self.st.ramp.target_position {
+        if self.st.axes[0].ramp.position == self.st.axes[0].ramp.target_position {
             s |= status::XEQT1;
         }
-        if self.switches().0 {
+        if self.switches(0).0 {
             s |= status::RS1;
         }
         s
@@ -95,16 +98,16 @@ impl<B: Board> Module<B> {
             }
             9 => TYPE_VERSION,
             14 => {
-                let (left, right, _) = self.switches();
+                let (left, right, _) = self.switches(0);
                 u32::from(left) | (u32::from(right) << 1)
             }
             _ => 0,
         }
     }
 
-    fn other_motor(&mut self, m: usize, d: Datagram) -> u32 {
+    fn other_motor(&mut self, motor: usize, d: Datagram) -> u32 {
         let i = usize::from(d.index());
-        let Some(regs) = self.st.tmc428.motors.get_mut(m) else { return 0 };
+        let Some(regs) = self.st.tmc428.motors.get_mut(motor) else { return 0 };
         if i == 15 {
             return 0;
         }
@@ -126,14 +129,14 @@ impl<B: Board> Module<B> {
 
     fn read_ap(&mut self, setting: Option<Setting>, role: Option<Role>) -> u32 {
         match self.ap_number(setting, role) {
-            Some(n) => self.read_axis(n, None).unwrap_or(0) as u32,
+            Some(n) => self.read_axis(0, n, None).unwrap_or(0) as u32,
             None => 0,
         }
     }
 
     fn write_ap(&mut self, setting: Option<Setting>, role: Option<Role>, v: i32) -> Result<(), Status> {
         match self.ap_number(setting, role) {
-            Some(n) => self.write_axis(n, v, self.st.now),
+            Some(n) => self.write_axis(0, n, v, self.st.now),
             None => Ok(()),
         }
     }
@@ -162,7 +165,7 @@ impl<B: Board> Module<B> {
         let v12 = sign_extend(d.data & MASK12, 12);
         if !d.read {
             match i {
-                0 if self.st.ramp.mode == Mode::Velocity => self.st.ramp.target_position = v24,
+                0 if self.st.axes[0].ramp.mode == Mode::Velocity => self.st.axes[0].ramp.target_position = v24,
                 0 => self.write_ap(None, Some(R::TargetPosition), v24)?,
                 1 => self.write_ap(None, Some(R::ActualPosition), v24)?,
                 2 => self.write_ap(Some(S::MinimumSpeed), None, v11)?,
@@ -170,8 +173,8 @@ impl<B: Board> Module<B> {
                 4 => self.write_ap(None, Some(R::TargetSpeed), v12)?,
                 // The firmware's hard stop writes v_actual 0; another value is not taken over.
                 5 if v12 == 0 => {
-                    self.st.ramp.hard_stop();
-                    self.st.ramp.target_velocity = 0;
+                    self.st.axes[0].ramp.hard_stop();
+                    self.st.axes[0].ramp.target_velocity = 0;
                 }
                 5 => {}
                 6 => self.write_ap(Some(S::MaxAcceleration), None, v11)?,
@@ -203,14 +206,14 @@ impl<B: Board> Module<B> {
             }
         }
         Ok(match i {
-            0 => self.st.ramp.target_position as u32,
+            0 => self.st.axes[0].ramp.target_position as u32,
             1 => self.read_ap(None, Some(R::ActualPosition)),
             2 => self.read_ap(Some(S::MinimumSpeed), None),
             3 => self.read_ap(Some(S::MaxPositioningSpeed), None),
             4 => self.read_ap(None, Some(R::TargetSpeed)) & MASK12,
             5 => self.read_ap(None, Some(R::ActualSpeed)) & MASK12,
             6 => self.read_ap(Some(S::MaxAcceleration), None),
-            7 if self.st.ramping => self.read_ap(Some(S::MaxAcceleration), None),
+            7 if self.st.axes[0].ramping => self.read_ap(Some(S::MaxAcceleration), None),
             7 => 0,
             10 => {
                 let mode = self.read_ap(None, Some(R::RampModeTmc428)) & 3;

@@ -97,19 +97,19 @@ impl<B: StepDriver> StepDriver for Seam<B> {
     /// A drive state for the board: a change (the module tells the board only what is new; the same state
     /// again, to bring its clock on, goes through [`Seam::timeline`]).
     #[inline]
-    fn update(&mut self, now: Instant, state: &DriveState) {
+    fn update(&mut self, motor: usize, now: Instant, state: &DriveState) {
         self.input();
-        self.board.update(now, state);
+        self.board.update(motor, now, state);
     }
     /// Driver settings: a change.
     #[inline]
-    fn configure(&mut self, settings: &DriverSettings) {
+    fn configure(&mut self, motor: usize, settings: &DriverSettings) {
         self.input();
-        self.board.configure(settings);
+        self.board.configure(motor, settings);
     }
     #[inline]
-    fn quiet(&mut self, now: Instant, state: &DriveState) -> Option<Quiet> {
-        self.board.quiet(now, state)
+    fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet> {
+        self.board.quiet(motor, now, state)
     }
 }
 
@@ -137,30 +137,30 @@ impl<B: Analog> Analog for Seam<B> {
 
 impl<B: SwitchInputs> SwitchInputs for Seam<B> {
     #[inline]
-    fn switches(&mut self) -> Switches {
-        self.board.switches()
+    fn switches(&mut self, motor: usize) -> Switches {
+        self.board.switches(motor)
     }
 }
 
 impl<B: LoadSensor> LoadSensor for Seam<B> {
     #[inline]
-    fn load(&mut self) -> u16 {
-        self.board.load()
+    fn load(&mut self, motor: usize) -> u16 {
+        self.board.load(motor)
     }
     #[inline]
-    fn load_measurements(&mut self) -> u32 {
-        self.board.load_measurements()
+    fn load_measurements(&mut self, motor: usize) -> u32 {
+        self.board.load_measurements(motor)
     }
     #[inline]
-    fn driver_flags(&mut self) -> u8 {
-        self.board.driver_flags()
+    fn driver_flags(&mut self, motor: usize) -> u8 {
+        self.board.driver_flags(motor)
     }
 }
 
 impl<B: EncoderCounter> EncoderCounter for Seam<B> {
     #[inline]
-    fn encoder_counts(&mut self) -> i64 {
-        self.board.encoder_counts()
+    fn encoder_counts(&mut self, motor: usize) -> i64 {
+        self.board.encoder_counts(motor)
     }
 }
 
@@ -195,7 +195,7 @@ mod tests {
         }
     }
     impl StepDriver for Probe {
-        fn update(&mut self, _: Instant, _: &DriveState) {
+        fn update(&mut self, _: usize, _: Instant, _: &DriveState) {
             self.updates += 1;
         }
     }
@@ -212,9 +212,9 @@ mod tests {
         s.set_outputs(3);
         assert_eq!(s.changes(), c0 + 2, "new outputs count once; the same again is no change");
         assert_eq!(s.get().outputs, 2, "but both reach the board");
-        s.update(Instant::ZERO, &DriveState::default());
+        s.update(0, Instant::ZERO, &DriveState::default());
         assert_eq!(s.changes(), c0 + 3, "a drive state");
-        s.timeline().update(Instant::from_millis(1), &DriveState::default());
+        s.timeline().update(0, Instant::from_millis(1), &DriveState::default());
         assert_eq!(s.changes(), c0 + 3, "the board's own timeline");
         assert_eq!(s.get().updates, 2);
         s.changed();

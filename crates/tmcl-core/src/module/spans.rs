@@ -2,6 +2,9 @@
 //! ([`Bounds`]), and what the module does after a span — exactly what it does after a tick, once, at the
 //! span's last tick (see `advance.rs`).
 //!
+//! Spans are taken for a one-motor model only (motor 0 below); a model with several motors ticks
+//! every motor one tick at a time, with the same result.
+//!
 //! A span needs every tick in it to be *silent*: nothing but the ramp may happen at those ticks. So the
 //! module takes none:
 //! - ticking one by one was asked for ([`Module::set_exact_ticks`]);
@@ -130,13 +133,13 @@ impl<B: Board> Module<B> {
         if span.ticks == 0 {
             return false;
         }
-        self.st.ramp = to;
+        self.st.axes[0].ramp = to;
         let t = self.st.motion_time + Duration::from_micros(span.ticks * TICK.micros());
         // Every tick of the span moved (|AP 3| ≥ 1) with the speed changing as before the span, so the
         // standstill time and `ramping` are as they were; the board hears of the span's steps at its
         // last tick, which is the span's last step (or the span made none).
-        self.st.unreported_steps += span.steps;
-        self.update_board(t);
+        self.st.axes[0].unreported_steps += span.steps;
+        self.update_board(0, t);
         self.st.motion_time = t;
         self.tick_done(t);
         if self.vm.state == RunState::Running && self.vm.wait.is_some() {
@@ -156,12 +159,12 @@ impl<B: Board> Module<B> {
         // Braking computed only so far: a deadline before the event is only an extra poll, and a run polled
         // often (a trace) must not compute the rest of a braking phase at every poll.
         let bounds = Bounds { work: LOOKAHEAD_WORK, ..bounds };
-        self.span(&self.ramp_params(), limits, &bounds).1.ticks
+        self.span(&self.ramp_params(0), limits, &bounds).1.ticks
     }
 
     /// The span from the ramp's state within `bounds`: remembered, or computed (and remembered).
     fn span(&mut self, params: &RampParams, limits: Limits, bounds: &Bounds) -> (Ramp, Span) {
-        let from = self.st.ramp;
+        let from = self.st.axes[0].ramp;
         if let Some(found) = self.memos.find(&from, params, limits, bounds) {
             return found;
         }
@@ -178,26 +181,27 @@ impl<B: Board> Module<B> {
     fn span_bounds(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds)> {
         if self.exact
             || self.has_closed_loop()
-            || self.st.reference.is_active()
-            || self.st.standstill_since.is_some()
-            || self.st.ramp.velocity() == 0
+            || self.st.axes[0].reference.is_active()
+            || self.st.axes[0].standstill_since.is_some()
+            || self.st.axes[0].ramp.velocity() == 0
         {
             return None;
         }
-        if self.ap(Setting::CoolStepHysteresisStart).unwrap_or(0) != 0
-            || self.ap(Setting::MaxEncoderDeviation).unwrap_or(0) > 0
+        if self.ap(0, Setting::CoolStepHysteresisStart).unwrap_or(0) != 0
+            || self.ap(0, Setting::MaxEncoderDeviation).unwrap_or(0) > 0
         {
             return None; // coolStep regulates; the deviation check is armed (open loop: no closed loop here)
         }
-        let prescaler = self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axis[i]);
-        if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected() {
+        let prescaler =
+            self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axes[0].params[i]);
+        if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected(0) {
             return None;
         }
         // The board at the span's start, as a first tick would read it.
-        self.sync_board(self.st.motion_time);
-        let state = self.st.last_drive?;
-        let quiet = self.board.quiet(self.st.motion_time, &state)?;
-        if quiet.load == 0 && self.units_to_pps(self.ap(Setting::StopOnStall).unwrap_or(0)) > 0 {
+        self.sync_board(0, self.st.motion_time);
+        let state = self.st.axes[0].last_drive?;
+        let quiet = self.board.quiet(0, self.st.motion_time, &state)?;
+        if quiet.load == 0 && self.units_to_pps(0, self.ap(0, Setting::StopOnStall).unwrap_or(0)) > 0 {
             return None; // a measurement would stop the motor
         }
         // The last tick of the span: not after the horizon, the next instruction or end of a WAIT, the
@@ -217,10 +221,10 @@ impl<B: Board> Module<B> {
         }
         let (mut min_speed, mut max_speed) = (quiet.min_speed.max(1), quiet.max_speed);
         // The slow-run current (AP 183) applies at or below AP 182: the side the speed is on stays.
-        let threshold = self.units_to_pps(self.ap(Setting::CoolStepThresholdSpeed).unwrap_or(0));
+        let threshold = self.units_to_pps(0, self.ap(0, Setting::CoolStepThresholdSpeed).unwrap_or(0));
         if threshold > 0 {
             let threshold = threshold.unsigned_abs();
-            if self.st.ramp.velocity().unsigned_abs() <= threshold {
+            if self.st.axes[0].ramp.velocity().unsigned_abs() <= threshold {
                 max_speed = max_speed.min(threshold);
             } else {
                 min_speed = min_speed.max(threshold.saturating_add(1));
@@ -232,9 +236,9 @@ impl<B: Board> Module<B> {
             backward: quiet.backward,
             min_speed,
             max_speed,
-            ramping: self.st.ramping,
+            ramping: self.st.axes[0].ramping,
             work: u64::MAX,
         };
-        Some((self.limits(), bounds))
+        Some((self.limits(0), bounds))
     }
 }

@@ -55,7 +55,7 @@
 //! time the key comes round).
 
 #[cfg(feature = "spin-skip")]
-use super::{Module, Registers, State};
+use super::{Axis, Module, Registers, State};
 #[cfg(feature = "spin-skip")]
 use crate::hal::prelude::*;
 #[cfg(feature = "spin-skip")]
@@ -198,13 +198,10 @@ fn turned(a: &Snapshot, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         return None;
     }
     let State {
-        axis,
+        axes,
         global,
         interrupt,
         user,
-        coords,
-        ramp,
-        reference,
         regs,
         host_regs,
         event,
@@ -218,13 +215,45 @@ fn turned(a: &Snapshot, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         rng,
         last_command,
         heartbeat_tripped,
+        outputs,
+        active_baud,
+        unlocked,
+        tmc428,
+    } = &a.st;
+    let same = *motion_time + shift == st.motion_time
+        && axes.count() == st.axes.count()
+        && axes.iter().zip(st.axes.iter()).all(|(a, b)| same_axis(a, b))
+        && *global == st.global
+        && *interrupt == st.interrupt
+        && *user == st.user
+        && *regs == st.regs
+        && *host_regs == st.host_regs
+        && *event == st.event
+        && *ports == st.ports
+        && *asking_port == st.asking_port
+        && *tick_base == st.tick_base
+        && *rng == st.rng
+        && *last_command == st.last_command
+        && *heartbeat_tripped == st.heartbeat_tripped
+        && *outputs == st.outputs
+        && *active_baud == st.active_baud
+        && *unlocked == st.unlocked
+        && *tmc428 == st.tmc428;
+    same.then_some((shift, n))
+}
+
+#[cfg(feature = "spin-skip")]
+/// Whether a motor's state is as it was, but for the board's clock.
+fn same_axis(a: &Axis, b: &Axis) -> bool {
+    let Axis {
+        params,
+        coords,
+        ramp,
+        reference,
         standstill_since,
         ramping,
         encoder,
         error_flags,
-        outputs,
-        active_baud,
-        unlocked,
         unreported_steps,
         last_drive,
         // The board's clock: where the module last brought it. The board's own (quiet) business: it reads
@@ -236,42 +265,23 @@ fn turned(a: &Snapshot, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         last_counts,
         cl,
         ssi,
-        tmc428,
-    } = &a.st;
-    let same = *motion_time + shift == st.motion_time
-        && *axis == st.axis
-        && *global == st.global
-        && *interrupt == st.interrupt
-        && *user == st.user
-        && *coords == st.coords
-        && *ramp == st.ramp
-        && *reference == st.reference
-        && *regs == st.regs
-        && *host_regs == st.host_regs
-        && *event == st.event
-        && *ports == st.ports
-        && *asking_port == st.asking_port
-        && *tick_base == st.tick_base
-        && *rng == st.rng
-        && *last_command == st.last_command
-        && *heartbeat_tripped == st.heartbeat_tripped
-        && *standstill_since == st.standstill_since
-        && *ramping == st.ramping
-        && *encoder == st.encoder
-        && *error_flags == st.error_flags
-        && *outputs == st.outputs
-        && *active_baud == st.active_baud
-        && *unlocked == st.unlocked
-        && *unreported_steps == st.unreported_steps
-        && *last_drive == st.last_drive
-        && *drive_due == st.drive_due
-        && *coolstep == st.coolstep
-        && *load_measurements == st.load_measurements
-        && *last_counts == st.last_counts
-        && *cl == st.cl
-        && *ssi == st.ssi
-        && *tmc428 == st.tmc428;
-    same.then_some((shift, n))
+    } = a;
+    *params == b.params
+        && *coords == b.coords
+        && *ramp == b.ramp
+        && *reference == b.reference
+        && *standstill_since == b.standstill_since
+        && *ramping == b.ramping
+        && *encoder == b.encoder
+        && *error_flags == b.error_flags
+        && *unreported_steps == b.unreported_steps
+        && *last_drive == b.last_drive
+        && *drive_due == b.drive_due
+        && *coolstep == b.coolstep
+        && *load_measurements == b.load_measurements
+        && *last_counts == b.last_counts
+        && *cl == b.cl
+        && *ssi == b.ssi
 }
 
 #[cfg(feature = "spin-skip")]
@@ -311,18 +321,19 @@ impl<B: Board> Module<B> {
             spin.skip -= 1;
             return false;
         }
-        // The axis stands, nothing ticks by itself, and the board is quiet.
-        let standing = self.st.ramp.is_idle()
-            && !self.st.reference.is_active()
-            && self.st.standstill_since.is_some()
-            && !self.has_closed_loop();
-        let quiet = if standing {
-            let drive = self.st.last_drive.unwrap_or_default();
-            self.board.quiet(self.st.motion_time, &drive)
-        } else {
-            None
-        };
-        let Some(quiet) = quiet else {
+        // Every axis stands, nothing ticks by itself, and the board is quiet for each.
+        let standing =
+            !self.has_closed_loop() && self.st.axes.iter().all(|a| a.is_standing() && a.standstill_since.is_some());
+        let mut quiet_until: Option<Option<Instant>> = standing.then_some(None);
+        for m in 0..self.st.axes.count() {
+            let Some(until) = quiet_until else { break };
+            let drive = self.st.axes[m].last_drive.unwrap_or_default();
+            quiet_until = self.board.quiet(m, self.st.motion_time, &drive).map(|q| match (until, q.until) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            });
+        }
+        let Some(quiet_until) = quiet_until else {
             self.spin.snapshot = None;
             return false;
         };
@@ -342,15 +353,18 @@ impl<B: Board> Module<B> {
         };
         let Some((period, n, until)) = turn else {
             self.spin.rest = None;
-            self.spin.snapshot = Some(Snapshot { st: self.st.clone(), vm: self.vm.clone(), until: quiet.until, epoch });
+            self.spin.snapshot = Some(Snapshot { st: self.st.clone(), vm: self.vm.clone(), until: quiet_until, epoch });
             return false;
         };
         // Nothing that is not the loop's may fall within the turns jumped over: the end of this advance
         // (instructions up to and including `now` run in it), the board's quiet window (as it was at both
         // passes), a standby or freewheeling delay, the heartbeat, a timer (sampled at the ticks).
         let timers = if self.vm.enabled != 0 { self.vm.timers } else { [None; MAX_TIMERS] };
-        let event =
-            [until, quiet.until, self.st.drive_due, self.heartbeat_expiry()].into_iter().chain(timers).flatten().min();
+        let event = [until, quiet_until, self.drive_due().map(|(_, d)| d), self.heartbeat_expiry()]
+            .into_iter()
+            .chain(timers)
+            .flatten()
+            .min();
         let now = self.st.now;
         // Nothing is due within this advance: the loop spins on in its fixed point up to `event`, and the
         // program needs no poll before it (the deadline after this advance says so).

@@ -88,7 +88,10 @@ pub fn format<N: Nvm>(nvm: &mut N, spec: &ModelSpec, erase_program: bool) -> Res
     nvm.write(HEADER, &[0u8; HEADER_LEN]).map_err(|_| ParamError::Storage)?;
     // One write per parameter region (at most 64 slots, the core's largest table).
     let mut region = [0u8; tmcl_model::capacity::MAX_AXIS_PARAMS * SLOT];
-    for (base, table) in [(layout.axis, spec.axis.params), (layout.global, spec.global.params)] {
+    // Each motor's E parameters follow the previous motor's (motor m at `axis + m · E parameters · 4`).
+    let axis_stride = spec.axis.persistent() * SLOT;
+    let axes = (0..usize::from(spec.motors)).map(|m| (layout.axis + m * axis_stride, spec.axis.params));
+    for (base, table) in axes.chain([(layout.global, spec.global.params)]) {
         let mut len = 0;
         for (i, d) in table.iter().enumerate() {
             if let Some(s) = slot(table, i) {
@@ -99,23 +102,37 @@ pub fn format<N: Nvm>(nvm: &mut N, spec: &ModelSpec, erase_program: bool) -> Res
         nvm.write(base, &region[..len]).map_err(|_| ParamError::Storage)?;
     }
     zero(nvm, layout.user, usize::from(spec.stored_user_variables) * SLOT)?;
-    zero(nvm, layout.coords, usize::from(spec.coordinates) * SLOT)?;
+    zero(nvm, layout.coords, usize::from(spec.coordinates) * usize::from(spec.motors) * SLOT)?;
     if erase_program {
         self::erase_program(nvm, spec)?;
     }
     nvm.write(HEADER, &header(spec)).map_err(|_| ParamError::Storage)
 }
 
-/// Reads the stored value of axis parameter table entry `index` (an E parameter).
-pub fn load_axis<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize) -> Result<i32, ParamError> {
+/// Where motor `motor`'s slot of axis parameter table entry `index` (an E parameter) lies: the motors'
+/// E parameters one after the other, motor 0 first.
+fn axis_offset(spec: &ModelSpec, motor: usize, index: usize) -> Result<usize, ParamError> {
     let s = slot(spec.axis.params, index).ok_or(ParamError::NotPermitted)?;
-    read_i32(nvm, spec.layout().axis + SLOT * s)
+    if motor >= usize::from(spec.motors) {
+        return Err(ParamError::NoSuchMotor);
+    }
+    Ok(spec.layout().axis + SLOT * (motor * spec.axis.persistent() + s))
 }
 
-/// Stores axis parameter table entry `index`.
-pub fn store_axis<N: Nvm>(nvm: &mut N, spec: &ModelSpec, index: usize, value: i32) -> Result<(), ParamError> {
-    let s = slot(spec.axis.params, index).ok_or(ParamError::NotPermitted)?;
-    write_i32(nvm, spec.layout().axis + SLOT * s, value)
+/// Reads motor `motor`'s stored value of axis parameter table entry `index` (an E parameter).
+pub fn load_axis<N: Nvm>(nvm: &mut N, spec: &ModelSpec, motor: usize, index: usize) -> Result<i32, ParamError> {
+    read_i32(nvm, axis_offset(spec, motor, index)?)
+}
+
+/// Stores motor `motor`'s axis parameter table entry `index`.
+pub fn store_axis<N: Nvm>(
+    nvm: &mut N,
+    spec: &ModelSpec,
+    motor: usize,
+    index: usize,
+    value: i32,
+) -> Result<(), ParamError> {
+    write_i32(nvm, axis_offset(spec, motor, index)?, value)
 }
 
 /// Reads the stored value of bank 0 table entry `index` (an A parameter).
@@ -148,22 +165,31 @@ pub fn store_user<N: Nvm>(nvm: &mut N, spec: &ModelSpec, n: u8, value: i32) -> R
     write_i32(nvm, user_offset(spec, n)?, value)
 }
 
-fn coord_offset(spec: &ModelSpec, n: u8) -> Result<usize, ParamError> {
+fn coord_offset(spec: &ModelSpec, motor: usize, n: u8) -> Result<usize, ParamError> {
+    if motor >= usize::from(spec.motors) {
+        return Err(ParamError::NoSuchMotor);
+    }
     if (1..=spec.coordinates).contains(&n) {
-        Ok(spec.layout().coords + SLOT * (usize::from(n) - 1))
+        Ok(spec.layout().coords + SLOT * (motor * usize::from(spec.coordinates) + usize::from(n) - 1))
     } else {
         Err(ParamError::OutOfRange)
     }
 }
 
-/// Reads stored coordinate `n` (1..=20).
-pub fn load_coordinate<N: Nvm>(nvm: &mut N, spec: &ModelSpec, n: u8) -> Result<i32, ParamError> {
-    read_i32(nvm, coord_offset(spec, n)?)
+/// Reads motor `motor`'s stored coordinate `n` (1..=20).
+pub fn load_coordinate<N: Nvm>(nvm: &mut N, spec: &ModelSpec, motor: usize, n: u8) -> Result<i32, ParamError> {
+    read_i32(nvm, coord_offset(spec, motor, n)?)
 }
 
-/// Stores coordinate `n` (1..=20).
-pub fn store_coordinate<N: Nvm>(nvm: &mut N, spec: &ModelSpec, n: u8, value: i32) -> Result<(), ParamError> {
-    write_i32(nvm, coord_offset(spec, n)?, value)
+/// Stores motor `motor`'s coordinate `n` (1..=20).
+pub fn store_coordinate<N: Nvm>(
+    nvm: &mut N,
+    spec: &ModelSpec,
+    motor: usize,
+    n: u8,
+    value: i32,
+) -> Result<(), ParamError> {
+    write_i32(nvm, coord_offset(spec, motor, n)?, value)
 }
 
 /// Reads program-memory cell `address`: `None` if it is outside the model's memory; an empty cell (opcode 0)
@@ -284,7 +310,7 @@ mod tests {
         format(&mut nvm, &SPEC, true).unwrap();
         assert!(is_formatted(&mut nvm, &SPEC));
         let (i, _) = find(SPEC.axis.params, 214).unwrap();
-        assert_eq!(load_axis(&mut nvm, &SPEC, i), Ok(200));
+        assert_eq!(load_axis(&mut nvm, &SPEC, 0, i), Ok(200));
         let (i, _) = find(SPEC.global.params, 66).unwrap();
         assert_eq!(load_global(&mut nvm, &SPEC, i), Ok(1));
         assert_eq!(&nvm.0[..4], b"OTMC");
@@ -296,14 +322,14 @@ mod tests {
         let mut nvm = RamNvm(std::vec![0xFF; capacity(&SPEC)]);
         format(&mut nvm, &SPEC, false).unwrap();
         let (i, _) = find(SPEC.axis.params, 4).unwrap();
-        store_axis(&mut nvm, &SPEC, i, 1234).unwrap();
-        assert_eq!(load_axis(&mut nvm, &SPEC, i), Ok(1234));
+        store_axis(&mut nvm, &SPEC, 0, i, 1234).unwrap();
+        assert_eq!(load_axis(&mut nvm, &SPEC, 0, i), Ok(1234));
         let (i, _) = find(SPEC.axis.params, 0).unwrap();
-        assert_eq!(store_axis(&mut nvm, &SPEC, i, 1), Err(ParamError::NotPermitted));
+        assert_eq!(store_axis(&mut nvm, &SPEC, 0, i, 1), Err(ParamError::NotPermitted));
         store_user(&mut nvm, &SPEC, 55, -7).unwrap();
         assert_eq!(load_user(&mut nvm, &SPEC, 55), Ok(-7));
         assert_eq!(store_user(&mut nvm, &SPEC, 56, 1), Err(ParamError::NotPermitted));
-        store_coordinate(&mut nvm, &SPEC, 20, 99).unwrap();
+        store_coordinate(&mut nvm, &SPEC, 0, 20, 99).unwrap();
         // The bulk read gives what the cell-by-cell read gives, a bad checksum included.
         let i = Instruction::new(tmcl_wire::Opcode::Mvp, 0, 0, -5);
         store_program_cell(&mut nvm, &SPEC, 33, &i).unwrap();
@@ -316,8 +342,8 @@ mod tests {
         }
         assert_eq!(load_program_cell(&mut nvm, &SPEC, 33), Some(i));
         assert_eq!(load_program_cell(&mut nvm, &SPEC, 40), Some(Instruction::new(0.into(), 0, 0, 0)));
-        assert_eq!(load_coordinate(&mut nvm, &SPEC, 20), Ok(99));
-        assert_eq!(store_coordinate(&mut nvm, &SPEC, 0, 1), Err(ParamError::OutOfRange));
+        assert_eq!(load_coordinate(&mut nvm, &SPEC, 0, 20), Ok(99));
+        assert_eq!(store_coordinate(&mut nvm, &SPEC, 0, 0, 1), Err(ParamError::OutOfRange));
         let mut small = RamNvm(std::vec![0; 16]);
         assert_eq!(format(&mut small, &SPEC, true), Err(ParamError::Storage));
     }

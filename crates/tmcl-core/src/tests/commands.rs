@@ -351,9 +351,13 @@ fn reference_search_status_idle() {
 }
 
 #[test]
-fn state_fits_in_4_kib() {
+fn state_fits_in_4_kib_per_motor() {
     // The extra host links of a simulator (feature `host-links`) are not the microcontroller's to carry.
     let extra = (crate::iface::HOST_LINKS - 1) * core::mem::size_of::<crate::iface::Port>();
+    let axis = core::mem::size_of::<crate::module::Axis>();
+    let motors = usize::from(tmcl_model::capacity::MAX_MOTORS);
     let size = core::mem::size_of::<crate::State>() - extra;
-    assert!(size <= 4096, "{size}");
+    // One motor's state and the rest in 4 KiB, as before there were several; each further motor ~1 KiB.
+    assert!(size - (motors - 1) * axis <= 4096, "{size} with {motors} motors of {axis}");
+    assert!(axis <= 1024, "{axis}");
 }

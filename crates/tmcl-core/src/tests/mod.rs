@@ -2,6 +2,7 @@
 //! frames and time exactly as a host would.
 
 mod ascii;
+mod axes;
 mod backlog;
 mod commands;
 mod params;
@@ -113,7 +114,7 @@ impl Outputs for TestBoard {
 }
 
 impl SwitchInputs for TestBoard {
-    fn switches(&mut self) -> Switches {
+    fn switches(&mut self, _motor: usize) -> Switches {
         let at = |z: &Option<core::ops::RangeInclusive<i64>>| z.as_ref().is_some_and(|z| z.contains(&self.physical));
         Switches {
             left: self.switches.left || at(&self.zones[0]),
@@ -124,7 +125,7 @@ impl SwitchInputs for TestBoard {
 }
 
 impl StepDriver for TestBoard {
-    fn update(&mut self, _now: Instant, state: &DriveState) {
+    fn update(&mut self, _motor: usize, _now: Instant, state: &DriveState) {
         let scale = 1i64 << (8 - state.resolution.min(8));
         let moved = state.moved * scale;
         self.physical += if state.reverse { -moved } else { moved };
@@ -134,13 +135,13 @@ impl StepDriver for TestBoard {
 }
 
 impl LoadSensor for TestBoard {
-    fn load(&mut self) -> u16 {
+    fn load(&mut self, _motor: usize) -> u16 {
         700
     }
 }
 
 impl EncoderCounter for TestBoard {
-    fn encoder_counts(&mut self) -> i64 {
+    fn encoder_counts(&mut self, _motor: usize) -> i64 {
         // 51200 physical 1/256 microsteps per revolution (200 full steps), 1024 counts per revolution.
         self.physical.div_euclid(50)
     }

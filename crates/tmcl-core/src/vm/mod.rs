@@ -204,6 +204,8 @@ impl RunState {
 pub struct Wait {
     /// What it waits for.
     pub condition: WaitCondition,
+    /// The motor POS, REFSW, LIMSW and RFS watch (the motor byte, §3.7.22).
+    pub motor: u8,
     /// TICKS: when the wait ends; others: when the timeout expires (ETO), if there is one.
     pub until: Option<Instant>,
 }
@@ -248,8 +250,9 @@ pub struct Vm {
     pub(crate) download: Option<u16>,
     /// The levels of the switch and input interrupt sources at the last sample, bit n for vector n.
     pub(crate) last_levels: Option<u64>,
-    /// The position-reached state at the last sample (interrupt 3).
-    pub(crate) was_reached: bool,
+    /// The position-reached state of each motor at the last sample (bit m: motor m; its target-reached
+    /// interrupt fires on the edge).
+    pub(crate) was_reached: u8,
     /// Debugger breakpoints: bit n = stop before executing address n.
     pub(crate) breakpoints: [u64; MAX_PROGRAM / 64],
     /// The program stopped at a breakpoint (cleared when it runs again).
@@ -277,7 +280,7 @@ impl Default for Vm {
             timers: [None; MAX_TIMERS],
             download: None,
             last_levels: None,
-            was_reached: true,
+            was_reached: u8::MAX,
             breakpoints: [0; MAX_PROGRAM / 64],
             at_breakpoint: false,
             executed: 0,

@@ -86,12 +86,12 @@ impl Analog for Board {
     }
 }
 impl SwitchInputs for Board {
-    fn switches(&mut self) -> Switches {
+    fn switches(&mut self, _motor: usize) -> Switches {
         Switches::default()
     }
 }
 impl StepDriver for Board {
-    fn update(&mut self, _now: Instant, state: &DriveState) {
+    fn update(&mut self, _motor: usize, _now: Instant, state: &DriveState) {
         let moved = state.moved << (8 - state.resolution.min(8));
         self.physical += if state.reverse { -moved } else { moved };
         self.drive = *state;
@@ -99,7 +99,7 @@ impl StepDriver for Board {
 }
 impl LoadSensor for Board {}
 impl EncoderCounter for Board {
-    fn encoder_counts(&mut self) -> i64 {
+    fn encoder_counts(&mut self, _motor: usize) -> i64 {
         self.physical * self.counts_per_rev / PHYSICAL_PER_REV
     }
 }

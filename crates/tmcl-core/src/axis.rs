@@ -1,0 +1,170 @@
+//! One motor's state: an [`Axis`] per motor of the model, held in [`Axes`].
+//!
+//! Everything the firmware keeps for a motor lives here, together: its axis parameters and
+//! coordinates, the ramp generator and reference search, coolStep/stallGuard, the encoder's reference
+//! point, the closed loop, the standstill and standby bookkeeping and what the board was last told of
+//! it. A model says how many motors it has ([`tmcl_model::ModelDesc::motors`], 1 to
+//! [`MAX_MOTORS`]); the module runs an [`Axis`] for each, and the host and program address one by the
+//! motor byte of a command (PD28-1021 manual §3.5: "motor or bank number"). Nothing here knows the
+//! module; the module's per-axis glue (`module/drive.rs`, `module/closed_loop.rs`, `module/advance.rs`)
+//! takes the motor's index.
+//!
+//! The storage is a fixed array of [`MAX_MOTORS`] axes (no heap); a model with fewer motors leaves the
+//! rest unused.
+
+use crate::drive::closed_loop::ClosedLoop;
+use crate::drive::coolstep::CoolStep;
+use crate::hal::DriveState;
+use crate::motion::{Ramp, Reference};
+use crate::time::Instant;
+use tmcl_model::capacity::{MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_MOTORS};
+
+/// The encoder counter's reference point: AP 209 = `value` + (counts − `counts`) × prescaler.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EncoderBase {
+    /// Encoder counts (logical direction) at the reference.
+    pub counts: i64,
+    /// AP 209 at the reference.
+    pub value: i32,
+}
+
+/// One motor's state (see the module docs).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Axis {
+    /// The axis parameters in RAM, in the model's table order.
+    pub(crate) params: [i32; MAX_AXIS_PARAMS],
+    /// Coordinates 0..=n of this motor (§3.7.24).
+    pub(crate) coords: [i32; MAX_COORDINATES],
+    pub(crate) ramp: Ramp,
+    pub(crate) reference: Reference,
+    /// Since when the motor stands still (`None` while it moves).
+    pub(crate) standstill_since: Option<Instant>,
+    /// The last tick changed the speed (boost current, AP 200).
+    pub(crate) ramping: bool,
+    pub(crate) encoder: EncoderBase,
+    /// AP 207.
+    pub(crate) error_flags: u8,
+    /// Steps moved since the board was last updated.
+    pub(crate) unreported_steps: i64,
+    /// What the board was last told (with `moved` = 0), to skip updates that change nothing.
+    pub(crate) last_drive: Option<DriveState>,
+    /// When the board was last told of this motor.
+    pub(crate) board_time: Instant,
+    /// When the driver current next changes on its own (standby, freewheeling), if it will.
+    pub(crate) drive_due: Option<Instant>,
+    /// The coolStep regulator (AP 168–183).
+    pub(crate) coolstep: CoolStep,
+    /// The board's stallGuard2 measurement count at the last look.
+    pub(crate) load_measurements: u32,
+    /// Encoder counts at the last look (clear-on-null).
+    pub(crate) last_counts: i64,
+    /// The closed loop (closed-loop models).
+    pub(crate) cl: ClosedLoop,
+    /// An SSI encoder's last reading and the counts it adds up to.
+    pub(crate) ssi: (i64, i64),
+}
+
+impl Axis {
+    /// A motor at power-up at `now`: standing, parameters 0 until the module loads them.
+    pub(crate) fn new(now: Instant) -> Axis {
+        Axis {
+            params: [0; MAX_AXIS_PARAMS],
+            coords: [0; MAX_COORDINATES],
+            ramp: Ramp::default(),
+            reference: Reference::Idle,
+            standstill_since: Some(now),
+            ramping: false,
+            encoder: EncoderBase::default(),
+            error_flags: 0,
+            unreported_steps: 0,
+            last_drive: None,
+            board_time: now,
+            drive_due: None,
+            coolstep: CoolStep::new(),
+            load_measurements: 0,
+            last_counts: 0,
+            cl: ClosedLoop::default(),
+            ssi: (0, 0),
+        }
+    }
+
+    /// The ramp generator (positions, velocity).
+    pub fn ramp(&self) -> &Ramp {
+        &self.ramp
+    }
+
+    /// The reference search.
+    pub fn reference(&self) -> &Reference {
+        &self.reference
+    }
+
+    /// The closed loop's state (closed-loop models).
+    pub fn closed_loop(&self) -> &ClosedLoop {
+        &self.cl
+    }
+
+    /// The error flags AP 207 reads, without clearing them.
+    pub fn error_flags(&self) -> u8 {
+        self.error_flags
+    }
+
+    /// The encoder's reference point.
+    pub fn encoder_base(&self) -> EncoderBase {
+        self.encoder
+    }
+
+    /// Whether the motor stands (the ramp idle and no reference search).
+    pub fn is_standing(&self) -> bool {
+        self.ramp.is_idle() && !self.reference.is_active()
+    }
+
+    /// The axis parameter in RAM at table index `i` (the model's table order).
+    pub fn param(&self, i: usize) -> Option<i32> {
+        self.params.get(i).copied()
+    }
+}
+
+/// The motors of a module: [`MAX_MOTORS`] slots, of which the model's first `count` run.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Axes {
+    list: [Axis; MAX_MOTORS as usize],
+    count: u8,
+}
+
+impl Axes {
+    /// `count` motors (1..=[`MAX_MOTORS`], checked by the model) at power-up at `now`.
+    pub(crate) fn new(count: u8, now: Instant) -> Axes {
+        Axes { list: core::array::from_fn(|_| Axis::new(now)), count: count.clamp(1, MAX_MOTORS) }
+    }
+
+    /// How many motors run.
+    #[inline(always)]
+    pub fn count(&self) -> usize {
+        usize::from(self.count)
+    }
+
+    /// The motors that run.
+    pub fn iter(&self) -> impl Iterator<Item = &Axis> {
+        self.list[..self.count()].iter()
+    }
+
+    /// Motor `m`, if the model has it.
+    pub fn get(&self, m: usize) -> Option<&Axis> {
+        self.list[..self.count()].get(m)
+    }
+}
+
+impl core::ops::Index<usize> for Axes {
+    type Output = Axis;
+    #[inline(always)]
+    fn index(&self, m: usize) -> &Axis {
+        &self.list[m]
+    }
+}
+
+impl core::ops::IndexMut<usize> for Axes {
+    #[inline(always)]
+    fn index_mut(&mut self, m: usize) -> &mut Axis {
+        &mut self.list[m]
+    }
+}
