@@ -371,7 +371,7 @@ pub static MODELS: &[&ModelSpec] =
 
 /// Models served on another of their interfaces than the first: the same module, its interfaces in
 /// another order (the TMCM-1140 on its RS485 port instead of USB).
-static INTERFACE_VARIANTS: &[&ModelSpec] = &[&tmcm_1140::SPEC_RS485];
+static INTERFACE_VARIANTS: &[&ModelSpec] = &[&tmcm_1140::SPEC_RS485, &tmcm_3110::SPEC_RS485, &tmcm_6110::SPEC_RS485];
 
 /// The model `spec` served on its interface named `interface` (`usb`, `rs485`): `spec` itself when that
 /// is its first interface, the variant with that interface first when the model has one, `None` when

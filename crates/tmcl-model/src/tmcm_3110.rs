@@ -347,3 +347,7 @@ mod tests {
 
 /// The TMCM-3110 with firmware V1.11.
 pub static SPEC: ModelSpec = ModelSpec::new(DESC);
+
+/// The TMCM-3110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
+pub static SPEC_RS485: ModelSpec =
+    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });

@@ -169,3 +169,7 @@ mod tests {
 
 /// The TMCM-6110 with firmware V1.19.
 pub static SPEC: ModelSpec = ModelSpec::new(DESC);
+
+/// The TMCM-6110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
+pub static SPEC_RS485: ModelSpec =
+    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });
