@@ -9,7 +9,7 @@ pub const MAX_MOTORS: u8 = 6;
 pub const MAX_AXIS_PARAMS: usize = 112;
 /// Bank 0 slots (19 on the PD28-1021).
 pub const MAX_GLOBAL_PARAMS: usize = 32;
-/// Bank 3 slots (9 on the PD28-1021).
+/// Bank 3 slots (9 on the PD28-1021, 23 on the TMCM-6110: timers, two switches per axis, eight inputs).
 pub const MAX_INTERRUPT_PARAMS: usize = 24;
 /// User variables in bank 2 (the type byte addresses 0..=255).
 pub const MAX_USER_VARIABLES: usize = 256;

@@ -1,9 +1,8 @@
 //! The TMCM-3110 (three axes) and, in [`crate::tmcm_6110`], the TMCM-6110 (six): the TMCM-1140's
 //! generation with more axes — TMC429 motion controllers in their units, a TMC262 per axis with
 //! stallGuard2 and coolStep, two reference switches per axis, eight inputs and eight outputs, USB, RS485
-//! and CAN — as data, **prepared**: the core drives one motor today ([`crate::capacity::MAX_MOTORS`]),
-//! so these descriptions are not in [`crate::MODELS`] yet and `ModelSpec::check` refuses them with
-//! [`crate::FitError::Motors`]. They go on when the core takes the number of axes from the model.
+//! and CAN — as data: the core drives as many motors as the model has, each axis with its own parameters,
+//! switches, ramp and interrupt sources.
 //!
 //! # Sources
 //!
@@ -27,10 +26,9 @@
 //! - **Per axis** every axis parameter exists once per motor, the same table for each.
 //! - **Interrupt vectors** per axis: target reached 3 + n, stallGuard2 15 + n, deviation 21 + n, left and
 //!   right stop switch 27 + 2n and 28 + 2n (the numbering of the ARM generation's interrupt table, the
-//!   bank 3 numbers of pytrinamic's `GP3`). [`VECTORS_3110`] lists them with their axis; the description
-//!   carries the timers, axis 0's vectors and the inputs, which the core's one-axis sources express.
-//! - **Bank 3** has 17 entries on the TMCM-3110 (23 on the -6110): more than the core's 16
-//!   ([`crate::capacity::MAX_INTERRUPT_PARAMS`]); the capacity grows with the axes.
+//!   bank 3 numbers of pytrinamic's `GP3`), each source naming its axis.
+//! - **Bank 3** has 17 entries on the TMCM-3110 (23 on the -6110): the core's capacity
+//!   ([`crate::capacity::MAX_INTERRUPT_PARAMS`]) is 24 for them.
 //! - **Encoder** (TMCM-3110 only): an external A/B encoder per axis (AP 209, prescaler 210, deviation
 //!   212); AP 201 (encoder mode) is kept and stored. The TMCM-6110 has no encoder inputs.
 //! - **Stored only**: AP 213 (group index), AP 254 (step/direction mode), besides the TMCM-1140's.
@@ -266,8 +264,7 @@ pub static PORTS: [PortDesc; 20] = [
     PortDesc { bank: 2, port: 255, kind: PortKind::AllOutputs, name: "all outputs" },
 ];
 
-/// The TMCM-3110 with firmware V1.11 (USB first, as the TMCM-1140), three axes: prepared, not in
-/// [`crate::MODELS`] until the core drives more than one motor.
+/// The TMCM-3110 with firmware V1.11 (USB first, as the TMCM-1140), three axes.
 pub const DESC: ModelDesc = ModelDesc {
     id: "tmcm-3110",
     name: "TMCM-3110",
@@ -335,11 +332,12 @@ mod tests {
         assert_eq!(bank3, [0, 1, 2, 27, 28, 29, 30, 31, 32, 39, 40, 41, 42, 43, 44, 45, 46]);
     }
 
-    /// The description is whole but for what the core lacks: more than one motor.
     #[test]
-    fn waits_for_the_core_s_axes() {
-        assert!(ModelSpec::check(&DESC).is_ok(), "{:?}", ModelSpec::check(&DESC));
-        let _ = FitError::Motors;
+    fn fits_the_core() {
+        assert_eq!(ModelSpec::check(&DESC).map(|_| ()), Ok(()));
+        // One motor more than the core drives does not fit.
+        let seven = ModelDesc { motors: 7, ..DESC };
+        assert_eq!(ModelSpec::check(&seven).map(|_| ()), Err(FitError::Motors));
         assert_eq!(DESC.version_binary >> 16, 3110, "odemis reads the model from the high word");
         assert_eq!(DESC.version_binary & 0xFFFF, 0x010B);
     }

@@ -1,5 +1,5 @@
-//! The TMCM-6110: six axes of the TMCM-3110's kind without encoder inputs, **prepared** as the TMCM-3110
-//! is ([`crate::tmcm_3110`] has the sources and decisions they share).
+//! The TMCM-6110: six axes of the TMCM-3110's kind without encoder inputs ([`crate::tmcm_3110`] has the
+//! sources and decisions they share).
 //!
 //! # Sources
 //!
@@ -90,8 +90,7 @@ pub static VECTORS_6110: [InterruptDesc; 41] = {
     ]
 };
 
-/// The TMCM-6110 with firmware V1.19, six axes: prepared, not in [`crate::MODELS`] until the core drives
-/// more than one motor.
+/// The TMCM-6110 with firmware V1.19, six axes.
 pub const DESC: ModelDesc = ModelDesc {
     id: "tmcm-6110",
     name: "TMCM-6110",
@@ -160,9 +159,11 @@ mod tests {
     }
 
     #[test]
-    fn waits_for_the_core_s_axes() {
-        assert!(ModelSpec::check(&DESC).is_ok(), "{:?}", ModelSpec::check(&DESC));
-        let _ = FitError::Motors;
+    fn fits_the_core() {
+        assert_eq!(ModelSpec::check(&DESC).map(|_| ()), Ok(()));
+        // One motor more than the core drives does not fit.
+        let seven = ModelDesc { motors: 7, ..DESC };
+        assert_eq!(ModelSpec::check(&seven).map(|_| ()), Err(FitError::Motors));
         assert_eq!(DESC.version_binary >> 16, 6110);
     }
 }
