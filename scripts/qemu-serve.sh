@@ -2,7 +2,7 @@
 # Runs the OpenTMCL firmware on an emulated Cortex-M3 (QEMU's lm3s6965evb) with the module's UART on a pty
 # whose symlink is LINK: host software opens LINK as a serial port, exactly as with `tmcl serve --pty LINK`.
 #
-# Usage: scripts/qemu-serve.sh LINK [--module pd28-1021|tmcm-1310|pd-113|tmcm-1140] [--monitor SOCKET] [--icount]
+# Usage: scripts/qemu-serve.sh LINK [--module pd28-1021|tmcm-1310|pd-113|tmcm-1140|tmcm-3110|tmcm-6110] [--monitor SOCKET] [--icount]
 #   Builds the image (firmware/, release) when it is missing or older than its sources, starts QEMU and
 #   prints `serving PD28-1021 at address 1 on LINK` (the ready line of `tmcl serve`) once LINK works.
 #   --monitor SOCKET  QEMU's human monitor on a Unix socket (for memory dumps: scripts/qemu-budgets.sh)
@@ -37,7 +37,9 @@ case "$model" in
     tmcm-1310) index=1; name=TMCM-1310 ;;
     pd-113) index=2; name=PDx-113 ;;
     tmcm-1140) index=3; name=TMCM-1140 ;;
-    *) echo "qemu-serve: unknown module \`$model\`; known: pd28-1021, tmcm-1310, pd-113, tmcm-1140" >&2; exit 2 ;;
+    tmcm-3110) index=4; name=TMCM-3110 ;;
+    tmcm-6110) index=5; name=TMCM-6110 ;;
+    *) echo "qemu-serve: unknown module \`$model\`; known: pd28-1021, tmcm-1310, pd-113, tmcm-1140, tmcm-3110, tmcm-6110" >&2; exit 2 ;;
 esac
 strap=$(printf '0x544d43%02x' "$index")
 
