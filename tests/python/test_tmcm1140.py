@@ -221,6 +221,8 @@ def test_stallguard2_demo_stops_on_a_seized_shaft(serve, tmp_path):
         motor.stallguard2.stop_velocity = 100
         motor.actual_position = 0
         motor.rotate(1500)
+        # Turning first (the first reads may come before the ramp's first step), then stopped.
+        wait_until(lambda: motor.actual_velocity > 0, 5, what="the motor turning")
         wait_until(lambda: motor.actual_velocity == 0, 5, what="the motor stopped by stallGuard2")
         assert motor.get_axis_parameter(motor.AP.ExtendedErrorFlags) & 1, "AP 207 bit 0: stalled"
 
