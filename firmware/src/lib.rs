@@ -61,14 +61,26 @@ pub fn run() -> ! {
 
     let mut tx = uart::Tx;
     let mut chunk = [0u8; 64];
+    // chunk[taken..len]: bytes received and not taken by the module yet.
+    let (mut taken, mut len) = (0, 0);
     loop {
         let now = clock::now(&mut time);
         loop {
-            let n = uart::RX.pop_into(&mut chunk);
-            if n == 0 {
+            if taken == len {
+                len = uart::RX.pop_into(&mut chunk);
+                taken = 0;
+                // Room in the ring: the bytes the UART held back come in.
+                uart::resume();
+                if len == 0 {
+                    break;
+                }
+            }
+            // A reply waiting for its telegram pause (GP 75) takes no further byte until it has gone
+            // out; the bytes behind it wait here, then in the ring, then in the UART's FIFO.
+            taken += module.receive_in_turn(0, now, &chunk[taken..len], &mut tx);
+            if taken < len {
                 break;
             }
-            module.receive(now, &chunk[..n], &mut tx);
         }
         let deadline = module.poll(now, &mut tx);
         // GP 65 takes effect at a restart (manual §5.1), once the reply to the restart has left.
@@ -80,7 +92,7 @@ pub fn run() -> ! {
         // with interrupts masked: an interrupt after the check still ends the WFI.
         cortex_m::interrupt::free(|_| {
             let due = deadline.is_some_and(|d| d <= now);
-            if uart::RX.is_empty() && !due {
+            if (taken < len || uart::RX.is_empty()) && !due {
                 cortex_m::asm::wfi();
             }
         });

@@ -3,12 +3,13 @@
 //!
 //! The receive interrupt moves every byte the FIFO holds into [`RX`] (a byte with a framing, parity, break
 //! or overrun error is dropped, as a damaged byte on the line; the core's framer then times the frame
-//! out). The main loop feeds [`RX`] to the core and queues the core's replies in [`TX`]; the transmit
+//! out); while [`RX`] is full, bytes stay in the FIFO until the main loop has made room ([`resume`]). The main loop feeds [`RX`] to the core and queues the core's replies in [`TX`]; the transmit
 //! interrupt keeps the FIFO filled from [`TX`]. The main loop also fills the FIFO itself, with
 //! interrupts masked, so that [`TX`] has one consumer at a time.
 
 use crate::clock::CLOCK_HZ;
 use crate::shim::{sysctl, uart0, GPIOA};
+use core::sync::atomic::{AtomicBool, Ordering};
 use tmcl_core::iface::Sink;
 use tmcl_mcu::ring::ByteRing;
 use tmcl_mcu::uart::{baud_rate, divisors};
@@ -55,11 +56,32 @@ pub fn idle() -> bool {
     TX.is_empty() && uart0::FR.read() & FR_BUSY == 0
 }
 
+/// Set while received bytes wait in the FIFO because [`RX`] is full (the receive interrupts are masked
+/// meanwhile); [`resume`] takes them once the main loop has made room.
+static HELD: AtomicBool = AtomicBool::new(false);
+
 /// The UART0 interrupt.
 pub fn on_interrupt() {
     let status = uart0::MIS.read();
     uart0::ICR.write(status);
+    drain();
+    if status & INT_TX != 0 {
+        refill();
+    }
+}
+
+/// Moves received bytes from the FIFO into [`RX`] while it has room. When it is full the rest stay in the
+/// FIFO and the receive interrupts are masked until [`resume`]: a byte is never read to be dropped. On
+/// a real line a sender that goes on meanwhile overruns the FIFO, as it would have overrun the ring; a
+/// sender that waits for room (QEMU, whose UART takes no byte from its pty while the FIFO is full) loses
+/// nothing. Runs in the interrupt or with interrupts masked: it is the one producer of [`RX`].
+fn drain() {
     while uart0::FR.read() & FR_RXFE == 0 {
+        if RX.room() == 0 {
+            HELD.store(true, Ordering::Relaxed);
+            uart0::IM.modify(|m| m & !(INT_RX | INT_RT));
+            return;
+        }
         let data = uart0::DR.read();
         if data & DR_ERRORS != 0 {
             uart0::ECR.write(0);
@@ -67,9 +89,21 @@ pub fn on_interrupt() {
         }
         RX.push(data as u8);
     }
-    if status & INT_TX != 0 {
-        refill();
+}
+
+/// Takes the bytes held in the FIFO and unmasks the receive interrupts, once [`RX`] has room again (from
+/// the main loop, after it took bytes from [`RX`]).
+pub fn resume() {
+    if !HELD.load(Ordering::Relaxed) || RX.room() == 0 {
+        return;
     }
+    cortex_m::interrupt::free(|_| {
+        HELD.store(false, Ordering::Relaxed);
+        drain();
+        if !HELD.load(Ordering::Relaxed) {
+            uart0::IM.modify(|m| m | INT_RX | INT_RT);
+        }
+    });
 }
 
 /// Moves queued bytes into the transmit FIFO; arms the transmit interrupt while bytes are left. Runs in

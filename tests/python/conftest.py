@@ -29,10 +29,6 @@ SERVE_ONLY = {
     "test_line_safety.py": "tests how `tmcl serve` guards its line (LINK.lock, clearing a killed host's "
                            "exclusive mode); scripts/qemu-serve.sh does not",
     "test_ethercat.py": "tests the EtherCAT slave of `tmcl serve --ethercat`; the image has no EtherCAT",
-    "test_no_frame_lost.py": "a `tmcl serve` link is a buffer, not a wire (docs/decisions.md, \"No frame "
-                             "lost\"); the image is a module on a serial line, whose UART ring and inter-byte "
-                             "timeout apply as on the real module, and QEMU's pty delivers bytes faster than "
-                             "any baud rate",
 }
 
 # Single tests about `tmcl serve` and its links rather than about the module: not run with `--target qemu`.
@@ -41,6 +37,10 @@ SERVE_ONLY_TESTS = {
     "test_the_server_warns_about_two_hosts_on_one_link": "checks the warning `tmcl serve` logs",
     "test_a_restarted_server_is_reconnected_and_the_trace_restarts": "stops and restarts `tmcl serve` on the "
                                                                      "same link",
+    "test_a_frame_in_slow_pieces_is_answered": "the image is a module on a serial line: its 5 ms inter-byte "
+                                               "timeout drops a frame whose pieces come 20 ms apart, as the "
+                                               "real module does (docs/decisions.md, \"No frame lost\")",
+    "test_two_modules_at_one_address_are_refused": "about `tmcl serve --module`, which the image does not take",
     "test_replies_to_another_host_turn_the_indicator_to_a_warning": "a second host on the same `tmcl serve` "
                                                                     "pty; the image's pty is held by "
                                                                     "scripts/qemu-serve.sh's own processes",
@@ -128,7 +128,9 @@ def serve(tmcl_bin, tmp_path, request):
     """Factory: `serve(kind="pty"|"tcp", eeprom=None, extra=None)` → a started Server (under
     `--target qemu`, the image under QEMU where the request allows it, see the module docs)."""
     image = request.getfixturevalue("qemu_image") if request.config.getoption("--target") == "qemu" else None
-    factory = ServerFactory(tmcl_bin, tmp_path, qemu_image=image)
+    # A test file that sets QEMU_ICOUNT = True runs the image with deterministic time (see QemuServer).
+    factory = ServerFactory(tmcl_bin, tmp_path, qemu_image=image,
+                            qemu_icount=getattr(request.module, "QEMU_ICOUNT", False))
     try:
         yield factory
     finally:

@@ -1,4 +1,5 @@
-"""No frame lost, bus set-up (issue 20 items 4 and 5), against `tmcl serve`: a pty or a TCP socket is a
+"""No frame lost, bus set-up (issue 20 items 4 and 5), against `tmcl serve` (and the firmware image under
+QEMU with `--target qemu`, where the tests about `tmcl serve` itself are skipped): a pty or a TCP socket is a
 buffer, not a wire, so a backlog of complete frames in one write is answered in order, one reply per frame
 (also with a telegram pause, and ASCII lines in ASCII mode); a frame written in slow pieces is answered;
 two modules at one address are refused before anything is served."""
@@ -15,6 +16,12 @@ import serial
 from tmcltest import RawReply, frame
 
 SGP, GGP, ENTER_ASCII = 9, 10, 139
+
+# Under `--target qemu`: the image's UART holds bytes in its FIFO while its receive ring is full, and QEMU
+# then waits to deliver more, so a backlog is answered whole. The emulated clock runs with the instructions
+# (`--icount`): on a loaded host QEMU may not run for longer than the 5 ms inter-byte timeout in the middle
+# of a frame, which on a real line would be a sender that stopped mid-frame (docs/decisions.md).
+QEMU_ICOUNT = True
 
 
 def pairs(n: int) -> tuple[bytes, list[int]]:
@@ -78,7 +85,10 @@ def test_a_backlog_with_a_telegram_pause_is_answered_in_turn(pty_server):
         got = read_exactly(pty_reader(port), 9 * len(values))
         took = time.monotonic() - started
     check_replies(got, values)
-    assert took >= 200 * 0.003, "each reply waited for its pause"
+    # Under QEMU with --icount the pauses pass in emulated time, which runs ahead of the wall clock while
+    # the firmware sleeps; there the replies, whole and in order, are what is checked.
+    if not getattr(pty_server, "icount", False):
+        assert took >= 200 * 0.003, "each reply waited for its pause"
 
 
 def test_interleaved_ascii_lines_in_one_write(pty_server):

@@ -1,9 +1,10 @@
 """The README's tour, run as written: every `$T ...` command of its shell blocks, in order.
 
-Servers (`$T serve ...`, and `scripts/qemu-serve.sh ...` for the firmware under QEMU) are started in the
-background and stopped at the end; `/tmp/` paths are moved into the test's temporary directory; a command
-whose comment says `exit code N` must exit with N, every other command with 0. A newcomer who pastes the
-tour gets what the README promises. Where QEMU or the Cortex-M3 target is missing, the QEMU server and the
+Servers (`$T serve ...`, `$T share ...`, and `scripts/qemu-serve.sh ...` for the firmware under QEMU) are
+started in the background and stopped at the end, the last one first (a share before the server behind
+it); `/tmp/` paths are moved into the test's temporary directory; a command whose comment says `exit code
+N` must exit with N, every other command with 0. A newcomer who pastes the tour gets what the README
+promises. Where QEMU or the Cortex-M3 target is missing, the QEMU server and the
 commands to its link are left out.
 """
 
@@ -66,11 +67,12 @@ def test_the_readme_tour(tmcl_bin, tmp_path, request):
                 continue
             if any(link in command.split() for link in skipped_links):
                 continue
-            if " serve " in f"{command} " or command.startswith("scripts/qemu-serve.sh "):
+            if any(f" {server} " in f"{command} " for server in ("serve", "share")) \
+                    or command.startswith("scripts/qemu-serve.sh "):
                 proc = subprocess.Popen(["bash", "-c", f"exec {command}"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
                                         stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL, text=True)
                 ready = proc.stdout.readline()
-                assert ready.startswith("serving "), (command, ready)
+                assert ready.startswith(("serving ", "sharing ")), (command, ready)
                 servers.append(proc)
                 continue
             started = time.monotonic()
@@ -80,7 +82,6 @@ def test_the_readme_tour(tmcl_bin, tmp_path, request):
             assert "panicked" not in r.stderr, (command, r.stderr)
             assert time.monotonic() - started < 60, command
     finally:
-        for proc in servers:
+        for proc in reversed(servers):
             proc.send_signal(signal.SIGTERM)
-        for proc in servers:
             assert proc.wait(timeout=20) == 0

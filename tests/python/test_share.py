@@ -334,3 +334,73 @@ def test_share_over_tcp_and_the_monitor(pty_server, share, tmcl_bin, tmp_path):
             got += sock.recv(9 - len(got))
     out, _ = mon.communicate(timeout=10)
     assert tcp in out and "GAP 4, 0" in out and "-> 100 (ok)" in out, out
+
+
+def test_share_in_front_of_the_firmware_image_under_qemu(qemu_server, share, tmcl_bin, tmp_path):
+    """The firmware image under QEMU as the real module on a serial line: pytrinamic on one link of the
+    share and `tmcl` on another, 1 000 transactions, each value its asker's."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    share(qemu_server.link, ["--pty", a, "--pty", b], ["--module", "pd28-1021"])
+    assert tmcl(tmcl_bin, "set", "--port", b, "ap", MAX_SPEED, 4321).returncode == 0
+    assert tmcl(tmcl_bin, "set", "--port", b, "ap", MAX_CURRENT, 100).returncode == 0
+    wrong, errors = [], []
+
+    def poll():
+        conn = ConnectionManager(f"--interface serial_tmcl --port {a} --data-rate 115200").connect()
+        try:
+            for _ in range(900):
+                if conn.get_axis_parameter(MAX_CURRENT, 0) != 100:
+                    wrong.append(1)
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(repr(e))
+        finally:
+            conn.close()
+
+    script = threading.Thread(target=poll)
+    script.start()
+    try:
+        for _ in range(10):
+            r = tmcl(tmcl_bin, "--json", "watch", "--port", b, "ap", MAX_SPEED, "--every", "0.001", "--count", 10)
+            assert r.returncode == 0 and all("4321" in line for line in r.stdout.splitlines()), r
+    finally:
+        script.join(120)
+    assert not errors and not wrong, (errors, len(wrong))
+
+
+def test_the_module_going_away_ends_the_share_and_its_links(serve, share, tmcl_bin, tmp_path):
+    """`tmcl serve` standing in for the module is killed with -9 while hosts use the share: the share says
+    so and ends (exit code 3), removing its links, so that hosts see a port gone, not a module that is
+    silent."""
+    module = serve("pty")
+    a = tmp_path / "a"
+    s = share(module.link, ["--pty", a])
+    with serial.Serial(str(a), 115200, timeout=2) as port:
+        port.write(frame(1, 6, 4, 0, 0))
+        assert RawReply(port.read(9)).status == 100
+        port.write(frame(1, 6, 4, 0, 0) * 100)
+        module.kill()
+        wait_until(lambda: s.proc.poll() is not None, 10, what="the share's end")
+    assert s.proc.returncode == 3, s.stderr()
+    assert "the share stops" in s.stderr(), s.stderr()
+    assert not os.path.lexists(a) and not os.path.lexists(f"{a}.lock"), "its links are removed"
+    s.proc = None
+
+
+def test_tmcl_serve_log_and_monitor(serve, tmcl_bin, tmp_path):
+    """`tmcl serve --log FILE` and `tmcl monitor LINK` on a virtual module: each transaction once, with the
+    parameter's name and unit, and a refusal explained with the range."""
+    log = tmp_path / "serve.log"
+    server = serve("pty", extra=["--log", str(log)])
+    mon = subprocess.Popen([str(tmcl_bin), "monitor", str(server.link), "--count", "2"], stdout=subprocess.PIPE,
+                           text=True)
+    time.sleep(0.3)  # the server takes the monitor client in its next turn
+    assert tmcl(tmcl_bin, "get", "--port", server.link, "ap", MAX_SPEED).returncode == 0
+    assert tmcl(tmcl_bin, "set", "--port", server.link, "ap", MAX_SPEED, 0).returncode == 1
+    out, _ = mon.communicate(timeout=10)
+    lines = out.splitlines()
+    assert len(lines) == 2, out
+    assert "GAP 4, 0 (Maximum positioning speed)" in lines[0] and "-> 100 (ok): 51200 pps" in lines[0], out
+    assert "SAP 4, 0" in lines[1] and "refused: Maximum positioning speed takes 1..2147483647" in lines[1], out
+    wait_until(lambda: len(log.read_text().splitlines()) >= 2, 5, what="the log")
+    assert [line.split(" ", 1)[1] for line in log.read_text().splitlines()[:2]] == \
+        [line.split(" ", 1)[1] for line in lines]

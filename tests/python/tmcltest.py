@@ -230,6 +230,9 @@ class QemuServer(Server):
         super().__init__(image, workdir, "pty", link_name=link_name, modules=[model])
         self.image = image
         self.model = model
+        # Deterministic time (`--icount`): the emulated clock runs with the instructions, so a host too busy
+        # to run QEMU for a while makes no gap in the byte stream the firmware sees.
+        self.icount = False
         # A Unix socket's path must stay under 108 bytes; a test's temporary directory may not.
         self.monitor_path = Path(f"/tmp/tmcl-qemu-{os.getpid()}-{next(_MONITORS)}.monitor")
         self.env = dict(os.environ, QEMU_IMAGE=str(image))
@@ -238,7 +241,7 @@ class QemuServer(Server):
 
     def args(self) -> list[str]:
         return ["bash", str(REPO_ROOT / "scripts" / "qemu-serve.sh"), str(self.link), "--module", self.model,
-                "--monitor", str(self.monitor_path)]
+                "--monitor", str(self.monitor_path)] + (["--icount"] if self.icount else [])
 
     def monitor(self, *commands: str, timeout_s: float = 10.0) -> list[str]:
         """Runs QEMU human-monitor commands; returns what each printed."""
@@ -327,10 +330,11 @@ class ServerFactory:
     single-module pty server is the firmware image under QEMU (the `--target qemu` run of the suite); a
     test that asks for more (TCP, an EEPROM file, options of `tmcl serve`, several modules) is skipped."""
 
-    def __init__(self, tmcl: Path, workdir: Path, qemu_image: Path | None = None):
+    def __init__(self, tmcl: Path, workdir: Path, qemu_image: Path | None = None, qemu_icount: bool = False):
         self.tmcl = tmcl
         self.workdir = workdir
         self.qemu_image = qemu_image
+        self.qemu_icount = qemu_icount
         self.servers: list[Server] = []
 
     def __call__(self, kind: str = "pty", eeprom: Path | None = None, extra: list[str] | None = None,
@@ -360,6 +364,7 @@ class ServerFactory:
             pytest.skip(f"needs tmcl serve: {', '.join(needs)}; the QEMU image is one PD28-1021 on a pty")
         assert self.qemu_image is not None
         server = QemuServer(self.qemu_image, self.workdir, link_name=name)
+        server.icount = self.qemu_icount
         self.servers.append(server)
         return server.start()
 

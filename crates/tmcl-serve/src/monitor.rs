@@ -281,6 +281,7 @@ impl Monitor {
             }
             None => None,
         };
+        let explicit = options.socket.is_some();
         let listener = match options.socket.clone().or(default_socket) {
             Some(path) => {
                 // A socket left by a server that was killed: nobody listens, so it is replaced. One a live
@@ -294,10 +295,21 @@ impl Monitor {
                     }
                     let _ = std::fs::remove_file(&path);
                 }
-                let listener = UnixListener::bind(&path)
-                    .map_err(|e| ServeError::Io(format!("cannot make the monitor socket {}: {e}", path.display())))?;
-                listener.set_nonblocking(true).map_err(|e| ServeError::Io(e.to_string()))?;
-                Some((listener, path))
+                match UnixListener::bind(&path).and_then(|l| l.set_nonblocking(true).map(|()| l)) {
+                    Ok(listener) => Some((listener, path)),
+                    Err(e) if explicit => {
+                        return Err(ServeError::Io(format!("cannot make the monitor socket {}: {e}", path.display())))
+                    }
+                    // The default place (beside LINK) may not take a socket (a path longer than a socket
+                    // address holds, a file system without sockets): served without a monitor, said once.
+                    Err(e) => {
+                        eprintln!(
+                            "tmcl: no monitor socket at {} ({e}); give --monitor-socket PATH for `tmcl monitor`",
+                            path.display()
+                        );
+                        None
+                    }
+                }
             }
             None => None,
         };
@@ -555,9 +567,10 @@ impl Recorder {
         self.monitor.record(&rec);
     }
 
-    /// Takes new monitor clients, writes what they can take, and says which requests got no reply.
+    /// Writes what the monitor clients can take, and says which requests got no reply. No system call
+    /// without a client (this runs every turn of the serve loop; new clients are taken when the loop's
+    /// wait finds the socket readable).
     pub(crate) fn tick(&mut self) {
-        self.monitor.accept();
         self.monitor.flush();
         for n in 0..self.tracks.len() {
             while self.tracks[n].waiting.front().is_some_and(|w| w.since.elapsed() >= SERVE_NO_REPLY) {
@@ -607,6 +620,21 @@ mod tests {
         let version = frame(1, 136, 0, 0, 0);
         let (reply, _, _) = decode_reply(b"\x021021V142", Some(&version), model);
         assert!(reply.text.contains("1021V142"), "{}", reply.text);
+    }
+
+    #[test]
+    fn a_default_socket_place_that_takes_none_is_no_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let long = dir.path().join("x".repeat(120)); // longer than a socket address holds
+        let monitor = Monitor::open(&MonitorOptions::default(), Some(long.clone())).unwrap();
+        assert!(monitor.socket().is_none());
+        let asked = MonitorOptions { socket: Some(long), ..MonitorOptions::default() };
+        assert!(Monitor::open(&asked, None).is_err(), "an explicit --monitor-socket must work");
+        let fine = dir.path().join("m.monitor");
+        let monitor = Monitor::open(&MonitorOptions::default(), Some(fine.clone())).unwrap();
+        assert_eq!(monitor.socket(), Some(fine.as_path()));
+        drop(monitor);
+        assert!(!fine.exists(), "removed when the server stops");
     }
 
     #[test]

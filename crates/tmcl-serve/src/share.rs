@@ -118,6 +118,16 @@ enum Device {
     Tcp(TcpStream),
 }
 
+impl Drop for Device {
+    /// Gives the port back as it was found: without the exclusive mode, which would otherwise outlive the
+    /// share on a pty whose server keeps it open (root aside, no other program could open it).
+    fn drop(&mut self) {
+        if let Device::Serial(file) = self {
+            let _ = rustix::termios::ioctl_tiocnxcl(&*file);
+        }
+    }
+}
+
 impl Device {
     fn open(options: &DeviceOptions) -> Result<Device, ServeError> {
         match options {
@@ -256,6 +266,9 @@ struct Host {
     last_rx: Instant,
     ascii: Option<AsciiHost>,
     name: String,
+    /// Counts the clients the link has had (a TCP link's client that went away and a new one): a reply to
+    /// a request of an earlier client goes to nobody.
+    generation: u64,
 }
 
 /// What a request in flight is for.
@@ -272,6 +285,7 @@ enum Purpose {
 /// The request in flight.
 struct Inflight {
     host: usize,
+    generation: u64,
     frame: [u8; FRAME_LEN],
     /// What the host sent (the frame, or the ASCII line).
     asked: Vec<u8>,
@@ -284,6 +298,7 @@ struct Inflight {
 #[derive(Clone, Copy)]
 struct Unanswered {
     host: usize,
+    generation: u64,
     opcode: u8,
     frame: [u8; FRAME_LEN],
 }
@@ -305,7 +320,7 @@ pub struct Share {
     /// The latest requests that got no reply, newest last.
     unanswered: Vec<Unanswered>,
     /// Per module address: the host that last asked for a 138 event.
-    subscribers: HashMap<u8, usize>,
+    subscribers: HashMap<u8, (usize, u64)>,
     /// Module addresses whose replies GP 255 switched off.
     replies_off: HashMap<u8, bool>,
     /// Bytes from the device not taken yet, and when the last came.
@@ -353,6 +368,7 @@ impl Share {
                 last_rx: Instant::now(),
                 ascii: None,
                 name: link.info().map(|i| i.to_string()).unwrap_or_default(),
+                generation: 0,
             })
             .collect();
         let first_pty = links.iter().find_map(|(l, _)| match l {
@@ -447,13 +463,19 @@ impl Share {
                 self.monitor.accept();
             }
             if ready.extras[0] {
-                let n = self
-                    .device
-                    .read_some(&mut buf)
-                    .map_err(|e| ServeError::Io(format!("{}: {e}; the share stops", self.device_name)))?;
+                let n = match self.device.read_some(&mut buf) {
+                    Ok(n) => n,
+                    // The module's side went away as the share was told to stop (both stopped together).
+                    Err(_) if self.stopper.is_stopped() => break,
+                    Err(e) => return Err(ServeError::Io(format!("{}: {e}; the share stops", self.device_name))),
+                };
                 if n > 0 {
                     self.device_rx.extend_from_slice(&buf[..n]);
                     self.device_last = Instant::now();
+                    // After a missing reply the line must be quiet before the next request goes out.
+                    if let Some(hold) = self.hold_until.as_mut() {
+                        *hold = (*hold).max(self.device_last + self.options.quiet);
+                    }
                     self.take_device_frames();
                 }
             }
@@ -484,9 +506,10 @@ impl Share {
                 let (link, pending) = &mut self.links[n];
                 write_pending(link, pending, false, tmcl_core::Instant::ZERO);
                 if let Link::Tcp { listener, peer } = link {
-                    let had = peer.is_some();
-                    accept_clients(listener, peer, &mut || {}, false, tmcl_core::Instant::ZERO);
-                    if had != peer.is_some() {
+                    // A client gone or a new one: what the last one left is not the new one's.
+                    let mut changed = false;
+                    accept_clients(listener, peer, &mut || changed = true, false, tmcl_core::Instant::ZERO);
+                    if changed {
                         pending.clear();
                         self.reset_host(n);
                     }
@@ -501,6 +524,7 @@ impl Share {
         let host = &mut self.hosts[n];
         host.rx.clear();
         host.ascii = None;
+        host.generation += 1;
         self.links[n].1.clear();
     }
 
@@ -534,7 +558,12 @@ impl Share {
                 // The module did not answer GGP 76: the host's 139 gets no answer either.
                 self.hosts[inflight.host].ascii = None;
             }
-            self.unanswered.push(Unanswered { host: inflight.host, opcode, frame: inflight.frame });
+            self.unanswered.push(Unanswered {
+                host: inflight.host,
+                generation: inflight.generation,
+                opcode,
+                frame: inflight.frame,
+            });
             if self.unanswered.len() > 8 {
                 self.unanswered.remove(0);
             }
@@ -699,7 +728,7 @@ impl Share {
                 && !CommandSet::ALWAYS_REPLY.contains_code(opcode));
         let wait = if silent_ok { self.options.no_reply_wait } else { self.options.reply_timeout };
         if opcode == u8::from(Opcode::RequestTargetReachedEvent) {
-            self.subscribers.insert(address, n);
+            self.subscribers.insert(address, (n, self.hosts[n].generation));
         }
         // Bytes from before this request answer none of it.
         if !self.device_rx.is_empty() {
@@ -709,7 +738,9 @@ impl Share {
         self.device
             .write_all(&frame)
             .map_err(|e| ServeError::Io(format!("{}: {e}; the share stops", self.device_name)))?;
-        self.inflight = Some(Inflight { host: n, frame, asked, purpose, sent: now, deadline: Instant::now() + wait });
+        let generation = self.hosts[n].generation;
+        self.inflight =
+            Some(Inflight { host: n, generation, frame, asked, purpose, sent: now, deadline: Instant::now() + wait });
         Ok(())
     }
 
@@ -769,10 +800,11 @@ impl Share {
         };
         if event {
             let host = self.subscribers.get(&reply.module).copied();
-            if let Some(h) = host {
-                self.deliver(h, &frame);
+            if let Some((h, generation)) = host {
+                self.deliver(h, generation, &frame);
             }
-            self.record_unsolicited(host, &frame, Outcome::Event);
+            let current = host.filter(|&(h, g)| self.hosts[h].generation == g).map(|(h, _)| h);
+            self.record_unsolicited(current, &frame, Outcome::Event);
             return;
         }
         if self.inflight.as_ref().is_some_and(|i| answers(&i.frame)) {
@@ -781,7 +813,7 @@ impl Share {
         }
         if let Some(k) = self.unanswered.iter().rposition(|u| u.opcode == reply.opcode || answers(&u.frame)) {
             let late = self.unanswered.remove(k);
-            self.deliver(late.host, &frame);
+            self.deliver(late.host, late.generation, &frame);
             if self.monitor.wanted() {
                 let mut t = Transaction::now(&self.hosts[late.host].name, Outcome::Late);
                 t.request = Some(decode_request(&late.frame, self.model));
@@ -811,7 +843,7 @@ impl Share {
             _ => Outcome::Answered,
         };
         match inflight.purpose {
-            Purpose::Forward => self.deliver(n, &frame),
+            Purpose::Forward => self.deliver(n, inflight.generation, &frame),
             Purpose::EnterAscii => {
                 // The 139 answered in binary (§3.4.1), from the module's address, to the host address it
                 // reported; then the link is in ASCII mode.
@@ -822,7 +854,7 @@ impl Share {
                 }
                 let module = reply.map_or(inflight.frame[0], |r| r.module);
                 let r139 = Reply { host: host_address, module, status: Status::Ok, opcode: 139, value: 0 };
-                self.deliver(n, &r139.to_bytes());
+                self.deliver(n, inflight.generation, &r139.to_bytes());
             }
             Purpose::Ascii => {
                 let mut text = String::new();
@@ -832,7 +864,7 @@ impl Share {
                     }
                     None => text.push_str("?? 1 0\r"),
                 }
-                self.deliver(n, text.as_bytes());
+                self.deliver(n, inflight.generation, text.as_bytes());
             }
         }
         if self.monitor.wanted() {
@@ -862,9 +894,9 @@ impl Share {
     }
 
     /// Queues bytes for host `n`.
-    fn deliver(&mut self, n: usize, bytes: &[u8]) {
-        if let Some((_, pending)) = self.links.get_mut(n) {
-            pending.extend_from_slice(bytes);
+    fn deliver(&mut self, n: usize, generation: u64, bytes: &[u8]) {
+        if self.hosts.get(n).is_some_and(|h| h.generation == generation) {
+            self.links[n].1.extend_from_slice(bytes);
         }
     }
 

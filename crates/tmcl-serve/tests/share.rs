@@ -144,6 +144,11 @@ fn commands_without_reply_and_replies_off_keep_the_line_in_step() {
     assert_eq!(b.get_axis_parameter(4, 0).unwrap(), 99);
     a.set_global_parameter(255, 0, 0).unwrap();
     assert_eq!(a.get_axis_parameter(4, 0).unwrap(), 99);
+    // 137 with its key is carried out without a reply (§3.7.38): the share waits its no-reply window, and
+    // the next request, from the other host, finds the factory defaults.
+    let factory = tmcl_wire::Instruction::new(tmcl_wire::Opcode::FactoryDefault, 0, 0, 1234);
+    assert_eq!(a.request_optional(factory).unwrap(), None);
+    assert_eq!(b.get_axis_parameter(4, 0).unwrap(), 51200);
     assert!(a.take_skipped().is_empty() && b.take_skipped().is_empty());
     drop((a, b));
     share.stop().unwrap();
@@ -281,4 +286,29 @@ fn tmcl_serve_logs_every_transaction_of_every_link() {
         ]
     );
     assert!(logged[1].reply.as_ref().unwrap().text.ends_with("1000 pps"), "{:?}", logged[1]);
+}
+
+#[test]
+fn a_reply_to_a_tcp_client_that_left_never_reaches_the_next_client() {
+    let dir = tempfile::tempdir().unwrap();
+    let (server, share) = setup(dir.path(), None);
+    let tcp = share.links()[2].to_string();
+    let mut a = open(&dir.path().join("a"));
+    a.set_axis_parameter(4, 0, 1111).unwrap();
+    a.set_axis_parameter(6, 0, 99).unwrap();
+    a.set_global_parameter(75, 0, 200).unwrap(); // every reply waits 200 ms (telegram pause, §5.1)
+    {
+        // The first client asks for AP 4 and leaves before its reply comes.
+        let mut first = std::net::TcpStream::connect(&tcp).unwrap();
+        first.write_all(&frame(1, 6, 4, 0, 0)).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(50));
+    let mut second = Client::new(TcpTransport::connect(&tcp).unwrap()).with_timeout(Duration::from_secs(5));
+    assert_eq!(second.get_axis_parameter(6, 0).unwrap(), 99, "its own reply, not the first client's");
+    assert!(second.take_skipped().is_empty(), "the first client's reply never reached it");
+    a.set_global_parameter(75, 0, 0).unwrap();
+    drop((a, second));
+    share.stop().unwrap();
+    server.stop().unwrap();
 }
