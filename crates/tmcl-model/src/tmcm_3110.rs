@@ -301,6 +301,13 @@ pub const DESC: ModelDesc = ModelDesc {
     manual: "TMCM-3110 TMCL firmware manual V1.11 (Rev. 1.05)",
 };
 
+/// The TMCM-3110 with firmware V1.11.
+pub static SPEC: ModelSpec = ModelSpec::new(DESC);
+
+/// The TMCM-3110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
+pub static SPEC_RS485: ModelSpec =
+    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -342,10 +349,3 @@ mod tests {
         assert_eq!(DESC.version_binary & 0xFFFF, 0x010B);
     }
 }
-
-/// The TMCM-3110 with firmware V1.11.
-pub static SPEC: ModelSpec = ModelSpec::new(DESC);
-
-/// The TMCM-3110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
-pub static SPEC_RS485: ModelSpec =
-    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });

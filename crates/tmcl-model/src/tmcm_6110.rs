@@ -127,6 +127,13 @@ pub const DESC: ModelDesc = ModelDesc {
     manual: "TMCM-6110 TMCL firmware manual V1.19 (Rev. 1.03)",
 };
 
+/// The TMCM-6110 with firmware V1.19.
+pub static SPEC: ModelSpec = ModelSpec::new(DESC);
+
+/// The TMCM-6110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
+pub static SPEC_RS485: ModelSpec =
+    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,10 +174,3 @@ mod tests {
         assert_eq!(DESC.version_binary >> 16, 6110);
     }
 }
-
-/// The TMCM-6110 with firmware V1.19.
-pub static SPEC: ModelSpec = ModelSpec::new(DESC);
-
-/// The TMCM-6110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
-pub static SPEC_RS485: ModelSpec =
-    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });
