@@ -176,9 +176,11 @@ def model_server(request, serve) -> Server:
 
 
 @pytest.fixture
-def qemu_server(qemu_image, tmp_path) -> QemuServer:
-    """The firmware image under QEMU: a PD28-1021 on a pty, with QEMU's monitor."""
-    factory = ServerFactory(Path("tmcl"), tmp_path, qemu_image=qemu_image)
+def qemu_server(qemu_image, tmp_path, request) -> QemuServer:
+    """The firmware image under QEMU: a PD28-1021 on a pty, with QEMU's monitor (with deterministic time in
+    a test file that sets QEMU_ICOUNT = True)."""
+    factory = ServerFactory(Path("tmcl"), tmp_path, qemu_image=qemu_image,
+                            qemu_icount=getattr(request.module, "QEMU_ICOUNT", False))
     try:
         yield factory.qemu("qemu-link")
     finally:

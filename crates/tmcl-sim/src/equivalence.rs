@@ -15,7 +15,7 @@
 
 use crate::board::SimBoard;
 use crate::world::World;
-use tmcl_core::model::{pd28_1021, pd_113, tmcm_1310, Kinematics, ModelSpec};
+use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, Kinematics, ModelSpec};
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CalcOp, Command, Condition, EventMode, Instruction, MoveTarget, Request, RfsAction, WaitCondition};
 
@@ -124,9 +124,11 @@ impl Scenario {
     /// Decodes arbitrary bytes into a scenario (see the module docs).
     pub fn decode(data: &[u8]) -> Scenario {
         let mut b = Bytes(data);
+        // 6: the TMCM-1140 (a value no stored regression starts with, so that they decode as before).
         let spec: &'static ModelSpec = match b.u8() % 8 {
             0 => &tmcm_1310::SPEC,
             1 => &pd_113::SPEC,
+            6 => &tmcm_1140::SPEC,
             _ => &pd28_1021::SPEC,
         };
         let world = world(&mut b);
