@@ -2,7 +2,8 @@
 //! EtherCAT frames through the slave in process.
 //!
 //! Run: `cargo bench -p tmcl-cli --bench throughput` (a plain harness that prints its figures; pass
-//! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory` for one part).
+//! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory|fleet` for one
+//! part; `fleet` is what `scripts/fleet-bench.sh` runs).
 
 use std::hint::black_box;
 use std::process::{Child, Command as Process, Stdio};
@@ -57,17 +58,23 @@ fn connect(link: &std::path::Path) -> Client<SerialTransport> {
     Client::new(SerialTransport::open(link.to_str().unwrap(), 115_200).expect("open the pty"))
 }
 
+/// Round trips of GAP 1 over the pty of a `tmcl serve` started here, or with `PTY_LINK=LINK` of one
+/// already serving there (`scripts/pty-bench.sh` starts it, to count its system calls); `PTY_N` requests.
 fn pty_latency(n: usize) {
+    let n = std::env::var("PTY_N").ok().and_then(|v| v.parse().ok()).unwrap_or(n);
     let dir = std::env::temp_dir().join(format!("tmcl-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let link = dir.join("tmcl0");
-    let child = Process::new(env!("CARGO_BIN_EXE_tmcl"))
-        .args(["serve", "--pty"])
-        .arg(&link)
-        .stdout(Stdio::piped())
-        .spawn()
-        .expect("start tmcl serve");
-    let _server = Server(child, link.clone());
+    let given = std::env::var_os("PTY_LINK").map(std::path::PathBuf::from);
+    let link = given.clone().unwrap_or_else(|| dir.join("tmcl0"));
+    let _server = given.is_none().then(|| {
+        let child = Process::new(env!("CARGO_BIN_EXE_tmcl"))
+            .args(["serve", "--pty"])
+            .arg(&link)
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("start tmcl serve");
+        Server(child, link.clone())
+    });
     let mut client = connect(&link);
     for _ in 0..100 {
         client.get_axis_parameter(1, 0).unwrap();
@@ -388,10 +395,219 @@ fn ethercat_rate(n: u64) {
     }
 }
 
+/// The fleet of `--only fleet`: 100 modules of the three models on 37 lines. Each TMCM-1310 alone on its
+/// pty (its USB port answers every address), its loop closed as pytrinamic's closed-loop demo closes it;
+/// PD28-1021s and PDx-113s on three RS485 buses of 22. Every third module turns (ROR).
+const FLEET_USB: usize = 34;
+const FLEET_BUSES: usize = 3;
+const FLEET_PER_BUS: usize = 22;
+
+/// One line of the fleet: its link, and its modules as (model, address, turning).
+struct FleetLine {
+    link: std::path::PathBuf,
+    modules: Vec<(&'static str, u8, bool)>,
+}
+
+fn fleet_lines(dir: &std::path::Path) -> Vec<FleetLine> {
+    let mut lines = Vec::new();
+    let mut k = 0usize;
+    for n in 0..FLEET_USB {
+        lines.push(FleetLine {
+            link: dir.join(format!("usb{n}")),
+            modules: vec![("tmcm-1310", 1, k.is_multiple_of(3))],
+        });
+        k += 1;
+    }
+    for b in 0..FLEET_BUSES {
+        let modules = (0..FLEET_PER_BUS)
+            .map(|i| {
+                k += 1;
+                (if i % 2 == 0 { "pd28-1021" } else { "pd-113" }, i as u8 + 1, (k - 1).is_multiple_of(3))
+            })
+            .collect();
+        lines.push(FleetLine { link: dir.join(format!("bus{b}")), modules });
+    }
+    lines
+}
+
+/// CPU time (user + system) of a process and its threads so far, and its resident memory, from /proc.
+fn proc_usage(pid: u32) -> (f64, u64) {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+    // The fields after the command name (which may hold spaces) in parentheses.
+    let fields: Vec<&str> = stat.rsplit_once(')').map_or("", |(_, rest)| rest).split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
+    // In USER_HZ, which Linux keeps at 100 for what it reports to user space.
+    let hz = 100.0;
+    // utime and stime are fields 14 and 15 of stat, 11 and 12 after the name.
+    let cpu = (ticks(11) + ticks(12)) / hz;
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    let rss = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        .unwrap_or(0);
+    (cpu, rss)
+}
+
+/// Sets the fleet going as a host would: on each TMCM-1310 the encoder initialised (AP 132 = 1 until it
+/// reads 2) and the loop closed (AP 129 = 1), and every third module turned (ROR).
+fn fleet_setup(lines: &[FleetLine], closed_loop: bool, turn: bool) {
+    for line in lines {
+        let transport = loop {
+            match SerialTransport::open(line.link.to_str().unwrap(), 115_200) {
+                Ok(t) => break t,
+                Err(_) => std::thread::sleep(StdDuration::from_millis(20)),
+            }
+        };
+        let mut client = Client::new(transport);
+        for &(model, address, turning) in &line.modules {
+            client = client.with_module_address(address);
+            if model == "tmcm-1310" && closed_loop {
+                client.set_axis_parameter(132, 0, 1).unwrap();
+                let deadline = StdInstant::now() + StdDuration::from_secs(10);
+                while client.get_axis_parameter(132, 0).unwrap() != 2 {
+                    assert!(StdInstant::now() < deadline, "encoder initialisation did not end");
+                    std::thread::sleep(StdDuration::from_millis(5));
+                }
+                client.set_axis_parameter(129, 0, 1).unwrap();
+                assert_eq!(client.get_axis_parameter(129, 0).unwrap(), 1, "the loop is closed");
+            }
+            if turning && turn {
+                // 10 000 pps on the PD28-1021 and the TMCM-1310; 500 in the PDx-113's TMC428 units.
+                client.rotate(0, if model == "pd-113" { 500 } else { 10_000 }).unwrap();
+            }
+        }
+    }
+}
+
+/// Waits until every line's link is there (up to 60 s).
+fn fleet_wait_for_links(lines: &[FleetLine]) {
+    let deadline = StdInstant::now() + StdDuration::from_secs(60);
+    while !lines.iter().all(|l| std::fs::symlink_metadata(&l.link).is_ok()) {
+        assert!(StdInstant::now() < deadline, "the fleet did not start");
+        std::thread::sleep(StdDuration::from_millis(20));
+    }
+}
+
+/// Starts the fleet with `tmcl` (`--fleet FILE` in one process, or with `processes` one `tmcl serve` per
+/// line, as without `--fleet`), sets it going, leaves it without host traffic for `idle` and measures the
+/// CPU time and resident memory of all its processes over that time.
+fn fleet_run(tmcl: &str, name: &str, processes: bool, closed_loop: bool, turn: bool, idle: StdDuration) {
+    let dir = std::env::temp_dir().join(format!("tmcl-bench-fleet-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let lines = fleet_lines(&dir);
+    let modules: usize = lines.iter().map(|l| l.modules.len()).sum();
+    let mut children = Vec::new();
+    if processes {
+        for line in &lines {
+            let mut cmd = Process::new(tmcl);
+            cmd.arg("serve").arg("--pty").arg(&line.link).stdout(Stdio::null());
+            for (model, address, _) in &line.modules {
+                cmd.arg("--module").arg(format!("{model}@{address}"));
+            }
+            children.push(Server(cmd.spawn().expect("start tmcl serve"), line.link.clone()));
+        }
+    } else {
+        let mut toml = String::new();
+        for line in &lines {
+            let modules: Vec<String> = line.modules.iter().map(|(m, a, _)| format!("\"{m}@{a}\"")).collect();
+            toml += &format!("[[line]]\npty = {:?}\nmodule = [{}]\n\n", line.link, modules.join(", "));
+        }
+        let file = dir.join("fleet.toml");
+        std::fs::write(&file, toml).unwrap();
+        let child = Process::new(tmcl)
+            .arg("serve")
+            .arg("--fleet")
+            .arg(&file)
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("start tmcl serve");
+        children.push(Server(child, dir.join("none")));
+    }
+    fleet_wait_for_links(&lines);
+    fleet_setup(&lines, closed_loop, turn);
+    // Settle (the closed loops' start, the ramps to speed), then measure.
+    std::thread::sleep(StdDuration::from_secs(2));
+    let usage = || children.iter().map(|c| proc_usage(c.0.id())).fold((0.0, 0), |(c, r), (c1, r1)| (c + c1, r + r1));
+    let (cpu0, _) = usage();
+    let wall0 = StdInstant::now();
+    std::thread::sleep(idle);
+    let (cpu1, rss) = usage();
+    let wall = wall0.elapsed().as_secs_f64();
+    println!(
+        "fleet {name:<44} {modules} modules on {} lines in {} process(es): {:.3} % of a core ({:.0} ms CPU in {wall:.1} s), \
+         RSS {} KiB in all",
+        lines.len(),
+        children.len(),
+        100.0 * (cpu1 - cpu0) / wall,
+        (cpu1 - cpu0) * 1e3,
+        rss
+    );
+    drop(children);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The resident memory of `tmcl serve` with one PD28-1021 on one pty (the process without the fleet),
+/// and with the fleet as one `--fleet` process, modules standing: what a module costs beyond the process.
+fn fleet_memory(tmcl: &str) {
+    let dir = std::env::temp_dir().join(format!("tmcl-bench-fleet-mem-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let link = dir.join("one");
+    let one = Server(
+        Process::new(tmcl).args(["serve", "--pty"]).arg(&link).stdout(Stdio::null()).spawn().expect("tmcl serve"),
+        link.clone(),
+    );
+    let mut client = connect(&link);
+    client.get_axis_parameter(1, 0).unwrap();
+    std::thread::sleep(StdDuration::from_millis(500));
+    let (_, rss_one) = proc_usage(one.0.id());
+    drop(client);
+    drop(one);
+    let lines = fleet_lines(&dir);
+    let modules: usize = lines.iter().map(|l| l.modules.len()).sum();
+    let mut toml = String::new();
+    for line in &lines {
+        let m: Vec<String> = line.modules.iter().map(|(m, a, _)| format!("\"{m}@{a}\"")).collect();
+        toml += &format!("[[line]]\npty = {:?}\nmodule = [{}]\n\n", line.link, m.join(", "));
+    }
+    std::fs::write(dir.join("fleet.toml"), toml).unwrap();
+    let fleet = Server(
+        Process::new(tmcl)
+            .arg("serve")
+            .arg("--fleet")
+            .arg(dir.join("fleet.toml"))
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap(),
+        dir.join("none"),
+    );
+    fleet_wait_for_links(&lines);
+    // One request to each module, so that each line's loop has run and its buffers exist.
+    for line in &lines {
+        let mut c = Client::new(SerialTransport::open(line.link.to_str().unwrap(), 115_200).unwrap());
+        for &(_, address, _) in &line.modules {
+            c = c.with_module_address(address);
+            c.get_axis_parameter(1, 0).unwrap();
+        }
+    }
+    std::thread::sleep(StdDuration::from_millis(500));
+    let (_, rss_fleet) = proc_usage(fleet.0.id());
+    println!(
+        "fleet memory: one module {rss_one} KiB RSS; {modules} modules on {} lines {rss_fleet} KiB; {:.1} KiB per \
+         module beyond the process",
+        lines.len(),
+        (rss_fleet.saturating_sub(rss_one)) as f64 / (modules - 1) as f64
+    );
+    drop(fleet);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
-    // `--only core|vm|motion|events|run|growth|serve|pty|memory|ethercat` runs one part (for instruction
+    // `--only core|vm|motion|events|run|growth|serve|pty|memory|ethercat|fleet` runs one part (for instruction
     // counts under valgrind: `motion` is the §2.4 hour tick by tick, `events` the same hour event-driven).
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).map(String::as_str);
     let part = |name: &str| only.is_none_or(|o| o == name);
@@ -427,6 +643,22 @@ fn main() {
     }
     if part("pty") {
         pty_latency(if quick { 2_000 } else { 20_000 });
+    }
+    if only == Some("fleet") {
+        // `FLEET_BEFORE=PATH`: a `tmcl` from before --fleet, served as one process per line, in the same run.
+        let tmcl = env!("CARGO_BIN_EXE_tmcl");
+        let idle = StdDuration::from_secs(if quick { 10 } else { 30 });
+        fleet_memory(tmcl);
+        let before = std::env::var("FLEET_BEFORE").ok();
+        for round in 0..if quick { 1 } else { 2 } {
+            if let Some(before) = &before {
+                let name = format!("before: one process per line, loop closed [{round}]");
+                fleet_run(before, &name, true, true, true, idle);
+            }
+            fleet_run(tmcl, &format!("--fleet, loop closed [{round}]"), false, true, true, idle);
+            fleet_run(tmcl, &format!("--fleet, loop open [{round}]"), false, false, true, idle);
+            fleet_run(tmcl, &format!("--fleet, loop open, all standing [{round}]"), false, false, false, idle);
+        }
     }
     if part("ethercat") {
         ethercat_rate(if quick { 100_000 } else { 2_000_000 });

@@ -1,8 +1,8 @@
 //! `tmcl asm` and `tmcl disasm`: the assembler and disassembler of `tmcl-asm` on files.
 
 use crate::error::CliError;
+use crate::output::{json_line, Assembled, Disassembled, Includes};
 use clap::Args;
-use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use tmcl_asm::includes::{builtin_files, BuiltinResolver};
@@ -50,7 +50,11 @@ pub struct DisasmArgs {
 pub(crate) fn run_asm(args: AsmArgs, json: bool) -> Result<(), CliError> {
     let model = crate::names::model_by_id(&args.module)?;
     if let Some(dir) = &args.emit_includes {
-        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("{}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
+            action: "create",
+            path: dir.to_path_buf(),
+            source,
+        })?;
         for (name, text) in builtin_files(model) {
             write(&dir.join(name), text.as_bytes())?;
         }
@@ -58,7 +62,7 @@ pub(crate) fn run_asm(args: AsmArgs, json: bool) -> Result<(), CliError> {
     let Some(input) = args.input else {
         if json {
             let dir = args.emit_includes.as_ref().map(|d| d.display().to_string());
-            writeln!(std::io::stdout(), "{}", json!({"includes": dir}))?;
+            json_line(&mut std::io::stdout(), &Includes { includes: dir })?;
         }
         return Ok(());
     };
@@ -88,33 +92,39 @@ pub(crate) fn run_asm(args: AsmArgs, json: bool) -> Result<(), CliError> {
         write(symbols, program.symbols().as_bytes())?;
     }
     if json {
-        let row = json!({
-            "output": output.display().to_string(),
-            "instructions": program.instructions.len(),
-            "symbols": args.symbols.as_ref().map(|p| p.display().to_string()),
-        });
-        writeln!(std::io::stdout(), "{row}")?;
+        let row = Assembled {
+            output: output.display().to_string(),
+            instructions: program.instructions.len(),
+            symbols: args.symbols.as_ref().map(|p| p.display().to_string()),
+        };
+        json_line(&mut std::io::stdout(), &row)?;
     }
     Ok(())
 }
 
 /// Runs `tmcl disasm`.
 pub(crate) fn run_disasm(args: DisasmArgs, json: bool) -> Result<(), CliError> {
-    let image = std::fs::read(&args.input).map_err(|e| CliError::Input(format!("{}: {e}", args.input.display())))?;
-    let instructions = from_bin(&image).map_err(|e| CliError::Input(format!("{}: {e}", args.input.display())))?;
+    let image = std::fs::read(&args.input)
+        .map_err(|source| CliError::Content { path: args.input.clone(), source: source.into() })?;
+    let instructions =
+        from_bin(&image).map_err(|source| CliError::Content { path: args.input.clone(), source: source.into() })?;
     let text = disassemble(&instructions, DisasmOptions { addresses: args.addresses });
     match (&args.output, json) {
         (Some(path), _) => {
             write(path, text.as_bytes())?;
             if json {
-                writeln!(
-                    std::io::stdout(),
-                    "{}",
-                    json!({"output": path.display().to_string(), "instructions": instructions.len()})
-                )?;
+                let row = Disassembled {
+                    instructions: instructions.len(),
+                    output: Some(path.display().to_string()),
+                    source: None,
+                };
+                json_line(&mut std::io::stdout(), &row)?;
             }
         }
-        (None, true) => writeln!(std::io::stdout(), "{}", json!({"instructions": instructions.len(), "source": text}))?,
+        (None, true) => json_line(
+            &mut std::io::stdout(),
+            &Disassembled { instructions: instructions.len(), output: None, source: Some(text) },
+        )?,
         (None, false) => std::io::stdout().write_all(text.as_bytes())?,
     }
     Ok(())
@@ -127,7 +137,7 @@ pub(crate) fn source_line(file: &str, line: u32) -> Option<String> {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    std::fs::write(path, bytes).map_err(|e| CliError::Io(format!("cannot write {}: {e}", path.display())))
+    std::fs::write(path, bytes).map_err(|source| CliError::Write { action: "write", path: path.to_path_buf(), source })
 }
 
 #[cfg(test)]

@@ -1,7 +1,12 @@
 //! How every `tmcl` subcommand fails: one error type, one set of exit codes, one JSON shape.
+//!
+//! An error that has a cause keeps it: [`std::error::Error::source`] gives the underlying error (an
+//! `io::Error`, the world file's error, the host error), and the message already says it, so that
+//! `tmcl` prints one line (`cannot write out.bin: Permission denied (os error 13)`).
 
-use serde_json::json;
+use serde::Serialize;
 use std::io;
+use std::path::PathBuf;
 use tmcl_host::HostError;
 use tmcl_wire::Reply;
 
@@ -62,6 +67,55 @@ pub(crate) enum CliError {
         /// The errors.
         diagnostics: Vec<tmcl_asm::Diagnostic>,
     },
+    /// A file that cannot be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: io::Error,
+    },
+    /// A file or directory that cannot be made or written (`action`: `write`, `create`, `replace`).
+    #[error("cannot {action} {}: {source}", path.display())]
+    Write {
+        /// What was tried.
+        action: &'static str,
+        /// The file or directory.
+        path: PathBuf,
+        /// Why.
+        source: io::Error,
+    },
+    /// A file whose content cannot be used (an image, a parameter set, a plot's data).
+    #[error("{}: {source}", path.display())]
+    Content {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// A plot that cannot be drawn.
+    #[error("cannot draw {}: {source}", path.display())]
+    Draw {
+        /// The plot's file.
+        path: PathBuf,
+        /// Why.
+        source: Box<dyn std::error::Error>,
+    },
+    /// A world file that cannot be used.
+    #[error(transparent)]
+    World(#[from] tmcl_sim::WorldError),
+    /// An EEPROM image that cannot be opened.
+    #[error(transparent)]
+    Eeprom(#[from] tmcl_sim::NvmError),
+    /// The workbench's server failed.
+    #[error(transparent)]
+    Workbench(#[from] tmcl_ui::UiError),
+    /// A JSON line that cannot be written.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// The signal handlers (SIGINT, SIGTERM) cannot be installed.
+    #[error("cannot handle signals: {0}")]
+    Signals(#[source] io::Error),
     /// A module's refusal with what the parameter tables say about it.
     #[error("{source}: {explanation}")]
     Explained {
@@ -76,47 +130,53 @@ impl CliError {
     /// The process exit code for this failure (see [`EXIT_CODES`]).
     pub(crate) fn exit_code(&self) -> u8 {
         match self {
-            CliError::Explained { source, .. } => host_exit_code(source),
-            CliError::Usage(_) | CliError::Input(_) | CliError::Assembly { .. } => EXIT_USAGE,
-            CliError::Host(err) => host_exit_code(err),
-            CliError::Io(_) | CliError::Output(_) => EXIT_IO,
+            CliError::Explained { source, .. } | CliError::Host(source) => host_exit_code(source),
             CliError::NotMet(_) => EXIT_NOT_MET,
             CliError::Refused(_) => EXIT_STATUS,
+            _ if self.kind() == "io" => EXIT_IO,
+            _ => EXIT_USAGE,
         }
     }
 
     /// A one-word name of the failure for the JSON `kind` key.
     pub(crate) fn kind(&self) -> &'static str {
         match self {
-            CliError::Explained { source, .. } => host_kind(source),
+            CliError::Explained { source, .. } | CliError::Host(source) => host_kind(source),
             CliError::Usage(_) => "usage",
-            CliError::Input(_) => "input",
+            CliError::Input(_) | CliError::Read { .. } | CliError::Content { .. } | CliError::World(_) => "input",
             CliError::Assembly { .. } => "assembly",
-            CliError::Host(err) => host_kind(err),
-            CliError::Io(_) | CliError::Output(_) => "io",
+            CliError::Io(_)
+            | CliError::Output(_)
+            | CliError::Write { .. }
+            | CliError::Json(_)
+            | CliError::Signals(_)
+            | CliError::Draw { .. }
+            | CliError::Eeprom(_)
+            | CliError::Workbench(_) => "io",
             CliError::NotMet(_) => "not_met",
             CliError::Refused(_) => "status",
         }
     }
 
     /// The failure as the JSON object `--json` prints.
-    pub(crate) fn to_json(&self) -> serde_json::Value {
-        let mut value = json!({ "error": self.to_string(), "kind": self.kind(), "exit_code": self.exit_code() });
-        if let CliError::Host(HostError::Status { reply, .. })
-        | CliError::Explained { source: HostError::Status { reply, .. }, .. } = self
-        {
-            value["reply"] = reply_json(reply);
+    pub(crate) fn to_json(&self) -> ErrorJson {
+        let reply = match self {
+            CliError::Host(HostError::Status { reply, .. })
+            | CliError::Explained { source: HostError::Status { reply, .. }, .. } => Some(ReplyJson::from(reply)),
+            _ => None,
+        };
+        let diagnostics = match self {
+            CliError::Assembly { diagnostics, .. } => Some(diagnostics.iter().map(DiagnosticJson::from).collect()),
+            _ => None,
+        };
+        ErrorJson {
+            diagnostics,
+            error: self.to_string(),
+            exit_code: self.exit_code(),
+            hint: self.hint(),
+            kind: self.kind(),
+            reply,
         }
-        if let Some(hint) = self.hint() {
-            value["hint"] = json!(hint);
-        }
-        if let CliError::Assembly { diagnostics, .. } = self {
-            value["diagnostics"] = diagnostics
-                .iter()
-                .map(|d| json!({"file": d.file, "line": d.line, "column": d.column, "width": d.width, "message": d.message}))
-                .collect();
-        }
-        value
     }
 
     /// What the user can do about it, where the failure itself does not say.
@@ -167,15 +227,71 @@ fn host_kind(err: &HostError) -> &'static str {
     }
 }
 
+/// A failure as `--json` prints it: `{"error": MESSAGE, "kind": KIND, "exit_code": N}`, with the reply of
+/// a status error, a hint, and the diagnostics of assembly errors. (Fields in the order of their names,
+/// as the output always had them.)
+#[derive(Debug, Serialize)]
+pub(crate) struct ErrorJson {
+    /// Assembly errors with their places.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub diagnostics: Option<Vec<DiagnosticJson>>,
+    /// The message.
+    pub error: String,
+    /// The process exit code.
+    pub exit_code: u8,
+    /// What the user can do about it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hint: Option<String>,
+    /// The failure in one word.
+    pub kind: &'static str,
+    /// The refusing reply of a status error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reply: Option<ReplyJson>,
+}
+
+/// One assembly error with its place.
+#[derive(Debug, Serialize)]
+pub(crate) struct DiagnosticJson {
+    pub column: u32,
+    pub file: String,
+    pub line: u32,
+    pub message: String,
+    pub width: u32,
+}
+
+impl From<&tmcl_asm::Diagnostic> for DiagnosticJson {
+    fn from(d: &tmcl_asm::Diagnostic) -> DiagnosticJson {
+        DiagnosticJson {
+            column: d.column,
+            file: d.file.clone(),
+            line: d.line,
+            message: d.message.clone(),
+            width: d.width,
+        }
+    }
+}
+
 /// One reply as a JSON object. Every command uses these keys with these meanings: `address` is the module
 /// address the reply came from, `host` the host address it went to, `opcode` the command number it answers.
-pub(crate) fn reply_json(reply: &Reply) -> serde_json::Value {
-    json!({
-        "status": u8::from(reply.status),
-        "status_text": reply.status.description(),
-        "value": reply.value,
-        "address": reply.module,
-        "host": reply.host,
-        "opcode": reply.opcode,
-    })
+#[derive(Debug, Clone, Copy, Serialize)]
+pub(crate) struct ReplyJson {
+    pub address: u8,
+    pub host: u8,
+    pub opcode: u8,
+    pub status: u8,
+    pub status_text: &'static str,
+    pub value: i32,
+}
+
+impl From<&Reply> for ReplyJson {
+    fn from(reply: &Reply) -> ReplyJson {
+        ReplyJson {
+            address: reply.module,
+            host: reply.host,
+            opcode: reply.opcode,
+            status: u8::from(reply.status),
+            status_text: reply.status.description(),
+            value: reply.value,
+        }
+    }
 }

@@ -45,15 +45,15 @@ pub(crate) fn run(args: EsiArgs, json: bool) -> Result<(), CliError> {
             let tmp = PathBuf::from(tmp);
             std::fs::write(&tmp, xml.as_bytes())
                 .and_then(|()| std::fs::rename(&tmp, path))
-                .map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
+                .map_err(|source| CliError::Write { action: "write", path: path.to_path_buf(), source })?;
             if json {
                 let out = EsiWritten { module: spec.id.into(), file: Some(path.display().to_string()), xml: None };
-                writeln!(stdout, "{}", serde_json::to_string(&out).map_err(|e| CliError::Io(e.to_string()))?)?;
+                writeln!(stdout, "{}", serde_json::to_string(&out)?)?;
             }
         }
         None if json => {
             let out = EsiWritten { module: spec.id.into(), file: None, xml: Some(xml) };
-            writeln!(stdout, "{}", serde_json::to_string(&out).map_err(|e| CliError::Io(e.to_string()))?)?;
+            writeln!(stdout, "{}", serde_json::to_string(&out)?)?;
         }
         None => stdout.write_all(xml.as_bytes())?,
     }

@@ -4,47 +4,19 @@
 //! JSON object with `--json`) and returns what happened; `main` turns a failure into its exit code
 //! ([`crate::error::EXIT_CODES`]).
 
-use crate::error::{reply_json, CliError, EXIT_CODES};
+use crate::args::{parse_byte, parse_number, parse_value};
+use crate::connection::{Connection, HostClient};
+use crate::error::{CliError, ReplyJson, EXIT_CODES};
 use crate::names::{self, ModelOption, ParamRef};
-use clap::{Args, Subcommand};
-use serde_json::json;
+use crate::output::{self, json_line};
+use clap::Subcommand;
 use std::io::{self, Write};
 use std::time::Duration;
-use tmcl_host::{Client, FirmwareVersion, HostError, SerialTransport, TcpTransport, Transport};
+use tmcl_host::{Client, FirmwareVersion, HostError, Transport};
 use tmcl_wire::command::{
     CalcOp, CalcxOp, Condition, ErrorFlag, EventMode, MoveKind, RfsAction, StatusKind, VersionFormat, WaitCondition,
 };
 use tmcl_wire::{Command, Instruction, Opcode, Reply};
-
-/// A client on whatever link the options name.
-pub(crate) type HostClient = Client<Box<dyn Transport + Send>>;
-
-/// How to reach the module: the options of every command that talks to one. They may also come before
-/// the command's name (`tmcl --port LINK get ap 4`).
-#[derive(Debug, Clone, Args)]
-pub struct Connection {
-    /// Serial port or pty to use, e.g. /dev/ttyUSB0 or the LINK made by `tmcl serve --pty LINK`.
-    #[arg(long, global = true, value_name = "PATH", conflicts_with = "tcp", help_heading = "Connection")]
-    pub port: Option<String>,
-    /// Use the port even when other processes have it open (without a lock, as pyserial and pytrinamic
-    /// open ports). Without it such a port is refused, naming them: two hosts on one line read each other's
-    /// replies.
-    #[arg(long, global = true, help_heading = "Connection")]
-    pub shared: bool,
-    /// Baud rate of the serial port (ignored by ptys).
-    #[arg(long, global = true, value_name = "N", default_value_t = 9600, help_heading = "Connection")]
-    pub baud: u32,
-    /// TCP address of the module, HOST:PORT (e.g. 127.0.0.1:2323 for `tmcl serve --tcp`).
-    #[arg(long, global = true, value_name = "HOST:PORT", help_heading = "Connection")]
-    pub tcp: Option<String>,
-    /// Module address (global parameter 66).
-    #[arg(long, global = true, value_name = "N", default_value_t = 1, help_heading = "Connection")]
-    pub address: u8,
-    /// How long to wait for each reply, in seconds (fractions allowed).
-    #[arg(long, global = true, value_name = "SECONDS", default_value = "5", value_parser = parse_seconds,
-          help_heading = "Connection")]
-    pub timeout: Duration,
-}
 
 /// Commands sent to a module (PD28-1021 TMCL manual §3.7).
 #[derive(Debug, Clone, Subcommand)]
@@ -248,29 +220,6 @@ pub(crate) fn run(cmd: HostCommand, json: bool) -> Result<(), CliError> {
     execute(cmd, json, &mut io::stdout().lock())
 }
 
-impl Connection {
-    /// Opens the one connection the options name.
-    pub(crate) fn open(&self) -> Result<HostClient, CliError> {
-        let transport: Box<dyn Transport + Send> = match (&self.port, &self.tcp) {
-            (Some(path), None) if self.shared => Box::new(SerialTransport::open(path, self.baud)?),
-            (Some(path), None) => Box::new(SerialTransport::open_alone(path, self.baud)?),
-            (None, Some(addr)) => Box::new(TcpTransport::connect(addr)?),
-            (Some(_), Some(_)) => return Err(CliError::Usage("give either --port or --tcp, not both".into())),
-            (None, None) => {
-                return Err(CliError::Usage(
-                    "no connection: give --port PATH (serial port or pty) or --tcp HOST:PORT".into(),
-                ))
-            }
-        };
-        Ok(Client::new(transport).with_module_address(self.address).with_timeout(self.timeout))
-    }
-
-    /// Whether a port or TCP address was given.
-    pub(crate) fn given(&self) -> bool {
-        self.port.is_some() || self.tcp.is_some()
-    }
-}
-
 /// Runs `cmd`, printing its result to `out`.
 fn execute(cmd: HostCommand, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     match cmd {
@@ -290,7 +239,7 @@ fn execute(cmd: HostCommand, json: bool, out: &mut dyn Write) -> Result<(), CliE
                 .request(target.instruction(target.read_opcode(), 0))
                 .map_err(|e| explain(&mut models, &mut client, target, e, None))?;
             if json {
-                writeln!(out, "{}", target.json(&reply))?;
+                json_line(out, &target.json(&reply))?;
             } else {
                 writeln!(out, "{} = {}", target.label(), target.with_unit(reply.value))?;
             }
@@ -356,7 +305,7 @@ fn explain(
 /// Prints `ok` (or the reply as JSON) for commands whose value means nothing.
 fn ok(target: &names::Target, reply: Reply, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     if json {
-        writeln!(out, "{}", target.json(&reply))?;
+        json_line(out, &target.json(&reply))?;
     } else {
         writeln!(out, "ok")?;
     }
@@ -369,14 +318,14 @@ fn version(client: &mut HostClient, json: bool, out: &mut dyn Write) -> Result<(
     let binary = client.version_binary()?;
     let decoded = FirmwareVersion::from_value_and_string(binary, &text);
     if json {
-        let value = json!({
-            "version": text,
-            "binary": binary,
-            "firmware": format!("{}.{:02}", decoded.major, decoded.minor),
-            "model": decoded.module,
-            "address": client.module_address,
-        });
-        writeln!(out, "{value}")?;
+        let value = output::Version {
+            address: client.module_address,
+            binary,
+            firmware: format!("{}.{:02}", decoded.major, decoded.minor),
+            model: decoded.module,
+            version: text,
+        };
+        json_line(out, &value)?;
     } else {
         writeln!(out, "{text}")?;
         writeln!(out, "firmware {decoded}, binary {binary:#010x}")?;
@@ -553,7 +502,7 @@ fn report_module(
         }
     };
     if json {
-        writeln!(out, "{}", json!({ "address": reply.module, "version": text }))?;
+        json_line(out, &output::Found { address: Some(reply.module), version: text })?;
     } else {
         writeln!(out, "{:>3}  {text}", reply.module)?;
     }
@@ -567,7 +516,7 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
             // The raw 136 type 0 reply has no status: the version string is the answer.
             let text = client.version_string()?;
             if json {
-                writeln!(out, "{}", json!({ "version": text }))?;
+                json_line(out, &output::Found { address: None, version: text })?;
             } else {
                 writeln!(out, "{text}")?;
             }
@@ -576,11 +525,11 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
             // Documented to get no reply when carried out (§3.7.38), but a refusal (a wrong key: status 4)
             // is answered: show what comes within the timeout, and "no reply" only when nothing did.
             match client.request_optional(instruction)? {
-                Some(reply) if json => writeln!(out, "{}", reply_json(&reply))?,
+                Some(reply) if json => json_line(out, &ReplyJson::from(&reply))?,
                 Some(reply) => writeln!(out, "status {}, value {}", reply.status, reply.value)?,
                 None if json => {
                     let sent = Sent { sent: true, opcode: u8::from(instruction.opcode), reply: None };
-                    writeln!(out, "{}", serde_json::to_string(&sent).map_err(|e| CliError::Io(e.to_string()))?)?
+                    writeln!(out, "{}", serde_json::to_string(&sent)?)?
                 }
                 None => writeln!(
                     out,
@@ -592,7 +541,7 @@ fn send(client: &mut HostClient, instruction: Instruction, json: bool, out: &mut
         _ => {
             let reply = client.request(instruction).map_err(|e| why_silent(client, e))?;
             if json {
-                writeln!(out, "{}", reply_json(&reply))?;
+                json_line(out, &ReplyJson::from(&reply))?;
             } else {
                 writeln!(out, "status {}, value {}", reply.status, reply.value)?;
             }
@@ -639,7 +588,7 @@ fn replies_off(
     }
     if json {
         let off = RepliesOff { value, replies: "off", turn_on: "tmcl set gp 255 0" };
-        writeln!(out, "{}", serde_json::to_string(&off).map_err(|e| CliError::Io(e.to_string()))?)?;
+        writeln!(out, "{}", serde_json::to_string(&off)?)?;
     } else {
         writeln!(
             out,
@@ -717,54 +666,12 @@ fn words(opcode: Opcode) -> String {
     }
 }
 
-/// A decimal (optionally negative) or `0x` hexadecimal number.
-fn parse_number(text: &str) -> Option<i64> {
-    let (negative, digits) = match text.strip_prefix('-') {
-        Some(rest) => (true, rest),
-        None => (false, text.strip_prefix('+').unwrap_or(text)),
-    };
-    let magnitude = match digits.strip_prefix("0x").or_else(|| digits.strip_prefix("0X")) {
-        Some(hex) => i64::from_str_radix(hex, 16).ok()?,
-        None if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) => digits.parse().ok()?,
-        None => return None,
-    };
-    Some(if negative { -magnitude } else { magnitude })
-}
-
-/// A 32-bit value: -2147483648..=2147483647, or up to 0xFFFFFFFF written in hex or decimal (two's complement,
-/// as pytrinamic packs values unsigned).
-pub(crate) fn parse_value(text: &str) -> Result<i32, String> {
-    let n = parse_number(text).ok_or_else(|| format!("{text:?} is not a number"))?;
-    if let Ok(v) = i32::try_from(n) {
-        Ok(v)
-    } else if let Ok(v) = u32::try_from(n) {
-        Ok(v as i32)
-    } else {
-        Err(format!("{text} does not fit in 32 bits"))
-    }
-}
-
-/// A byte, decimal or `0x` hexadecimal.
-pub(crate) fn parse_byte(text: &str) -> Result<u8, String> {
-    let n = parse_number(text).ok_or_else(|| format!("{text:?} is not a number"))?;
-    u8::try_from(n).map_err(|_| format!("{text} is out of range 0..255"))
-}
-
-/// A positive number of seconds.
-pub(crate) fn parse_seconds(text: &str) -> Result<Duration, String> {
-    let seconds: f64 = text.parse().map_err(|_| format!("{text:?} is not a number of seconds"))?;
-    if seconds.is_finite() && seconds > 0.0 && seconds < 1e9 {
-        Ok(Duration::from_secs_f64(seconds))
-    } else {
-        Err(format!("the timeout must be a positive number of seconds, not {text}"))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::error::{EXIT_BAD_REPLY, EXIT_IO, EXIT_STATUS, EXIT_USAGE};
     use clap::Parser;
+    use serde_json::json;
     use std::io::Read;
     use std::net::TcpListener;
     use std::thread;

@@ -1,11 +1,15 @@
 //! `tmcl`: virtual TMCL modules and host commands for real and virtual ones.
 
+mod args;
 mod asm;
+mod connection;
 mod debug;
 mod error;
 mod esi;
 mod host;
+mod log;
 mod names;
+mod output;
 mod params;
 mod program;
 mod run;
@@ -19,7 +23,7 @@ mod watch;
 use clap::{Parser, Subcommand};
 use error::{CliError, EXIT_CODES};
 use std::ffi::OsString;
-use std::io::Write;
+
 use std::process::ExitCode;
 
 /// OpenTMCL: virtual TMCL modules, and host commands for real and virtual modules.
@@ -29,6 +33,11 @@ struct Cli {
     /// Print results and errors as JSON objects, one per line, on standard output.
     #[arg(long, global = true)]
     json: bool,
+    /// Log more on stderr (never stdout): -v what the servers do (tmcl serve and tmcl share: every
+    /// request and reply; the workbench: pages, links), -vv details, -vvv everything. RUST_LOG, if set,
+    /// takes the place of -v (e.g. RUST_LOG=tmcl_ui=debug).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
     #[command(subcommand)]
     command: Command,
 }
@@ -146,17 +155,21 @@ fn main() -> ExitCode {
         Err(err) if json && err.use_stderr() => {
             let message = err.kind().as_str().map_or_else(|| err.to_string(), str::to_string);
             let usage = CliError::Usage(format!("{message}; see `tmcl --help`"));
-            let _ = writeln!(std::io::stdout(), "{}", usage.to_json());
+            let _ = output::json_line(&mut std::io::stdout(), &usage.to_json());
             let _ = err.print();
             return ExitCode::from(error::EXIT_USAGE);
         }
         Err(err) => err.exit(),
     };
+    log::init(cli.verbose);
     let name = cli.command.name();
     let json = cli.json;
     let result = match cli.command {
-        Command::Serve(args) => serve::run(args, json),
-        Command::Share(args) => share::run(args, json),
+        Command::Serve(mut args) => {
+            args.verbose = cli.verbose > 0;
+            serve::run(args, json)
+        }
+        Command::Share(args) => share::run(args, json, cli.verbose),
         Command::Monitor(args) => share::monitor(args, json),
         Command::Asm(args) => asm::run_asm(args, json),
         Command::Disasm(args) => asm::run_disasm(args, json),
@@ -174,7 +187,7 @@ fn main() -> ExitCode {
         Err(CliError::Output(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::from(error::EXIT_IO),
         Err(err) => {
             if json {
-                let _ = writeln!(std::io::stdout(), "{}", err.to_json());
+                let _ = output::json_line(&mut std::io::stdout(), &err.to_json());
             }
             err.report(name);
             ExitCode::from(err.exit_code())

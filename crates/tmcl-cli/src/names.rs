@@ -5,10 +5,9 @@
 //! ("Maximum positioning speed"), in any case and with or without spaces. Which table: `--module MODEL`,
 //! or else the module is asked for its version string (command 136) and the model is found by it.
 
-use crate::error::{reply_json, CliError};
-use crate::host::{Connection, HostClient};
+use crate::connection::{Connection, HostClient};
+use crate::error::{CliError, ReplyJson};
 use clap::{Args, ValueEnum};
-use serde_json::json;
 use std::io::Write;
 use tmcl_core::model::{self, ModelSpec, ParamDesc, Table, Unit};
 use tmcl_host::HostError;
@@ -49,12 +48,6 @@ pub(crate) fn model_by_id(id: &str) -> Result<&'static ModelSpec, CliError> {
     })
 }
 
-/// The model whose version string starts like `text` (the module number and the `V`, e.g. `1021V`).
-pub(crate) fn model_by_version(text: &str) -> Option<&'static ModelSpec> {
-    let prefix = text.get(..5)?;
-    model::MODELS.iter().copied().find(|m| m.version_string.get(..5) == Some(prefix.as_bytes()))
-}
-
 impl Models {
     /// From `--module` (checked now), or to be asked.
     pub(crate) fn new(option: &ModelOption) -> Result<Models, CliError> {
@@ -73,7 +66,7 @@ impl Models {
         }
         let text = client.version_string()?;
         self.asked = true;
-        let model = model_by_version(&text).ok_or_else(|| {
+        let model = model::by_version(&text).ok_or_else(|| {
             CliError::Usage(format!(
                 "the module's version string is {text:?}, a model OpenTMCL has no parameter table of: give parameters \
                  by number (or --module MODEL)"
@@ -204,6 +197,29 @@ pub(crate) struct Target {
     pub model: Option<&'static ModelSpec>,
 }
 
+/// A parameter's reply as `--json` prints it: the reply, the parameter's number (`type`), its motor or
+/// bank, and its name and unit when the tables know them. (Keys in the order of their names, as the output
+/// always had them.)
+#[derive(Debug, serde::Serialize)]
+pub(crate) struct ParamReplyJson {
+    pub address: u8,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bank: Option<u8>,
+    pub host: u8,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motor: Option<u8>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<&'static str>,
+    pub opcode: u8,
+    pub status: u8,
+    pub status_text: &'static str,
+    #[serde(rename = "type")]
+    pub kind: u8,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unit: Option<&'static str>,
+    pub value: i32,
+}
+
 impl Target {
     /// The instruction `opcode` on this parameter with `value`.
     pub(crate) fn instruction(&self, opcode: Opcode, value: i32) -> Instruction {
@@ -261,15 +277,21 @@ impl Target {
     }
 
     /// The reply as JSON, with the parameter's name and unit when they are known.
-    pub(crate) fn json(&self, reply: &Reply) -> serde_json::Value {
-        let mut value = reply_json(reply);
-        value["type"] = json!(self.number);
-        value[if self.axis { "motor" } else { "bank" }] = json!(self.index);
-        if let Some(desc) = self.desc {
-            value["name"] = json!(desc.ident);
-            value["unit"] = json!(desc.unit.symbol());
+    pub(crate) fn json(&self, reply: &Reply) -> ParamReplyJson {
+        let r = ReplyJson::from(reply);
+        ParamReplyJson {
+            address: r.address,
+            bank: (!self.axis).then_some(self.index),
+            host: r.host,
+            motor: self.axis.then_some(self.index),
+            name: self.desc.map(|d| d.ident),
+            opcode: r.opcode,
+            status: r.status,
+            status_text: r.status_text,
+            kind: self.number,
+            unit: self.desc.map(|d| d.unit.symbol()),
+            value: r.value,
         }
-        value
     }
 
     /// A refusal of the module, explained from the tables where they say why.
@@ -426,23 +448,28 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
                 (false, b) => format!("{kind} {}:{b}", desc.number),
             };
             if json {
-                let mut row = json!({
-                    "type": desc.number,
-                    "name": desc.ident,
-                    "title": desc.name,
-                    "access": desc.access.to_string(),
-                    "range": desc.range.to_string(),
-                    "unit": desc.unit.symbol(),
-                    "default": desc.default,
-                    "section": desc.section,
-                });
-                row[if axis { "motor" } else { "bank" }] = json!(index);
-                match value {
-                    Some(Ok(v)) => row["value"] = json!(v),
-                    Some(Err(status)) => row["status"] = json!(u8::from(status)),
-                    None => row["value"] = serde_json::Value::Null,
-                }
-                writeln!(out, "{row}")?;
+                let row = crate::output::ParamRow {
+                    access: desc.access.to_string(),
+                    bank: (!axis).then_some(index),
+                    default: desc.default,
+                    motor: axis.then_some(index),
+                    name: desc.ident,
+                    range: desc.range.to_string(),
+                    section: desc.section,
+                    status: match value {
+                        Some(Err(status)) => Some(u8::from(status)),
+                        _ => None,
+                    },
+                    title: desc.name,
+                    kind: desc.number,
+                    unit: desc.unit.symbol(),
+                    value: match value {
+                        Some(Ok(v)) => Some(Some(v)),
+                        Some(Err(_)) => None,
+                        None => Some(None),
+                    },
+                };
+                crate::output::json_line(out, &row)?;
             } else {
                 let value = match value {
                     None if !desc.access.read && !offline => "(write only)".to_string(),
@@ -503,14 +530,6 @@ mod tests {
         let err = lookup(pd28(), "MaxPositionSpeed", true, None).unwrap_err().to_string();
         assert!(err.contains("did you mean MaxPositioningSpeed?"), "{err}");
         assert!(err.contains("tmcl params --module pd28-1021"), "{err}");
-    }
-
-    #[test]
-    fn models_by_version_string() {
-        assert_eq!(model_by_version("1021V142").map(|m| m.id), Some("pd28-1021"));
-        assert_eq!(model_by_version("1310V114").map(|m| m.id), Some("tmcm-1310"));
-        assert!(model_by_version("9999V1").is_none());
-        assert!(model_by_version("").is_none());
     }
 
     #[test]

@@ -2,8 +2,8 @@
 //! [`tmcl_ui::paramset`] (what is saved, what a load writes and skips, what a diff compares) on the command
 //! line.
 
+use crate::connection::HostClient;
 use crate::error::CliError;
-use crate::host::HostClient;
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -12,17 +12,18 @@ use tmcl_ui::paramset::{check_model, diff, from_toml, load, snapshot, to_toml, L
 
 /// Reads a set from `path`.
 pub(crate) fn read_file(path: &Path) -> Result<ParamFile, CliError> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
-    from_toml(&text).map_err(|e| CliError::Input(format!("{}: {e}", path.display())))
+    let text = std::fs::read_to_string(path).map_err(|source| CliError::Read { path: path.to_path_buf(), source })?;
+    from_toml(&text).map_err(|e| CliError::Content { path: path.to_path_buf(), source: e.into() })
 }
 
 /// Writes `text` to `path` whole (a temporary file renamed over it), so a crash never leaves half a set.
 pub(crate) fn write_whole(path: &Path, text: &str) -> Result<(), CliError> {
     let tmp = path.with_extension("tmp-tmcl");
-    std::fs::write(&tmp, text)
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| CliError::Io(format!("cannot write {}: {e}", path.display())))
+    std::fs::write(&tmp, text).and_then(|()| std::fs::rename(&tmp, path)).map_err(|source| CliError::Write {
+        action: "write",
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// What `--save`, `--load` or `--diff` to do.
@@ -61,7 +62,7 @@ pub(crate) fn run(
                     params: file.params.len(),
                     unread: notes.len(),
                 };
-                writeln!(out, "{}", serde_json::to_string(&saved).map_err(|e| CliError::Io(e.to_string()))?)?;
+                writeln!(out, "{}", serde_json::to_string(&saved)?)?;
             } else {
                 writeln!(out, "saved {} parameters of the {} to {}", file.params.len(), model.name, path.display())?;
             }
@@ -132,7 +133,7 @@ fn print_outcomes(
 ) -> Result<(), CliError> {
     for o in outcomes {
         if json {
-            writeln!(out, "{}", serde_json::to_string(o).map_err(|e| CliError::Io(e.to_string()))?)?;
+            writeln!(out, "{}", serde_json::to_string(o)?)?;
             continue;
         }
         if !worth(o) {

@@ -1,11 +1,11 @@
 //! Host commands for standalone programs: `tmcl download`, `upload`, `start`, `stop`, `status`
 //! (PD28-1021 manual §3.7.38, commands 128–135), for real and virtual modules alike.
 
+use crate::connection::Connection;
 use crate::error::{CliError, EXIT_CODES};
-use crate::host::Connection;
+use crate::output::{json_line, Downloaded, ProgramStatus, Started, Stopped, Uploaded};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use tmcl_asm::DisasmOptions;
@@ -132,10 +132,10 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
             }
             if json {
                 let verified = args.verify;
-                writeln!(out, "{}", json!({"stored": program.len(), "at": args.at, "verified": verified}))?;
+                json_line(&mut out, &Downloaded { at: args.at, stored: program.len(), verified })?;
             } else {
                 writeln!(
-                    out,
+                    &mut out,
                     "stored {} instructions at {}..{}{}",
                     program.len(),
                     args.at,
@@ -149,7 +149,11 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
             let bar = progress(u64::from(args.count), "upload");
             let program = client.upload_program(args.count, |n| bar.set_position(n as u64))?;
             bar.finish_and_clear();
-            let output = |e: std::io::Error, path: &Path| CliError::Io(format!("cannot write {}: {e}", path.display()));
+            let output = |source: std::io::Error, path: &Path| CliError::Write {
+                action: "write",
+                path: path.to_path_buf(),
+                source,
+            };
             match &args.output {
                 Some(path) if path.extension().is_some_and(|e| e == "bin") => {
                     std::fs::write(path, tmcl_asm::to_bin(&program)).map_err(|e| output(e, path))?;
@@ -159,12 +163,13 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
                 None => out.write_all(disassemble(&program).as_bytes())?,
             }
             match (&args.output, json) {
-                (Some(path), true) => {
-                    writeln!(out, "{}", json!({"read": program.len(), "output": path.display().to_string()}))?
-                }
+                (Some(path), true) => json_line(
+                    &mut out,
+                    &Uploaded { output: Some(path.display().to_string()), read: program.len(), source: None },
+                )?,
                 (None, true) => {
                     let source = disassemble(&program);
-                    writeln!(out, "{}", json!({"read": program.len(), "source": source}))?
+                    json_line(&mut out, &Uploaded { output: None, read: program.len(), source: Some(source) })?
                 }
                 (Some(_), false) => eprintln!("read {} instructions", program.len()),
                 (None, false) => {}
@@ -177,7 +182,7 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
             };
             args.conn.open()?.run_program(at)?;
             match (at, json) {
-                (at, true) => writeln!(out, "{}", json!({"running": true, "from": at}))?,
+                (at, true) => json_line(&mut out, &Started { from: at, running: true })?,
                 (Some(a), false) => writeln!(out, "running from {a}")?,
                 (None, false) => writeln!(out, "running")?,
             }
@@ -185,7 +190,7 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
         ProgramCommand::Stop { conn } => {
             conn.open()?.stop_program()?;
             if json {
-                writeln!(out, "{}", json!({"stopped": true}))?;
+                json_line(&mut out, &Stopped { stopped: true })?;
             } else {
                 writeln!(out, "stopped")?;
             }
@@ -196,7 +201,7 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
             // has no accumulator or X register to ask for, and its program counter is GP 130 (asking 135
             // types 1 to 3 would print the state three times). Which form a module has follows from its
             // version string.
-            let model = client.version_string().ok().and_then(|text| crate::names::model_by_version(&text));
+            let model = client.version_string().ok().and_then(|text| tmcl_core::model::by_version(&text));
             if let Some(model) = model.filter(|m| m.app_status == tmcl_core::model::AppStatusReply::Plain) {
                 let request = tmcl_wire::Command::GetStatus { kind: tmcl_wire::StatusKind::MemoryPointer };
                 let mode = client.request(request.encode())?.value as u8;
@@ -206,8 +211,11 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
                     None => None,
                 };
                 match (json, pc) {
-                    (true, Some(pc)) => writeln!(out, "{}", json!({"mode": mode, "mode_text": text, "pc": pc}))?,
-                    (true, None) => writeln!(out, "{}", json!({"mode": mode, "mode_text": text}))?,
+                    (true, pc) => {
+                        let row =
+                            ProgramStatus { accumulator: None, mode, mode_text: text, pc, waiting: None, x: None };
+                        json_line(&mut out, &row)?
+                    }
                     (false, Some(pc)) => writeln!(out, "{text}, pc {pc}")?,
                     (false, None) => writeln!(out, "{text}")?,
                 }
@@ -215,12 +223,18 @@ pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
             }
             let s = client.application_status()?;
             if json {
-                let row = json!({"mode": s.mode, "mode_text": s.mode_name(), "waiting": s.waiting, "pc": s.pc,
-                                 "accumulator": s.accumulator, "x": s.x});
-                writeln!(out, "{row}")?;
+                let row = ProgramStatus {
+                    accumulator: Some(s.accumulator),
+                    mode: s.mode,
+                    mode_text: s.mode_name(),
+                    pc: Some(i32::from(s.pc)),
+                    waiting: Some(s.waiting),
+                    x: Some(s.x),
+                };
+                json_line(&mut out, &row)?;
             } else {
                 writeln!(
-                    out,
+                    &mut out,
                     "{}{}, pc {}, accumulator {}, x {}",
                     s.mode_name(),
                     if s.waiting { " (waiting)" } else { "" },
@@ -251,8 +265,9 @@ fn disassemble(program: &[Instruction]) -> String {
 /// Reads a program: a `.bin` image, or TMCL source assembled with the built-in include files.
 pub(crate) fn load(path: &Path) -> Result<Vec<Instruction>, CliError> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bin")) {
-        let bytes = std::fs::read(path).map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
-        return tmcl_asm::from_bin(&bytes).map_err(|e| CliError::Input(format!("{}: {e}", path.display())));
+        let bytes = std::fs::read(path).map_err(|source| CliError::Read { path: path.to_path_buf(), source })?;
+        return tmcl_asm::from_bin(&bytes)
+            .map_err(|e| CliError::Content { path: path.to_path_buf(), source: e.into() });
     }
     Ok(assemble(path)?.instructions)
 }
@@ -274,7 +289,7 @@ fn resolve(at: &str, program: Option<&Path>) -> Result<u16, CliError> {
     };
     let labels: Vec<(String, u16)> = if path.extension().is_some_and(|e| e == "sym") {
         std::fs::read_to_string(path)
-            .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?
+            .map_err(|source| CliError::Read { path: path.to_path_buf(), source })?
             .lines()
             .filter_map(|l| {
                 let (name, addr) = l.split_once(char::is_whitespace)?;

@@ -4,6 +4,7 @@
 //! library's ([`tmcl_run::Simulation`], [`tmcl_run::Csv`], `tmcl_run::plot`), which documents how a run
 //! steps through simulated time and when it records a row.
 
+use crate::args::parse_sim_seconds;
 use crate::error::{CliError, EXIT_CODES};
 use crate::sim::SimOptions;
 use clap::Args;
@@ -77,7 +78,7 @@ pub struct RunArgs {
     #[command(flatten)]
     pub sim: SimOptions,
     /// How long to run, in simulated seconds (fractions allowed, down to µs).
-    #[arg(long = "for", value_name = "SECONDS", value_parser = parse_seconds)]
+    #[arg(long = "for", value_name = "SECONDS", value_parser = parse_sim_seconds)]
     pub duration: Duration,
     /// Write the trace to this CSV file (columns below).
     #[arg(long, value_name = "OUT.csv")]
@@ -98,24 +99,6 @@ pub struct RunArgs {
     /// reference the event-driven run is checked against. The results are the same, only slower.
     #[arg(long)]
     pub exact_ticks: bool,
-}
-
-/// Seconds as text to a [`Duration`], exactly (no floating point): `3600`, `0.5`, `1.000001`.
-pub(crate) fn parse_seconds(s: &str) -> Result<Duration, String> {
-    let bad = || format!("`{s}` is not a number of seconds (e.g. 60 or 0.5)");
-    let (whole, fraction) = s.trim().split_once('.').unwrap_or((s.trim(), ""));
-    if fraction.len() > 6 || !fraction.chars().all(|c| c.is_ascii_digit()) || (whole.is_empty() && fraction.is_empty())
-    {
-        return Err(bad());
-    }
-    let whole: u64 = if whole.is_empty() { 0 } else { whole.parse().map_err(|_| bad())? };
-    let fraction: u64 = format!("{fraction:0<6}").parse().map_err(|_| bad())?;
-    whole
-        .checked_mul(1_000_000)
-        .and_then(|w| w.checked_add(fraction))
-        .filter(|m| *m <= 1_000_000 * 1_000_000_000)
-        .map(Duration::from_micros)
-        .ok_or_else(bad)
 }
 
 /// What `tmcl run --help` prints after the options: the trace columns and the exit codes.
@@ -179,9 +162,11 @@ fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     let mut report = |t: Instant| show_progress(&bar, t);
     let progress: Option<&mut dyn FnMut(Instant)> = if bar.is_hidden() { None } else { Some(&mut report) };
     let csv = match &args.trace {
-        Some(path) => Some(Csv::new(BufWriter::new(
-            File::create(path).map_err(|e| CliError::Io(format!("cannot create {}: {e}", path.display())))?,
-        ))),
+        Some(path) => Some(Csv::new(BufWriter::new(File::create(path).map_err(|source| CliError::Write {
+            action: "create",
+            path: path.clone(),
+            source,
+        })?))),
         None => None,
     };
     let mut trace = args.plot.as_ref().map(|_| Trace::new());
@@ -198,8 +183,7 @@ fn execute(args: &RunArgs, json: bool) -> Result<(), CliError> {
     })?;
     if let (Some(path), Some(trace)) = (&args.plot, &trace) {
         let title = format!("{} on a simulated {}", args.file.display(), setup.model.name);
-        tmcl_run::plot::write(trace, &title, path)
-            .map_err(|e| CliError::Io(format!("cannot draw {}: {e}", path.display())))?;
+        tmcl_run::plot::write(trace, &title, path).map_err(|source| CliError::Draw { path: path.clone(), source })?;
     }
     bar.finish_and_clear();
     let summary = Summary {
@@ -259,8 +243,6 @@ impl Summary {
     }
 }
 
-pub(crate) use tmcl_run::state_name;
-
 /// A progress bar on stderr if it is a terminal, hidden otherwise (tests, pipes).
 fn progress_bar(duration: Duration) -> ProgressBar {
     if !std::io::stderr().is_terminal() {
@@ -277,20 +259,4 @@ fn progress_bar(duration: Duration) -> ProgressBar {
 fn show_progress(bar: &ProgressBar, now: Instant) {
     bar.set_position(now.millis());
     bar.set_message(format!("{} s", now.millis() / 1000));
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn seconds_parse_exactly() {
-        assert_eq!(parse_seconds("3600"), Ok(Duration::from_secs(3600)));
-        assert_eq!(parse_seconds("0.5"), Ok(Duration::from_millis(500)));
-        assert_eq!(parse_seconds(".25"), Ok(Duration::from_millis(250)));
-        assert_eq!(parse_seconds("1.000001"), Ok(Duration::from_micros(1_000_001)));
-        for bad in ["", ".", "-1", "1e3", "1.0000001", "x", "99999999999999999999"] {
-            assert!(parse_seconds(bad).is_err(), "{bad}");
-        }
-    }
 }

@@ -11,7 +11,7 @@ use std::io::{self, Write};
 use std::path::PathBuf;
 use tmcl_core::model::{self, ModelSpec};
 use tmcl_serve::{
-    EtherCatOptions, LinkOptions, ModuleInfo, ModuleOptions, MonitorOptions, Options, ServeError, Server,
+    EtherCatOptions, Fleet, LinkOptions, ModuleInfo, ModuleOptions, MonitorOptions, Options, ServeError, Server,
 };
 
 /// Options of `tmcl serve`.
@@ -40,7 +40,7 @@ pub struct ServeArgs {
     /// and replies), so no host ever sees another's replies. The module is one: what one host sets, the
     /// others read. On a bus each link reaches every module, as if each module had that many ports wired
     /// to separate hosts (see docs/decisions.md).
-    #[arg(long, value_name = "LINK", required_unless_present_any = ["tcp", "ethercat"])]
+    #[arg(long, value_name = "LINK", required_unless_present_any = ["tcp", "ethercat", "fleet"])]
     pub pty: Vec<PathBuf>,
     /// Serve on a TCP port, HOST:PORT (e.g. localhost:2323 or 127.0.0.1:2323; a bare PORT means
     /// 127.0.0.1; port 0 picks a free one).
@@ -79,8 +79,8 @@ pub struct ServeArgs {
     /// or DIR/MODEL@ADDRESS.foe) and are reported on stderr; nothing is flashed.
     #[arg(long, value_name = "IFACE")]
     pub ethercat: Option<String>,
-    /// Log every request and reply to stderr (EtherCAT: the AL state changes).
-    #[arg(short, long)]
+    /// Log every request and reply (EtherCAT: the AL state changes): set from the global `-v`.
+    #[arg(skip)]
     pub verbose: bool,
     /// Append every transaction on the host links to FILE, one line each: time, link, the request and the
     /// reply decoded with the model's names and units, status, round trip (with --json, one JSON object
@@ -96,6 +96,122 @@ pub struct ServeArgs {
     /// replies, more CPU time).
     #[arg(long)]
     pub exact_ticks: bool,
+    /// Serve several lines in one process, as FILE describes them (TOML): each `[[line]]` table takes the
+    /// options above by the same names (`module`, `pty`, `tcp`: a string or a list; `interface`, `address`, `eeprom`,
+    /// `eeprom_dir`, `world`, `wire_timing`, `ethercat`, `log`, `monitor_socket`), and is served as `tmcl serve` with those options
+    /// would serve it, on a thread of its own. Paths in FILE are relative to FILE's directory. --verbose and
+    /// --exact-ticks apply to every line; the other options are given in FILE only. Prints one line (one
+    /// JSON object with --json) per line; see README.md, "A fleet".
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = [
+            "interface", "pty", "tcp", "address", "eeprom", "eeprom_dir", "wire_timing", "world", "ethercat", "log",
+            "monitor_socket"
+        ]
+    )]
+    pub fleet: Option<PathBuf>,
+}
+
+/// One or several values: `pty = "a"` or `pty = ["a", "b"]`.
+#[derive(Debug, Default, serde::Deserialize)]
+#[serde(untagged)]
+enum OneOrMany<T> {
+    #[default]
+    None,
+    One(T),
+    Many(Vec<T>),
+}
+
+impl<T> OneOrMany<T> {
+    fn into_vec(self) -> Vec<T> {
+        match self {
+            OneOrMany::None => Vec::new(),
+            OneOrMany::One(x) => vec![x],
+            OneOrMany::Many(v) => v,
+        }
+    }
+}
+
+/// A `[[line]]` of a fleet file: the options of `tmcl serve` for one line.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LineSpec {
+    #[serde(default)]
+    module: OneOrMany<String>,
+    interface: Option<String>,
+    #[serde(default)]
+    pty: OneOrMany<PathBuf>,
+    #[serde(default)]
+    tcp: OneOrMany<String>,
+    address: Option<u8>,
+    eeprom: Option<PathBuf>,
+    eeprom_dir: Option<PathBuf>,
+    #[serde(default)]
+    wire_timing: bool,
+    world: Option<PathBuf>,
+    ethercat: Option<String>,
+    log: Option<PathBuf>,
+    monitor_socket: Option<PathBuf>,
+}
+
+/// A fleet file.
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FleetFile {
+    line: Vec<LineSpec>,
+}
+
+/// The lines of a fleet file, each as the options of `tmcl serve` (with --verbose and --exact-ticks from
+/// the command line), paths relative to the file's directory.
+fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs>, CliError> {
+    let text = std::fs::read_to_string(file).map_err(|source| CliError::Read { path: file.to_path_buf(), source })?;
+    let fleet: FleetFile = toml::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", file.display())))?;
+    let dir = file.parent().unwrap_or(std::path::Path::new(""));
+    let at = |p: PathBuf| if p.is_absolute() { p } else { dir.join(p) };
+    let mut lines = Vec::new();
+    for (n, line) in fleet.line.into_iter().enumerate() {
+        let mut module = line.module.into_vec();
+        if module.is_empty() {
+            module.push("pd28-1021".into());
+        }
+        let (pty, tcp) = (line.pty.into_vec(), line.tcp.into_vec());
+        if pty.is_empty() && tcp.is_empty() && line.ethercat.is_none() {
+            return Err(CliError::Usage(format!(
+                "{}: line {} has no link: give it `pty` or `tcp` (or `ethercat`)",
+                file.display(),
+                n + 1
+            )));
+        }
+        if line.address == Some(0) {
+            return Err(CliError::Usage(format!(
+                "{}: line {}: address 0 is no address (1-255)",
+                file.display(),
+                n + 1
+            )));
+        }
+        lines.push(ServeArgs {
+            module,
+            interface: line.interface,
+            pty: pty.into_iter().map(at).collect(),
+            tcp,
+            address: line.address,
+            eeprom: line.eeprom.map(at),
+            eeprom_dir: line.eeprom_dir.map(at),
+            wire_timing: line.wire_timing,
+            world: line.world.map(at),
+            ethercat: line.ethercat,
+            log: line.log.map(at),
+            monitor_socket: line.monitor_socket.map(at),
+            verbose: args.verbose,
+            exact_ticks: args.exact_ticks,
+            fleet: None,
+        });
+    }
+    if lines.is_empty() {
+        return Err(CliError::Usage(format!("{}: no [[line]]", file.display())));
+    }
+    Ok(lines)
 }
 
 /// The first line of `tmcl serve --json`: what is served where.
@@ -130,6 +246,9 @@ impl From<ServeError> for CliError {
 
 /// Runs the server until SIGINT or SIGTERM.
 pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
+    if let Some(file) = &args.fleet {
+        return run_fleet(file, &args, json);
+    }
     let mut server = Server::new(options(&args, json)?)?;
     // A signal ends the server at once, under any load: every EEPROM write is already in its file
     // (crash-safe), so the fsync that only guards against a power loss is left out (docs/decisions.md).
@@ -137,11 +256,54 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     for note in server.notes() {
         eprintln!("tmcl serve: {note}");
     }
-    let stop = server.stopper().flag();
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, std::sync::Arc::clone(&stop))
-            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+    server
+        .stopper()
+        .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
+        .map_err(CliError::Signals)?;
+    announce(&server, json)?;
+    let _ = io::stdout().flush();
+    server.run()?;
+    Ok(())
+}
+
+/// `tmcl serve --fleet FILE`: every line of FILE on a thread of its own, until SIGINT or SIGTERM.
+fn run_fleet(file: &std::path::Path, args: &ServeArgs, json: bool) -> Result<(), CliError> {
+    let lines = fleet_lines(file, args)?.iter().map(|line| options(line, json)).collect::<Result<Vec<_>, _>>()?;
+    raise_descriptor_limit(&lines);
+    let mut fleet = Fleet::new(lines)?;
+    fleet.set_flush_on_stop(false);
+    for server in fleet.lines() {
+        for note in server.notes() {
+            eprintln!("tmcl serve: {note}");
+        }
+        server
+            .stopper()
+            .stop_on_signals(&[signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM])
+            .map_err(CliError::Signals)?;
     }
+    for server in fleet.lines() {
+        announce(server, json)?;
+    }
+    let _ = io::stdout().flush();
+    fleet.run()?;
+    Ok(())
+}
+
+/// A fleet keeps about ten descriptors per line (the pty's two sides, its lock file and watch, the monitor socket, the
+/// waker and the signals' wake-ups), and EEPROM files: the soft limit on open files (often 1024) is raised
+/// to the hard one when a fleet would come near it.
+fn raise_descriptor_limit(lines: &[Options]) {
+    use nix::sys::resource::{getrlimit, setrlimit, Resource};
+    let want = 64 + lines.iter().map(|l| 10 + 3 * l.links.len() + 2 * l.modules.len()).sum::<usize>() as u64;
+    if let Ok((soft, hard)) = getrlimit(Resource::RLIMIT_NOFILE) {
+        if soft < want {
+            let _ = setrlimit(Resource::RLIMIT_NOFILE, hard, hard);
+        }
+    }
+}
+
+/// The line saying what one server serves where (one JSON object with --json).
+fn announce(server: &Server, json: bool) -> Result<(), CliError> {
     let places: Vec<String> = server.links().iter().map(ToString::to_string).collect();
     let place = places.first().cloned();
     let iface = server.ethercat_interface().map(str::to_string);
@@ -149,7 +311,7 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
     if json {
         let serving = modules.iter().map(|m| ServedModule { address: m.address, model: m.model.clone() }).collect();
         let line = Serving { ethercat: iface, link: place, links: places, serving };
-        println!("{}", serde_json::to_string(&line).map_err(|e| CliError::Io(e.to_string()))?);
+        println!("{}", serde_json::to_string(&line)?);
     } else {
         let names: Vec<String> =
             modules.iter().map(|ModuleInfo { name, address, .. }| format!("{name} at address {address}")).collect();
@@ -157,8 +319,6 @@ pub(crate) fn run(args: ServeArgs, json: bool) -> Result<(), CliError> {
         on.extend(iface.map(|i| format!("EtherCAT {i}")));
         println!("{}", format_args!("serving {} on {}", names.join(", "), on.join(" and ")));
     }
-    let _ = io::stdout().flush();
-    server.run()?;
     Ok(())
 }
 
@@ -187,11 +347,15 @@ fn options(args: &ServeArgs, json: bool) -> Result<Options, CliError> {
         ));
     }
     let world = match &args.world {
-        Some(path) => tmcl_sim::World::load(path).map_err(|e| CliError::Input(e.to_string()))?,
+        Some(path) => tmcl_sim::World::load(path)?,
         None => tmcl_sim::World::default(),
     };
     if let Some(dir) = &args.eeprom_dir {
-        std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
+            action: "create",
+            path: dir.to_path_buf(),
+            source,
+        })?;
     }
     let mut modules = Vec::new();
     for (n, (spec, address)) in wanted.into_iter().enumerate() {
@@ -264,4 +428,73 @@ fn with_suffix(path: &std::path::Path, suffix: &str) -> PathBuf {
     let mut p = path.as_os_str().to_owned();
     p.push(suffix);
     PathBuf::from(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        serve: ServeArgs,
+    }
+
+    fn args(line: &str) -> ServeArgs {
+        Cli::try_parse_from(std::iter::once("serve").chain(line.split_whitespace())).unwrap().serve
+    }
+
+    #[test]
+    fn a_fleet_file_gives_each_line_the_options_of_serve() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("fleet.toml");
+        std::fs::write(
+            &file,
+            r#"
+[[line]]
+module = "tmcm-1310"
+pty = "ports/usb0"
+world = "/abs/world.toml"
+
+[[line]]
+module = ["pd28-1021@1", "pd-113@2"]
+pty = ["ports/a", "ports/b"]
+tcp = "127.0.0.1:0"
+eeprom_dir = "eeprom"
+wire_timing = false
+"#,
+        )
+        .unwrap();
+        let mut fleet = args(&format!("--fleet {}", file.display()));
+        fleet.verbose = true; // the global -v (main sets it)
+        let lines = fleet_lines(&file, &fleet).unwrap();
+        assert_eq!(lines.len(), 2);
+        assert_eq!(lines[0].module, ["tmcm-1310"]);
+        assert_eq!(lines[0].pty, [dir.path().join("ports/usb0")], "relative to the file's directory");
+        assert_eq!(lines[0].world.as_deref(), Some(std::path::Path::new("/abs/world.toml")));
+        assert!(lines[0].verbose && lines[1].verbose, "--verbose applies to every line");
+        assert_eq!(lines[1].module, ["pd28-1021@1", "pd-113@2"]);
+        assert_eq!(lines[1].pty, [dir.path().join("ports/a"), dir.path().join("ports/b")]);
+        assert_eq!(lines[1].tcp, ["127.0.0.1:0"]);
+        assert_eq!(lines[1].eeprom_dir, Some(dir.path().join("eeprom")));
+        let options = options(&lines[1], false).unwrap();
+        assert_eq!((options.modules.len(), options.links.len()), (2, 3));
+    }
+
+    #[test]
+    fn a_fleet_file_is_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("fleet.toml");
+        let refused = |text: &str| {
+            std::fs::write(&file, text).unwrap();
+            fleet_lines(&file, &args(&format!("--fleet {}", file.display()))).unwrap_err().to_string()
+        };
+        assert!(refused("[[line]]\nmodule = \"pd28-1021\"\n").contains("line 1 has no link"));
+        assert!(refused("[[line]]\npty = \"a\"\nspeed = 3\n").contains("unknown field `speed`"));
+        assert!(refused("line = []\n").contains("no [[line]]"));
+        // The per-line options are the file's: not on the command line beside it.
+        assert!(Cli::try_parse_from(["serve", "--fleet", "f.toml", "--pty", "a"]).is_err());
+        assert!(Cli::try_parse_from(["serve", "--fleet", "f.toml", "--exact-ticks"]).is_ok());
+    }
 }

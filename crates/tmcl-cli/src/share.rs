@@ -4,8 +4,8 @@
 //! Both are the `tmcl_serve` library (`Share`, `monitor`); this file parses the options, prints where the
 //! share serves, wires SIGINT and SIGTERM to its stop, and prints what the monitor socket says.
 
+use crate::args::parse_seconds;
 use crate::error::CliError;
-use crate::host::parse_seconds;
 use crate::names::model_by_id;
 use clap::Args;
 use serde::Serialize;
@@ -63,9 +63,6 @@ pub struct ShareArgs {
     /// link there is none unless this names one).
     #[arg(long, value_name = "PATH")]
     pub monitor_socket: Option<PathBuf>,
-    /// Print every transaction on stderr too.
-    #[arg(short, long)]
-    pub verbose: bool,
 }
 
 /// The first line of `tmcl share --json`.
@@ -80,7 +77,7 @@ struct Sharing {
 }
 
 /// Runs the share until SIGINT or SIGTERM.
-pub(crate) fn run(args: ShareArgs, json: bool) -> Result<(), CliError> {
+pub(crate) fn run(args: ShareArgs, json: bool, verbose: u8) -> Result<(), CliError> {
     let device = match (&args.port, &args.connect) {
         (Some(path), _) => DeviceOptions::Serial { path: path.clone(), baud: args.baud, shared: args.shared },
         (None, Some(addr)) => DeviceOptions::Tcp(addr.clone()),
@@ -96,7 +93,7 @@ pub(crate) fn run(args: ShareArgs, json: bool) -> Result<(), CliError> {
         log: args.log.clone(),
         log_json: json,
         socket: args.monitor_socket.clone(),
-        stderr: args.verbose,
+        stderr: verbose > 0,
     };
     let share = Share::new(options)?;
     let stop = share.stopper().flag();

@@ -1,8 +1,7 @@
 //! What `tmcl run` and `tmcl debug` share: the options that say which simulated module to build, on top
 //! of the `tmcl-run` library (which builds it, runs it and records the trace).
 
-pub(crate) use tmcl_run::trace;
-pub(crate) use tmcl_run::{parse_number, poll, Setting, Source, USER_BANK};
+pub(crate) use tmcl_run::{Setting, Source};
 
 use crate::error::CliError;
 use clap::Args;
@@ -34,7 +33,7 @@ impl SimOptions {
         let mut setup = Setup::new(&self.module).map_err(setup_error)?;
         setup.settings = self.set.clone();
         if let Some(path) = &self.world {
-            let world = tmcl_sim::World::load(path).map_err(|e| CliError::Usage(e.to_string()))?;
+            let world = tmcl_sim::World::load(path)?;
             // Checked against the model here, so that the error names the file.
             SimBoard::in_memory_for(setup.model)
                 .with_world(world.clone())

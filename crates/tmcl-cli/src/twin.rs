@@ -8,8 +8,8 @@
 //! What an EEPROM image cannot carry is said, not hidden: settings without E or A in the tables (volatile,
 //! lost at power-up on the real module too) and the reply switch (GP 255).
 
+use crate::connection::{Connection, HostClient};
 use crate::error::CliError;
-use crate::host::{Connection, HostClient};
 use crate::names::{ModelOption, Models};
 use crate::params::write_whole;
 use clap::Args;
@@ -68,10 +68,10 @@ fn virtual_module(model: &'static ModelSpec, image: &Path) -> Result<HostClient,
         match std::fs::remove_file(path) {
             Ok(()) => {}
             Err(e) if e.kind() == io::ErrorKind::NotFound => {}
-            Err(e) => return Err(CliError::Io(format!("cannot replace {}: {e}", path.display()))),
+            Err(source) => return Err(CliError::Write { action: "replace", path: path.to_path_buf(), source }),
         }
     }
-    let nvm = FileNvm::open(image, persist::capacity(model)).map_err(|e| CliError::Io(e.to_string()))?;
+    let nvm = FileNvm::open(image, persist::capacity(model))?;
     let module = Module::new(SimBoard::for_model(model, Eeprom::File(nvm)), model, Instant::ZERO);
     let transport = tmcl_serve::InProcess::new(module);
     Ok(Client::new(Box::new(transport) as Box<dyn Transport + Send>).with_timeout(Duration::from_millis(200)))
@@ -104,8 +104,11 @@ pub(crate) fn run(args: TwinArgs, json: bool) -> Result<(), CliError> {
     let mut models = Models::new(&args.model)?;
     let mut client = args.conn.open()?;
     let model = models.get(&mut client)?;
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| CliError::Io(format!("cannot create {}: {e}", args.out.display())))?;
+    std::fs::create_dir_all(&args.out).map_err(|source| CliError::Write {
+        action: "create",
+        path: args.out.clone(),
+        source,
+    })?;
 
     // 1. The module as it is: every parameter, and the program.
     let (set, notes) = params::snapshot(&mut client, model)?;
@@ -184,7 +187,7 @@ pub(crate) fn run(args: TwinArgs, json: bool) -> Result<(), CliError> {
             refused: refused.clone(),
             serve,
         };
-        writeln!(out, "{}", serde_json::to_string(&made).map_err(|e| CliError::Io(e.to_string()))?)?;
+        writeln!(out, "{}", serde_json::to_string(&made)?)?;
     } else {
         writeln!(
             out,

@@ -1,10 +1,9 @@
 //! `tmcl ui`: the browser workbench ([`tmcl_ui`]) on the module the connection options name.
 
+use crate::connection::Connection;
 use crate::error::CliError;
-use crate::host::Connection;
 use crate::names::{model_by_id, ModelOption};
 use clap::Args;
-use serde_json::json;
 use std::io::Write;
 use std::net::SocketAddr;
 
@@ -65,10 +64,14 @@ pub(crate) fn run(args: UiArgs, json: bool) -> Result<(), CliError> {
         let url = format!("http://{addr}/");
         let mut out = std::io::stdout().lock();
         // The first line is the address, for scripts; then how to stop.
-        let _ =
-            if json { writeln!(out, "{}", json!({"url": url, "address": address})) } else { writeln!(out, "{url}") };
+        let _ = if json {
+            crate::output::json_line(&mut out, &crate::output::Workbench { address, url: url.clone() })
+                .map_err(|e| std::io::Error::other(e.to_string()))
+        } else {
+            writeln!(out, "{url}")
+        };
         let _ = out.flush();
         eprintln!("tmcl ui: the workbench of module {address} is at {url} (Ctrl-C stops it)");
     })
-    .map_err(|e| CliError::Io(e.to_string()))
+    .map_err(CliError::from)
 }

@@ -3,8 +3,9 @@
 //! Both only read (GAP, GGP, GIO, RFS STATUS), one request at a time, so they never ask faster than the
 //! line answers, and they work on real and virtual modules alike.
 
+use crate::args::{parse_byte, parse_seconds, parse_value};
+use crate::connection::{Connection, HostClient};
 use crate::error::CliError;
-use crate::host::{parse_seconds, parse_value, Connection, HostClient};
 use crate::names::{ModelOption, Models, ParamRef, Target};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
@@ -136,7 +137,7 @@ impl Source {
     fn resolve(kind: Kind, text: &str, models: &mut Models, client: &mut HostClient) -> Result<Source, CliError> {
         let (name, index) = match text.rsplit_once(':') {
             Some((name, n)) => {
-                let n = crate::host::parse_byte(n).map_err(CliError::Usage)?;
+                let n = parse_byte(n).map_err(CliError::Usage)?;
                 (name, Some(n))
             }
             None => (text, None),
@@ -146,9 +147,7 @@ impl Source {
                 Source::Param(models.resolve(ParamRef::Axis { param: name, motor: index.unwrap_or(0) }, client)?)
             }
             Kind::Gp => Source::Param(models.resolve(ParamRef::Global { param: name, bank: index }, client)?),
-            Kind::Io => {
-                Source::Port { port: crate::host::parse_byte(name).map_err(CliError::Usage)?, bank: index.unwrap_or(0) }
-            }
+            Kind::Io => Source::Port { port: parse_byte(name).map_err(CliError::Usage)?, bank: index.unwrap_or(0) },
         })
     }
 
@@ -176,8 +175,7 @@ impl Source {
 fn interrupted() -> Result<Arc<AtomicBool>, CliError> {
     let flag = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&flag))
-            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+        signal_hook::flag::register(signal, Arc::clone(&flag)).map_err(CliError::Signals)?;
     }
     Ok(flag)
 }
@@ -216,9 +214,13 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
         let elapsed = started.elapsed();
         if op.holds(value, wanted) {
             if json {
-                let row =
-                    json!({"condition": condition, "met": true, "value": value, "elapsed_s": elapsed.as_secs_f64()});
-                writeln!(out, "{row}")?;
+                let row = crate::output::Met {
+                    condition: condition.to_string(),
+                    elapsed_s: elapsed.as_secs_f64(),
+                    met: true,
+                    value,
+                };
+                crate::output::json_line(out, &row)?;
             } else {
                 writeln!(out, "{condition} after {:.3} s (value {value})", elapsed.as_secs_f64())?;
             }

@@ -18,7 +18,8 @@
 //! - [`esi`]: the ESI file (EtherCAT Slave Information XML) from the same description as the SII.
 //! - [`slave`]: [`Slave`], which ties it together around a [`tmcl_core::Module`]: `process` one frame,
 //!   `poll` for time.
-//! - [`fuzzing`]: harnesses shared by the fuzz targets and the property tests.
+//! - `fuzzing` (feature `harness`, for tests and the fuzz targets only): harnesses shared by the fuzz
+//!   targets and the property tests.
 //!
 //! # Contracts
 //!
@@ -34,6 +35,8 @@ pub mod eeprom;
 pub mod esc;
 pub mod esi;
 pub mod foe;
+/// Test harness (feature `harness`): the fuzz targets' bodies and a slave brought up for tests.
+#[cfg(any(test, feature = "harness"))]
 pub mod fuzzing;
 pub mod layout;
 pub mod pdo;

@@ -2,7 +2,7 @@
 
 use std::io;
 use std::time::Duration;
-use tmcl_wire::{Opcode, Reply, Status, FRAME_LEN};
+use tmcl_wire::{Hex, Opcode, Reply, Status, FRAME_LEN};
 
 /// An error from a [`Transport`](crate::Transport) or a [`Client`](crate::Client) call.
 ///
@@ -65,7 +65,7 @@ pub enum HostError {
         received: usize,
     },
     /// The reply's checksum byte is not the 8-bit sum of its first eight bytes (§3.2).
-    #[error("reply checksum is wrong: expected {expected:#04x}, found {found:#04x} (reply {})", hex(frame))]
+    #[error("reply checksum is wrong: expected {expected:#04x}, found {found:#04x} (reply {})", Hex(frame))]
     Checksum {
         /// The sum of bytes 0..8.
         expected: u8,
@@ -89,7 +89,7 @@ pub enum HostError {
     #[error(
         "no answer to {} to module {address}; a reply to another request came instead: module {}, command {}, \
          status {}, value {} (reply {}): a late reply to an earlier request, or another host on the line",
-        Opcode::from(*opcode), reply.module, Opcode::from(reply.opcode), reply.status, reply.value, hex(&reply.to_bytes())
+        Opcode::from(*opcode), reply.module, Opcode::from(reply.opcode), reply.status, reply.value, Hex(&reply.to_bytes())
     )]
     Foreign {
         /// The module address the request went to.
@@ -100,7 +100,7 @@ pub enum HostError {
         reply: Reply,
     },
     /// The answer to command 136 type 0 is not a host address followed by eight printable ASCII characters.
-    #[error("the version reply is not eight ASCII characters (reply {})", hex(frame))]
+    #[error("the version reply is not eight ASCII characters (reply {})", Hex(frame))]
     BadVersionString {
         /// The nine bytes received.
         frame: [u8; FRAME_LEN],
@@ -131,18 +131,6 @@ impl HostError {
     pub fn is_no_reply(&self) -> bool {
         !self.is_reply_error()
     }
-}
-
-/// Formats bytes as space-separated hex pairs, as the manual prints frames.
-pub(crate) fn hex(bytes: &[u8]) -> String {
-    let mut out = String::with_capacity(bytes.len() * 3);
-    for (i, b) in bytes.iter().enumerate() {
-        if i > 0 {
-            out.push(' ');
-        }
-        out.push_str(&format!("{b:02X}"));
-    }
-    out
 }
 
 #[cfg(test)]

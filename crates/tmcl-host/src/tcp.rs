@@ -25,7 +25,27 @@ pub struct TcpTransport {
     target: String,
     /// Whether any byte has arrived on this connection.
     heard: bool,
+    /// The read timeout the socket has now: set again only when a read must end sooner (see
+    /// [`read_timeout`]), not before every read.
+    read_timeout: Option<Duration>,
 }
+
+/// The read timeout to wait at most `left` with, from the one the socket has (`current`): `current` as long
+/// as it ends no later than `left` and not more than [`TIMEOUT_SLACK`] sooner; else a new one half the slack
+/// short of `left` (or `left` itself when that is shorter than half the slack), so that request after
+/// request, each with a little less time left than the one before, reads without setting it again (a system
+/// call each).
+fn read_timeout(current: Option<Duration>, left: Duration) -> Duration {
+    match current {
+        Some(t) if t <= left && left - t <= TIMEOUT_SLACK => t,
+        _ if left > TIMEOUT_SLACK / 2 => left - TIMEOUT_SLACK / 2,
+        _ => left,
+    }
+}
+
+/// How much sooner than asked a read may give up: it ends the wait early, and the caller waits on for
+/// the rest (see `recv_until_deadline`).
+const TIMEOUT_SLACK: Duration = Duration::from_millis(100);
 
 impl TcpTransport {
     /// Connects to `addr`, `host:port` (a name or an IPv4/IPv6 literal; `[::1]:port` for IPv6).
@@ -54,7 +74,7 @@ impl TcpTransport {
         stream.set_nodelay(true)?;
         stream.set_write_timeout(Some(CONNECT_TIMEOUT))?;
         let target = stream.peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "the TCP server".to_owned());
-        Ok(TcpTransport { stream, target, heard: false })
+        Ok(TcpTransport { stream, target, heard: false, read_timeout: None })
     }
 
     /// The error for a connection the server closed (or reset) before sending anything.
@@ -86,10 +106,14 @@ impl Transport for TcpTransport {
     }
 
     fn recv_exact(&mut self, buf: &mut [u8], timeout: Duration) -> Result<(), HostError> {
-        let stream = &mut self.stream;
+        let (stream, current) = (&mut self.stream, &mut self.read_timeout);
         let mut got = 0;
         let result = recv_until_deadline(buf, timeout, |chunk, left| {
-            stream.set_read_timeout(Some(left))?;
+            let wanted = read_timeout(*current, left);
+            if *current != Some(wanted) {
+                stream.set_read_timeout(Some(wanted))?;
+                *current = Some(wanted);
+            }
             let n = stream.read(chunk)?;
             got += n;
             Ok(n)
@@ -108,5 +132,27 @@ impl Transport for TcpTransport {
         let mut scratch = [0u8; 256];
         while matches!(self.stream.read(&mut scratch), Ok(n) if n > 0) {}
         let _ = self.stream.set_nonblocking(false);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_read_timeout_is_kept_while_it_ends_in_time() {
+        let ms = Duration::from_millis;
+        // The first read sets it half the slack short; the next requests, each with a little less time
+        // left, keep it.
+        assert_eq!(read_timeout(None, ms(5000)), ms(4950));
+        assert_eq!(read_timeout(Some(ms(4950)), ms(4999)), ms(4950));
+        assert_eq!(read_timeout(Some(ms(4950)), ms(4951)), ms(4950));
+        assert_eq!(read_timeout(Some(ms(4950)), ms(5050)), ms(4950));
+        // Never later than asked, never more than the slack sooner.
+        assert_eq!(read_timeout(Some(ms(4950)), ms(4900)), ms(4850));
+        assert_eq!(read_timeout(Some(ms(4950)), ms(5100)), ms(5050));
+        // The rest of a wait that ended early, and short waits: exactly what is left.
+        assert_eq!(read_timeout(Some(ms(4950)), ms(30)), ms(30));
+        assert_eq!(read_timeout(None, ms(1)), ms(1));
     }
 }

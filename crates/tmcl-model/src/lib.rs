@@ -388,9 +388,27 @@ pub fn by_id(id: &str) -> Option<&'static ModelSpec> {
     MODELS.iter().copied().find(|m| m.id.eq_ignore_ascii_case(id))
 }
 
+/// Finds the model whose version string starts like `text`: the module number and the `V` (`1021V` of
+/// `1021V142`; command 136 type 0, PD28-1021 TMCL manual §3.7.36).
+pub fn by_version(text: &str) -> Option<&'static ModelSpec> {
+    let prefix = text.as_bytes().get(..5)?;
+    MODELS.iter().copied().find(|m| m.version_string.get(..5) == Some(prefix))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn models_by_version_string() {
+        assert_eq!(by_version("1021V142").map(|m| m.id), Some(pd28_1021::SPEC.id));
+        assert_eq!(
+            by_version(core::str::from_utf8(&tmcm_1310::SPEC.version_string).unwrap()).map(|m| m.id),
+            Some(tmcm_1310::SPEC.id)
+        );
+        assert!(by_version("9999V100").is_none());
+        assert!(by_version("10").is_none(), "too short to name a module");
+    }
 
     #[test]
     fn too_much_program_memory_is_refused_with_its_reason() {

@@ -230,14 +230,14 @@ impl Bus {
 mod tests {
     use super::*;
     use tmcl_core::model::pd28_1021::SPEC;
-    use tmcl_wire::{Command, Instruction, Opcode, Reply, ReplyFrame, Request};
+    use tmcl_wire::{Instruction, Opcode, Reply, ReplyFrame, Request};
 
     fn bus(addresses: &[u8], wire: bool) -> Bus {
         let nodes = addresses
             .iter()
             .map(|&a| {
                 let mut m = Module::new(SimBoard::in_memory_for(&SPEC), &SPEC, Instant::ZERO);
-                m.execute(Command::Sgp { param: 66, bank: 0, value: i32::from(a) }, Instant::ZERO).unwrap();
+                m.set_address(a, Instant::ZERO).unwrap();
                 Node::new(m, format!("pd28-1021@{a}"))
             })
             .collect();

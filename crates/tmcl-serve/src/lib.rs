@@ -36,6 +36,11 @@
 //! `wire_timing` times one wire and takes one link. A backlog of frames on any link is answered in order,
 //! one reply per frame (see [`bus`]).
 //!
+//! # Several lines
+//!
+//! [`Fleet`] serves several lines in one process (`tmcl serve --fleet FILE`), each a [`Server`] on a
+//! thread of its own: a rack of USB modules (one module per link) and RS485 buses side by side.
+//!
 //! # Layers
 //!
 //! - [`pty`]: a pseudo-terminal behind a symlink, with its lock file `LINK.lock` (one server per link).
@@ -45,6 +50,7 @@
 
 pub mod bus;
 pub mod ethercat;
+mod fleet;
 mod in_process;
 pub mod monitor;
 pub mod pty;
@@ -56,6 +62,7 @@ mod trace;
 use std::fmt;
 use std::path::PathBuf;
 
+pub use fleet::Fleet;
 pub use in_process::InProcess;
 pub use monitor::MonitorOptions;
 pub use serve::{Access, RunningServer, Server, Stopper};

@@ -13,10 +13,14 @@
 //! - on exit LINK is removed only if it still points at this server's pty, and the lock file with it;
 //! - hosts lock the port exclusively (`TIOCEXCL` and `flock`, see `tmcl_host::SerialTransport`); a host
 //!   killed before it could undo `TIOCEXCL` would leave the pty closed to all other hosts but root's, so the
-//!   server undoes it whenever no host holds the `flock` ([`Pty::release_abandoned_exclusive_mode`]).
+//!   server undoes it whenever no host holds the `flock` ([`Pty::release_abandoned_exclusive_mode`]);
+//! - whether a host opened or closed the pty is told by the kernel (inotify on the slave device, which
+//!   also reports the closes of a killed host), so these checks run when hosts come and go, and an idle
+//!   server does no work for them ([`Pty::hosts_changed`]).
 
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::pty::openpty;
+use nix::sys::inotify::{AddWatchFlags, InitFlags, Inotify};
 use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 use std::fmt;
 use std::fs::{File, OpenOptions, TryLockError};
@@ -36,6 +40,9 @@ pub struct Pty {
     pub device: PathBuf,
     /// The symlink hosts open.
     pub link: PathBuf,
+    /// Opens and closes of the slave device by any process (non-blocking); `None` where the kernel has no
+    /// inotify for it, and then the server looks now and then instead.
+    watch: Option<Inotify>,
     /// Held for as long as the pty is served; dropped after LINK is removed (fields drop after `drop`).
     _lock: LinkLock,
 }
@@ -102,14 +109,43 @@ impl Pty {
         fcntl(pair.master.as_raw_fd(), FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK))
             .map_err(errno)?;
         let device = nix::unistd::ttyname(pair.slave.as_fd()).map_err(errno)?;
+        // Watched from before the link exists, so that no host's open goes unseen.
+        let watch = Inotify::init(InitFlags::IN_NONBLOCK | InitFlags::IN_CLOEXEC).ok().filter(|i| {
+            i.add_watch(
+                &device,
+                AddWatchFlags::IN_OPEN | AddWatchFlags::IN_CLOSE_WRITE | AddWatchFlags::IN_CLOSE_NOWRITE,
+            )
+            .is_ok()
+        });
         replace_link(&device, link)?;
         Ok(Pty {
             master: File::from(pair.master),
             slave: File::from(pair.slave),
             device,
             link: link.to_path_buf(),
+            watch,
             _lock: lock,
         })
+    }
+
+    /// The descriptor that becomes readable when a process opens or closes the slave device (to wait on
+    /// beside the master); `None` when the server has to look now and then instead.
+    pub fn hosts_watch(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
+        self.watch.as_ref().map(AsFd::as_fd)
+    }
+
+    /// Whether a process opened or closed the slave device since the last call (the events are consumed;
+    /// the server's own opens are among them). Without a watch, always true: then every check is due.
+    pub fn hosts_changed(&self) -> bool {
+        let Some(watch) = &self.watch else { return true };
+        let mut changed = false;
+        while let Ok(events) = watch.read_events() {
+            if events.is_empty() {
+                break;
+            }
+            changed = true;
+        }
+        changed
     }
 
     /// Clears the pty's exclusive mode (`TIOCEXCL`) if no host holds the port's `flock`: a host that set

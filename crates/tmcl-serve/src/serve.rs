@@ -24,20 +24,27 @@ use tmcl_core::{Instant, Module};
 use tmcl_ethercat::Slave;
 use tmcl_sim::{Eeprom, FileNvm, MemNvm, SimBoard};
 
-/// Longest sleep without a deadline or a byte. A signal or a [`Stopper::stop`] ends a sleep at once, so
-/// this only paces the pty's exclusive-mode check; a moving module has its next event as deadline (the end
-/// of a ramp, an arrival), not its next motion tick, and costs next to nothing between events.
-const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(1);
+/// Longest sleep without a deadline or a byte. A [`Stopper::stop`] ends a sleep at once, and so does a
+/// signal given to [`Stopper::stop_on_signals`]; a moving module has its next event as deadline (the end of
+/// a ramp, an arrival), not its next motion tick, and hosts opening and closing a pty wake the loop through
+/// the pty's watch ([`Pty::hosts_changed`]), so an idle server sleeps this long. It bounds the wait for a
+/// stop asked for through [`Stopper::flag`] alone (a signal that lands just before the loop goes to sleep).
+const MAX_SLEEP: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// The most reply bytes held for a host that does not read them (a pty's or socket's buffer is full);
 /// beyond it the oldest are dropped, with a word on stderr.
 const MAX_PENDING: usize = 16 << 20;
 
-/// How often the processes that have a pty link open are looked up (for the warning about two hosts).
-const INTRUDER_CHECK: std::time::Duration = std::time::Duration::from_secs(2);
+/// After a host opened or closed a pty, how long the loop waits before it looks who has the pty open (the
+/// warning about two hosts) and whether a host that died left the exclusive mode set: a burst of opens and
+/// closes is looked at once, a killed host's `flock` is gone by then (the kernel reports the close before
+/// it drops the lock), and the look through `/proc` (milliseconds on a busy machine) does not fall on a
+/// host's first requests, which come right after its open.
+const HOSTS_SETTLE: std::time::Duration = std::time::Duration::from_secs(1);
 
-/// How often the pty's exclusive mode is checked for a host that died holding it.
-const EXCLUSIVE_CHECK: std::time::Duration = std::time::Duration::from_secs(1);
+/// Without a watch on a pty, how often the processes that have it open are looked up, and its exclusive
+/// mode checked.
+const UNWATCHED_CHECK: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// Where the bytes come from and go to.
 pub(crate) enum Link {
@@ -114,6 +121,20 @@ impl Stopper {
     pub fn is_stopped(&self) -> bool {
         self.flag.load(Ordering::Relaxed)
     }
+
+    /// Stops the server when the process gets one of `signals` (SIGINT, SIGTERM): the flag is set and the
+    /// loop woken from its sleep at once, however long it would sleep.
+    ///
+    /// # Errors
+    ///
+    /// When the OS refuses the handler or a descriptor for the wake-up.
+    pub fn stop_on_signals(&self, signals: &[i32]) -> io::Result<()> {
+        for &signal in signals {
+            signal_hook::flag::register(signal, Arc::clone(&self.flag))?;
+            signal_hook::low_level::pipe::register(signal, self.waker.try_clone()?)?;
+        }
+        Ok(())
+    }
 }
 
 /// A piece of work the serve loop runs on its modules between two polls ([`Access`]).
@@ -155,7 +176,9 @@ pub struct Server {
     /// The host links, each with the reply bytes it did not take yet (its buffer was full): written when
     /// it can take them.
     links: Vec<(Link, Vec<u8>)>,
-    ecat: Option<EtherCat>,
+    /// Boxed: the slave is 15 KiB, and a server is moved onto the stack of the thread that runs it (each
+    /// line of a fleet has one), where it would stay resident.
+    ecat: Option<Box<EtherCat>>,
     start: std::time::Instant,
     verbose: bool,
     /// fsync the EEPROM files when the loop ends (see [`Server::set_flush_on_stop`]).
@@ -308,7 +331,7 @@ impl Server {
                         slave.eeprom().word(4)
                     ));
                 }
-                Some(EtherCat { socket, slave, files: FoeFiles::new(options.foe) })
+                Some(Box::new(EtherCat { socket, slave, files: FoeFiles::new(options.foe) }))
             }
             None => None,
         };
@@ -440,7 +463,7 @@ impl Server {
             }
         }
         if self.verbose {
-            eprintln!("[{}] stopped", self.now());
+            tracing::info!("[{}] stopped", self.now());
         }
         served.and(flushed)
     }
@@ -456,17 +479,23 @@ impl Server {
         if verbose {
             for (link, _) in &self.links {
                 if let Link::Pty(pty) = link {
-                    eprintln!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
+                    tracing::info!("[{}] {} -> {}", clock(), pty.link.display(), pty.device.display());
                 }
             }
         }
         let (bus, links, ecat, recorder) = (&mut self.bus, &mut self.links, &mut self.ecat, &mut self.recorder);
         let jobs = &self.jobs.1;
         let mut buf = [0u8; 4096];
-        let mut exclusive_checked = std::time::Instant::now();
-        let mut intruders_checked = std::time::Instant::now();
-        // Per link, the hosts last warned about.
+        // Per link, the hosts last warned about, and when its hosts are to be looked at next (a pty's
+        // watch sets it when they change; without a watch, every UNWATCHED_CHECK).
         let mut warned: Vec<Vec<(u32, String)>> = vec![Vec::new(); links.len()];
+        let mut hosts_due: Vec<Option<std::time::Instant>> = links
+            .iter()
+            .map(|(link, _)| match link {
+                Link::Pty(pty) if pty.hosts_watch().is_none() => Some(std::time::Instant::now() + UNWATCHED_CHECK),
+                _ => None,
+            })
+            .collect();
         while !self.stopper.is_stopped() {
             while let Ok(job) = jobs.try_recv() {
                 job(&mut bus.nodes, clock());
@@ -486,39 +515,52 @@ impl Server {
                 log_al(verbose, now, before, e.slave.status());
                 deadline = [deadline, next].into_iter().flatten().min();
             }
-            if exclusive_checked.elapsed() >= EXCLUSIVE_CHECK {
-                for (link, _) in links.iter() {
-                    if let Link::Pty(pty) = link {
-                        pty.release_abandoned_exclusive_mode();
-                    }
+            let mut sleep = MAX_SLEEP;
+            for (n, (link, _)) in links.iter().enumerate() {
+                let (Link::Pty(pty), Some(due)) = (link, hosts_due[n]) else { continue };
+                let left = due.saturating_duration_since(std::time::Instant::now());
+                if left.is_zero() {
+                    pty.release_abandoned_exclusive_mode();
+                    warn_intruders(pty, &mut warned[n]);
+                    hosts_due[n] = pty.hosts_watch().is_none().then(|| std::time::Instant::now() + UNWATCHED_CHECK);
+                } else {
+                    sleep = sleep.min(left);
                 }
-                exclusive_checked = std::time::Instant::now();
             }
-            if intruders_checked.elapsed() >= INTRUDER_CHECK {
-                for (n, (link, _)) in links.iter().enumerate() {
-                    if let Link::Pty(pty) = link {
-                        warn_intruders(pty, &mut warned[n]);
-                    }
-                }
-                intruders_checked = std::time::Instant::now();
+            if let Some(d) = deadline {
+                sleep = sleep.min(std::time::Duration::from_micros((d - clock()).micros()));
             }
-            let sleep = deadline
-                .map(|d| std::time::Duration::from_micros((d - clock()).micros()))
-                .unwrap_or(MAX_SLEEP)
-                .min(MAX_SLEEP);
-            let sleep = match recorder.next_due() {
-                Some(due) => sleep.min(due.saturating_duration_since(std::time::Instant::now())),
-                None => sleep,
-            };
+            if let Some(due) = recorder.next_due() {
+                sleep = sleep.min(due.saturating_duration_since(std::time::Instant::now()));
+            }
             let mut extras: Vec<_> = ecat.as_ref().map(|e| e.socket.as_fd()).into_iter().collect();
-            let monitor_fd = extras.len();
+            let monitor_fd = recorder.listener().map(|_| extras.len());
             extras.extend(recorder.listener().map(|l| l.as_fd()));
+            // The pty links' watches (hosts opening and closing them), after the other extras.
+            let watch_fds = extras.len();
+            let mut watched = Vec::new();
+            for (n, (link, _)) in links.iter().enumerate() {
+                if let Link::Pty(pty) = link {
+                    if let Some(fd) = pty.hosts_watch() {
+                        extras.push(fd);
+                        watched.push(n);
+                    }
+                }
+            }
             let ready = wait(links, &extras, &self.wake, sleep).map_err(|e| ServeError::Io(format!("poll: {e}")))?;
+            drop(extras);
+            for (k, &n) in watched.iter().enumerate() {
+                if let (true, Link::Pty(pty)) = (ready.extras[watch_fds + k], &links[n].0) {
+                    if pty.hosts_changed() && hosts_due[n].is_none() {
+                        hosts_due[n] = Some(std::time::Instant::now() + HOSTS_SETTLE);
+                    }
+                }
+            }
             if ready.waker {
                 let mut drain = [0u8; 16];
                 while matches!((&self.wake).read(&mut drain), Ok(n) if n > 0) {}
             }
-            if ready.extras.get(monitor_fd).copied().unwrap_or(false) {
+            if monitor_fd.is_some_and(|k| ready.extras[k]) {
                 recorder.monitor_mut().accept();
             }
             if let Some(e) = ecat.as_mut() {
@@ -543,7 +585,7 @@ impl Server {
                             Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
                             _ => {
                                 if verbose {
-                                    eprintln!("[{}] connection closed", clock());
+                                    tracing::info!("[{}] connection closed", clock());
                                 }
                                 *peer = None;
                                 bus.reset_link(n);
@@ -703,7 +745,7 @@ fn serve_frames(
         if let Some(len) = e.slave.process(now, &mut frame[..n], module, &mut e.files) {
             if let Err(err) = e.socket.send(&frame[..len], &from) {
                 if verbose {
-                    eprintln!("[{now}] EtherCAT: cannot send the answer: {err}");
+                    tracing::warn!("[{now}] EtherCAT: cannot send the answer: {err}");
                 }
             }
         }
@@ -801,7 +843,7 @@ pub(crate) fn write_pending(link: &mut Link, pending: &mut Vec<u8>, verbose: boo
         let drop = pending.len() - MAX_PENDING;
         pending.drain(..drop);
         if verbose {
-            eprintln!("[{now}] the host does not read its replies: {drop} bytes dropped");
+            tracing::warn!("[{now}] the host does not read its replies: {drop} bytes dropped");
         }
     }
 }

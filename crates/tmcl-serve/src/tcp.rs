@@ -55,7 +55,7 @@ pub(crate) fn accept_clients(
                 PeerState::Sending => return,
                 PeerState::Closed => {
                     if verbose {
-                        eprintln!("[{now}] connection closed");
+                        tracing::info!("[{now}] connection closed");
                     }
                     *peer = None;
                     reset();
@@ -65,7 +65,7 @@ pub(crate) fn accept_clients(
         let Ok((stream, from)) = listener.accept() else { return };
         if peer.is_some() {
             if verbose {
-                eprintln!("[{now}] connection from {from} turned away: another client is connected");
+                tracing::warn!("[{now}] connection from {from} turned away: another client is connected");
             }
             drop(stream);
             continue;
@@ -73,7 +73,7 @@ pub(crate) fn accept_clients(
         let _ = stream.set_nonblocking(true);
         let _ = stream.set_nodelay(true);
         if verbose {
-            eprintln!("[{now}] connection from {from}");
+            tracing::info!("[{now}] connection from {from}");
         }
         *peer = Some(stream);
         // A partial frame of the previous connection must not join this one's.

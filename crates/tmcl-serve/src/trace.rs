@@ -1,12 +1,9 @@
-//! `--verbose`: every request and reply on stderr, and the EtherCAT AL state changes.
+//! `-v`: every request and reply, and the EtherCAT AL state changes, as `tracing` events (target
+//! `tmcl_serve::trace`, level INFO; `tmcl` writes them to stderr).
 
 use tmcl_core::Instant;
 use tmcl_ethercat::AlStatus;
-use tmcl_wire::{Frame, Instruction, Reply, ReplyFrame, Request};
-
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02X}")).collect::<Vec<_>>().join(" ")
-}
+use tmcl_wire::{Frame, Hex, Instruction, Reply, ReplyFrame, Request};
 
 pub(crate) fn log_request(now: Instant, bytes: &[u8]) {
     let what = match Frame::new_checked(bytes).map(|f| Request::parse(&f)) {
@@ -14,7 +11,7 @@ pub(crate) fn log_request(now: Instant, bytes: &[u8]) {
         Ok(Err(e)) if bytes.len() == 9 => e.to_string(),
         _ => format!("{} bytes", bytes.len()),
     };
-    eprintln!("[{now}] -> {}  {what}", hex(bytes));
+    tracing::info!("[{now}] -> {}  {what}", Hex(bytes));
 }
 
 fn describe(address: u8, i: Instruction) -> String {
@@ -26,7 +23,7 @@ pub(crate) fn log_reply(now: Instant, bytes: &[u8]) {
         Ok(Ok(r)) => format!("status {}, value {}", r.status, r.value),
         _ => format!("special reply {:?}", String::from_utf8_lossy(&bytes[1.min(bytes.len())..])),
     };
-    eprintln!("[{now}] <- {}  {what}", hex(bytes));
+    tracing::info!("[{now}] <- {}  {what}", Hex(bytes));
 }
 
 /// Logs a change of the slave's AL status (with -v).
@@ -35,8 +32,8 @@ pub(crate) fn log_al(verbose: bool, now: Instant, before: AlStatus, after: AlSta
         return;
     }
     if after.error {
-        eprintln!("[{now}] EtherCAT: {} with error, AL status code {:#06x}", after.state, u16::from(after.code));
+        tracing::warn!("[{now}] EtherCAT: {} with error, AL status code {:#06x}", after.state, u16::from(after.code));
     } else {
-        eprintln!("[{now}] EtherCAT: {} -> {}", before.state, after.state);
+        tracing::info!("[{now}] EtherCAT: {} -> {}", before.state, after.state);
     }
 }

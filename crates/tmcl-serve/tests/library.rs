@@ -86,3 +86,48 @@ fn wire_timing_takes_one_link() {
     options.wire_timing = true;
     assert!(matches!(Server::new(options), Err(ServeError::Config(m)) if m.contains("one link")));
 }
+
+#[test]
+fn a_fleet_serves_each_line_on_its_own_links_and_stops_together() {
+    use tmcl_serve::Fleet;
+    let dir = tempfile::tempdir().unwrap();
+    let tmcm = tmcl_core::model::by_id("tmcm-1310").unwrap();
+    // A USB module alone on its pty, and a bus of two on another (and on TCP).
+    let usb = dir.path().join("usb0");
+    let bus = dir.path().join("bus");
+    let lines = vec![
+        Options::new(vec![ModuleOptions::new(tmcm)], vec![LinkOptions::Pty(usb.clone())]),
+        Options::new(
+            vec![ModuleOptions::new(pd28()).address(1), ModuleOptions::new(pd28()).address(2)],
+            vec![LinkOptions::Pty(bus.clone()), LinkOptions::Tcp("127.0.0.1:0".into())],
+        ),
+    ];
+    let fleet = Fleet::new(lines).unwrap();
+    assert_eq!(fleet.lines().len(), 2);
+    let LinkInfo::Tcp { address } = fleet.lines()[1].links()[1].clone() else { panic!("a TCP link") };
+    let stopper = fleet.stoppers()[0].clone();
+    let running = std::thread::spawn(move || fleet.run());
+    let mut usb_host = Client::new(SerialTransport::open(usb.to_str().unwrap(), 9600).unwrap());
+    let mut bus_host = Client::new(SerialTransport::open(bus.to_str().unwrap(), 9600).unwrap()).with_module_address(2);
+    let mut tcp_host = Client::new(TcpTransport::connect(&address.to_string()).unwrap()).with_module_address(2);
+    usb_host.set_axis_parameter(4, 0, 1111).unwrap();
+    bus_host.set_axis_parameter(4, 0, 2222).unwrap();
+    assert_eq!(usb_host.get_axis_parameter(4, 0).unwrap(), 1111, "the lines are separate modules");
+    assert_eq!(tcp_host.get_axis_parameter(4, 0).unwrap(), 2222, "a line's links reach the same module");
+    drop((usb_host, bus_host, tcp_host));
+    // Stopping one line stops the fleet, and every line's links go.
+    stopper.stop();
+    running.join().unwrap().unwrap();
+    assert!(std::fs::symlink_metadata(&usb).is_err() && std::fs::symlink_metadata(&bus).is_err());
+}
+
+#[test]
+fn a_fleet_refuses_a_link_given_to_two_lines() {
+    use tmcl_serve::Fleet;
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("tmcl0");
+    let line = || Options::new(vec![ModuleOptions::new(pd28())], vec![LinkOptions::Pty(link.clone())]);
+    let err = Fleet::new(vec![line(), line()]).err().expect("refused");
+    assert!(matches!(&err, ServeError::Config(m) if m.contains("lines 1 and 2")), "{err}");
+    assert!(std::fs::symlink_metadata(&link).is_err(), "nothing was made");
+}

@@ -8,16 +8,22 @@
 //! - [`world`]: the [`World`] around the motor, from a TOML world file (`docs/world.md`).
 //! - [`motor`]: the stepper and its load (load angle, lost steps, freewheeling).
 //! - [`driver`]: the TMC262 as the firmware sees it (current, stallGuard2, flags, energy).
-//! - [`equivalence`]: event-driven runs against tick-by-tick ones, for the property tests and fuzzing.
+//! - `equivalence` and `fuzzing` (feature `harness`, for tests and the fuzz targets only): event-driven runs
+//!   against tick-by-tick ones, and the bodies of the fuzz targets.
 
 pub mod board;
 pub mod driver;
+/// Test harness (feature `harness`): event-driven runs against tick-by-tick ones.
+#[cfg(any(test, feature = "harness"))]
 pub mod equivalence;
+/// Test harness (feature `harness`): the fuzz targets' bodies.
+#[cfg(any(test, feature = "harness"))]
 pub mod fuzzing;
 pub mod motor;
 pub mod nvm;
 pub mod profile;
 pub mod world;
+mod world_file;
 
 pub use board::{Change, Eeprom, Feedback, SimBoard, SwitchId};
 pub use nvm::{FileNvm, MemNvm, NvmError, Options};

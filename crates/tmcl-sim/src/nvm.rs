@@ -161,25 +161,59 @@ fn range(offset: usize, len: usize, capacity: usize) -> Result<Range<usize>, Nvm
 }
 
 /// An in-memory EEPROM, erased when created. Its contents end with the process.
-#[derive(Debug, Clone, PartialEq, Eq)]
+///
+/// Kept in pages of [`MemNvm::PAGE`] bytes, each allocated when something other than erased bytes is first
+/// written to it: a module's EEPROM is mostly program memory that is never written (16 KiB of the
+/// PD28-1021's 17 KiB), and a fleet of virtual modules keeps one each (docs/benchmarks.md, "A fleet on one
+/// machine").
+#[derive(Debug, Clone)]
 pub struct MemNvm {
-    image: Vec<u8>,
+    capacity: usize,
+    /// `None`: the page is erased.
+    pages: Vec<Option<Box<[u8; MemNvm::PAGE]>>>,
 }
 
+impl PartialEq for MemNvm {
+    /// The same contents (however they are kept).
+    fn eq(&self, other: &MemNvm) -> bool {
+        self.image() == other.image()
+    }
+}
+
+impl Eq for MemNvm {}
+
 impl MemNvm {
+    /// The unit in which memory is taken for written bytes.
+    pub const PAGE: usize = 256;
+
     /// An erased EEPROM of `capacity` bytes.
     pub fn new(capacity: usize) -> MemNvm {
-        MemNvm { image: vec![ERASED; capacity] }
+        MemNvm { capacity, pages: vec![None; capacity.div_ceil(Self::PAGE)] }
     }
 
     /// An EEPROM holding `image`; its capacity is `image.len()`.
     pub fn from_image(image: Vec<u8>) -> MemNvm {
-        MemNvm { image }
+        let mut nvm = MemNvm::new(image.len());
+        nvm.write(0, &image).expect("the image fits its own capacity");
+        nvm
     }
 
     /// The whole contents.
-    pub fn image(&self) -> &[u8] {
-        &self.image
+    pub fn image(&self) -> Vec<u8> {
+        let mut image = vec![ERASED; self.capacity];
+        for (n, page) in self.pages.iter().enumerate() {
+            if let Some(page) = page {
+                let at = n * Self::PAGE;
+                let len = Self::PAGE.min(self.capacity - at);
+                image[at..at + len].copy_from_slice(&page[..len]);
+            }
+        }
+        image
+    }
+
+    /// How many pages hold written bytes (the rest take no memory).
+    pub fn pages_in_use(&self) -> usize {
+        self.pages.iter().filter(|p| p.is_some()).count()
     }
 }
 
@@ -187,18 +221,44 @@ impl Nvm for MemNvm {
     type Error = NvmError;
 
     fn capacity(&self) -> usize {
-        self.image.len()
+        self.capacity
     }
 
     fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), NvmError> {
-        let r = range(offset, buf.len(), self.image.len())?;
-        buf.copy_from_slice(&self.image[r]);
+        let r = range(offset, buf.len(), self.capacity)?;
+        let mut at = r.start;
+        while at < r.end {
+            let (n, within) = (at / Self::PAGE, at % Self::PAGE);
+            let len = (Self::PAGE - within).min(r.end - at);
+            let out = &mut buf[at - r.start..at - r.start + len];
+            match &self.pages[n] {
+                Some(page) => out.copy_from_slice(&page[within..within + len]),
+                None => out.fill(ERASED),
+            }
+            at += len;
+        }
         Ok(())
     }
 
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), NvmError> {
-        let r = range(offset, data.len(), self.image.len())?;
-        self.image[r].copy_from_slice(data);
+        let r = range(offset, data.len(), self.capacity)?;
+        let mut at = r.start;
+        while at < r.end {
+            let (n, within) = (at / Self::PAGE, at % Self::PAGE);
+            let len = (Self::PAGE - within).min(r.end - at);
+            let part = &data[at - r.start..at - r.start + len];
+            match &mut self.pages[n] {
+                Some(page) => page[within..within + len].copy_from_slice(part),
+                // Erased bytes onto an erased page: nothing to keep.
+                None if part.iter().all(|&b| b == ERASED) => {}
+                slot @ None => {
+                    let mut page = Box::new([ERASED; Self::PAGE]);
+                    page[within..within + len].copy_from_slice(part);
+                    *slot = Some(page);
+                }
+            }
+            at += len;
+        }
         Ok(())
     }
 }

@@ -20,7 +20,6 @@
 use serde::de::{self, Deserializer, Visitor};
 use serde::Deserialize;
 use std::fmt;
-use std::path::Path;
 use tmcl_core::Instant;
 /// A value with its place in the world file (re-exported from `toml`); build one with `Spanned::new(0..0, v)`.
 pub use toml::Spanned;
@@ -576,7 +575,7 @@ impl Invalid {
         Invalid { span, key, message: message.into() }
     }
 
-    fn into_error(self, source: Option<&str>) -> WorldError {
+    pub(crate) fn into_error(self, source: Option<&str>) -> WorldError {
         let line = match source {
             Some(src) if self.span.end > 0 => Some(line_of(src, self.span.start)),
             _ => None,
@@ -585,88 +584,13 @@ impl Invalid {
     }
 }
 
-fn line_of(source: &str, offset: usize) -> usize {
+pub(crate) fn line_of(source: &str, offset: usize) -> usize {
     source.as_bytes()[..offset.min(source.len())].iter().filter(|b| **b == b'\n').count() + 1
-}
-
-/// The dotted key path at byte `offset` of a TOML document: a `[table]` header's path, or the enclosing
-/// header's path plus the key the offset points at (an unknown key) or whose value it points at, with the
-/// outer key of an inline table (`bounce = { time = … }` → `bounce.time`).
-fn key_at(source: &str, offset: usize) -> Option<String> {
-    let offset = offset.min(source.len());
-    let line_start = source[..offset].rfind('\n').map_or(0, |i| i + 1);
-    let line_end = source[offset..].find('\n').map_or(source.len(), |i| offset + i);
-    let header = |l: &str| l.trim().trim_matches(|c| c == '[' || c == ']').trim().to_string();
-    let line = &source[line_start..line_end];
-    if line.trim_start().starts_with('[') {
-        return Some(header(line));
-    }
-    let table = source[..line_start].lines().rev().find(|l| l.trim_start().starts_with('[')).map(header);
-    let is_key_char = |c: char| c.is_alphanumeric() || c == '_' || c == '-';
-    let before = &source[line_start..offset];
-    let word: String = source[offset..line_end].chars().take_while(|c| is_key_char(*c)).collect();
-    let after_word = source[offset + word.len()..line_end].trim_start();
-    // The key named at the offset itself, or the last `key =` before it.
-    let (mut key, key_start) = if !word.is_empty() && after_word.starts_with('=') {
-        (word, before.len())
-    } else {
-        let eq = before.rfind('=')?;
-        let start = before[..eq].rfind(['{', ',']).map_or(0, |i| i + 1);
-        (before[start..eq].trim().to_string(), start)
-    };
-    // Inside an inline table: prefix the key the table is the value of.
-    let prefix = &before[..key_start];
-    if let Some(brace) = prefix.rfind('{') {
-        if !prefix[brace..].contains('}') {
-            if let Some(eq) = prefix[..brace].rfind('=') {
-                let start = prefix[..eq].rfind(['{', ',']).map_or(0, |i| i + 1);
-                key = format!("{}.{key}", prefix[start..eq].trim());
-            }
-        }
-    }
-    match table {
-        Some(t) if !t.is_empty() => Some(format!("{t}.{key}")),
-        _ => Some(key),
-    }
 }
 
 impl World {
     /// A free axis: the default world.
     pub fn free() -> World {
         World::default()
-    }
-
-    /// Parses and checks a world file's text.
-    pub fn from_toml_str(source: &str) -> Result<World, WorldError> {
-        let world: World = toml::from_str(source).map_err(|e| {
-            let offset = e.span().map(|s| s.start);
-            WorldError {
-                file: None,
-                key: offset.and_then(|o| key_at(source, o)),
-                line: offset.map(|o| line_of(source, o)),
-                message: e.message().trim().to_string(),
-            }
-        })?;
-        crate::board::Plan::compile(&world).map_err(|e| e.into_error(Some(source)))?;
-        Ok(world)
-    }
-
-    /// Reads, parses and checks a world file.
-    pub fn load(path: impl AsRef<Path>) -> Result<World, WorldError> {
-        let path = path.as_ref();
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| WorldError {
-            file: Some(name.clone()),
-            key: None,
-            line: None,
-            message: format!("cannot read: {e}"),
-        })?;
-        World::from_toml_str(&text).map_err(|e| WorldError { file: Some(name), ..e })
-    }
-
-    /// Checks what the types alone do not: ranges, units that fit the axis, ordering ([`World::from_toml_str`]
-    /// and [`World::load`] already did; this is for worlds built or changed in code).
-    pub fn check(&self) -> Result<(), WorldError> {
-        crate::board::Plan::compile(self).map(|_| ()).map_err(|e| e.into_error(None))
     }
 }

@@ -2,17 +2,11 @@
 
 use serde::Serialize;
 use serde_json::{json, Value};
-use tmcl_model::{Kinematics, ModelSpec, ParamDesc, PortKind, Range, Role, Setting, Table, MODELS};
+use tmcl_model::{Kinematics, ModelSpec, ParamDesc, PortKind, Range, Role, Setting, Table};
 use tmcl_wire::Status;
 
 /// The bank of the interrupt configuration (PD28-1021 manual §5.4).
 pub(crate) const INTERRUPT_BANK: u8 = 3;
-
-/// The model whose version string starts like `text` (the module number and the `V`, e.g. `1021V`).
-pub(crate) fn model_by_version(text: &str) -> Option<&'static ModelSpec> {
-    let prefix = text.get(..5)?;
-    MODELS.iter().copied().find(|m| m.version_string.get(..5) == Some(prefix.as_bytes()))
-}
 
 /// One parameter as the page's table shows it.
 fn param_json(kind: &str, bank: Option<u8>, d: &ParamDesc) -> Value {
@@ -292,6 +286,7 @@ pub(crate) fn explain(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tmcl_model::MODELS;
 
     #[test]
     fn the_tables_as_json() {
@@ -304,8 +299,6 @@ mod tests {
         assert_eq!(speed["range"], "1..2147483647");
         assert!(params.iter().any(|p| p["kind"] == "gp" && p["bank"] == 3));
         assert!(j["ports"].as_array().unwrap().iter().any(|p| p["kind"] == "output"));
-        assert_eq!(model_by_version("1021V142").map(|m| m.id), Some("pd28-1021"));
-        assert!(model_by_version("10").is_none());
     }
 
     #[test]

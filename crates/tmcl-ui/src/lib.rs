@@ -129,6 +129,7 @@ pub fn run_until(
             .name("tmcl-ui-link".into())
             .spawn(move || link::run(link, queue))
             .map_err(UiError::Server)?;
+        tracing::info!(%addr, "the workbench is listening");
         ready(addr);
         let app = server::router(state);
         // Small WebSocket messages must go out at once: with Nagle's algorithm an answer waits for the
@@ -142,6 +143,7 @@ pub fn run_until(
             let _ = stop_pages.send(true);
         });
         let result = served.await.map_err(UiError::Server);
+        tracing::info!("the workbench stopped");
         // Stop the link thread after its current request.
         let _ = jobs.send(Box::new(|link| link.stop()));
         drop(jobs);

@@ -14,7 +14,7 @@
 //! see [`crate::server`]); so are changes of the link state, the debugger's stops, progress of long jobs,
 //! and once a second the requests per second on the line.
 
-use crate::debug::Debugger;
+use crate::info::model_json;
 pub(crate) use crate::schedule::Poll;
 use crate::schedule::{Limiter, Schedule};
 use serde::Serialize;
@@ -23,6 +23,7 @@ use std::collections::{BTreeSet, HashMap};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tmcl_debug::remote::{self, ProgramState, Remote, Report};
 use tmcl_host::{Client, HostError, Transport};
 use tmcl_model::{ModelSpec, PortKind, Role};
 use tmcl_wire::{Command, Instruction, Reply, StatusKind};
@@ -81,6 +82,99 @@ pub(crate) struct EpochEvent {
     /// `module` or `link`.
     pub why: &'static str,
     pub t: f64,
+}
+
+/// The `prog` event: the program's state as the poll read it.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ProgEvent {
+    pub e: &'static str,
+    #[serde(flatten)]
+    pub state: ProgramState,
+    pub t: f64,
+}
+
+/// The `debug` event: the debugger's report after an editor action or at the end of a run by single
+/// steps (also the answer to the `program` request).
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct DebugEvent {
+    pub e: &'static str,
+    #[serde(flatten)]
+    pub report: Report,
+    pub t: f64,
+}
+
+/// The `debug` event of a run by single steps that a failed request ended.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct DebugError {
+    pub e: &'static str,
+    pub reason: &'static str,
+    pub error: String,
+}
+
+/// The `v` event: one value read, by key (`ap.MOTOR.N`, `gp.BANK.N`, `io.BANK.PORT`, `rfs.MOTOR`, `acc`,
+/// `x`): its value, or the status of the module's refusal.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ValueEvent {
+    pub e: &'static str,
+    pub k: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v: Option<i32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s: Option<u8>,
+    pub t: f64,
+}
+
+impl ValueEvent {
+    /// A value read.
+    pub(crate) fn value(k: String, v: i32, t: f64) -> ValueEvent {
+        ValueEvent { e: "v", k, v: Some(v), s: None, t }
+    }
+
+    /// A refusal with its status.
+    pub(crate) fn refused(k: String, s: u8, t: f64) -> ValueEvent {
+        ValueEvent { e: "v", k, v: None, s: Some(s), t }
+    }
+}
+
+/// The `stats` event, once a second: requests per second, the total, the rate limit, the values polled.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct StatsEvent {
+    pub e: &'static str,
+    pub rps: f64,
+    pub requests: u64,
+    pub rate: f64,
+    pub polled: usize,
+}
+
+/// The `progress` event of a long job (`download`, `scan`): how much of it is done.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ProgressEvent {
+    pub e: &'static str,
+    pub what: &'static str,
+    pub done: usize,
+    pub total: usize,
+}
+
+/// The `hello` request's answer: the link, the module and its model, and what the pages plot.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct Hello {
+    pub line: LineEvent,
+    pub epoch: u64,
+    pub version: Option<String>,
+    pub address: u8,
+    pub link: String,
+    pub link_ok: bool,
+    pub link_error: Option<String>,
+    pub rate: f64,
+    pub model: Option<Value>,
+    pub roles: Value,
+}
+
+/// The `hello` event: the same, to every page, after the link or the module changed.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct HelloEvent<'a> {
+    pub e: &'static str,
+    pub hello: &'a Hello,
 }
 
 /// How long mismatched replies keep the indicator on its warning.
@@ -224,7 +318,7 @@ pub(crate) struct Link {
     schedule: Schedule,
     watches: HashMap<u64, Watch>,
     /// The program debugger.
-    pub debug: Debugger,
+    pub debug: Remote,
     /// Whose turn it is while the debugger steps: a step (true) or a poll.
     step_turn: bool,
     requests: u64,
@@ -272,7 +366,7 @@ impl Link {
             link_error: None,
             schedule: Schedule::default(),
             watches: HashMap::new(),
-            debug: Debugger::default(),
+            debug: Remote::default(),
             step_turn: false,
             requests: 0,
             window: (Instant::now(), 0),
@@ -385,18 +479,20 @@ impl Link {
                 self.down = None;
                 self.link_error = None;
                 self.replies_off = false;
+                tracing::info!(link = %self.link_name, "the link is back");
                 self.new_epoch("link");
-                self.debug = Debugger::default();
+                self.debug = Remote::default();
                 self.identify();
                 self.reschedule();
-                let hello = crate::ops::hello(self);
-                self.emit(json!({"e": "hello", "hello": hello}));
+                let hello = self.hello();
+                self.emit_typed(&HelloEvent { e: "hello", hello: &hello });
                 self.update_line();
                 true
             }
             Err(e) => {
                 let text = format!("the link went away ({e})");
                 if self.link_error.as_deref() != Some(text.as_str()) {
+                    tracing::warn!(link = %self.link_name, "{text}");
                     self.link_error = Some(text);
                     self.update_line();
                 }
@@ -410,6 +506,52 @@ impl Link {
         self.epoch += 1;
         let event = EpochEvent { e: "epoch", n: self.epoch, why, t: now_ms() };
         self.emit_typed(&event);
+    }
+
+    /// The `hello` answer: the link, the module and its model.
+    pub(crate) fn hello(&mut self) -> Hello {
+        Hello {
+            line: self.line_event(),
+            epoch: self.epoch,
+            version: self.version.clone(),
+            address: self.address(),
+            link: self.link_name.clone(),
+            link_ok: self.link_error().is_none(),
+            link_error: self.link_error.clone(),
+            rate: self.rate,
+            model: self.model.map(model_json),
+            roles: Roles::of(self.model).json(),
+        }
+    }
+
+    /// Runs `f` with the debugger and the link apart (the debugger drives the link).
+    pub(crate) fn with_debugger<R>(&mut self, f: impl FnOnce(&mut Remote, &mut Link) -> R) -> R {
+        let mut debugger = std::mem::take(&mut self.debug);
+        let result = f(&mut debugger, self);
+        self.debug = debugger;
+        result
+    }
+
+    /// Sends the debugger's report to every page as the `debug` event, and returns the event.
+    pub(crate) fn emit_debug(&self, report: Report) -> DebugEvent {
+        let event = DebugEvent { e: "debug", report, t: now_ms() };
+        self.emit_typed(&event);
+        event
+    }
+
+    /// One step of the debugger's run towards a breakpoint (the link thread calls it between polls); the
+    /// pages hear where the run ended.
+    pub(crate) fn debug_step(&mut self) {
+        match self.with_debugger(|debugger, link| debugger.continue_step(link)) {
+            None => {}
+            Some(Ok(report)) => {
+                self.emit_debug(report);
+            }
+            Some(Err(e)) => {
+                tracing::warn!("the debugger's run stopped: {e}");
+                self.emit_typed(&DebugError { e: "debug", reason: "error", error: e.to_string() })
+            }
+        }
     }
 
     /// Sends a typed event to every page.
@@ -432,12 +574,6 @@ impl Link {
     /// The link's trouble, if the last request failed on the line.
     pub(crate) fn link_error(&self) -> Option<&str> {
         self.link_error.as_deref()
-    }
-
-    /// Sends an event to every page.
-    pub(crate) fn emit(&self, event: Value) {
-        // No page connected is no error.
-        let _ = self.events.send(Arc::from(event.to_string()));
     }
 
     /// Runs `f` on the client after waiting for the rate limit; notes the link state, counts the replies
@@ -536,7 +672,7 @@ impl Link {
             self.model = None;
         }
         self.version = None;
-        self.debug = Debugger::default();
+        self.debug = Remote::default();
         self.new_epoch("module");
         self.identify();
         self.reschedule();
@@ -547,7 +683,7 @@ impl Link {
         match self.version_string() {
             Ok(text) => {
                 if !self.model_fixed {
-                    self.model = crate::info::model_by_version(&text);
+                    self.model = tmcl_model::by_version(&text);
                 }
                 self.version = Some(text);
             }
@@ -580,7 +716,7 @@ impl Link {
             let program = w.views.contains("program");
             polls.push((Poll::ProgramCounter, if program { PROGRAM_PERIOD } else { PROGRAM_IDLE_PERIOD }));
             if program {
-                if !crate::debug::plain_status(self) {
+                if !remote::plain_status(self.model) {
                     polls.push((Poll::Accumulator, REGISTER_PERIOD));
                     polls.push((Poll::XRegister, REGISTER_PERIOD));
                 }
@@ -652,14 +788,14 @@ impl Link {
             }
             Poll::ProgramCounter => {
                 let timeout = self.set_timeout(POLL_TIMEOUT.min(self.client.timeout));
-                let status = crate::debug::read_status(self);
+                let status = remote::read_status(self);
                 self.client.timeout = timeout;
                 if self.link_error.is_some() {
                     self.backoff = Some(Instant::now() + BACKOFF);
                 }
                 if let Ok(status) = status {
                     self.debug.observe(&status);
-                    self.emit(self.debug.status_event(&status, t));
+                    self.emit_typed(&ProgEvent { e: "prog", state: self.debug.state(&status), t });
                 }
                 return;
             }
@@ -686,10 +822,8 @@ impl Link {
             Ok(reply) if desc.is_some_and(|d| d.role == tmcl_model::Role::Plain && !d.range.contains(reply.value)) => {
                 self.note_mismatched(1)
             }
-            Ok(reply) => self.emit(json!({"e": "v", "k": key, "v": reply.value, "t": t})),
-            Err(HostError::Status { status, .. }) => {
-                self.emit(json!({"e": "v", "k": key, "s": u8::from(status), "t": t}))
-            }
+            Ok(reply) => self.emit_typed(&ValueEvent::value(key, reply.value, t)),
+            Err(HostError::Status { status, .. }) => self.emit_typed(&ValueEvent::refused(key, u8::from(status), t)),
             Err(_) => {}
         }
     }
@@ -700,8 +834,13 @@ impl Link {
         if elapsed >= Duration::from_secs(1) {
             self.rps = (self.requests - self.window.1) as f64 / elapsed.as_secs_f64();
             self.window = (now, self.requests);
-            self.emit(json!({"e": "stats", "rps": self.rps, "requests": self.requests, "rate": self.rate,
-                             "polled": self.schedule.len()}));
+            self.emit_typed(&StatsEvent {
+                e: "stats",
+                rps: self.rps,
+                requests: self.requests,
+                rate: self.rate,
+                polled: self.schedule.len(),
+            });
             // Mismatched replies age out of the warning.
             self.update_line();
         }
@@ -728,7 +867,7 @@ pub(crate) fn run(mut link: Link, jobs: Receiver<Job>) {
         if link.debug.is_continuing() {
             link.step_turn = !link.step_turn;
             if link.step_turn {
-                crate::debug::continue_step(&mut link);
+                link.debug_step();
                 continue;
             }
         }
@@ -772,5 +911,18 @@ pub(crate) fn run(mut link: Link, jobs: Receiver<Job>) {
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => return,
         }
+    }
+}
+
+/// The debugger drives the module over the link, as every other request.
+impl remote::Target for Link {
+    type Error = HostError;
+
+    fn request(&mut self, instruction: Instruction) -> Result<Reply, HostError> {
+        Link::request(self, instruction)
+    }
+
+    fn model(&self) -> Option<&'static ModelSpec> {
+        self.model
     }
 }

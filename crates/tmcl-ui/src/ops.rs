@@ -5,15 +5,16 @@
 //! where the model's tables say why, an `explanation`. A message that is not a known request is answered
 //! with an error, never a panic.
 
-use crate::debug::{self, Action, SOURCE_NAME};
-use crate::info::{self, model_json};
-use crate::link::{Link, Poll, Roles, Watch};
+use crate::debug::{self, SOURCE_NAME};
+use crate::info;
+use crate::link::{HelloEvent, Link, Poll, ProgressEvent, ValueEvent, Watch};
 use crate::paramset;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::time::Duration;
 use tmcl_asm::{assemble_str, BuiltinResolver, Diagnostic};
+use tmcl_debug::remote::Action;
 use tmcl_host::HostError;
 use tmcl_wire::{format_instruction, parse_instruction, Command, Instruction, MoveTarget, Opcode, RfsAction};
 
@@ -121,6 +122,32 @@ pub(crate) enum Op {
     Select { address: u8 },
 }
 
+impl Op {
+    /// The request's name, as the page sends it (`op`), for the log.
+    pub(crate) fn name(&self) -> &'static str {
+        match self {
+            Op::Hello => "hello",
+            Op::Watch { .. } => "watch",
+            Op::Get { .. } => "get",
+            Op::Set { .. } => "set",
+            Op::Store { .. } => "store",
+            Op::Restore { .. } => "restore",
+            Op::Motion { .. } => "motion",
+            Op::Output { .. } => "output",
+            Op::Console { .. } => "console",
+            Op::Assemble { .. } => "assemble",
+            Op::Download { .. } => "download",
+            Op::Program { .. } => "program",
+            Op::Breakpoints { .. } => "breakpoints",
+            Op::SaveParams => "save_params",
+            Op::LoadParams { .. } => "load_params",
+            Op::StoreAll => "store_all",
+            Op::Scan { .. } => "scan",
+            Op::Select { .. } => "select",
+        }
+    }
+}
+
 /// The most parameters one page may chart besides the standard plots.
 const MAX_CHARTED: usize = 32;
 
@@ -138,30 +165,75 @@ fn poll_of_key(key: &str) -> Option<Poll> {
     }
 }
 
-/// A failed request: the words, and for a refusal of the module its status.
-pub(crate) struct Failure(Value);
+/// A failed request, as the page reads it: the words, and for a refusal of the module its status, what
+/// the model's tables say about it, and (console) the instruction sent or the place of a syntax error.
+/// (Boxed: it is the error of every request's result.)
+#[derive(Debug)]
+pub(crate) struct Failure(Box<FailureBody>);
+
+/// What a [`Failure`] says.
+#[derive(Debug, Default, Serialize)]
+pub(crate) struct FailureBody {
+    error: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    status: Option<u8>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    status_text: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    explanation: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sent: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    column: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    width: Option<usize>,
+}
+
+impl std::ops::Deref for Failure {
+    type Target = FailureBody;
+    fn deref(&self) -> &FailureBody {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Failure {
+    fn deref_mut(&mut self) -> &mut FailureBody {
+        &mut self.0
+    }
+}
+
+impl From<FailureBody> for Failure {
+    fn from(body: FailureBody) -> Failure {
+        Failure(Box::new(body))
+    }
+}
 
 impl From<HostError> for Failure {
     fn from(e: HostError) -> Failure {
-        let mut v = json!({"error": e.to_string()});
+        let mut f = FailureBody { error: e.to_string(), ..FailureBody::default() };
         if let HostError::Status { status, .. } = e {
-            v["status"] = json!(u8::from(status));
-            v["status_text"] = json!(status.description());
+            f.status = Some(u8::from(status));
+            f.status_text = Some(status.description());
         }
-        Failure(v)
+        f.into()
     }
 }
 
 impl From<String> for Failure {
-    fn from(e: String) -> Failure {
-        Failure(json!({"error": e}))
+    fn from(error: String) -> Failure {
+        FailureBody { error, ..FailureBody::default() }.into()
     }
 }
 
 impl Failure {
+    /// The failure in words, for the log.
+    pub(crate) fn message(&self) -> &str {
+        &self.error
+    }
+
     /// The failure as the body of an answer.
     pub(crate) fn into_value(self) -> Value {
-        self.0
+        typed(&*self.0)
     }
 }
 
@@ -176,7 +248,7 @@ fn value32(value: i64) -> Result<i32, Failure> {
 /// Runs one request on the link thread. `page` identifies the connection (for `watch`).
 pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failure> {
     match op {
-        Op::Hello => Ok(hello(link)),
+        Op::Hello => Ok(typed(&link.hello())),
         Op::Watch { views, motor, vars, extra } => {
             let vars = (vars.0, vars.1.min(64));
             let mut polls = Vec::new();
@@ -201,7 +273,7 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
             let reply = link.request(Command::Sio { port, bank, value: value32(value)? }.encode());
             link.hurry(|p| matches!(p, Poll::Input { .. }));
             let reply = reply?;
-            Ok(json!({"status": u8::from(reply.status), "value": reply.value}))
+            Ok(typed(&Replied { status: u8::from(reply.status), value: reply.value, t: None }))
         }
         Op::Console { line } => {
             // A console line may change anything: what the pages show of the motors, I/O and program.
@@ -216,7 +288,7 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
                       "instructions": program.map(|p| p.instructions.len())}))
         }
         Op::Download { source } => download(link, &source),
-        Op::Program { action } => Ok(debug::act(link, action)?),
+        Op::Program { action } => Ok(typed(&debug::act(link, action)?)),
         Op::Breakpoints { lines } => {
             let lines: Vec<u32> = lines.into_iter().take(4096).collect();
             let effective = link.debug.set_breakpoint_lines(&lines);
@@ -229,28 +301,16 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
         Op::Scan { first, last } => scan(link, first, last),
         Op::Select { address } => {
             link.select(address);
-            let hello = hello(link);
-            link.emit(json!({"e": "hello", "hello": hello}));
-            Ok(hello)
+            let hello = link.hello();
+            link.emit_typed(&HelloEvent { e: "hello", hello: &hello });
+            Ok(typed(&hello))
         }
     }
 }
 
-/// What the header and every view start from.
-pub(crate) fn hello(link: &mut Link) -> Value {
-    let line = link.line_event();
-    json!({
-        "line": line,
-        "epoch": link.epoch,
-        "version": link.version,
-        "address": link.address(),
-        "link": link.link_name,
-        "link_ok": link.link_error().is_none(),
-        "link_error": link.link_error(),
-        "rate": link.rate,
-        "model": link.model.map(model_json),
-        "roles": Roles::of(link.model).json(),
-    })
+/// An answer as the page reads it.
+fn typed(answer: &impl Serialize) -> Value {
+    serde_json::to_value(answer).unwrap_or_else(|e| json!({"error": e.to_string()}))
 }
 
 enum ParamOp {
@@ -285,17 +345,17 @@ fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Value, Failur
                 }
             };
             let key = if axis { format!("ap.{index}.{param}") } else { format!("gp.{index}.{param}") };
-            link.emit(json!({"e": "v", "k": key, "v": value, "t": crate::link::now_ms()}));
-            Ok(json!({"value": value, "status": u8::from(reply.status)}))
+            link.emit_typed(&ValueEvent::value(key, value, crate::link::now_ms()));
+            Ok(typed(&Replied { status: u8::from(reply.status), value, t: None }))
         }
         Err(e) => {
             let mut failure = Failure::from(e);
-            if let Some(status) = failure.0.get("status").and_then(Value::as_u64) {
-                let status = tmcl_wire::Status::from(status as u8);
+            if let Some(status) = failure.status {
+                let status = tmcl_wire::Status::from(status);
                 // A store of a parameter without E is refused as an invalid value by some firmware.
                 let value = if matches!(op, ParamOp::Store | ParamOp::Restore) { None } else { value };
                 if let Some(why) = info::explain(link.model, axis, index, param, status, value) {
-                    failure.0["explanation"] = json!(why);
+                    failure.explanation = Some(why);
                 }
             }
             Err(failure)
@@ -320,12 +380,12 @@ fn motion(link: &mut Link, action: Motion, motor: u8, value: i32) -> Result<Valu
         let moves = matches!(action, Motion::MoveAbsolute | Motion::MoveRelative);
         if refused && (velocity || moves) {
             if let Some(why) = info::explain_motion(link.model, velocity, value) {
-                f.0["explanation"] = json!(why);
+                f.explanation = Some(why);
             }
         }
         f
     })?;
-    Ok(json!({"status": u8::from(reply.status), "value": reply.value, "t": crate::link::now_ms()}))
+    Ok(typed(&Replied { status: u8::from(reply.status), value: reply.value, t: Some(crate::link::now_ms()) }))
 }
 
 /// The symbols the console knows: the model's parameter names (`APMaxPositioningSpeed`, ...) and motors, as
@@ -345,6 +405,40 @@ fn console_symbols(link: &Link) -> HashMap<String, i32> {
     symbols
 }
 
+/// A module's reply to a request of the page: its status and value (and when it came, for the motion
+/// panel's plot).
+#[derive(Debug, Serialize)]
+struct Replied {
+    status: u8,
+    value: i32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    t: Option<f64>,
+}
+
+/// The answer to a console line: the instruction sent (as text and bytes) and the reply in words, with
+/// what the reply carried.
+#[derive(Debug, Default, Serialize)]
+struct Console {
+    sent: String,
+    bytes: String,
+    reply: String,
+    /// The version string (136 type 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    text: Option<String>,
+    /// For a command that may get no reply: whether one came.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    replied: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    status: Option<u8>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    status_text: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    value: Option<i32>,
+    /// The parameter's name, `null` when the tables do not know it (parameter commands only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    name: Option<Option<&'static str>>,
+}
+
 /// One console line: parsed as the assembler parses an instruction, sent, the reply decoded.
 fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
     if line.len() > MAX_LINE {
@@ -353,31 +447,28 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
     let text = line.split("//").next().unwrap_or("").trim();
     let symbols = console_symbols(link);
     let instruction = parse_instruction(text, &mut |name| symbols.get(name).copied()).map_err(|e| {
-        Failure(json!({"error": e.with_text(text).to_string(), "column": e.span.start + 1,
-                                     "width": (e.span.end - e.span.start).max(1)}))
+        Failure::from(FailureBody {
+            error: e.with_text(text).to_string(),
+            column: Some(e.span.start + 1),
+            width: Some((e.span.end - e.span.start).max(1)),
+            ..FailureBody::default()
+        })
     })?;
     let mut sent = String::new();
     let _ = format_instruction(&instruction, &mut sent, None);
     let bytes = tmcl_wire::Request { address: link.address(), instruction }.to_bytes();
-    let hex: Vec<String> = bytes.iter().map(|b| format!("{b:02X}")).collect();
-    let base = json!({"sent": sent, "bytes": hex.join(" ")});
-    let with = |mut v: Value, extra: Value| {
-        if let (Some(v), Some(extra)) = (v.as_object_mut(), extra.as_object()) {
-            v.extend(extra.clone());
-        }
-        v
-    };
+    let base = Console { sent: sent.clone(), bytes: tmcl_wire::Hex(&bytes).to_string(), ..Console::default() };
     match instruction.opcode {
         Opcode::GetVersion if instruction.kind == 0 => {
             let text = link.version_string()?;
-            Ok(with(base, json!({"text": text, "reply": format!("version {text}")})))
+            Ok(typed(&Console { reply: format!("version {text}"), text: Some(text), ..base }))
         }
         Opcode::ReadMemory => {
             let address = u16::try_from(instruction.value).map_err(|_| format!("no address {}", instruction.value))?;
             let stored = link.read_program_memory(address)?;
             let mut text = String::new();
             let _ = format_instruction(&stored, &mut text, None);
-            Ok(with(base, json!({"reply": format!("address {address}: {text}")})))
+            Ok(typed(&Console { reply: format!("address {address}: {text}"), ..base }))
         }
         // 137 (factory defaults), 242 (boot loader) and 255 (reset) are documented to get no reply
         // (§3.7.38), and while GP 255 keeps replies off only GAP, GGP and GIO reply (§5.1 Table 17). A
@@ -386,7 +477,7 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
             let opcode = u8::from(op);
             let reply = link.request_maybe_reply(instruction).map_err(|e| {
                 let mut f = Failure::from(e);
-                f.0["sent"] = json!(sent);
+                f.sent = Some(sent.clone());
                 f
             });
             let switches = replies_switch(&instruction);
@@ -425,11 +516,13 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
                     _ => "no reply, as documented for 255: the module is resetting".into(),
                 },
             };
-            let mut answer = with(base, json!({"reply": text, "replied": reply.is_some()}));
-            if let Some(r) = reply {
-                answer["status"] = json!(u8::from(r.status));
-                answer["value"] = json!(r.value);
-            }
+            let answer = typed(&Console {
+                reply: text,
+                replied: Some(reply.is_some()),
+                status: reply.map(|r| u8::from(r.status)),
+                value: reply.map(|r| r.value),
+                ..base
+            });
             if switches.is_some() || link.replies_off {
                 link.emit_line();
             }
@@ -438,16 +531,14 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
         _ => {
             let reply = link.request(instruction).map_err(|e| {
                 let mut f = Failure::from(e);
-                if let (Some(status), Some((axis, index))) =
-                    (f.0.get("status").and_then(Value::as_u64), param_place(&instruction))
-                {
+                if let (Some(status), Some((axis, index))) = (f.status, param_place(&instruction)) {
                     let value = matches!(instruction.opcode, Opcode::Sap | Opcode::Sgp).then_some(instruction.value);
-                    let status = tmcl_wire::Status::from(status as u8);
+                    let status = tmcl_wire::Status::from(status);
                     if let Some(why) = info::explain(link.model, axis, index, instruction.kind, status, value) {
-                        f.0["explanation"] = json!(why);
+                        f.explanation = Some(why);
                     }
                 }
-                f.0["sent"] = json!(sent);
+                f.sent = Some(sent.clone());
                 f
             })?;
             let name = param_place(&instruction)
@@ -455,11 +546,14 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
                 .map(|d| d.ident);
             let status = reply.status;
             let text = format!("{} {}, value {}", u8::from(status), status.description(), reply.value);
-            Ok(with(
-                base,
-                json!({"status": u8::from(status), "status_text": status.description(), "value": reply.value,
-                       "reply": text, "name": name}),
-            ))
+            Ok(typed(&Console {
+                status: Some(u8::from(status)),
+                status_text: Some(status.description()),
+                value: Some(reply.value),
+                reply: text,
+                name: Some(name),
+                ..base
+            }))
         }
     }
 }
@@ -545,12 +639,12 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     let total = program.instructions.len();
     debug::download(link, &program.instructions, |link, n| {
         if n % 8 == 0 || n == total {
-            link.emit(json!({"e": "progress", "what": "download", "done": n, "total": total}));
+            link.emit_typed(&ProgressEvent { e: "progress", what: "download", done: n, total });
         }
     })?;
     let lines: Vec<Option<u32>> =
         program.source_lines.iter().map(|s| (&*s.file == SOURCE_NAME).then_some(s.line)).collect();
-    link.debug.set_program(program);
+    link.debug.set_program(program, SOURCE_NAME);
     Ok(json!({"stored": total, "lines": lines, "diagnostics": [], "warnings": warnings}))
 }
 
@@ -626,6 +720,20 @@ fn store_all(link: &mut Link) -> Result<Value, Failure> {
 
 /// Asks each address for its binary version (136 type 1) with a short wait, as `tmcl scan` does, then
 /// goes back to the address it talked to.
+/// A module that answered a scan.
+#[derive(Debug, Serialize)]
+struct Found {
+    address: u8,
+    /// `null` when the module answered the binary version but not the string.
+    version: Option<String>,
+}
+
+/// The answer to `scan`: the modules that answered, by address.
+#[derive(Debug, Serialize)]
+struct Scanned {
+    modules: Vec<Found>,
+}
+
 fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
     if first > last {
         return Err(format!("the first address {first} is after the last {last}").into());
@@ -650,7 +758,7 @@ fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
         found.extend(link.settle().into_iter().filter(|r| r.opcode == u8::from(Opcode::GetVersion)).map(|r| r.module));
         let (done, total) = (u16::from(a - first) + 1, u16::from(last - first) + 1);
         if done % 8 == 0 || a == last {
-            link.emit(json!({"e": "progress", "what": "scan", "done": done, "total": total}));
+            link.emit_typed(&ProgressEvent { e: "progress", what: "scan", done: done.into(), total: total.into() });
         }
     }
     link.set_timeout(old);
@@ -661,10 +769,10 @@ fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
     for a in found {
         link.set_address(a);
         let version = link.version_string().ok();
-        modules.push(json!({"address": a, "version": version}));
+        modules.push(Found { address: a, version });
     }
     link.set_address(address);
     link.settle();
     client_result?;
-    Ok(json!({"modules": modules}))
+    Ok(typed(&Scanned { modules }))
 }

@@ -16,9 +16,8 @@
 //! parameter is matched by its kind, bank and number, and one whose unit differs on this model (the
 //! PDx-113's TMC428 velocity units against the PD28-1021's pps) is refused, never converted silently.
 
-use crate::link::HostClient;
 use serde::{Deserialize, Serialize};
-use tmcl_host::HostError;
+use tmcl_host::{Client, HostError, Transport};
 use tmcl_model::{ModelSpec, ParamDesc, Role, Setting, MODELS};
 use tmcl_wire::{Command, Status};
 
@@ -187,32 +186,41 @@ fn is_setting(desc: &ParamDesc) -> bool {
         || matches!(desc.role, Role::MicrostepResolution | Role::RampMode | Role::EncoderPrescaler)
 }
 
+/// Every parameter of the model's tables with its place: the axis parameters of each motor, then the
+/// global parameters of bank 0 and of the interrupt bank (the user variables are not in the tables).
+fn tabled(model: &'static ModelSpec) -> impl Iterator<Item = (Kind, u8, &'static ParamDesc)> {
+    let axes = (0..model.motors).flat_map(move |motor| model.axis.params.iter().map(move |d| (Kind::Ap, motor, d)));
+    let global = model.global.params.iter().map(|d| (Kind::Gp, 0, d));
+    let interrupt = model.interrupt.params.iter().map(|d| (Kind::Gp, INTERRUPT_BANK, d));
+    axes.chain(global).chain(interrupt)
+}
+
+impl Entry {
+    /// The entry of parameter `d` at motor or bank `index`, its value not read yet (0).
+    fn of(kind: Kind, index: u8, d: &ParamDesc) -> Entry {
+        Entry {
+            kind,
+            motor: (kind == Kind::Ap).then_some(index),
+            bank: (kind == Kind::Gp).then_some(index),
+            number: d.number,
+            name: d.ident.to_string(),
+            unit: d.unit.symbol().to_string(),
+            value: 0,
+        }
+    }
+}
+
 /// Reads every readable parameter of `model` from the module: the axis parameters of every motor, the
 /// global parameters of banks 0 and 3, and the user variables. A value the module refuses to give is
 /// left out and named in the returned notes.
-pub fn read_all(client: &mut HostClient, model: &'static ModelSpec) -> Result<(Vec<Entry>, Vec<String>), HostError> {
+pub fn read_all(
+    client: &mut Client<impl Transport>,
+    model: &'static ModelSpec,
+) -> Result<(Vec<Entry>, Vec<String>), HostError> {
     let mut entries = Vec::new();
     let mut notes = Vec::new();
-    let mut tables: Vec<(Kind, u8, &'static [ParamDesc])> = Vec::new();
-    for motor in 0..model.motors {
-        tables.push((Kind::Ap, motor, model.axis.params));
-    }
-    tables.push((Kind::Gp, 0, model.global.params));
-    tables.push((Kind::Gp, INTERRUPT_BANK, model.interrupt.params));
-    let mut wanted: Vec<Entry> = Vec::new();
-    for (kind, index, params) in tables {
-        for d in params.iter().filter(|d| d.access.read) {
-            wanted.push(Entry {
-                kind,
-                motor: (kind == Kind::Ap).then_some(index),
-                bank: (kind == Kind::Gp).then_some(index),
-                number: d.number,
-                name: d.ident.to_string(),
-                unit: d.unit.symbol().to_string(),
-                value: 0,
-            });
-        }
-    }
+    let mut wanted: Vec<Entry> =
+        tabled(model).filter(|(_, _, d)| d.access.read).map(|(kind, index, d)| Entry::of(kind, index, d)).collect();
     for n in 0..model.user_variables.min(256) {
         wanted.push(Entry {
             kind: Kind::Gp,
@@ -244,7 +252,10 @@ fn now_unix() -> u64 {
 }
 
 /// A parameter set of `model` read from the module now.
-pub fn snapshot(client: &mut HostClient, model: &'static ModelSpec) -> Result<(ParamFile, Vec<String>), HostError> {
+pub fn snapshot(
+    client: &mut Client<impl Transport>,
+    model: &'static ModelSpec,
+) -> Result<(ParamFile, Vec<String>), HostError> {
     let version = client.version_string().ok();
     let (params, notes) = read_all(client, model)?;
     let module = ModuleInfo {
@@ -322,7 +333,7 @@ pub fn check_model(file: &ParamFile, model: &'static ModelSpec, any_model: bool)
 
 /// Writes the settings of `file` to the module; one outcome per parameter.
 pub fn load(
-    client: &mut HostClient,
+    client: &mut Client<impl Transport>,
     model: &'static ModelSpec,
     file: &ParamFile,
     options: LoadOptions,
@@ -417,25 +428,11 @@ pub fn load(
 
 /// Stores every parameter of `model` that can be stored (E in the tables) in the EEPROM: STAP for each
 /// motor, STGP for banks 0 and 3 (PD28-1021 manual §3.7.7, §3.7.11).
-pub fn store_all(client: &mut HostClient, model: &'static ModelSpec) -> Result<Vec<Outcome>, HostError> {
+pub fn store_all(client: &mut Client<impl Transport>, model: &'static ModelSpec) -> Result<Vec<Outcome>, HostError> {
     let mut out = Vec::new();
-    let mut tables: Vec<(Kind, u8, &'static [ParamDesc])> = Vec::new();
-    for motor in 0..model.motors {
-        tables.push((Kind::Ap, motor, model.axis.params));
-    }
-    tables.push((Kind::Gp, 0, model.global.params));
-    tables.push((Kind::Gp, INTERRUPT_BANK, model.interrupt.params));
-    for (kind, index, params) in tables {
-        for d in params.iter().filter(|d| d.access.store) {
-            let entry = Entry {
-                kind,
-                motor: (kind == Kind::Ap).then_some(index),
-                bank: (kind == Kind::Gp).then_some(index),
-                number: d.number,
-                name: d.ident.to_string(),
-                unit: d.unit.symbol().to_string(),
-                value: 0,
-            };
+    for (kind, index, d) in tabled(model) {
+        if d.access.store {
+            let entry = Entry::of(kind, index, d);
             let store = match kind {
                 Kind::Ap => Command::Stap { param: d.number, motor: index },
                 Kind::Gp => Command::Stgp { param: d.number, bank: index },
@@ -475,7 +472,11 @@ fn explain(model: &'static ModelSpec, desc: Option<&ParamDesc>, status: Status, 
 
 /// Compares the module with `file`: the settings a load would write and the user variables. Live
 /// values (positions, speeds, flags, the tick timer) are not compared: they are `live`.
-pub fn diff(client: &mut HostClient, model: &'static ModelSpec, file: &ParamFile) -> Result<Vec<Outcome>, HostError> {
+pub fn diff(
+    client: &mut Client<impl Transport>,
+    model: &'static ModelSpec,
+    file: &ParamFile,
+) -> Result<Vec<Outcome>, HostError> {
     let mut out = Vec::new();
     for entry in &file.params {
         let live = match place_of(model, entry) {

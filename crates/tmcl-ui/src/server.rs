@@ -85,7 +85,10 @@ async fn guard(State(state): State<Arc<AppState>>, request: Request<Body>, next:
     let origin = headers.get(header::ORIGIN).map(|v| v.to_str().unwrap_or("(not text)"));
     match state.guard.check(host, origin) {
         Ok(()) => next.run(request).await,
-        Err(why) => (StatusCode::FORBIDDEN, format!("tmcl ui: refused: {why}\n")).into_response(),
+        Err(why) => {
+            tracing::warn!(host, origin, "refused a request: {why}");
+            (StatusCode::FORBIDDEN, format!("tmcl ui: refused: {why}\n")).into_response()
+        }
     }
 }
 
@@ -107,6 +110,7 @@ async fn page(mut socket: WebSocket, state: Arc<AppState>) {
     let mut events = state.events.subscribe();
     let mut shutdown = state.shutdown.clone();
     let (answers, mut answered) = mpsc::unbounded_channel::<Value>();
+    tracing::info!(page, "page connected");
     loop {
         let outgoing = tokio::select! {
             message = socket.recv() => match message {
@@ -148,6 +152,7 @@ async fn page(mut socket: WebSocket, state: Arc<AppState>) {
         }
     }
     // The page is gone: stop polling for it.
+    tracing::info!(page, "page closed");
     let _ = state.jobs.send(Box::new(move |link| link.watch(page, None)));
 }
 
@@ -163,14 +168,18 @@ fn submit(
         Ok(incoming) => incoming,
         Err(e) => {
             let id = serde_json::from_str::<Value>(text).ok().and_then(|v| v.get("id").cloned());
+            tracing::warn!(page, "not a request: {e}");
             return Ok(Some(json!({"id": id, "error": format!("not a request: {e}")})));
         }
     };
     let answers = answers.clone();
     let job: Job = Box::new(move |link| {
+        let id = incoming.id;
+        tracing::debug!(page, id, op = incoming.op.name(), "request");
         let answer = match ops::handle(link, page, incoming.op) {
             Ok(ok) => json!({"id": incoming.id, "ok": ok}),
             Err(failure) => {
+                tracing::debug!(page, id, "refused: {}", failure.message());
                 let mut v = failure.into_value();
                 v["id"] = json!(incoming.id);
                 v

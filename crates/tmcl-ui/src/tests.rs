@@ -1,7 +1,7 @@
 //! The workbench against a real firmware core in process: the page's requests on a [`Link`], and the
 //! server over a real socket (Host/Origin refusals, WebSocket requests that are no requests).
 
-use crate::debug::{self, Action};
+use crate::debug;
 use crate::link::{HostClient, Link};
 use crate::ops::{handle, Op};
 use serde_json::{json, Value};
@@ -11,6 +11,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use tmcl_core::model::pd28_1021::SPEC;
 use tmcl_core::{Instant, Module};
+use tmcl_debug::remote::Action;
 use tmcl_host::{Client, Transport};
 use tmcl_sim::SimBoard;
 
@@ -93,7 +94,7 @@ fn run_to_stop(link: &mut Link, events: &mut tokio::sync::broadcast::Receiver<Ar
         if !link.debug.is_continuing() {
             break;
         }
-        debug::continue_step(link);
+        link.debug_step();
     }
     let mut last = Value::Null;
     while let Ok(e) = events.try_recv() {

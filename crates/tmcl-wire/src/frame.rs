@@ -322,3 +322,25 @@ mod tests {
         assert_eq!(checksum(&[]), 0);
     }
 }
+
+/// Bytes as the manual prints frames: hex pairs separated by spaces (`01 05 04 00 00 00 C3 50 1D`).
+///
+/// ```
+/// use tmcl_wire::frame::Hex;
+/// assert_eq!(format!("{}", Hex(&[0x01, 0x05, 0xC3])), "01 05 C3");
+/// assert_eq!(format!("{}", Hex(&[])), "");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Hex<'a>(pub &'a [u8]);
+
+impl core::fmt::Display for Hex<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        for (i, b) in self.0.iter().enumerate() {
+            if i > 0 {
+                f.write_str(" ")?;
+            }
+            write!(f, "{b:02X}")?;
+        }
+        Ok(())
+    }
+}

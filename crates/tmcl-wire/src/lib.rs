@@ -48,7 +48,7 @@ pub use command::{
     WaitCondition,
 };
 pub use command_set::CommandSet;
-pub use frame::{checksum, Frame, Request, WireError, FRAME_LEN};
+pub use frame::{checksum, Frame, Hex, Request, WireError, FRAME_LEN};
 pub use instruction::Instruction;
 pub use opcode::{Availability, Opcode, OpcodeInfo};
 pub use reply::{Reply, ReplyFrame, Response};

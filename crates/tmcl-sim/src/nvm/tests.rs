@@ -365,3 +365,29 @@ fn record_layout() {
     assert!(format::parse_record(&r, 0x0103).is_none());
     assert!(format::parse_record(&r[..25], 0x0102).is_none());
 }
+
+#[test]
+fn mem_nvm_takes_memory_only_for_written_pages() {
+    let mut nvm = MemNvm::new(17_408);
+    assert_eq!(nvm.pages_in_use(), 0, "erased: nothing kept");
+    // Erased bytes written keep nothing either.
+    nvm.write(1000, &[ERASED; 600]).unwrap();
+    assert_eq!(nvm.pages_in_use(), 0);
+    // A write across a page boundary, read back whole and in pieces.
+    let data: Vec<u8> = (0..20).collect();
+    nvm.write(MemNvm::PAGE - 10, &data).unwrap();
+    assert_eq!(nvm.pages_in_use(), 2);
+    let mut back = [0u8; 24];
+    nvm.read(MemNvm::PAGE - 12, &mut back).unwrap();
+    assert_eq!(&back[..2], &[ERASED, ERASED]);
+    assert_eq!(&back[2..22], &data[..]);
+    assert_eq!(&back[22..], &[ERASED, ERASED]);
+    let image = nvm.image();
+    assert_eq!(image.len(), 17_408);
+    assert_eq!(&image[MemNvm::PAGE - 10..MemNvm::PAGE + 10], &data[..]);
+    assert_eq!(MemNvm::from_image(image), nvm, "the same contents");
+    // The last, partial page.
+    nvm.write(17_407, &[7]).unwrap();
+    assert_eq!(nvm.image()[17_407], 7);
+    assert!(nvm.write(17_407, &[7, 7]).is_err());
+}
