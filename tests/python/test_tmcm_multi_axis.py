@@ -96,3 +96,48 @@ def test_bank_3(multi):
         if not name.startswith("_"):
             module.set_global_parameter(number, 3, 3)
             assert module.get_global_parameter(number, 3) == 3, name
+
+
+def test_reference_search_on_every_axis(request, serve, tmcl_bin, tmp_path):
+    """Each axis in a copy of the stage (`--world`): RFS mode 1 on every axis at once, each finds its own
+    left switch; the home switches read per axis (AP 9), the inputs are the module's."""
+    from test_tmcm1140 import STAGE
+
+    for model, cls, axes, _ in MODELS:
+        if not served(tmcl_bin, model):
+            pytest.skip(f"the {model} is prepared as data, served once the core drives {axes} axes")
+        world = tmp_path / f"{model}.toml"
+        world.write_text(STAGE)
+        server = serve("pty", modules=[model], extra=["--world", str(world)])
+        with pytrinamic_connection(server) as conn:
+            module = cls(conn)
+            for axis, motor in enumerate(module.motors):
+                motor.set_axis_parameter(motor.AP.ReferenceSearchMode, 1)
+                motor.set_axis_parameter(motor.AP.ReferenceSearchSpeed, 2047)
+                motor.set_axis_parameter(motor.AP.ReferenceSwitchSpeed, 200)
+                conn.reference_search(0, axis)
+            wait_until(lambda: all(conn.reference_search(2, a) == 0 for a in range(axes)), 20,
+                       what=f"the reference search of every axis of the {model}")
+            for motor in module.motors:
+                assert abs(motor.actual_position) < 300
+                last = motor.get_axis_parameter(motor.AP.LastReferenceSwitchPosition, signed=True)
+                assert -13_300 < last < -12_300, last
+            assert conn.send(15, 255, 0, 0).value == 0b1010, "GIO 255, 0: the world's inputs"
+
+
+def test_on_an_rs485_line(serve, tmcl_bin):
+    """`--interface rs485`: a TMCM-3110 at 1, a TMCM-6110 at 2 and a TMCM-1140 at 3 on one line."""
+    from pytrinamic.modules import TMCM1140
+
+    if not served(tmcl_bin, "tmcm-3110"):
+        pytest.skip("the TMCM-3110 is prepared as data, served once the core drives 3 axes")
+    server = serve("pty", modules=["tmcm-3110@1", "tmcm-6110@2", "tmcm-1140@3"], extra=["--interface", "rs485"])
+    with pytrinamic_connection(server, module_id=1) as conn:
+        m3110, m6110, m1140 = TMCM3110(conn, module_id=1), TMCM6110(conn, module_id=2), TMCM1140(conn, module_id=3)
+        assert [conn.get_version_string(module_id=n) for n in (1, 2, 3)] == ["3110V111", "6110V119", "1140V127"]
+        moving = [m3110.motors[2], m6110.motors[5], m1140.motors[0]]
+        for motor in moving:
+            motor.move_to(-7000)
+        wait_until(lambda: all(m.get_position_reached() for m in moving), 10, what="the three moves")
+        assert [m.actual_position for m in moving] == [-7000] * 3
+        assert m3110.motors[0].actual_position == 0 and m6110.motors[0].actual_position == 0

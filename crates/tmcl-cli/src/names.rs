@@ -20,7 +20,7 @@ const INTERRUPT_BANK: u8 = 3;
 #[derive(Debug, Clone, Args)]
 pub struct ModelOption {
     /// The module's model, for parameter names, ranges and units (pd28-1021, tmcm-1310, pd-113,
-    /// tmcm-1140). Default: ask the module for its version string (command 136) when a name needs it.
+    /// tmcm-1140, tmcm-3110, tmcm-6110). Default: ask the module for its version string (command 136) when a name needs it.
     #[arg(long = "module", value_name = "MODEL", global = true)]
     pub module: Option<String>,
 }

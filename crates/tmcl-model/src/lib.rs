@@ -39,7 +39,9 @@ pub mod port;
 pub mod test_three_axes;
 pub mod tmcm_1140;
 pub mod tmcm_1310;
+#[cfg(feature = "multi-axis")]
 pub mod tmcm_3110;
+#[cfg(feature = "multi-axis")]
 pub mod tmcm_6110;
 pub mod variant;
 
@@ -365,11 +367,22 @@ const fn any_protected(params: &[ParamDesc]) -> bool {
     false
 }
 
-/// Every model this build knows.
+/// Every model this build knows: the multi-axis TMCM-3110 and TMCM-6110 with the `multi-axis` feature
+/// (every `std` build), the one-axis models always.
+#[cfg(feature = "multi-axis")]
+pub static MODELS: &[&ModelSpec] =
+    &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC, &tmcm_1140::SPEC, &tmcm_3110::SPEC, &tmcm_6110::SPEC];
+/// Every model this build knows: the one-axis models (a build without the `multi-axis` feature drives
+/// one motor, see [`capacity::MAX_MOTORS`]).
+#[cfg(not(feature = "multi-axis"))]
 pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC, &tmcm_1140::SPEC];
 
 /// Models served on another of their interfaces than the first: the same module, its interfaces in
-/// another order (the TMCM-1140 on its RS485 port instead of USB).
+/// another order (the TMCM-1140, -3110 and -6110 on their RS485 port instead of USB).
+#[cfg(feature = "multi-axis")]
+static INTERFACE_VARIANTS: &[&ModelSpec] = &[&tmcm_1140::SPEC_RS485, &tmcm_3110::SPEC_RS485, &tmcm_6110::SPEC_RS485];
+/// Models served on another of their interfaces than the first (the TMCM-1140 on its RS485 port).
+#[cfg(not(feature = "multi-axis"))]
 static INTERFACE_VARIANTS: &[&ModelSpec] = &[&tmcm_1140::SPEC_RS485];
 
 /// The model `spec` served on its interface named `interface` (`usb`, `rs485`): `spec` itself when that
