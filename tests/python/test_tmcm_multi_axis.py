@@ -1,14 +1,11 @@
 """The multi-axis siblings of the TMCM-1140, the TMCM-3110 and TMCM-6110, driven by pytrinamic's
 `TMCM3110` and `TMCM6110` classes over a pty (their USB port), every axis.
 
-Their model tables are prepared as data (`crates/tmcl-model/src/tmcm_3110.rs`, `tmcm_6110.rs`); `tmcl serve`
-serves them once the core drives more than one motor (docs/tmcm-1140.md, "The multi-axis siblings"). Until
-then `tmcl serve --module tmcm-3110` is refused as an unknown module and these tests are skipped, saying so.
+Their model tables are in `crates/tmcl-model/src/tmcm_3110.rs` and `tmcm_6110.rs`; docs/tmcm-3110.md says
+where each number comes from.
 """
 
 from __future__ import annotations
-
-import subprocess
 
 import pytest
 from pytrinamic.modules import TMCM3110, TMCM6110
@@ -20,18 +17,9 @@ MODELS = [("tmcm-3110", TMCM3110, 3, "3110V111"), ("tmcm-6110", TMCM6110, 6, "61
 NOT_PROVIDED = {135}
 
 
-def served(tmcl_bin, model: str) -> bool:
-    """Whether this build serves `model` (`tmcl serve` names the models it knows when it refuses one)."""
-    run = subprocess.run([str(tmcl_bin), "serve", "--module", model, "--pty", "/nonexistent/dir/link"],
-                         capture_output=True, text=True, timeout=20, stdin=subprocess.DEVNULL)
-    return "unknown module" not in run.stderr
-
-
 @pytest.fixture(params=MODELS, ids=[m[0] for m in MODELS])
-def multi(request, serve, tmcl_bin):
+def multi(request, serve):
     model, cls, axes, version = request.param
-    if not served(tmcl_bin, model):
-        pytest.skip(f"the {model} is prepared as data, served once the core drives {axes} axes")
     server = serve("pty", modules=[model])
     with pytrinamic_connection(server) as conn:
         yield cls(conn), axes, version
@@ -98,14 +86,12 @@ def test_bank_3(multi):
             assert module.get_global_parameter(number, 3) == 3, name
 
 
-def test_reference_search_on_every_axis(request, serve, tmcl_bin, tmp_path):
+def test_reference_search_on_every_axis(serve, tmp_path):
     """Each axis in a copy of the stage (`--world`): RFS mode 1 on every axis at once, each finds its own
     left switch; the home switches read per axis (AP 9), the inputs are the module's."""
     from test_tmcm1140 import STAGE
 
     for model, cls, axes, _ in MODELS:
-        if not served(tmcl_bin, model):
-            pytest.skip(f"the {model} is prepared as data, served once the core drives {axes} axes")
         world = tmp_path / f"{model}.toml"
         world.write_text(STAGE)
         server = serve("pty", modules=[model], extra=["--world", str(world)])
@@ -125,12 +111,10 @@ def test_reference_search_on_every_axis(request, serve, tmcl_bin, tmp_path):
             assert conn.send(15, 255, 0, 0).value == 0b1010, "GIO 255, 0: the world's inputs"
 
 
-def test_on_an_rs485_line(serve, tmcl_bin):
+def test_on_an_rs485_line(serve):
     """`--interface rs485`: a TMCM-3110 at 1, a TMCM-6110 at 2 and a TMCM-1140 at 3 on one line."""
     from pytrinamic.modules import TMCM1140
 
-    if not served(tmcl_bin, "tmcm-3110"):
-        pytest.skip("the TMCM-3110 is prepared as data, served once the core drives 3 axes")
     server = serve("pty", modules=["tmcm-3110@1", "tmcm-6110@2", "tmcm-1140@3"], extra=["--interface", "rs485"])
     with pytrinamic_connection(server, module_id=1) as conn:
         m3110, m6110, m1140 = TMCM3110(conn, module_id=1), TMCM6110(conn, module_id=2), TMCM1140(conn, module_id=3)
