@@ -260,6 +260,9 @@ impl ModelSpec {
             let ok = match d.ports[i].kind {
                 PortKind::DigitalInput(bit) => bit < d.inputs,
                 PortKind::Output(bit) => bit < d.outputs,
+                // The supply voltage is an analog reading (bank 1), the pull-ups a setting of bank 0.
+                PortKind::SupplyVoltage => d.ports[i].bank == 1,
+                PortKind::PullUps => d.ports[i].bank == 0,
                 _ => true,
             };
             if !ok || d.ports[i].bank > 2 {
@@ -350,9 +353,20 @@ impl ModelSpec {
         &self.desc
     }
 
-    /// Looks up a port.
+    /// Looks up a port GIO reads.
     pub fn port(&self, bank: u8, port: u8) -> Option<&'static PortDesc> {
-        self.ports.iter().find(|p| p.bank == bank && p.port == port)
+        self.ports.iter().find(|p| p.bank == bank && p.port == port && p.kind.is_readable())
+    }
+
+    /// Looks up a port SIO writes (an output, all outputs, the switches' pull-ups).
+    pub fn output_port(&self, bank: u8, port: u8) -> Option<&'static PortDesc> {
+        self.ports.iter().find(|p| p.bank == bank && p.port == port && p.kind.is_writable())
+    }
+
+    /// Whether SIO writes a port of `bank` (bank 2, the outputs, on every model; bank 0 where the model has
+    /// the switches' pull-ups there).
+    pub fn writes_bank(&self, bank: u8) -> bool {
+        self.ports.iter().any(|p| p.bank == bank && p.kind.is_writable())
     }
 }
 

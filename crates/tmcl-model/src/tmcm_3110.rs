@@ -32,8 +32,11 @@
 //! - **Encoder** (TMCM-3110 only): an external A/B encoder per axis (AP 209, prescaler 210, deviation
 //!   212); AP 201 (encoder mode) is kept and stored. The TMCM-6110 has no encoder inputs.
 //! - **Stored only**: AP 213 (group index), AP 254 (step/direction mode), besides the TMCM-1140's.
-//! - **Not expressible yet**: GIO 8, 1 (the supply voltage odemis reads before it moves anything: a port
-//!   kind the core does not have), SIO 0, 0 (the limit switches' pull-ups odemis sets).
+//! - **odemis' ports**: GIO 8, 1 reads the supply voltage in 0.1 V (odemis refuses to start below its
+//!   `minpower`, 10.8 V by default; the simulated board's supply, 24 V unless the world says otherwise);
+//!   SIO 0, 0, v sets the reference switches' pull-ups (odemis stores two bits for it in its user
+//!   configuration and writes them back with SIO at start-up): 0..=3 taken and passed to the board, no
+//!   other effect on the simulated switches, which have defined levels; GIO 0, 0 still reads IN0.
 
 use crate::interface::InterfaceDesc;
 use crate::interrupt::{InterruptDesc, Interrupts, Source};
@@ -240,8 +243,9 @@ pub static VECTORS_3110: [InterruptDesc; 26] = [
 // ---- I/O, interfaces, description ---------------------------------------------------------------------
 
 /// I/O ports (pytrinamic's `IO`): IN0–IN7 digital on bank 0, AIN0 and AIN4 analog on bank 1, OUT0–OUT7
-/// on bank 2.
-pub static PORTS: [PortDesc; 20] = [
+/// on bank 2; and, as odemis' TMCL driver uses them, the supply voltage GIO 8, 1 (0.1 V) and the reference
+/// switches' pull-ups SIO 0, 0.
+pub static PORTS: [PortDesc; 22] = [
     PortDesc { bank: 0, port: 0, kind: PortKind::DigitalInput(0), name: "AIN0" },
     PortDesc { bank: 0, port: 1, kind: PortKind::DigitalInput(1), name: "IN1" },
     PortDesc { bank: 0, port: 2, kind: PortKind::DigitalInput(2), name: "IN2" },
@@ -253,6 +257,8 @@ pub static PORTS: [PortDesc; 20] = [
     PortDesc { bank: 0, port: 255, kind: PortKind::AllInputs, name: "all digital inputs" },
     PortDesc { bank: 1, port: 0, kind: PortKind::Analog(0), name: "analog AIN0" },
     PortDesc { bank: 1, port: 4, kind: PortKind::Analog(1), name: "analog AIN4" },
+    PortDesc { bank: 1, port: 8, kind: PortKind::SupplyVoltage, name: "supply voltage (0.1 V)" },
+    PortDesc { bank: 0, port: 0, kind: PortKind::PullUps, name: "reference switch pull-ups" },
     PortDesc { bank: 2, port: 0, kind: PortKind::Output(0), name: "OUT0" },
     PortDesc { bank: 2, port: 1, kind: PortKind::Output(1), name: "OUT1" },
     PortDesc { bank: 2, port: 2, kind: PortKind::Output(2), name: "OUT2" },

@@ -29,14 +29,15 @@ pub(crate) fn model_json(model: &'static ModelSpec) -> Value {
     let ports: Vec<Value> = model
         .ports
         .iter()
-        .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs))
+        .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps))
         .map(|p| {
             let kind = match p.kind {
                 PortKind::DigitalInput(_) | PortKind::EncoderNearZero => "input",
                 PortKind::Analog(_) | PortKind::Analog10(_) => "analog",
                 PortKind::Temperature => "temperature",
+                PortKind::SupplyVoltage => "supply",
                 PortKind::Output(_) => "output",
-                PortKind::AllInputs | PortKind::AllOutputs => "all",
+                PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps => "all",
             };
             json!({"bank": p.bank, "port": p.port, "kind": kind, "name": p.name})
         })
