@@ -299,6 +299,9 @@ impl Target {
         let HostError::Status { status, .. } = &err else { return err.into() };
         let kind = if self.axis { "axis" } else { "global" };
         let explanation = match (self.model, self.desc, status) {
+            (Some(model), _, Status::InvalidValue) if self.axis && self.index >= model.motors => {
+                format!("{} (--motor {} given)", motors_of(model), self.index)
+            }
             (Some(model), None, Status::WrongType) => {
                 let place = if self.axis { String::new() } else { format!(" in bank {}", self.index) };
                 format!(
@@ -321,6 +324,14 @@ impl Target {
             _ => return err.into(),
         };
         CliError::Explained { source: err, explanation }
+    }
+}
+
+/// `the TMCM-3110 has motors 0..2`, `the PD28-1021 has motor 0`.
+pub(crate) fn motors_of(model: &ModelSpec) -> String {
+    match model.motors {
+        1 => format!("the {} has motor 0", model.name),
+        n => format!("the {} has motors 0..{}", model.name, n - 1),
     }
 }
 
@@ -355,9 +366,10 @@ pub struct ParamsArgs {
     /// Which parameters.
     #[arg(value_enum, default_value_t = Which::All)]
     pub which: Which,
-    /// The motor whose axis parameters are read.
-    #[arg(long, short, default_value_t = 0)]
-    pub motor: u8,
+    /// The motor whose axis parameters are listed [default: every motor of the model, `ap N:M` for motor
+    /// M > 0].
+    #[arg(long, short)]
+    pub motor: Option<u8>,
     /// List the tables only, without reading values (needs no module with --module).
     #[arg(long)]
     pub no_values: bool,
@@ -414,15 +426,22 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
         let mut client = args.conn.open()?;
         (models.get(&mut client)?, Some(client))
     };
-    let tables: Vec<(&str, &'static Table, bool, u8)> = [
-        (Which::Ap, "ap", &model.axis, true, args.motor),
-        (Which::Gp, "gp", &model.global, false, 0),
-        (Which::Ip, "gp", &model.interrupt, false, INTERRUPT_BANK),
-    ]
-    .into_iter()
-    .filter(|(w, ..)| args.which == Which::All || args.which == *w)
-    .map(|(_, kind, table, axis, index)| (kind, table, axis, index))
-    .collect();
+    let motors = match args.motor {
+        Some(m) if m >= model.motors => {
+            return Err(CliError::Usage(format!("{} (--motor {m} given)", motors_of(model))));
+        }
+        Some(m) => m..m + 1,
+        None => 0..model.motors,
+    };
+    let axes = motors.map(|m| (Which::Ap, "ap", &model.axis, true, m));
+    let tables: Vec<(&str, &'static Table, bool, u8)> = axes
+        .chain([
+            (Which::Gp, "gp", &model.global, false, 0),
+            (Which::Ip, "gp", &model.interrupt, false, INTERRUPT_BANK),
+        ])
+        .filter(|(w, ..)| args.which == Which::All || args.which == *w)
+        .map(|(_, kind, table, axis, index)| (kind, table, axis, index))
+        .collect();
     if !json {
         writeln!(out, "{} ({}), {}", model.name, model.id, model.manual)?;
         writeln!(out, "{:<11} {:<28} {:<6} {:<24} {:<22} value", "parameter", "name", "access", "range", "unit")?;
@@ -549,6 +568,16 @@ mod tests {
         );
         let t = lookup(pd28(), "ActualSpeed", true, None).unwrap();
         assert_eq!(t.desc.unwrap().access.to_string(), "RW");
+    }
+
+    #[test]
+    fn a_motor_the_model_lacks_is_explained() {
+        let m3110 = model::by_id("tmcm-3110").unwrap();
+        let t = lookup(m3110, "MaxVelocity", true, Some(3)).unwrap();
+        let reply = Reply { host: 2, module: 1, status: Status::InvalidValue, opcode: 6, value: 0 };
+        let err = t.explain(HostError::Status { status: Status::InvalidValue, reply }, None);
+        assert!(err.to_string().ends_with("the TMCM-3110 has motors 0..2 (--motor 3 given)"), "{err}");
+        assert_eq!(motors_of(pd28()), "the PD28-1021 has motor 0");
     }
 
     #[test]
