@@ -1,5 +1,8 @@
 """The multi-axis siblings of the TMCM-1140, the TMCM-3110 and TMCM-6110, driven by pytrinamic's
-`TMCM3110` and `TMCM6110` classes over a pty (their USB port), every axis.
+`TMCM3110` and `TMCM6110` classes over a pty (their USB port), every axis: every AP of the class on every
+axis, independent moves, the class's per-axis methods and features, a reference search on every axis at
+once, GIO/SIO on banks 0, 1 and 2, bank 3, what odemis' TMCL driver reads and sets (GIO 8, 1, SIO 0, 0,
+AP 2 as v_target), `tmcl params`/`set --motor` per axis, and both on one RS485 line with a TMCM-1140.
 
 Their model tables are in `crates/tmcl-model/src/tmcm_3110.rs` and `tmcm_6110.rs`; docs/tmcm-3110.md says
 where each number comes from.
@@ -125,3 +128,98 @@ def test_on_an_rs485_line(serve):
         wait_until(lambda: all(m.get_position_reached() for m in moving), 10, what="the three moves")
         assert [m.actual_position for m in moving] == [-7000] * 3
         assert m3110.motors[0].actual_position == 0 and m6110.motors[0].actual_position == 0
+
+
+def test_the_class_methods_drive_each_axis(multi):
+    """The module-level methods of pytrinamic's classes (`move_to(axis, …)`, `move_by`, `rotate`, `stop`,
+    the reference-search setters) and each motor's features (`drive_settings`, `linear_ramp`,
+    `stallguard2`, `coolstep`) address the axis they name. `move_by` moves from the target position, as
+    pytrinamic's MVP REL does on every module."""
+    module, axes, _ = multi
+    last = axes - 1
+    module.move_to(last, 3000, velocity=1500)
+    wait_until(lambda: module.motors[last].get_position_reached(), 10, what="the last axis at 3000")
+    module.move_by(last, -1000)
+    wait_until(lambda: module.motors[last].actual_position == 2000, 10, what="the last axis back by 1000")
+    assert module.motors[last].linear_ramp.max_velocity == 1500
+    assert all(m.actual_position == 0 for m in module.motors[:last])
+    module.rotate(1, -400)
+    wait_until(lambda: module.motors[1].actual_velocity == -400, 3, what="axis 1 turning")
+    module.stop(1)
+    wait_until(lambda: module.motors[1].actual_velocity == 0, 3, what="axis 1 stopped")
+    ap = module.motors[2].AP
+    if hasattr(module, "set_reference_search_mode"):  # the TMCM3110 class has these, the TMCM6110 not
+        module.set_reference_search_mode(2, 2)
+        module.set_reference_search_speed(2, 1000)
+        module.set_reference_switch_speed(2, 100)
+    else:
+        for number, value in ((ap.ReferenceSearchMode, 2), (ap.ReferenceSearchSpeed, 1000),
+                              (ap.ReferenceSwitchSpeed, 100)):
+            module.motors[2].set_axis_parameter(number, value)
+    assert [module.motors[2].get_axis_parameter(n) for n in (ap.ReferenceSearchMode, ap.ReferenceSearchSpeed,
+                                                             ap.ReferenceSwitchSpeed)] == [2, 1000, 100]
+    assert module.motors[0].get_axis_parameter(ap.ReferenceSearchSpeed) != 1000, "axis 0 keeps its own"
+    for axis, motor in enumerate(module.motors):
+        motor.drive_settings.max_current = 10 + axis
+        motor.stallguard2.threshold = -axis
+        motor.coolstep.current_up_step = axis % 4
+    assert [m.drive_settings.max_current for m in module.motors] == [10 + a for a in range(axes)]
+    assert [m.stallguard2.threshold for m in module.motors] == [-a for a in range(axes)]
+    assert [m.coolstep.current_up_step for m in module.motors] == [a % 4 for a in range(axes)]
+    # (pytrinamic 0.2.26's `coolstep.slow_run_current`, `hysteresis`, `threshold_speed` and
+    # `stallguard2.stop_velocity` look up AP names its TMCM3110/TMCM6110 tables spell otherwise
+    # (`smartEnergySlowRunCurrent`, …): an AttributeError in pytrinamic before any byte is sent.)
+
+
+def test_what_odemis_reads_and_sets(multi):
+    """odemis' TMCL driver (delmic/odemis src/odemis/driver/tmcm.py): the binary version (model in the
+    high word, 3110 needs 1.09 or later), GAP 1 of the highest axis it was configured with (a module with
+    fewer axes answers an error), the supply voltage GIO 8, 1 in 0.1 V against its `minpower` 10.8 V, the
+    switches' pull-ups SIO 0, 0 from its user configuration, the analog inputs GIO 0, 1 and GIO 4, 1, the
+    home switch of axis n on IN(n+1) (GIO n+1, 0), and AP 2 in position mode as the TMC429's v_target."""
+    module, axes, version = multi
+    conn = module.connection
+    value = conn.send(136, 1, 0, 0).value
+    assert (value >> 16, (value >> 8) & 0xFF, value & 0xFF) == (int(version[:4]), 1, int(version[6:]))
+    conn.send(6, 1, axes - 1, 0)  # the highest axis answers
+    assert conn.get_analog_input(8) >= 108, "GIO 8, 1: the supply, 24.0 V on the simulated board"
+    assert conn.send(14, 0, 0, 3).status == 100, "SIO 0, 0, 3: the switches' pull-ups"
+    assert status_of(lambda: conn.send(14, 0, 0, 4)) == 4
+    for port in (0, 4):
+        assert 0 <= conn.get_analog_input(port) <= 4095
+    for axis in range(min(axes, 3)):
+        assert conn.get_digital_input(axis + 1) in (0, 1)
+    # AP 2 while an axis drives in position mode: +v_max; the others 0; at rest 0 again.
+    motor = module.motors[axes - 1]
+    motor.linear_ramp.max_velocity = 300
+    motor.linear_ramp.max_acceleration = 20
+    motor.move_to(100_000)
+    wait_until(lambda: motor.actual_velocity > 0, 3, what="the axis accelerating")
+    assert motor.get_axis_parameter(motor.AP.TargetVelocity, signed=True) == 300
+    assert module.motors[0].get_axis_parameter(motor.AP.TargetVelocity) == 0
+    motor.stop()
+
+
+@pytest.mark.parametrize("model, axes", [(m[0], m[2]) for m in MODELS], ids=[m[0] for m in MODELS])
+def test_params_and_set_per_axis(serve, tmcl_bin, model, axes):
+    """`tmcl set ap … --motor M` writes one axis; `tmcl params ap` lists every axis's parameters with their
+    values (`ap N:M`); a motor the module lacks is refused with the model's axes named."""
+    import subprocess
+
+    server = serve("pty", modules=[model])
+
+    def tmcl(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([str(tmcl_bin), "--port", str(server.link), *args], capture_output=True, text=True,
+                              timeout=120, stdin=subprocess.DEVNULL)
+
+    last = axes - 1
+    run = tmcl("set", "ap", "MaxVelocity", "1234", "--motor", str(last))
+    assert run.returncode == 0, run.stderr
+    run = tmcl("params", "ap")
+    assert run.returncode == 0, run.stderr
+    rows = {f"{r[0]} {r[1]}": r for r in (line.split() for line in run.stdout.splitlines()[2:])}
+    assert len(rows) % axes == 0
+    assert rows["ap 4"][-1] == "1000" and rows[f"ap 4:{last}"][-1] == "1234"
+    run = tmcl("get", "ap", "4", "--motor", str(axes))
+    assert run.returncode != 0
+    assert f"has motors 0..{last} (--motor {axes} given)" in run.stderr, run.stderr
