@@ -494,7 +494,11 @@ fn on_interface(spec: &'static ModelSpec, interface: Option<&str>) -> PyResult<&
             .map(|i| i.name)
             .filter(|i| tmcl_core::model::on_interface(spec, i).is_some())
             .collect();
-        PyValueError::new_err(format!("the {} cannot be served on {name:?}; it is served on: {}", spec.name, names.join(", ")))
+        PyValueError::new_err(format!(
+            "the {} cannot be served on {name:?}; it is served on: {}",
+            spec.name,
+            names.join(", ")
+        ))
     })
 }
 

@@ -435,10 +435,7 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
     };
     let axes = motors.map(|m| (Which::Ap, "ap", &model.axis, true, m));
     let tables: Vec<(&str, &'static Table, bool, u8)> = axes
-        .chain([
-            (Which::Gp, "gp", &model.global, false, 0),
-            (Which::Ip, "gp", &model.interrupt, false, INTERRUPT_BANK),
-        ])
+        .chain([(Which::Gp, "gp", &model.global, false, 0), (Which::Ip, "gp", &model.interrupt, false, INTERRUPT_BANK)])
         .filter(|(w, ..)| args.which == Which::All || args.which == *w)
         .map(|(_, kind, table, axis, index)| (kind, table, axis, index))
         .collect();
