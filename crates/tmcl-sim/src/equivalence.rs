@@ -15,9 +15,13 @@
 
 use crate::board::SimBoard;
 use crate::world::World;
-use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, Kinematics, ModelSpec};
+use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, tmcm_3110, Kinematics, ModelSpec};
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CalcOp, Command, Condition, EventMode, Instruction, MoveTarget, Request, RfsAction, WaitCondition};
+
+/// The TMCM-3110 (three axes), as data in `tmcl_model` but not yet among its served models: drawn here so
+/// that event-driven runs of several moving motors are checked against tick-by-tick ones.
+static TMCM_3110: ModelSpec = ModelSpec::new(tmcm_3110::DESC);
 
 /// Reads a scenario out of bytes: every read succeeds (0 past the end).
 struct Bytes<'a>(&'a [u8]);
@@ -129,6 +133,7 @@ impl Scenario {
             0 => &tmcm_1310::SPEC,
             1 => &pd_113::SPEC,
             6 => &tmcm_1140::SPEC,
+            7 => &TMCM_3110,
             _ => &pd28_1021::SPEC,
         };
         let world = world(&mut b);
@@ -136,8 +141,11 @@ impl Scenario {
         if matches!(spec.kinematics, Kinematics::Tmc428 { .. }) {
             // The TMC428 generation's pulse and ramp divisors (AP 154, 153), which scale its velocities
             // and accelerations (read only for this model, so other scenarios decode as before).
-            settings.push(Command::Sap { param: 154, motor: 0, value: b.range(0, 13) as i32 });
-            settings.push(Command::Sap { param: 153, motor: 0, value: b.range(0, 13) as i32 });
+            // Every motor's (one of each for a one-motor model, as before).
+            for motor in 0..spec.motors {
+                settings.push(Command::Sap { param: 154, motor, value: b.range(0, 13) as i32 });
+                settings.push(Command::Sap { param: 153, motor, value: b.range(0, 13) as i32 });
+            }
         }
         for _ in 0..b.u8() % 6 {
             settings.push(setting(&mut b));
@@ -163,6 +171,17 @@ impl Scenario {
         // earlier failures decode as before: past the end every byte reads 0).
         if b.u8() % 3 == 1 {
             program = spin_program(&mut b);
+        }
+        if spec.motors > 1 {
+            // A model of several motors: the commands go to its motors in turn, from one the input picks
+            // (read last, so that one-motor scenarios decode as before), so that several move at once.
+            let first = b.u8();
+            let skip = 2 * usize::from(spec.motors) * usize::from(matches!(spec.kinematics, Kinematics::Tmc428 { .. }));
+            for (i, c) in
+                settings.iter_mut().skip(skip).chain(&mut program).chain(host.iter_mut().map(|(_, c)| c)).enumerate()
+            {
+                on_motor(c, ((i + usize::from(first)) % usize::from(spec.motors)) as u8);
+            }
         }
         if matches!(spec.kinematics, Kinematics::Tmc428 { .. }) {
             // Velocities and accelerations in its units, 0..2047, so that they are taken, not refused.
@@ -347,36 +366,42 @@ fn view(m: &mut Module<SimBoard>, t: Instant) -> Vec<(String, String)> {
     // When the module last called the board is not compared: a tick-by-tick run brings the board's clock
     // to every tick it reads the board at, a span reads nothing in between (the board's state at any
     // instant is the same: its world runs on composably, see `SimBoard::quiet`).
-    let state = format!("{:?}", m.state());
-    let state = match state.split_once("board_time: ") {
-        Some((head, tail)) => format!("{head}{}", tail.split_once("}, ").map_or("", |(_, rest)| rest)),
-        None => state,
-    };
+    // Every motor's (a module of several motors has one per axis).
+    let mut state = format!("{:?}", m.state());
+    while let Some((head, tail)) = state.split_once("board_time: ") {
+        state = format!("{head}{}", tail.split_once("}, ").map_or("", |(_, rest)| rest));
+    }
     let mut v = vec![
         ("state".to_string(), state),
         ("program machine".to_string(), format!("{:?}", m.vm())),
         ("registers".to_string(), format!("{:?} {:?}", m.registers(), m.host_registers())),
     ];
-    let board = m.board_mut();
-    let feedback = board.feedback();
-    v.push((
-        "board".to_string(),
-        format!(
-            "shaft {} field {} lost {} energy {:x} outputs {} drive {:?} feedback {:?} coil {:x}",
-            board.shaft(),
-            board.commanded(),
-            board.lost_full_steps(),
-            board.energy().to_bits(),
-            board.outputs(),
-            // The last update's own move is a span's sum (`StepDriver::update`); where it went is compared.
-            tmcl_core::hal::DriveState { moved: 0, ..*board.drive() },
-            feedback,
-            board.coil_current().to_bits(),
-        ),
-    ));
+    // Every motor's axis of the board (motor 0: the board itself).
+    for motor in 0..m.board().motors() {
+        let Some(board) = m.board_mut().axis_mut(motor) else { continue };
+        let feedback = board.feedback();
+        v.push((
+            if motor == 0 { "board".to_string() } else { format!("board of motor {motor}") },
+            format!(
+                "shaft {} field {} lost {} energy {:x} outputs {} drive {:?} feedback {:?} coil {:x}",
+                board.shaft(),
+                board.commanded(),
+                board.lost_full_steps(),
+                board.energy().to_bits(),
+                board.outputs(),
+                // The last update's own move is a span's sum (`StepDriver::update`); where it went is compared.
+                tmcl_core::hal::DriveState { moved: 0, ..*board.drive() },
+                feedback,
+                board.coil_current().to_bits(),
+            ),
+        ));
+    }
     let spec = m.spec();
-    for d in spec.axis.params {
-        v.push((format!("AP {}", d.number), format!("{:?}", m.get_axis(d.number))));
+    for motor in 0..spec.motors {
+        for d in spec.axis.params {
+            let name = if motor == 0 { format!("AP {}", d.number) } else { format!("AP {}, {motor}", d.number) };
+            v.push((name, format!("{:?}", m.get_axis_of(motor, d.number))));
+        }
     }
     for d in spec.global.params {
         v.push((format!("GP {}", d.number), format!("{:?}", m.get_global(d.number, 0, t))));
@@ -497,6 +522,28 @@ fn fit_tmc428(c: &mut Command) {
     match c {
         Command::Ror { velocity, .. } | Command::Rol { velocity, .. } => fold(velocity),
         Command::Sap { param: 2 | 4 | 5 | 130 | 194 | 195, value, .. } => fold(value),
+        _ => {}
+    }
+}
+
+/// `c` sent to motor `m` instead, if it names a motor.
+fn on_motor(c: &mut Command, m: u8) {
+    match c {
+        Command::Ror { motor, .. }
+        | Command::Rol { motor, .. }
+        | Command::Mst { motor }
+        | Command::Mvp { motor, .. }
+        | Command::Sap { motor, .. }
+        | Command::Gap { motor, .. }
+        | Command::Stap { motor, .. }
+        | Command::Rsap { motor, .. }
+        | Command::Rfs { motor, .. }
+        | Command::Wait { motor, .. }
+        | Command::Sco { motor, .. }
+        | Command::Gco { motor, .. }
+        | Command::Cco { motor, .. }
+        | Command::Aap { motor, .. }
+        | Command::Aco { motor, .. } => *motor = m,
         _ => {}
     }
 }

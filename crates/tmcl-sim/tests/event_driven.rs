@@ -22,3 +22,44 @@ proptest::proptest! {
         }
     }
 }
+
+/// The TMCM-3110 case the property test found (proptest seed `286fcb50…`, shrunk): nothing moves, a
+/// program loops, the host reads AP 3. The two runs agree on everything; what differed was when each had
+/// last called the board of motors 1 and 2 (a tick-by-tick run brings every motor's board clock on at
+/// each tick, an event-driven one never calls a motor that stands), which the comparison left out for
+/// motor 0 only.
+#[test]
+fn a_three_axis_module_at_rest_is_the_same_both_ways() {
+    use tmcl_core::Instant;
+    use tmcl_wire::Command;
+    let world = "[[inputs.timeline]]\nat = \"8269 ms\"\ndigital = 5\n[[inputs.timeline]]\nat = \"8052 ms\"\n\
+        digital = 9\n[[faults.driver]]\nfrom = \"8001 ms\"\nuntil = \"15313 ms\"\nflags = [\"short_a\"]\n\
+        [[faults.encoder_slip]]\nat = \"4218 ms\"\ncounts = -4\n[[faults.supply_drop]]\nfrom = \"8794 ms\"\n\
+        until = \"10264 ms\"\nvoltage = 15\n";
+    let scenario = Scenario {
+        spec: Scenario::decode(&[7]).spec,
+        world: world.into(),
+        settings: vec![
+            Command::Sap { param: 154, motor: 0, value: 8 },
+            Command::Sap { param: 153, motor: 0, value: 9 },
+            Command::Sap { param: 174, motor: 0, value: 12 },
+        ],
+        program: vec![
+            Command::Sgp { param: 2, bank: 3, value: 1905 },
+            Command::Ei { interrupt: 27 },
+            Command::Sgp { param: 1, bank: 3, value: 2280 },
+            Command::Agp { param: 2, bank: 2 },
+            Command::Ja { address: 3 },
+            Command::Agp { param: 2, bank: 2 },
+            Command::Reti,
+        ],
+        host: vec![
+            (Instant::from_micros(802_928), Command::Gap { param: 3, motor: 0 }),
+            (Instant::from_micros(3_155_226), Command::RunApplication { from: None }),
+        ],
+        polls: vec![Instant::from_micros(6_942_254)],
+        end: Instant::from_micros(7_056_000),
+    };
+    assert_eq!(scenario.spec.motors, 3, "{}", scenario.spec.id);
+    scenario.check().unwrap();
+}
