@@ -257,3 +257,69 @@ def test_a_twin_keeps_every_axis(serve, tmcl_bin, tmp_path, model, axes):
     live = LIVE | {("ap", m, n) for m in range(axes) for n in (180, 208)}
     differ = {k: (a[k], b[k]) for k in a if k not in live and a[k] != b[k]}
     assert not differ, differ
+
+
+VECT_FROM_HOST = pytest.mark.xfail(
+    strict=True, raises=TMCLReplyStatusError,
+    reason="VECT from the host is status 6 (the PD28-1021 manual: 'for use in standalone mode only'); odemis sets it "
+           "in direct mode on the TMCM-3110 (docs/tmcm-3110.md, Not covered)")
+
+
+@pytest.mark.parametrize("vect_from_host", [pytest.param(True, marks=VECT_FROM_HOST, id="as-odemis"),
+                                            pytest.param(False, id="vector-in-the-routine")])
+def test_odemis_referencing_program_on_an_axis(serve, tmp_path, vect_from_host):
+    """The way odemis' TMCL driver references an axis with its "2xFinalForward" procedure, command by
+    command: it downloads a small program per axis (132 with the start address, the instructions, 133), an
+    interrupt handler that stops the search (RFS STOP, RETI) set on the input of that axis (VECT 40 + n,
+    bank 3 trigger both edges, EI 40 + n, EI 255), and starts the program with 129 type 1 at its address;
+    the program clears a bank 2 variable, starts RFS on its motor, waits for it with WAIT RFS and a timeout,
+    jumps on ETO and reports 1 (done) or 2 (timed out) in the variable, which the host polls. The second
+    case sets the vector as the routine's first instruction instead (VECT is program-only here)."""
+    from test_tmcm1140 import STAGE
+
+    world = tmp_path / "stage.toml"
+    world.write_text(STAGE)
+    server = serve("pty", modules=["tmcm-3110"], extra=["--world", str(world)])
+    with pytrinamic_connection(server) as conn:
+        axis = 1
+        for number, value in ((193, 1), (194, 2047), (195, 200)):  # RFS mode 1 (left switch) and speeds
+            conn.send(5, number, axis, value)
+        handler = 50 + 10 * axis
+        routine = 80 + 15 * axis
+        variable = 128 + axis
+
+        def download(address, program):
+            assert conn.send(132, 0, 0, address).status == 100
+            for instruction in program:
+                op, kind, motor, value = (*instruction, 0, 0, 0)[:4]
+                assert conn.send(op, kind, motor, value).status == 101, instruction
+            assert conn.send(133, 0, 0, 0).status == 100
+
+        download(handler, [(13, 1, axis), (38,)])  # RFS STOP, n; RETI
+        start = routine if vect_from_host else routine - 1
+        interrupt = 40 + axis
+        if not vect_from_host:
+            download(start, [(37, interrupt, 0, handler)])  # VECT 40 + n, handler
+        download(routine, [
+            (9, variable, 2, 0),        # SGP variable, 2, 0: running
+            (13, 0, axis),              # RFS START, n
+            (27, 4, axis, 2000),        # WAIT RFS, n, 2000 ticks (20 s)
+            (21, 8, 0, routine + 6),    # JC ETO, timeout
+            (9, variable, 2, 1),        # SGP variable, 2, 1: done
+            (28,),                      # STOP
+            (13, 1, axis),              # timeout: RFS STOP, n
+            (9, variable, 2, 2),        # SGP variable, 2, 2: timed out
+            (28,),                      # STOP
+        ])
+        if vect_from_host:
+            conn.send(37, interrupt, 0, handler)   # VECT
+        conn.send(9, interrupt, 3, 3)          # SGP 40 + n, 3, 3: both edges
+        conn.send(25, interrupt, 0, 0)         # EI
+        conn.send(25, 255, 0, 0)               # EI 255
+        conn.send(129, 1, 0, start)            # RUN at the routine's address
+        wait_until(lambda: conn.send(10, variable, 2, 0).value != 0, 20, what="the routine's report")
+        assert conn.send(10, variable, 2, 0).value == 1, "done, not timed out"
+        assert conn.reference_search(2, axis) == 0
+        position = conn.send(6, 1, axis, 0).value
+        assert abs(position - (1 << 32) if position >= 1 << 31 else position) < 300, "axis 1 at its reference"
+        assert conn.send(6, 1, 0, 0).value == 0 and conn.send(6, 1, 2, 0).value == 0, "the others stood"
