@@ -2,31 +2,15 @@
 
 use std::time::Duration;
 
-/// A decimal (optionally negative) or `0x` hexadecimal number.
-pub(crate) fn parse_number(text: &str) -> Option<i64> {
-    let (negative, digits) = match text.strip_prefix('-') {
-        Some(rest) => (true, rest),
-        None => (false, text.strip_prefix('+').unwrap_or(text)),
-    };
-    let magnitude = match digits.strip_prefix("0x").or_else(|| digits.strip_prefix("0X")) {
-        Some(hex) => i64::from_str_radix(hex, 16).ok()?,
-        None if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) => digits.parse().ok()?,
-        None => return None,
-    };
-    Some(if negative { -magnitude } else { magnitude })
-}
+/// A decimal or `0x` hexadecimal number, with an optional sign (one parser for every tool:
+/// [`tmcl_wire::ascii::parse_number`]).
+pub(crate) use tmcl_wire::ascii::parse_number;
 
 /// A 32-bit value: -2147483648..=2147483647, or up to 0xFFFFFFFF written in hex or decimal (two's complement,
 /// as pytrinamic packs values unsigned).
 pub(crate) fn parse_value(text: &str) -> Result<i32, String> {
     let n = parse_number(text).ok_or_else(|| format!("{text:?} is not a number"))?;
-    if let Ok(v) = i32::try_from(n) {
-        Ok(v)
-    } else if let Ok(v) = u32::try_from(n) {
-        Ok(v as i32)
-    } else {
-        Err(format!("{text} does not fit in 32 bits"))
-    }
+    tmcl_wire::ascii::value32(n).ok_or_else(|| format!("{text} does not fit in 32 bits"))
 }
 
 /// A byte, decimal or `0x` hexadecimal.

@@ -39,15 +39,27 @@ pub struct Connection {
 impl Connection {
     /// Opens the one connection the options name.
     pub(crate) fn open(&self) -> Result<HostClient, CliError> {
-        let transport: Box<dyn Transport + Send> = match (&self.port, &self.tcp) {
-            (Some(path), None) if self.shared => Box::new(SerialTransport::open(path, self.baud)?),
-            (Some(path), None) => Box::new(SerialTransport::open_alone(path, self.baud)?),
-            (None, Some(addr)) => Box::new(TcpTransport::connect(addr)?),
-            (Some(_), Some(_)) => return Err(CliError::Usage("give either --port or --tcp, not both".into())),
+        match (&self.port, &self.tcp) {
+            (Some(_), Some(_)) => Err(CliError::Usage("give either --port or --tcp, not both".into())),
             (None, None) => {
-                return Err(CliError::Usage(
-                    "no connection: give --port PATH (serial port or pty) or --tcp HOST:PORT".into(),
-                ))
+                Err(CliError::Usage("no connection: give --port PATH (serial port or pty) or --tcp HOST:PORT".into()))
+            }
+            _ => Ok(self.connect()?),
+        }
+    }
+
+    /// Opens the connection again (the workbench, after the link went away): the options were checked by
+    /// [`Connection::open`] already, so only the link itself can fail.
+    pub(crate) fn connect(&self) -> Result<HostClient, tmcl_host::HostError> {
+        let transport: Box<dyn Transport + Send> = match (&self.port, &self.tcp) {
+            (Some(path), _) if self.shared => Box::new(SerialTransport::open(path, self.baud)?),
+            (Some(path), _) => Box::new(SerialTransport::open_alone(path, self.baud)?),
+            (None, Some(addr)) => Box::new(TcpTransport::connect(addr)?),
+            (None, None) => {
+                return Err(tmcl_host::HostError::Io(std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    "no connection: give --port PATH (serial port or pty) or --tcp HOST:PORT",
+                )))
             }
         };
         Ok(Client::new(transport).with_module_address(self.address).with_timeout(self.timeout))

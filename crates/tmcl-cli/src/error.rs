@@ -41,9 +41,6 @@ pub(crate) enum CliError {
     /// Bad arguments that clap could not catch.
     #[error("{0}")]
     Usage(String),
-    /// A file, program, world or model that cannot be used.
-    #[error("{0}")]
-    Input(String),
     /// The module or the connection failed.
     #[error(transparent)]
     Host(#[from] HostError),
@@ -116,6 +113,41 @@ pub(crate) enum CliError {
     /// The signal handlers (SIGINT, SIGTERM) cannot be installed.
     #[error("cannot handle signals: {0}")]
     Signals(#[source] io::Error),
+    /// A module or program that cannot be set up (`tmcl run`, `tmcl debug`, `tmcl twin`).
+    #[error(transparent)]
+    Setup(#[from] tmcl_run::SetupError),
+    /// A program that cannot be read (not its assembly errors: those are [`CliError::Assembly`]).
+    #[error(transparent)]
+    Source(tmcl_run::SourceError),
+    /// A world file that does not fit the module's model.
+    #[error("{}: {source}", path.display())]
+    Unfit {
+        /// The world file.
+        path: PathBuf,
+        /// Why it does not fit.
+        source: tmcl_sim::WorldError,
+    },
+    /// A server that cannot start or stopped (`tmcl serve`).
+    #[error(transparent)]
+    Serve(#[from] tmcl_serve::ServeError),
+    /// The ESI file cannot be written.
+    #[error("cannot write the ESI file: {0}")]
+    Esi(#[source] std::fmt::Error),
+    /// The monitor socket of a server cannot be reached.
+    #[error(
+        "cannot reach the monitor socket {}: {source}; is a `tmcl share` or `tmcl serve` running with a --pty \
+         link there (or --monitor-socket)?",
+        path.display()
+    )]
+    MonitorSocket {
+        /// The socket.
+        path: PathBuf,
+        /// Why.
+        source: io::Error,
+    },
+    /// The monitor socket failed while it was read.
+    #[error("the monitor socket failed: {0}")]
+    MonitorLost(#[source] io::Error),
     /// A module's refusal with what the parameter tables say about it.
     #[error("{source}: {explanation}")]
     Explained {
@@ -142,8 +174,15 @@ impl CliError {
     pub(crate) fn kind(&self) -> &'static str {
         match self {
             CliError::Explained { source, .. } | CliError::Host(source) => host_kind(source),
-            CliError::Usage(_) => "usage",
-            CliError::Input(_) | CliError::Read { .. } | CliError::Content { .. } | CliError::World(_) => "input",
+            CliError::Usage(_)
+            | CliError::Setup(_)
+            | CliError::Unfit { .. }
+            | CliError::Serve(tmcl_serve::ServeError::Config(_)) => "usage",
+            CliError::Read { .. }
+            | CliError::Content { .. }
+            | CliError::World(_)
+            | CliError::Source(_)
+            | CliError::Serve(tmcl_serve::ServeError::Input(_)) => "input",
             CliError::Assembly { .. } => "assembly",
             CliError::Io(_)
             | CliError::Output(_)
@@ -152,7 +191,11 @@ impl CliError {
             | CliError::Signals(_)
             | CliError::Draw { .. }
             | CliError::Eeprom(_)
-            | CliError::Workbench(_) => "io",
+            | CliError::Workbench(_)
+            | CliError::Esi(_)
+            | CliError::MonitorSocket { .. }
+            | CliError::MonitorLost(_)
+            | CliError::Serve(tmcl_serve::ServeError::Io(_)) => "io",
             CliError::NotMet(_) => "not_met",
             CliError::Refused(_) => "status",
         }

@@ -35,7 +35,7 @@ pub(crate) fn run(args: EsiArgs, json: bool) -> Result<(), CliError> {
     let spec = crate::names::model_by_id(&args.module)?;
     let map = spec.ethercat.ok_or_else(|| CliError::Usage(format!("the {} has no EtherCAT interface", spec.name)))?;
     let mut xml = String::new();
-    tmcl_ethercat::esi::write(spec, map, &mut xml).map_err(|e| CliError::Io(format!("ESI: {e}")))?;
+    tmcl_ethercat::esi::write(spec, map, &mut xml).map_err(CliError::Esi)?;
     let mut stdout = std::io::stdout();
     match &args.output {
         Some(path) => {

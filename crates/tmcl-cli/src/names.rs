@@ -9,12 +9,10 @@ use crate::connection::{Connection, HostClient};
 use crate::error::{CliError, ReplyJson};
 use clap::{Args, ValueEnum};
 use std::io::Write;
+use tmcl_core::model::names::{self as by_name, NameError, INTERRUPT_BANK};
 use tmcl_core::model::{self, ModelSpec, ParamDesc, Table, Unit};
 use tmcl_host::HostError;
 use tmcl_wire::{Instruction, Opcode, Reply, Status};
-
-/// The bank of the interrupt configuration (PD28-1021 manual §5.4).
-const INTERRUPT_BANK: u8 = 3;
 
 /// `--module MODEL`: which parameter tables the names come from.
 #[derive(Debug, Clone, Args)]
@@ -82,9 +80,9 @@ impl Models {
             ParamRef::Axis { param, motor } => (param, true, Some(motor)),
             ParamRef::Global { param, bank } => (param, false, bank),
         };
-        if let Some(number) = parse_number(text) {
+        if let Some(number) = param_number(text) {
             let index = index.unwrap_or(0);
-            let desc = self.known.and_then(|m| table_of(m, axis, index)).and_then(|t| find(t, number));
+            let desc = self.known.and_then(|m| by_name::find(m, axis, index, number));
             return Ok(Target { axis, number, index, desc, model: self.known });
         }
         let model = self.get(client)?;
@@ -92,94 +90,25 @@ impl Models {
     }
 }
 
-/// The table of axis parameters, or of global parameters in `bank` (0 or 3), if the model has one there.
-fn table_of(model: &'static ModelSpec, axis: bool, bank: u8) -> Option<&'static Table> {
-    match (axis, bank) {
-        (true, _) => Some(&model.axis),
-        (false, 0) => Some(&model.global),
-        (false, INTERRUPT_BANK) => Some(&model.interrupt),
-        (false, _) => None,
-    }
-}
-
-fn find(table: &'static Table, number: u8) -> Option<&'static ParamDesc> {
-    table.params.iter().find(|d| d.number == number)
-}
-
 /// `target` with the descriptor `model` has for its number.
 pub(crate) fn lookup_number(model: &'static ModelSpec, target: Target) -> Target {
-    let desc = table_of(model, target.axis, target.index).and_then(|t| find(t, target.number));
+    let desc = by_name::find(model, target.axis, target.index, target.number);
     Target { desc, model: Some(model), ..target }
 }
 
-/// Letters and digits only, lower case: how names are compared.
-fn normalize(text: &str) -> String {
-    text.chars().filter(char::is_ascii_alphanumeric).map(|c| c.to_ascii_lowercase()).collect()
-}
-
-/// Finds a parameter of `model` by name.
+/// Finds a parameter of `model` by name ([`tmcl_core::model::names::lookup`]); `index` is the motor of an axis
+/// parameter or the bank of a global one.
 pub(crate) fn lookup(model: &'static ModelSpec, text: &str, axis: bool, index: Option<u8>) -> Result<Target, CliError> {
-    let wanted = normalize(text);
-    // (table, bank or motor, include-file prefix)
-    let tables: Vec<(&'static Table, u8, &str)> = if axis {
-        vec![(&model.axis, index.unwrap_or(0), "ap")]
-    } else {
-        vec![(&model.global, 0, "gp"), (&model.interrupt, INTERRUPT_BANK, "ip")]
-    };
-    for (table, table_index, prefix) in &tables {
-        for desc in table.params {
-            let ident = normalize(desc.ident);
-            let matches = wanted == ident
-                || wanted.strip_prefix(prefix).is_some_and(|w| w == ident)
-                || wanted == normalize(desc.name);
-            if !matches {
-                continue;
-            }
-            if let (false, Some(bank)) = (axis, index) {
-                if bank != *table_index {
-                    return Err(CliError::Usage(format!(
-                        "{} is a parameter of bank {table_index}, not of bank {bank}",
-                        desc.ident
-                    )));
-                }
-            }
-            return Ok(Target { axis, number: desc.number, index: *table_index, desc: Some(desc), model: Some(model) });
+    match by_name::lookup(model, text, axis, if axis { None } else { index }) {
+        Ok(found) => {
+            let index = if axis { index.unwrap_or(0) } else { found.bank };
+            Ok(Target { axis, number: found.number, index, desc: Some(found.desc), model: Some(model) })
         }
+        Err(e @ NameError::Unknown { .. }) => {
+            Err(CliError::Usage(format!("{e} (`tmcl params --module {}` lists them)", model.id)))
+        }
+        Err(e) => Err(CliError::Usage(e.to_string())),
     }
-    let kind = if axis { "axis" } else { "global" };
-    let candidates: Vec<&str> = tables.iter().flat_map(|(t, _, _)| t.params.iter().map(|d| d.ident)).collect();
-    let hint = match suggestions(text, &candidates).as_slice() {
-        [] => String::new(),
-        [one] => format!("; did you mean {one}?"),
-        several => format!("; did you mean one of {}?", several.join(", ")),
-    };
-    Err(CliError::Usage(format!(
-        "the {} has no {kind} parameter named {text:?}{hint} (`tmcl params --module {}` lists them)",
-        model.name, model.id
-    )))
-}
-
-/// The names a user probably meant by `text`: the closest by spelling, else those that contain its letters
-/// in order (`maxspeed` → `MaxPositioningSpeed`), shortest first, at most three.
-fn suggestions<'c>(text: &str, candidates: &[&'c str]) -> Vec<&'c str> {
-    if let Some(name) = tmcl_asm::suggest::closest(text, candidates.iter().copied()) {
-        return vec![name];
-    }
-    let wanted = normalize(text);
-    if wanted.len() < 3 {
-        return Vec::new();
-    }
-    let mut found: Vec<&str> = candidates
-        .iter()
-        .copied()
-        .filter(|c| {
-            let mut letters = normalize(c).into_bytes().into_iter();
-            wanted.bytes().all(|w| letters.any(|l| l == w))
-        })
-        .collect();
-    found.sort_by_key(|c| c.len());
-    found.truncate(3);
-    found
 }
 
 /// A resolved parameter: what to send, and what the tables say about it.
@@ -294,34 +223,25 @@ impl Target {
         }
     }
 
-    /// A refusal of the module, explained from the tables where they say why.
+    /// A refusal of the module, explained from the tables where they say why
+    /// ([`tmcl_core::model::names::explain`]).
     pub(crate) fn explain(&self, err: HostError, value: Option<i32>) -> CliError {
         let HostError::Status { status, .. } = &err else { return err.into() };
-        let kind = if self.axis { "axis" } else { "global" };
-        let explanation = match (self.model, self.desc, status) {
-            (Some(model), _, Status::InvalidValue) if self.axis && self.index >= model.motors => {
-                format!("{} (--motor {} given)", motors_of(model), self.index)
+        if let Some(model) =
+            self.model.filter(|m| self.axis && *status == Status::InvalidValue && self.index >= m.motors)
+        {
+            let explanation = format!("{} (--motor {} given)", motors_of(model), self.index);
+            return CliError::Explained { source: err, explanation };
+        }
+        let Some(refusal) = by_name::explain(self.model, self.axis, self.index, self.number, *status, value, false)
+        else {
+            return err.into();
+        };
+        let explanation = match (&refusal, self.model) {
+            (by_name::Refusal::NoSuchParam { .. }, Some(model)) => {
+                format!("{refusal} (`tmcl params --module {}` lists them)", model.id)
             }
-            (Some(model), None, Status::WrongType) => {
-                let place = if self.axis { String::new() } else { format!(" in bank {}", self.index) };
-                format!(
-                    "the {} has no {kind} parameter {}{place} (`tmcl params --module {}` lists them)",
-                    model.name, self.number, model.id
-                )
-            }
-            (_, Some(desc), Status::WrongType) if value.is_some() && !desc.access.write => {
-                format!("{} is read-only ({})", desc.ident, desc.access)
-            }
-            (_, Some(desc), Status::WrongType) if value.is_none() && !desc.access.read => {
-                format!("{} cannot be read ({})", desc.ident, desc.access)
-            }
-            (_, Some(desc), Status::InvalidValue) if value.is_some_and(|v| !desc.range.contains(v)) => {
-                format!("{} takes {}", desc.ident, desc.range)
-            }
-            (_, _, Status::PasswordProtected) => {
-                "the parameter is password protected: write the password to the model's password parameter first".into()
-            }
-            _ => return err.into(),
+            _ => refusal.to_string(),
         };
         CliError::Explained { source: err, explanation }
     }
@@ -336,11 +256,8 @@ pub(crate) fn motors_of(model: &ModelSpec) -> String {
 }
 
 /// A parameter number: decimal or 0x hexadecimal, 0..255.
-fn parse_number(text: &str) -> Option<u8> {
-    match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
-        Some(hex) => u8::from_str_radix(hex, 16).ok(),
-        None => text.parse().ok(),
-    }
+fn param_number(text: &str) -> Option<u8> {
+    crate::args::parse_number(text).and_then(|n| u8::try_from(n).ok())
 }
 
 /// Which tables `tmcl params` lists.
@@ -511,6 +428,7 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
 mod tests {
     use super::*;
     use tmcl_core::model::Range;
+    use tmcl_wire::Status;
 
     fn pd28() -> &'static ModelSpec {
         model::by_id("pd28-1021").unwrap()

@@ -140,3 +140,48 @@ pub(crate) struct Met {
     pub met: bool,
     pub value: i32,
 }
+
+/// `tmcl watch`: one row, the time since the start and each value by its column's label (`ap 1
+/// ActualPosition`, `io 0:1`). Keys in the order of their names, as the output always had them; a label
+/// given twice is one key, with the later column's value.
+#[derive(Debug)]
+pub(crate) struct WatchRow<'a> {
+    pub time_s: f64,
+    pub labels: &'a [String],
+    pub values: &'a [i32],
+}
+
+impl Serialize for WatchRow<'_> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        #[derive(Serialize)]
+        #[serde(untagged)]
+        enum Cell {
+            Time(f64),
+            Value(i32),
+        }
+        let mut cells = std::collections::BTreeMap::new();
+        cells.insert("time_s", Cell::Time(self.time_s));
+        for (label, value) in self.labels.iter().zip(self.values) {
+            cells.insert(label.as_str(), Cell::Value(*value));
+        }
+        let mut map = serializer.serialize_map(Some(cells.len()))?;
+        for (key, cell) in &cells {
+            map.serialize_entry(key, cell)?;
+        }
+        map.end()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn watch_rows_keep_their_shape() {
+        let labels = ["gp 0 (bank 2)".to_string(), "ap 1 ActualPosition".to_string(), "gp 0 (bank 2)".to_string()];
+        let row = WatchRow { time_s: 0.25, labels: &labels, values: &[7, -5, 9] };
+        let text = serde_json::to_string(&row).unwrap();
+        assert_eq!(text, r#"{"ap 1 ActualPosition":-5,"gp 0 (bank 2)":9,"time_s":0.25}"#);
+    }
+}

@@ -93,157 +93,172 @@ pub struct StartArgs {
 
 /// Runs a program command.
 pub(crate) fn run(cmd: ProgramCommand, json: bool) -> Result<(), CliError> {
-    let mut out = std::io::stdout().lock();
+    let out = &mut std::io::stdout().lock();
     match cmd {
-        ProgramCommand::Download(args) => {
-            let program = load(&args.file)?;
-            let mut client = args.conn.open()?;
-            let bar = progress(program.len() as u64, "download");
-            let mut stored = 0;
-            let downloaded = client.download_program(&program, args.at, |n| {
-                stored = n;
-                bar.set_position(n as u64)
-            });
-            bar.finish_and_clear();
-            if let Err(source) = downloaded {
-                // Say how far it got: the module holds the first `stored` instructions, the rest is whatever
-                // was there before.
-                let end = usize::from(args.at) + stored;
-                return Err(CliError::Explained {
-                    source,
-                    explanation: format!(
-                        "download interrupted: {stored} of {} instructions stored (addresses {}..{end}); the \
-                         program in the module is incomplete, download it again",
-                        program.len(),
-                        args.at
-                    ),
-                });
-            }
-            if args.verify {
-                for (n, expected) in program.iter().enumerate() {
-                    let got = client.read_program_memory(args.at + n as u16)?;
-                    if got != *expected {
-                        return Err(CliError::Io(format!(
-                            "verify failed at address {}: stored {got}, expected {expected}",
-                            usize::from(args.at) + n
-                        )));
-                    }
-                }
-            }
-            if json {
-                let verified = args.verify;
-                json_line(&mut out, &Downloaded { at: args.at, stored: program.len(), verified })?;
-            } else {
-                writeln!(
-                    &mut out,
-                    "stored {} instructions at {}..{}{}",
-                    program.len(),
-                    args.at,
-                    usize::from(args.at) + program.len(),
-                    if args.verify { ", verified" } else { "" }
-                )?;
+        ProgramCommand::Download(args) => download(args, json, out),
+        ProgramCommand::Upload(args) => upload(args, json, out),
+        ProgramCommand::Start(args) => start(args, json, out),
+        ProgramCommand::Stop { conn } => stop(conn, json, out),
+        ProgramCommand::Status { conn } => status(conn, json, out),
+    }
+}
+
+/// `tmcl download`: assembles or reads the program, stores it from `--at` (commands 132, 133) and reads it
+/// back with `--verify` (134).
+fn download(args: DownloadArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    let program = load(&args.file)?;
+    let mut client = args.conn.open()?;
+    let bar = progress(program.len() as u64, "download");
+    let mut stored = 0;
+    let downloaded = client.download_program(&program, args.at, |n| {
+        stored = n;
+        bar.set_position(n as u64)
+    });
+    bar.finish_and_clear();
+    if let Err(source) = downloaded {
+        // Say how far it got: the module holds the first `stored` instructions, the rest is whatever
+        // was there before.
+        let end = usize::from(args.at) + stored;
+        return Err(CliError::Explained {
+            source,
+            explanation: format!(
+                "download interrupted: {stored} of {} instructions stored (addresses {}..{end}); the \
+                 program in the module is incomplete, download it again",
+                program.len(),
+                args.at
+            ),
+        });
+    }
+    if args.verify {
+        for (n, expected) in program.iter().enumerate() {
+            let got = client.read_program_memory(args.at + n as u16)?;
+            if got != *expected {
+                return Err(CliError::Io(format!(
+                    "verify failed at address {}: stored {got}, expected {expected}",
+                    usize::from(args.at) + n
+                )));
             }
         }
-        ProgramCommand::Upload(args) => {
-            let mut client = args.conn.open()?;
-            let bar = progress(u64::from(args.count), "upload");
-            let program = client.upload_program(args.count, |n| bar.set_position(n as u64))?;
-            bar.finish_and_clear();
-            let output = |source: std::io::Error, path: &Path| CliError::Write {
-                action: "write",
-                path: path.to_path_buf(),
-                source,
-            };
-            match &args.output {
-                Some(path) if path.extension().is_some_and(|e| e == "bin") => {
-                    std::fs::write(path, tmcl_asm::to_bin(&program)).map_err(|e| output(e, path))?;
-                }
-                Some(path) => std::fs::write(path, disassemble(&program)).map_err(|e| output(e, path))?,
-                None if json => {}
-                None => out.write_all(disassemble(&program).as_bytes())?,
-            }
-            match (&args.output, json) {
-                (Some(path), true) => json_line(
-                    &mut out,
-                    &Uploaded { output: Some(path.display().to_string()), read: program.len(), source: None },
-                )?,
-                (None, true) => {
-                    let source = disassemble(&program);
-                    json_line(&mut out, &Uploaded { output: None, read: program.len(), source: Some(source) })?
-                }
-                (Some(_), false) => eprintln!("read {} instructions", program.len()),
-                (None, false) => {}
-            }
+    }
+    if json {
+        let verified = args.verify;
+        json_line(out, &Downloaded { at: args.at, stored: program.len(), verified })?;
+    } else {
+        writeln!(
+            out,
+            "stored {} instructions at {}..{}{}",
+            program.len(),
+            args.at,
+            usize::from(args.at) + program.len(),
+            if args.verify { ", verified" } else { "" }
+        )?;
+    }
+    Ok(())
+}
+
+/// `tmcl upload`: reads the program back (command 134) and disassembles it.
+fn upload(args: UploadArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    let mut client = args.conn.open()?;
+    let bar = progress(u64::from(args.count), "upload");
+    let program = client.upload_program(args.count, |n| bar.set_position(n as u64))?;
+    bar.finish_and_clear();
+    let output =
+        |source: std::io::Error, path: &Path| CliError::Write { action: "write", path: path.to_path_buf(), source };
+    match &args.output {
+        Some(path) if path.extension().is_some_and(|e| e == "bin") => {
+            std::fs::write(path, tmcl_asm::to_bin(&program)).map_err(|e| output(e, path))?;
         }
-        ProgramCommand::Start(args) => {
-            let at = match &args.at {
-                None => None,
-                Some(at) => Some(resolve(at, args.program.as_deref())?),
-            };
-            args.conn.open()?.run_program(at)?;
-            match (at, json) {
-                (at, true) => json_line(&mut out, &Started { from: at, running: true })?,
-                (Some(a), false) => writeln!(out, "running from {a}")?,
-                (None, false) => writeln!(out, "running")?,
-            }
+        Some(path) => std::fs::write(path, disassemble(&program)).map_err(|e| output(e, path))?,
+        None if json => {}
+        None => out.write_all(disassemble(&program).as_bytes())?,
+    }
+    match (&args.output, json) {
+        (Some(path), true) => {
+            json_line(out, &Uploaded { output: Some(path.display().to_string()), read: program.len(), source: None })?
         }
-        ProgramCommand::Stop { conn } => {
-            conn.open()?.stop_program()?;
-            if json {
-                json_line(&mut out, &Stopped { stopped: true })?;
-            } else {
-                writeln!(out, "stopped")?;
-            }
+        (None, true) => {
+            let source = disassemble(&program);
+            json_line(out, &Uploaded { output: None, read: program.len(), source: Some(source) })?
         }
-        ProgramCommand::Status { conn } => {
-            let mut client = conn.open()?;
-            // A model whose 135 answers the state alone, whatever the type (the PDx-113, its manual §5.5),
-            // has no accumulator or X register to ask for, and its program counter is GP 130 (asking 135
-            // types 1 to 3 would print the state three times). Which form a module has follows from its
-            // version string.
-            let model = client.version_string().ok().and_then(|text| tmcl_core::model::by_version(&text));
-            if let Some(model) = model.filter(|m| m.app_status == tmcl_core::model::AppStatusReply::Plain) {
-                let request = tmcl_wire::Command::GetStatus { kind: tmcl_wire::StatusKind::MemoryPointer };
-                let mode = client.request(request.encode())?.value as u8;
-                let text = tmcl_host::ApplicationStatus::name_of(mode);
-                let pc = match model.global.role(tmcl_core::model::Role::ProgramCounter) {
-                    Some(i) => Some(client.get_global_parameter(model.global.params[i].number, 0)?),
-                    None => None,
-                };
-                match (json, pc) {
-                    (true, pc) => {
-                        let row =
-                            ProgramStatus { accumulator: None, mode, mode_text: text, pc, waiting: None, x: None };
-                        json_line(&mut out, &row)?
-                    }
-                    (false, Some(pc)) => writeln!(out, "{text}, pc {pc}")?,
-                    (false, None) => writeln!(out, "{text}")?,
-                }
-                return Ok(());
+        (Some(_), false) => eprintln!("read {} instructions", program.len()),
+        (None, false) => {}
+    }
+    Ok(())
+}
+
+/// `tmcl start`: runs the stored program (command 129), from a label or address with `--at`.
+fn start(args: StartArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    let at = match &args.at {
+        None => None,
+        Some(at) => Some(resolve(at, args.program.as_deref())?),
+    };
+    args.conn.open()?.run_program(at)?;
+    match (at, json) {
+        (at, true) => json_line(out, &Started { from: at, running: true })?,
+        (Some(a), false) => writeln!(out, "running from {a}")?,
+        (None, false) => writeln!(out, "running")?,
+    }
+    Ok(())
+}
+
+/// `tmcl stop` (command 128).
+fn stop(conn: Connection, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    conn.open()?.stop_program()?;
+    if json {
+        json_line(out, &Stopped { stopped: true })?;
+    } else {
+        writeln!(out, "stopped")?;
+    }
+    Ok(())
+}
+
+/// `tmcl status`: the program's state (command 135, or GP 130 where 135 answers the state alone).
+fn status(conn: Connection, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
+    let mut client = conn.open()?;
+    // A model whose 135 answers the state alone, whatever the type (the PDx-113, its manual §5.5),
+    // has no accumulator or X register to ask for, and its program counter is GP 130 (asking 135
+    // types 1 to 3 would print the state three times). Which form a module has follows from its
+    // version string.
+    let model = client.version_string().ok().and_then(|text| tmcl_core::model::by_version(&text));
+    if let Some(model) = model.filter(|m| m.app_status == tmcl_core::model::AppStatusReply::Plain) {
+        let request = tmcl_wire::Command::GetStatus { kind: tmcl_wire::StatusKind::MemoryPointer };
+        let mode = client.request(request.encode())?.value as u8;
+        let text = tmcl_host::ApplicationStatus::name_of(mode);
+        let pc = match model.global.role(tmcl_core::model::Role::ProgramCounter) {
+            Some(i) => Some(client.get_global_parameter(model.global.params[i].number, 0)?),
+            None => None,
+        };
+        match (json, pc) {
+            (true, pc) => {
+                let row = ProgramStatus { accumulator: None, mode, mode_text: text, pc, waiting: None, x: None };
+                json_line(out, &row)?
             }
-            let s = client.application_status()?;
-            if json {
-                let row = ProgramStatus {
-                    accumulator: Some(s.accumulator),
-                    mode: s.mode,
-                    mode_text: s.mode_name(),
-                    pc: Some(i32::from(s.pc)),
-                    waiting: Some(s.waiting),
-                    x: Some(s.x),
-                };
-                json_line(&mut out, &row)?;
-            } else {
-                writeln!(
-                    &mut out,
-                    "{}{}, pc {}, accumulator {}, x {}",
-                    s.mode_name(),
-                    if s.waiting { " (waiting)" } else { "" },
-                    s.pc,
-                    s.accumulator,
-                    s.x
-                )?;
-            }
+            (false, Some(pc)) => writeln!(out, "{text}, pc {pc}")?,
+            (false, None) => writeln!(out, "{text}")?,
         }
+        return Ok(());
+    }
+    let s = client.application_status()?;
+    if json {
+        let row = ProgramStatus {
+            accumulator: Some(s.accumulator),
+            mode: s.mode,
+            mode_text: s.mode_name(),
+            pc: Some(i32::from(s.pc)),
+            waiting: Some(s.waiting),
+            x: Some(s.x),
+        };
+        json_line(out, &row)?;
+    } else {
+        writeln!(
+            out,
+            "{}{}, pc {}, accumulator {}, x {}",
+            s.mode_name(),
+            if s.waiting { " (waiting)" } else { "" },
+            s.pc,
+            s.accumulator,
+            s.x
+        )?;
     }
     Ok(())
 }

@@ -10,9 +10,7 @@ use serde::Serialize;
 use std::io::{self, Write};
 use std::path::PathBuf;
 use tmcl_core::model::{self, ModelSpec};
-use tmcl_serve::{
-    EtherCatOptions, Fleet, LinkOptions, ModuleInfo, ModuleOptions, MonitorOptions, Options, ServeError, Server,
-};
+use tmcl_serve::{EtherCatOptions, Fleet, LinkOptions, ModuleInfo, ModuleOptions, MonitorOptions, Options, Server};
 
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
@@ -166,7 +164,8 @@ struct FleetFile {
 /// the command line), paths relative to the file's directory.
 fn fleet_lines(file: &std::path::Path, args: &ServeArgs) -> Result<Vec<ServeArgs>, CliError> {
     let text = std::fs::read_to_string(file).map_err(|source| CliError::Read { path: file.to_path_buf(), source })?;
-    let fleet: FleetFile = toml::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", file.display())))?;
+    let fleet: FleetFile =
+        toml::from_str(&text).map_err(|e| CliError::Content { path: file.to_path_buf(), source: e.into() })?;
     let dir = file.parent().unwrap_or(std::path::Path::new(""));
     let at = |p: PathBuf| if p.is_absolute() { p } else { dir.join(p) };
     let mut lines = Vec::new();
@@ -232,16 +231,6 @@ struct Serving {
 struct ServedModule {
     address: u8,
     model: String,
-}
-
-impl From<ServeError> for CliError {
-    fn from(e: ServeError) -> CliError {
-        match e {
-            ServeError::Config(m) => CliError::Usage(m),
-            ServeError::Input(m) => CliError::Input(m),
-            ServeError::Io(m) => CliError::Io(m),
-        }
-    }
 }
 
 /// Runs the server until SIGINT or SIGTERM.

@@ -98,14 +98,13 @@ pub(crate) fn run(args: ShareArgs, json: bool, verbose: u8) -> Result<(), CliErr
     let share = Share::new(options)?;
     let stop = share.stopper().flag();
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, std::sync::Arc::clone(&stop))
-            .map_err(|e| CliError::Io(format!("cannot handle signals: {e}")))?;
+        signal_hook::flag::register(signal, std::sync::Arc::clone(&stop)).map_err(CliError::Signals)?;
     }
     let places: Vec<String> = share.links().iter().map(ToString::to_string).collect();
     let monitor = share.monitor_socket();
     if json {
         let line = Sharing { sharing: share.device().to_string(), links: places, monitor };
-        println!("{}", serde_json::to_string(&line).map_err(|e| CliError::Io(e.to_string()))?);
+        println!("{}", serde_json::to_string(&line)?);
     } else {
         let watch = monitor.map(|m| format!(" (tmcl monitor --socket {})", m.display())).unwrap_or_default();
         println!("sharing {} on {}{watch}", share.device(), places.join(" and "));
@@ -137,17 +136,12 @@ pub(crate) fn monitor(args: MonitorArgs, json: bool) -> Result<(), CliError> {
         (None, Some(link)) => socket_beside(link),
         (None, None) => return Err(CliError::Usage("give a LINK or --socket PATH".into())),
     };
-    let stream = std::os::unix::net::UnixStream::connect(&socket).map_err(|e| {
-        CliError::Io(format!(
-            "cannot reach the monitor socket {}: {e}; is a `tmcl share` or `tmcl serve` running with a --pty link \
-             there (or --monitor-socket)?",
-            socket.display()
-        ))
-    })?;
+    let stream = std::os::unix::net::UnixStream::connect(&socket)
+        .map_err(|source| CliError::MonitorSocket { path: socket.clone(), source })?;
     let mut out = std::io::stdout().lock();
     let count = args.count.map_or(usize::MAX, |c| usize::try_from(c).unwrap_or(usize::MAX));
     for line in std::io::BufReader::new(stream).lines().take(count) {
-        let line = line.map_err(|e| CliError::Io(format!("the monitor socket failed: {e}")))?;
+        let line = line.map_err(CliError::MonitorLost)?;
         if json {
             writeln!(out, "{line}")?;
         } else {

@@ -37,7 +37,7 @@ impl SimOptions {
             // Checked against the model here, so that the error names the file.
             SimBoard::in_memory_for(setup.model)
                 .with_world(world.clone())
-                .map_err(|e| CliError::Usage(format!("{}: {e}", path.display())))?;
+                .map_err(|source| CliError::Unfit { path: path.clone(), source })?;
             setup.world = Some(world);
         }
         Ok(setup)
@@ -61,7 +61,7 @@ impl From<SourceError> for CliError {
     fn from(e: SourceError) -> CliError {
         match e {
             SourceError::Assembly { name, diagnostics } => CliError::Assembly { file: name, diagnostics },
-            other => CliError::Input(other.to_string()),
+            other => CliError::Source(other),
         }
     }
 }
@@ -74,5 +74,5 @@ pub(crate) fn setup_error(e: SetupError) -> CliError {
             eprintln!("{d}");
         }
     }
-    CliError::Usage(e.to_string())
+    CliError::Setup(e)
 }

@@ -49,9 +49,7 @@ pub(crate) fn run(args: UiArgs, json: bool) -> Result<(), CliError> {
     };
     // The same way of opening, for when the link goes away and comes back (a restarted `tmcl serve`).
     let conn = args.conn.clone();
-    let reopen = tmcl_ui::Reopen(std::sync::Arc::new(move || {
-        conn.open().map_err(|e| tmcl_host::HostError::Io(std::io::Error::other(e.to_string())))
-    }));
+    let reopen = tmcl_ui::Reopen(std::sync::Arc::new(move || conn.connect()));
     let options = tmcl_ui::Options {
         listen: args.listen,
         rate: args.rate.unwrap_or(line_rate),
@@ -64,12 +62,11 @@ pub(crate) fn run(args: UiArgs, json: bool) -> Result<(), CliError> {
         let url = format!("http://{addr}/");
         let mut out = std::io::stdout().lock();
         // The first line is the address, for scripts; then how to stop.
-        let _ = if json {
-            crate::output::json_line(&mut out, &crate::output::Workbench { address, url: url.clone() })
-                .map_err(|e| std::io::Error::other(e.to_string()))
+        if json {
+            let _ = crate::output::json_line(&mut out, &crate::output::Workbench { address, url: url.clone() });
         } else {
-            writeln!(out, "{url}")
-        };
+            let _ = writeln!(out, "{url}");
+        }
         let _ = out.flush();
         eprintln!("tmcl ui: the workbench of module {address} is at {url} (Ctrl-C stops it)");
     })

@@ -1,19 +1,19 @@
 //! `tmcl wait` and `tmcl watch`: poll a module until something is true, or print values as they change.
 //!
-//! Both only read (GAP, GGP, GIO, RFS STATUS), one request at a time, so they never ask faster than the
-//! line answers, and they work on real and virtual modules alike.
+//! The polling itself is the host library's ([`tmcl_host::poll`]): both only read, one request at a time.
+//! Here: the arguments, the names of what is read, and the printing.
 
 use crate::args::{parse_byte, parse_seconds, parse_value};
 use crate::connection::{Connection, HostClient};
 use crate::error::CliError;
 use crate::names::{ModelOption, Models, ParamRef, Target};
 use clap::{Args, Subcommand, ValueEnum};
-use serde_json::json;
 use std::io::Write;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
-use tmcl_wire::{Instruction, Opcode, RfsAction};
+use std::time::Duration;
+use tmcl_core::model::Role;
+use tmcl_host::poll::{self, Comparison, Reading};
 
 /// Options of `tmcl wait`.
 #[derive(Debug, Clone, Args)]
@@ -35,8 +35,8 @@ pub struct WaitArgs {
 /// What `tmcl wait` waits for.
 #[derive(Debug, Clone, Subcommand)]
 pub enum WaitFor {
-    /// Until the motor has reached its target position: the position reached flag AP 8 reads 1
-    /// (PD28-1021 manual §4 Table 15; on a closed-loop module, within the position window AP 134).
+    /// Until the motor has reached its target position: the model's position reached flag (AP 8, PD28-1021
+    /// manual §4 Table 15) reads 1 (on a closed-loop module, within the position window AP 134).
     Reached {
         /// Motor number.
         #[arg(long, short, default_value_t = 0)]
@@ -77,51 +77,8 @@ pub enum Kind {
     Io,
 }
 
-/// A comparison of `tmcl wait value`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Comparison {
-    Eq,
-    Ne,
-    Lt,
-    Le,
-    Gt,
-    Ge,
-}
-
-impl Comparison {
-    fn holds(self, a: i32, b: i32) -> bool {
-        match self {
-            Comparison::Eq => a == b,
-            Comparison::Ne => a != b,
-            Comparison::Lt => a < b,
-            Comparison::Le => a <= b,
-            Comparison::Gt => a > b,
-            Comparison::Ge => a >= b,
-        }
-    }
-
-    fn symbol(self) -> &'static str {
-        match self {
-            Comparison::Eq => "==",
-            Comparison::Ne => "!=",
-            Comparison::Lt => "<",
-            Comparison::Le => "<=",
-            Comparison::Gt => ">",
-            Comparison::Ge => ">=",
-        }
-    }
-}
-
 fn parse_comparison(text: &str) -> Result<Comparison, String> {
-    Ok(match text.to_ascii_lowercase().as_str() {
-        "eq" | "==" | "=" => Comparison::Eq,
-        "ne" | "!=" => Comparison::Ne,
-        "lt" | "<" => Comparison::Lt,
-        "le" | "<=" => Comparison::Le,
-        "gt" | ">" => Comparison::Gt,
-        "ge" | ">=" => Comparison::Ge,
-        _ => return Err(format!("`{text}` is no comparison: use eq, ne, lt, le, gt or ge")),
-    })
+    text.parse()
 }
 
 /// One value to read: a parameter or a port.
@@ -161,13 +118,14 @@ impl Source {
         }
     }
 
-    fn read(&self, client: &mut HostClient) -> Result<i32, CliError> {
-        let instruction = match self {
-            Source::Param(target) => target.instruction(target.read_opcode(), 0),
-            Source::Port { port, bank } => Instruction::new(Opcode::Gio, *port, *bank, 0),
-            Source::Reference { motor } => return Ok(client.reference_search(RfsAction::Status, *motor)?),
-        };
-        Ok(client.request(instruction)?.value)
+    /// What the module is asked.
+    fn reading(&self) -> Reading {
+        match self {
+            Source::Param(target) if target.axis => Reading::Axis { param: target.number, motor: target.index },
+            Source::Param(target) => Reading::Global { param: target.number, bank: target.index },
+            Source::Port { port, bank } => Reading::Port { port: *port, bank: *bank },
+            Source::Reference { motor } => Reading::Reference { motor: *motor },
+        }
     }
 }
 
@@ -180,21 +138,22 @@ fn interrupted() -> Result<Arc<AtomicBool>, CliError> {
     Ok(flag)
 }
 
-/// Sleeps until `deadline`, waking up early on an interrupt.
-fn pause_until(deadline: Instant, stop: &AtomicBool) {
-    while !stop.load(Ordering::Relaxed) {
-        let Some(left) = deadline.checked_duration_since(Instant::now()) else { return };
-        std::thread::sleep(left.min(Duration::from_millis(50)));
-    }
-}
-
 /// `tmcl wait`.
 pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<(), CliError> {
     let mut client = args.conn.open()?;
     let mut models = Models::new(&args.model)?;
     let (source, op, wanted) = match &args.what {
         WaitFor::Reached { motor } => {
-            let target = models.resolve(ParamRef::Axis { param: "8", motor: *motor }, &mut client)?;
+            // By meaning: the model's position-reached flag; AP 8, which every TMCL module shares (PD28-1021
+            // manual §4 Table 15), when the module's version is not one of our tables.
+            let model = match models.get(&mut client) {
+                Ok(model) => Some(model),
+                Err(CliError::Host(e)) => return Err(e.into()),
+                Err(_) => None,
+            };
+            let flag = model.and_then(|m| m.axis.role(Role::PositionReached).map(|i| m.axis.params[i].number));
+            let number = flag.unwrap_or(8).to_string();
+            let target = models.resolve(ParamRef::Axis { param: &number, motor: *motor }, &mut client)?;
             (Source::Param(target), Comparison::Eq, 1)
         }
         WaitFor::Reference { motor } => (Source::Reference { motor: *motor }, Comparison::Eq, 0),
@@ -203,16 +162,20 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
         }
     };
     let condition = match &args.what {
-        WaitFor::Reached { motor } => format!("motor {motor} reached its target (ap 8 == 1)"),
+        WaitFor::Reached { motor } => {
+            let number = match &source {
+                Source::Param(target) => target.number,
+                _ => 8,
+            };
+            format!("motor {motor} reached its target (ap {number} == 1)")
+        }
         WaitFor::Reference { motor } => format!("the reference search of motor {motor} ended (RFS STATUS == 0)"),
         WaitFor::Value { .. } => format!("{} {} {wanted}", source.label(), op.symbol()),
     };
     let stop = interrupted()?;
-    let started = Instant::now();
-    loop {
-        let value = source.read(&mut client)?;
-        let elapsed = started.elapsed();
-        if op.holds(value, wanted) {
+    let waited = poll::wait_until(&mut client, source.reading(), op, wanted, args.every, args.within, &stop)?;
+    let (why, value) = match waited {
+        poll::Waited::Met { value, elapsed } => {
             if json {
                 let row = crate::output::Met {
                     condition: condition.to_string(),
@@ -226,20 +189,12 @@ pub(crate) fn wait(args: WaitArgs, json: bool, out: &mut dyn Write) -> Result<()
             }
             return Ok(());
         }
-        let gave_up = args.within.is_some_and(|w| elapsed >= w);
-        if gave_up || stop.load(Ordering::Relaxed) {
-            let why = match args.within {
-                Some(w) if gave_up => format!("within {} s", w.as_secs_f64()),
-                _ => "before the interrupt".into(),
-            };
-            return Err(CliError::NotMet(format!("not {why}: {condition} (last value {value})")));
+        poll::Waited::TimedOut { value } => {
+            (format!("within {} s", args.within.unwrap_or_default().as_secs_f64()), value)
         }
-        let pause = match args.within {
-            Some(w) => args.every.min(w.saturating_sub(elapsed)),
-            None => args.every,
-        };
-        pause_until(Instant::now() + pause, &stop);
-    }
+        poll::Waited::Stopped { value } => ("before the interrupt".to_string(), value),
+    };
+    Err(CliError::NotMet(format!("not {why}: {condition} (last value {value})")))
 }
 
 /// Options of `tmcl watch`.
@@ -293,37 +248,22 @@ pub(crate) fn watch(args: WatchArgs, json: bool, out: &mut dyn Write) -> Result<
         out.flush()?;
     }
     let stop = interrupted()?;
-    let started = Instant::now();
-    let mut rows = 0u64;
-    while !stop.load(Ordering::Relaxed) {
-        let t = started.elapsed();
-        if args.duration.is_some_and(|d| t > d) || args.count.is_some_and(|n| rows >= n) {
-            break;
-        }
-        let mut values = Vec::with_capacity(sources.len());
-        for source in &sources {
-            values.push(source.read(&mut client)?);
-        }
+    let readings: Vec<Reading> = sources.iter().map(Source::reading).collect();
+    let limits = poll::Limits { count: args.count, duration: args.duration };
+    poll::watch(&mut client, &readings, args.every, limits, &stop, |t, values| -> Result<(), CliError> {
         if json {
-            let mut row = serde_json::Map::new();
-            row.insert("time_s".into(), json!(t.as_millis() as f64 / 1000.0));
-            for (label, value) in labels.iter().zip(&values) {
-                row.insert(label.clone(), json!(value));
-            }
-            writeln!(out, "{}", serde_json::Value::Object(row))?;
+            let time_s = t.as_millis() as f64 / 1000.0;
+            crate::output::json_line(out, &crate::output::WatchRow { time_s, labels: &labels, values })?;
         } else {
             write!(out, "{:>10.3}", t.as_secs_f64())?;
-            for value in &values {
+            for value in values {
                 write!(out, "  {value:>width$}")?;
             }
             writeln!(out)?;
         }
         out.flush()?;
-        rows += 1;
-        // Row n is due n × every after the start; never before the module has answered the last one.
-        pause_until(started + args.every.saturating_mul(u32::try_from(rows).unwrap_or(u32::MAX)), &stop);
-    }
-    Ok(())
+        Ok(())
+    })
 }
 
 #[cfg(test)]
@@ -332,9 +272,7 @@ mod tests {
 
     #[test]
     fn comparisons() {
-        for (text, a, b, holds) in [("ge", 5, 5, true), (">", 5, 5, false), ("lt", -1, 0, true), ("!=", 1, 1, false)] {
-            assert_eq!(parse_comparison(text).unwrap().holds(a, b), holds, "{a} {text} {b}");
-        }
-        assert!(parse_comparison("~").is_err());
+        assert_eq!(parse_comparison(">="), Ok(Comparison::Ge));
+        assert!(parse_comparison("~").unwrap_err().contains("use eq, ne, lt, le, gt or ge"));
     }
 }

@@ -22,7 +22,7 @@ use std::io::{self, Write};
 use tmcl_core::vm::{flags, RunState, INSTRUCTION_TIME, MAX_VECTORS};
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_run::trace::seconds;
-use tmcl_run::{parse_number, poll, state_name, Setup, Source, USER_BANK};
+use tmcl_run::{parse_value, poll, state_name, Setup, Source, USER_BANK};
 use tmcl_sim::SimBoard;
 use tmcl_wire::{Command, Opcode};
 
@@ -486,7 +486,7 @@ impl Session {
         let [what, n] = lhs[..] else {
             return Ok(Err("write `set var N = V`, `set ap N = V` or `set gp N[.B] = V`.".into()));
         };
-        let Some(value) = parse_number(rhs.trim()) else {
+        let Some(value) = parse_value(rhs.trim()) else {
             return Ok(Err(format!("`{}` is not a 32-bit number.", rhs.trim())));
         };
         let command = match parameter(what, n, Some(value)) {

@@ -11,6 +11,7 @@
 //!   reply of command 138, and thin wrappers (`get_axis_parameter`, ...) over
 //!   [`tmcl_wire::Command::encode`]. Framing itself is `tmcl_wire`'s.
 //! - [`HostError`]: what went wrong, in plain words.
+//! - [`poll`]: reading a module until a condition holds, or in rows at a steady pace (`tmcl wait`, `tmcl watch`).
 //!
 //! The behaviour follows what existing host software does (pytrinamic 0.2.26) where that is safe: host address
 //! not checked, statuses 100, 101 and 128 accepted, 5 s default timeout. Unlike pytrinamic, serial ports are
@@ -30,6 +31,7 @@
 
 mod client;
 mod error;
+pub mod poll;
 mod serial;
 mod tcp;
 mod transport;

@@ -31,6 +31,8 @@ pub mod ethercat;
 pub mod interface;
 pub mod interrupt;
 pub mod layout;
+#[cfg(any(test, feature = "std"))]
+pub mod names;
 pub mod param;
 pub mod pd28_1021;
 pub mod pd_113;

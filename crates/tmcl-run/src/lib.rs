@@ -44,7 +44,7 @@ pub mod trace;
 
 pub use refusals::{Refusals, Refused};
 pub use runner::{run, state_name, Options, RunError, Simulation, Summary};
-pub use setup::{parse_number, poll, Setting, Setup, SetupError, Source, SourceError, USER_BANK};
+pub use setup::{parse_value, poll, Setting, Setup, SetupError, Source, SourceError, USER_BANK};
 pub use trace::{
     Column, Csv, Event, Header, Levels, Placement, Quantity, Row, Sink, Stamped, Tee, Trace, Unit, Values, WorldUnit,
 };

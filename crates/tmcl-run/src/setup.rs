@@ -74,7 +74,7 @@ impl FromStr for Setting {
     fn from_str(s: &str) -> Result<Setting, String> {
         let usage = || format!("`{s}` is not a setting: write apN=V, gpN=V or gpN.B=V");
         let (name, value) = s.split_once('=').ok_or_else(usage)?;
-        let value = parse_number(value.trim()).ok_or_else(|| format!("`{}` is not a 32-bit number", value.trim()))?;
+        let value = parse_value(value.trim()).ok_or_else(|| format!("`{}` is not a 32-bit number", value.trim()))?;
         let name = name.trim().to_ascii_lowercase();
         if let Some(n) = name.strip_prefix("ap") {
             let number = n.parse().map_err(|_| usage())?;
@@ -89,19 +89,10 @@ impl FromStr for Setting {
     }
 }
 
-/// A decimal or `0x` hexadecimal number, possibly negative; hexadecimal may spell a negative value as its
-/// 32-bit pattern (`0xFFFFFFFF` = −1).
-pub fn parse_number(s: &str) -> Option<i32> {
-    let (negative, digits) = match s.strip_prefix('-') {
-        Some(rest) => (true, rest),
-        None => (false, s.strip_prefix('+').unwrap_or(s)),
-    };
-    let magnitude = match digits.strip_prefix("0x").or_else(|| digits.strip_prefix("0X")) {
-        Some(hex) => i64::from_str_radix(hex, 16).ok()?,
-        None => digits.parse::<i64>().ok()?,
-    };
-    let v = if negative { -magnitude } else { magnitude };
-    i32::try_from(v).ok().or_else(|| (!negative && v <= i64::from(u32::MAX)).then_some(v as u32 as i32))
+/// A setting's value: a decimal or `0x` hexadecimal number, possibly negative; up to `0xFFFFFFFF`, read as
+/// its 32-bit pattern (`0xFFFFFFFF` = −1). One parser for every tool ([`tmcl_wire::ascii::parse_number`]).
+pub fn parse_value(s: &str) -> Option<i32> {
+    tmcl_wire::ascii::parse_number(s).and_then(tmcl_wire::ascii::value32)
 }
 
 /// Why a program cannot be read.

@@ -1,54 +1,125 @@
-//! What the page learns about the module: the model's tables as JSON, and refusals explained from them.
+//! What the page learns about the module: the model's tables ([`ModelInfo`]), and refusals explained from
+//! them.
 
 use serde::Serialize;
-use serde_json::{json, Value};
 use tmcl_model::{Kinematics, ModelSpec, ParamDesc, PortKind, Range, Role, Setting, Table};
 use tmcl_wire::Status;
 
-/// The bank of the interrupt configuration (PD28-1021 manual §5.4).
-pub(crate) const INTERRUPT_BANK: u8 = 3;
+use tmcl_model::names::INTERRUPT_BANK;
 
 /// One parameter as the page's table shows it.
-fn param_json(kind: &str, bank: Option<u8>, d: &ParamDesc) -> Value {
-    json!({
-        "kind": kind, "bank": bank, "number": d.number, "name": d.ident, "title": d.name,
-        "unit": d.unit.symbol(), "range": d.range.to_string(), "access": d.access.to_string(),
-        "read": d.access.read, "write": d.access.write, "store": d.access.store,
-        "default": d.default, "section": d.section,
-    })
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ParamInfo {
+    /// `ap` or `gp`.
+    pub kind: &'static str,
+    /// The bank of a global parameter (`null` for axis parameters).
+    pub bank: Option<u8>,
+    pub number: u8,
+    /// The identifier (`MaxPositioningSpeed`).
+    pub name: &'static str,
+    /// The manual's name.
+    pub title: &'static str,
+    pub unit: &'static str,
+    /// The range in words (`1..2147483647`).
+    pub range: String,
+    /// `R`, `RW`, `RWE`, ...
+    pub access: String,
+    pub read: bool,
+    pub write: bool,
+    pub store: bool,
+    pub default: i32,
+    /// The manual's section.
+    pub section: &'static str,
+}
+
+impl ParamInfo {
+    fn of(kind: &'static str, bank: Option<u8>, d: &'static ParamDesc) -> ParamInfo {
+        ParamInfo {
+            kind,
+            bank,
+            number: d.number,
+            name: d.ident,
+            title: d.name,
+            unit: d.unit.symbol(),
+            range: d.range.to_string(),
+            access: d.access.to_string(),
+            read: d.access.read,
+            write: d.access.write,
+            store: d.access.store,
+            default: d.default,
+            section: d.section,
+        }
+    }
+}
+
+/// One port as the I/O view shows it.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct PortInfo {
+    pub bank: u8,
+    pub port: u8,
+    /// `input`, `analog`, `temperature` or `output`.
+    pub kind: &'static str,
+    pub name: &'static str,
 }
 
 /// The model as the page needs it: names, tables, ports, counts.
-pub(crate) fn model_json(model: &'static ModelSpec) -> Value {
-    let table = |kind: &str, bank: Option<u8>, t: &Table| -> Vec<Value> {
-        t.params.iter().map(|d| param_json(kind, bank, d)).collect()
-    };
-    let mut params = table("ap", None, &model.axis);
-    params.extend(table("gp", Some(0), &model.global));
-    params.extend(table("gp", Some(INTERRUPT_BANK), &model.interrupt));
-    let ports: Vec<Value> = model
-        .ports
-        .iter()
-        .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps))
-        .map(|p| {
-            let kind = match p.kind {
-                PortKind::DigitalInput(_) | PortKind::EncoderNearZero => "input",
-                PortKind::Analog(_) | PortKind::Analog10(_) => "analog",
-                PortKind::Temperature => "temperature",
-                PortKind::SupplyVoltage => "supply",
-                PortKind::Output(_) => "output",
-                PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps => "all",
-            };
-            json!({"bank": p.bank, "port": p.port, "kind": kind, "name": p.name})
-        })
-        .collect();
-    json!({
-        "id": model.id, "name": model.name, "manual": model.manual, "motors": model.motors,
-        "user_variables": model.user_variables, "program_memory": model.program_memory,
-        "params": params, "ports": ports, "motion": MotionInfo::of(model),
-        "closed_loop": ClosedLoopInfo::of(model),
-        "sample_program": sample_program(model),
-    })
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct ModelInfo {
+    pub id: &'static str,
+    pub name: &'static str,
+    pub manual: &'static str,
+    pub motors: u8,
+    pub user_variables: u16,
+    pub program_memory: u16,
+    /// The axis parameters, then banks 0 and 3.
+    pub params: Vec<ParamInfo>,
+    /// The ports the I/O view shows (not the all-inputs/all-outputs words).
+    pub ports: Vec<PortInfo>,
+    pub motion: MotionInfo,
+    pub closed_loop: Option<ClosedLoopInfo>,
+    /// A first program for the editor.
+    pub sample_program: String,
+}
+
+impl ModelInfo {
+    pub(crate) fn of(model: &'static ModelSpec) -> ModelInfo {
+        let table = |kind, bank, t: &'static Table| t.params.iter().map(move |d| ParamInfo::of(kind, bank, d));
+        let params = table("ap", None, &model.axis)
+            .chain(table("gp", Some(0), &model.global))
+            .chain(table("gp", Some(INTERRUPT_BANK), &model.interrupt))
+            .collect();
+        let ports = model
+            .ports
+            .iter()
+            .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps))
+            .map(|p| PortInfo {
+                bank: p.bank,
+                port: p.port,
+                kind: match p.kind {
+                    PortKind::DigitalInput(_) | PortKind::EncoderNearZero => "input",
+                    PortKind::Analog(_) | PortKind::Analog10(_) => "analog",
+                    PortKind::Temperature => "temperature",
+                    PortKind::SupplyVoltage => "supply",
+                    PortKind::Output(_) => "output",
+                    PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps => "all",
+                },
+                name: p.name,
+            })
+            .collect();
+        ModelInfo {
+            id: model.id,
+            name: model.name,
+            manual: model.manual,
+            motors: model.motors,
+            user_variables: model.user_variables,
+            program_memory: model.program_memory,
+            params,
+            ports,
+            motion: MotionInfo::of(model),
+            closed_loop: ClosedLoopInfo::of(model),
+            sample_program: sample_program(model),
+        }
+    }
 }
 
 /// The smallest and largest value of a range (for the page's number inputs).
@@ -242,16 +313,12 @@ pub(crate) fn explain_motion(model: Option<&'static ModelSpec>, velocity: bool, 
 
 /// The descriptor of a parameter, if the model has it.
 pub(crate) fn find_param(model: &'static ModelSpec, axis: bool, index: u8, number: u8) -> Option<&'static ParamDesc> {
-    let table = match (axis, index) {
-        (true, _) => &model.axis,
-        (false, 0) => &model.global,
-        (false, INTERRUPT_BANK) => &model.interrupt,
-        (false, _) => return None,
-    };
-    table.params.iter().find(|d| d.number == number)
+    tmcl_model::names::find(model, axis, index, number)
 }
 
-/// Why the module refused a parameter request, in words, from what the tables say (as `tmcl set` does).
+/// Why the module refused a parameter request, in words, from what the tables say (as `tmcl set` does:
+/// [`tmcl_model::names::explain`]). `value` is the value of a write; `store` whether it was a store or
+/// restore.
 pub(crate) fn explain(
     model: Option<&'static ModelSpec>,
     axis: bool,
@@ -259,29 +326,9 @@ pub(crate) fn explain(
     number: u8,
     status: Status,
     value: Option<i32>,
+    store: bool,
 ) -> Option<String> {
-    let desc = model.and_then(|m| find_param(m, axis, index, number));
-    let kind = if axis { "axis" } else { "global" };
-    Some(match (model, desc, status) {
-        (Some(model), None, Status::WrongType) => format!("the {} has no {kind} parameter {number}", model.name),
-        (_, Some(d), Status::WrongType) if value.is_some() && !d.access.write => {
-            format!("{} is read-only ({})", d.ident, d.access)
-        }
-        (_, Some(d), Status::WrongType) if value.is_none() && !d.access.read => {
-            format!("{} cannot be read ({})", d.ident, d.access)
-        }
-        (_, Some(d), Status::InvalidValue) if value.is_some_and(|v| !d.range.contains(v)) => {
-            format!("{} takes {}", d.ident, d.range)
-        }
-        (_, Some(d), Status::InvalidValue) if value.is_none() && !d.access.store => {
-            format!("{} cannot be stored in the EEPROM ({})", d.ident, d.access)
-        }
-        (_, _, Status::PasswordProtected) => {
-            "the parameter is password protected: write the password to the model's password parameter first".into()
-        }
-        (_, _, Status::EepromLocked) => "the configuration EEPROM is locked".into(),
-        _ => return None,
-    })
+    tmcl_model::names::explain(model, axis, index, number, status, value, store).map(|r| r.to_string())
 }
 
 #[cfg(test)]
@@ -292,7 +339,7 @@ mod tests {
     #[test]
     fn the_tables_as_json() {
         let m = tmcl_model::by_id("pd28-1021").unwrap();
-        let j = model_json(m);
+        let j = serde_json::to_value(ModelInfo::of(m)).unwrap();
         let params = j["params"].as_array().unwrap();
         let speed = params.iter().find(|p| p["kind"] == "ap" && p["number"] == 4).unwrap();
         assert_eq!(speed["name"], "MaxPositioningSpeed");
@@ -329,11 +376,11 @@ mod tests {
     #[test]
     fn refusals_in_words() {
         let m = tmcl_model::by_id("pd28-1021");
-        let why = explain(m, true, 0, 4, Status::InvalidValue, Some(0)).unwrap();
+        let why = explain(m, true, 0, 4, Status::InvalidValue, Some(0), false).unwrap();
         assert_eq!(why, "MaxPositioningSpeed takes 1..2147483647");
-        let why = explain(m, true, 0, 8, Status::WrongType, Some(1)).unwrap();
+        let why = explain(m, true, 0, 8, Status::WrongType, Some(1), false).unwrap();
         assert_eq!(why, "PositionReachedFlag is read-only (R)");
-        assert!(explain(m, true, 0, 250, Status::WrongType, None).unwrap().contains("no axis parameter 250"));
-        assert_eq!(explain(None, true, 0, 4, Status::InvalidCommand, None), None);
+        assert!(explain(m, true, 0, 250, Status::WrongType, None, false).unwrap().contains("no axis parameter 250"));
+        assert_eq!(explain(None, true, 0, 4, Status::InvalidCommand, None, false), None);
     }
 }

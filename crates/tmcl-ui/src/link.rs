@@ -3,22 +3,21 @@
 //!
 //! **Turns.** The loop takes every job waiting in the queue before the next poll request, so a console
 //! command or a debugger step waits at most for the one poll request already on the line. While the
-//! debugger runs a program to a breakpoint (by single steps, see [`crate::debug`]) steps and polls take
-//! turns, so the plots and the other pages stay live.
+//! debugger runs a program to a breakpoint (by single steps: the workbench's `debug` module) steps and
+//! polls take turns, so the plots and the other pages stay live.
 //!
 //! **Rate.** Every request, jobs and polls alike, goes through one [`Limiter`]: never more requests per
 //! second than the line carries (`baud / 180` on a serial port: a 9-byte request and a 9-byte reply of
 //! 10-bit characters), and a fixed cap on a pty or TCP link, which have no baud rate of their own.
 //!
 //! **Events.** Every value read is sent to the pages as it arrives (a JSON text on a broadcast channel,
-//! see [`crate::server`]); so are changes of the link state, the debugger's stops, progress of long jobs,
-//! and once a second the requests per second on the line.
+//! which the web server hands to every open page); so are changes of the link state, the debugger's stops,
+//! progress of long jobs, and once a second the requests per second on the line.
 
-use crate::info::model_json;
+use crate::info::ModelInfo;
 pub(crate) use crate::schedule::Poll;
 use crate::schedule::{Limiter, Schedule};
 use serde::Serialize;
-use serde_json::{json, Value};
 use std::collections::{BTreeSet, HashMap};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::Arc;
@@ -166,8 +165,8 @@ pub(crate) struct Hello {
     pub link_ok: bool,
     pub link_error: Option<String>,
     pub rate: f64,
-    pub model: Option<Value>,
-    pub roles: Value,
+    pub model: Option<ModelInfo>,
+    pub roles: Roles,
 }
 
 /// The `hello` event: the same, to every page, after the link or the module changed.
@@ -201,8 +200,9 @@ pub(crate) struct Watch {
 }
 
 /// The axis parameter numbers the workbench reads by meaning. A model without a table (an unknown
-/// version string) gets the numbers most TMCL modules share (PD28-1021 manual §4, Table 15).
-#[derive(Debug, Clone, Copy)]
+/// version string) gets the numbers most TMCL modules share (PD28-1021 manual §4, Table 15). The page
+/// reads them by these names (`null`: the model has no such parameter).
+#[derive(Debug, Clone, Copy, Serialize)]
 pub(crate) struct Roles {
     pub target_position: Option<u8>,
     pub actual_position: Option<u8>,
@@ -263,15 +263,6 @@ impl Roles {
         ]
         .into_iter()
         .flatten()
-    }
-
-    pub(crate) fn json(&self) -> Value {
-        json!({
-            "target_position": self.target_position, "actual_position": self.actual_position,
-            "target_speed": self.target_speed, "actual_speed": self.actual_speed, "load": self.load,
-            "current": self.current, "encoder": self.encoder, "reached": self.reached, "home": self.home,
-            "right": self.right, "left": self.left,
-        })
     }
 }
 
@@ -519,8 +510,8 @@ impl Link {
             link_ok: self.link_error().is_none(),
             link_error: self.link_error.clone(),
             rate: self.rate,
-            model: self.model.map(model_json),
-            roles: Roles::of(self.model).json(),
+            model: self.model.map(ModelInfo::of),
+            roles: Roles::of(self.model),
         }
     }
 

@@ -7,10 +7,9 @@
 
 use crate::debug::{self, SOURCE_NAME};
 use crate::info;
-use crate::link::{HelloEvent, Link, Poll, ProgressEvent, ValueEvent, Watch};
+use crate::link::{DebugEvent, Hello, HelloEvent, Link, Poll, ProgressEvent, ValueEvent, Watch};
 use crate::paramset;
 use serde::{Deserialize, Serialize};
-use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::time::Duration;
 use tmcl_asm::{assemble_str, BuiltinResolver, Diagnostic};
@@ -221,7 +220,14 @@ impl From<HostError> for Failure {
 
 impl From<String> for Failure {
     fn from(error: String) -> Failure {
-        FailureBody { error, ..FailureBody::default() }.into()
+        FailureBody::from_error(error).into()
+    }
+}
+
+impl FailureBody {
+    /// A failure said in words only.
+    pub(crate) fn from_error(error: String) -> FailureBody {
+        FailureBody { error, ..FailureBody::default() }
     }
 }
 
@@ -232,9 +238,93 @@ impl Failure {
     }
 
     /// The failure as the body of an answer.
-    pub(crate) fn into_value(self) -> Value {
-        typed(&*self.0)
+    pub(crate) fn body(&self) -> &FailureBody {
+        &self.0
     }
+}
+
+/// What a request answers when it succeeds: the `ok` of `{"id": N, "ok": ...}`. Each request has its own
+/// shape; the page reads them by these names.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+pub(crate) enum Answer {
+    /// `hello`, `select`.
+    Hello(Box<Hello>),
+    /// `watch`: `{}`.
+    Watching(Empty),
+    /// `get`, `set`, `store`, `restore`, `motion`, `output`.
+    Replied(Replied),
+    /// `console`.
+    Console(Console),
+    /// `assemble`.
+    Assembled(Assembled),
+    /// `download`.
+    Downloaded(Downloaded),
+    /// `program`.
+    Debug(Box<DebugEvent>),
+    /// `breakpoints`.
+    Breakpoints(Breakpoints),
+    /// `save_params`.
+    Saved(Saved),
+    /// `load_params`, `store_all`.
+    Loaded(Loaded),
+    /// `scan`.
+    Scanned(Scanned),
+}
+
+/// An answer without content (`{}`).
+#[derive(Debug, Serialize)]
+pub(crate) struct Empty {}
+
+/// One diagnostic of the assembler (or of the model's tables) at its place in the editor's text.
+#[derive(Debug, Serialize)]
+pub(crate) struct DiagnosticInfo {
+    pub file: String,
+    /// From 1; 0 for the whole program.
+    pub line: u32,
+    pub column: u32,
+    pub width: u32,
+    pub message: String,
+}
+
+impl From<&Diagnostic> for DiagnosticInfo {
+    fn from(d: &Diagnostic) -> DiagnosticInfo {
+        DiagnosticInfo {
+            file: d.file.clone(),
+            line: d.line,
+            column: d.column,
+            width: d.width,
+            message: d.message.clone(),
+        }
+    }
+}
+
+/// The answer to `assemble`: the errors, the model's warnings, and the count of instructions (`null` when
+/// the program has errors).
+#[derive(Debug, Serialize)]
+pub(crate) struct Assembled {
+    diagnostics: Vec<DiagnosticInfo>,
+    warnings: Vec<DiagnosticInfo>,
+    instructions: Option<usize>,
+}
+
+/// The answer to `download`: only `diagnostics` when the program has errors (nothing was downloaded);
+/// else the instructions stored, the editor line of each address, and the model's warnings.
+#[derive(Debug, Serialize)]
+pub(crate) struct Downloaded {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stored: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lines: Option<Vec<Option<u32>>>,
+    diagnostics: Vec<DiagnosticInfo>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    warnings: Option<Vec<DiagnosticInfo>>,
+}
+
+/// The answer to `breakpoints`: the lines where they took effect (the first instruction on or after each).
+#[derive(Debug, Serialize)]
+pub(crate) struct Breakpoints {
+    lines: Vec<u32>,
 }
 
 fn value32(value: i64) -> Result<i32, Failure> {
@@ -246,9 +336,9 @@ fn value32(value: i64) -> Result<i32, Failure> {
 }
 
 /// Runs one request on the link thread. `page` identifies the connection (for `watch`).
-pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failure> {
+pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Answer, Failure> {
     match op {
-        Op::Hello => Ok(typed(&link.hello())),
+        Op::Hello => Ok(Answer::Hello(Box::new(link.hello()))),
         Op::Watch { views, motor, vars, extra } => {
             let vars = (vars.0, vars.1.min(64));
             let mut polls = Vec::new();
@@ -258,7 +348,7 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
                 );
             }
             link.watch(page, Some(Watch { views: views.into_iter().take(16).collect(), motor, vars, extra: polls }));
-            Ok(json!({}))
+            Ok(Answer::Watching(Empty {}))
         }
         Op::Get { param } => param_request(link, param, ParamOp::Get),
         Op::Set { param, value } => param_request(link, param, ParamOp::Set(value32(value)?)),
@@ -273,7 +363,7 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
             let reply = link.request(Command::Sio { port, bank, value: value32(value)? }.encode());
             link.hurry(|p| matches!(p, Poll::Input { .. }));
             let reply = reply?;
-            Ok(typed(&Replied { status: u8::from(reply.status), value: reply.value, t: None }))
+            Ok(Answer::Replied(Replied { status: u8::from(reply.status), value: reply.value, t: None }))
         }
         Op::Console { line } => {
             // A console line may change anything: what the pages show of the motors, I/O and program.
@@ -284,16 +374,16 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
         Op::Assemble { source } => {
             let (program, diagnostics) = assemble(link, &source)?;
             let warnings = warnings(link, program.as_ref(), &source);
-            Ok(json!({"diagnostics": diagnostics, "warnings": warnings,
-                      "instructions": program.map(|p| p.instructions.len())}))
+            let instructions = program.map(|p| p.instructions.len());
+            Ok(Answer::Assembled(Assembled { diagnostics, warnings, instructions }))
         }
         Op::Download { source } => download(link, &source),
-        Op::Program { action } => Ok(typed(&debug::act(link, action)?)),
+        Op::Program { action } => Ok(Answer::Debug(Box::new(debug::act(link, action)?))),
         Op::Breakpoints { lines } => {
             let lines: Vec<u32> = lines.into_iter().take(4096).collect();
             let effective = link.debug.set_breakpoint_lines(&lines);
             debug::breakpoints_changed(link)?;
-            Ok(json!({"lines": effective}))
+            Ok(Answer::Breakpoints(Breakpoints { lines: effective }))
         }
         Op::SaveParams => save_params(link),
         Op::LoadParams { text, store, any_model } => load_params(link, &text, store, any_model),
@@ -303,14 +393,9 @@ pub(crate) fn handle(link: &mut Link, page: u64, op: Op) -> Result<Value, Failur
             link.select(address);
             let hello = link.hello();
             link.emit_typed(&HelloEvent { e: "hello", hello: &hello });
-            Ok(typed(&hello))
+            Ok(Answer::Hello(Box::new(hello)))
         }
     }
-}
-
-/// An answer as the page reads it.
-fn typed(answer: &impl Serialize) -> Value {
-    serde_json::to_value(answer).unwrap_or_else(|e| json!({"error": e.to_string()}))
 }
 
 enum ParamOp {
@@ -320,7 +405,7 @@ enum ParamOp {
     Restore,
 }
 
-fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Value, Failure> {
+fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Answer, Failure> {
     let axis = p.kind == ParamKind::Ap;
     let (param, index) = (p.number, p.index);
     let (command, value) = match (&op, axis) {
@@ -346,15 +431,16 @@ fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Value, Failur
             };
             let key = if axis { format!("ap.{index}.{param}") } else { format!("gp.{index}.{param}") };
             link.emit_typed(&ValueEvent::value(key, value, crate::link::now_ms()));
-            Ok(typed(&Replied { status: u8::from(reply.status), value, t: None }))
+            Ok(Answer::Replied(Replied { status: u8::from(reply.status), value, t: None }))
         }
         Err(e) => {
             let mut failure = Failure::from(e);
             if let Some(status) = failure.status {
                 let status = tmcl_wire::Status::from(status);
                 // A store of a parameter without E is refused as an invalid value by some firmware.
-                let value = if matches!(op, ParamOp::Store | ParamOp::Restore) { None } else { value };
-                if let Some(why) = info::explain(link.model, axis, index, param, status, value) {
+                let store = matches!(op, ParamOp::Store | ParamOp::Restore);
+                let value = if store { None } else { value };
+                if let Some(why) = info::explain(link.model, axis, index, param, status, value, store) {
                     failure.explanation = Some(why);
                 }
             }
@@ -363,7 +449,7 @@ fn param_request(link: &mut Link, p: Param, op: ParamOp) -> Result<Value, Failur
     }
 }
 
-fn motion(link: &mut Link, action: Motion, motor: u8, value: i32) -> Result<Value, Failure> {
+fn motion(link: &mut Link, action: Motion, motor: u8, value: i32) -> Result<Answer, Failure> {
     let command = match action {
         Motion::RotateRight => Command::Ror { motor, velocity: value },
         Motion::RotateLeft => Command::Rol { motor, velocity: value },
@@ -385,7 +471,8 @@ fn motion(link: &mut Link, action: Motion, motor: u8, value: i32) -> Result<Valu
         }
         f
     })?;
-    Ok(typed(&Replied { status: u8::from(reply.status), value: reply.value, t: Some(crate::link::now_ms()) }))
+    let t = Some(crate::link::now_ms());
+    Ok(Answer::Replied(Replied { status: u8::from(reply.status), value: reply.value, t }))
 }
 
 /// The symbols the console knows: the model's parameter names (`APMaxPositioningSpeed`, ...) and motors, as
@@ -408,7 +495,7 @@ fn console_symbols(link: &Link) -> HashMap<String, i32> {
 /// A module's reply to a request of the page: its status and value (and when it came, for the motion
 /// panel's plot).
 #[derive(Debug, Serialize)]
-struct Replied {
+pub(crate) struct Replied {
     status: u8,
     value: i32,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -418,7 +505,7 @@ struct Replied {
 /// The answer to a console line: the instruction sent (as text and bytes) and the reply in words, with
 /// what the reply carried.
 #[derive(Debug, Default, Serialize)]
-struct Console {
+pub(crate) struct Console {
     sent: String,
     bytes: String,
     reply: String,
@@ -440,7 +527,7 @@ struct Console {
 }
 
 /// One console line: parsed as the assembler parses an instruction, sent, the reply decoded.
-fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
+fn console(link: &mut Link, line: &str) -> Result<Answer, Failure> {
     if line.len() > MAX_LINE {
         return Err(format!("the line is longer than {MAX_LINE} characters").into());
     }
@@ -461,14 +548,14 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
     match instruction.opcode {
         Opcode::GetVersion if instruction.kind == 0 => {
             let text = link.version_string()?;
-            Ok(typed(&Console { reply: format!("version {text}"), text: Some(text), ..base }))
+            Ok(Answer::Console(Console { reply: format!("version {text}"), text: Some(text), ..base }))
         }
         Opcode::ReadMemory => {
             let address = u16::try_from(instruction.value).map_err(|_| format!("no address {}", instruction.value))?;
             let stored = link.read_program_memory(address)?;
             let mut text = String::new();
             let _ = format_instruction(&stored, &mut text, None);
-            Ok(typed(&Console { reply: format!("address {address}: {text}"), ..base }))
+            Ok(Answer::Console(Console { reply: format!("address {address}: {text}"), ..base }))
         }
         // 137 (factory defaults), 242 (boot loader) and 255 (reset) are documented to get no reply
         // (§3.7.38), and while GP 255 keeps replies off only GAP, GGP and GIO reply (§5.1 Table 17). A
@@ -516,7 +603,7 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
                     _ => "no reply, as documented for 255: the module is resetting".into(),
                 },
             };
-            let answer = typed(&Console {
+            let answer = Answer::Console(Console {
                 reply: text,
                 replied: Some(reply.is_some()),
                 status: reply.map(|r| u8::from(r.status)),
@@ -534,7 +621,9 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
                 if let (Some(status), Some((axis, index))) = (f.status, param_place(&instruction)) {
                     let value = matches!(instruction.opcode, Opcode::Sap | Opcode::Sgp).then_some(instruction.value);
                     let status = tmcl_wire::Status::from(status);
-                    if let Some(why) = info::explain(link.model, axis, index, instruction.kind, status, value) {
+                    let store = matches!(instruction.opcode, Opcode::Stap | Opcode::Stgp | Opcode::Rsap | Opcode::Rsgp);
+                    let (kind, model) = (instruction.kind, link.model);
+                    if let Some(why) = info::explain(model, axis, index, kind, status, value, store) {
                         f.explanation = Some(why);
                     }
                 }
@@ -546,7 +635,7 @@ fn console(link: &mut Link, line: &str) -> Result<Value, Failure> {
                 .map(|d| d.ident);
             let status = reply.status;
             let text = format!("{} {}, value {}", u8::from(status), status.description(), reply.value);
-            Ok(typed(&Console {
+            Ok(Answer::Console(Console {
                 status: Some(u8::from(status)),
                 status_text: Some(status.description()),
                 value: Some(reply.value),
@@ -585,15 +674,11 @@ fn param_place(i: &Instruction) -> Option<(bool, u8)> {
     }
 }
 
-fn diagnostic_json(d: &Diagnostic) -> Value {
-    json!({"file": d.file, "line": d.line, "column": d.column, "width": d.width, "message": d.message})
-}
-
 /// What the model's tables refuse in an assembled program (`tmcl asm --module`'s warnings): a constant
 /// operand outside a parameter's range, a parameter, bank, port or motor the model lacks. The module
 /// would skip such an instruction (a program gets no status), so the page marks its line; it does not
 /// keep the program from being downloaded.
-fn warnings(link: &Link, program: Option<&tmcl_asm::Program>, source: &str) -> Vec<Value> {
+fn warnings(link: &Link, program: Option<&tmcl_asm::Program>, source: &str) -> Vec<DiagnosticInfo> {
     let (Some(program), Some(model)) = (program, link.model) else { return Vec::new() };
     let mut text = |file: &str, line: u32| {
         (file == SOURCE_NAME).then(|| source.lines().nth(line as usize - 1).map(String::from)).flatten()
@@ -601,12 +686,12 @@ fn warnings(link: &Link, program: Option<&tmcl_asm::Program>, source: &str) -> V
     tmcl_asm::check_operands(program, model, &mut text)
         .into_iter()
         .filter(|d| d.file == SOURCE_NAME)
-        .map(|d| diagnostic_json(&d))
+        .map(|d| DiagnosticInfo::from(&d))
         .collect()
 }
 
 /// Assembles the editor's text with the model's built-in include files.
-fn assemble(link: &Link, source: &str) -> Result<(Option<tmcl_asm::Program>, Vec<Value>), Failure> {
+fn assemble(link: &Link, source: &str) -> Result<(Option<tmcl_asm::Program>, Vec<DiagnosticInfo>), Failure> {
     if source.len() > MAX_SOURCE {
         return Err(format!("the program is longer than {MAX_SOURCE} bytes").into());
     }
@@ -621,19 +706,19 @@ fn assemble(link: &Link, source: &str) -> Result<(Option<tmcl_asm::Program>, Vec
                     program.instructions.len(),
                     model.name
                 );
-                let d = json!({"file": SOURCE_NAME, "line": 0, "column": 0, "width": 0, "message": message});
+                let d = DiagnosticInfo { file: SOURCE_NAME.into(), line: 0, column: 0, width: 0, message };
                 return Ok((None, vec![d]));
             }
             Ok((Some(program), Vec::new()))
         }
-        Err(diagnostics) => Ok((None, diagnostics.iter().map(diagnostic_json).collect())),
+        Err(diagnostics) => Ok((None, diagnostics.iter().map(DiagnosticInfo::from).collect())),
     }
 }
 
-fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
+fn download(link: &mut Link, source: &str) -> Result<Answer, Failure> {
     let (program, diagnostics) = assemble(link, source)?;
     let Some(program) = program else {
-        return Ok(json!({"diagnostics": diagnostics}));
+        return Ok(Answer::Downloaded(Downloaded { stored: None, lines: None, diagnostics, warnings: None }));
     };
     let warnings = warnings(link, Some(&program), source);
     let total = program.instructions.len();
@@ -645,12 +730,17 @@ fn download(link: &mut Link, source: &str) -> Result<Value, Failure> {
     let lines: Vec<Option<u32>> =
         program.source_lines.iter().map(|s| (&*s.file == SOURCE_NAME).then_some(s.line)).collect();
     link.debug.set_program(program, SOURCE_NAME);
-    Ok(json!({"stored": total, "lines": lines, "diagnostics": [], "warnings": warnings}))
+    Ok(Answer::Downloaded(Downloaded {
+        stored: Some(total),
+        lines: Some(lines),
+        diagnostics: Vec::new(),
+        warnings: Some(warnings),
+    }))
 }
 
 /// The answer to `save_params`.
 #[derive(Debug, Serialize)]
-struct Saved {
+pub(crate) struct Saved {
     /// The set as TOML.
     toml: String,
     /// How many values it holds.
@@ -663,7 +753,7 @@ struct Saved {
 
 /// The answer to `load_params` and `store_all`.
 #[derive(Debug, Serialize)]
-struct Loaded {
+pub(crate) struct Loaded {
     written: usize,
     stored: usize,
     unchanged: usize,
@@ -687,19 +777,16 @@ impl Loaded {
     }
 }
 
-fn to_value<T: Serialize>(v: &T) -> Result<Value, Failure> {
-    serde_json::to_value(v).map_err(|e| Failure::from(e.to_string()))
-}
-
-fn save_params(link: &mut Link) -> Result<Value, Failure> {
+fn save_params(link: &mut Link) -> Result<Answer, Failure> {
     let model = link.model.ok_or_else(|| "the model is unknown: give --module MODEL".to_string())?;
     let address = link.address();
     let (file, notes) = link.with_client(|c| paramset::snapshot(c, model))?;
     let toml = paramset::to_toml(&file)?;
-    to_value(&Saved { toml, count: file.params.len(), notes, file_name: format!("{}-{address}-params.toml", model.id) })
+    let file_name = format!("{}-{address}-params.toml", model.id);
+    Ok(Answer::Saved(Saved { toml, count: file.params.len(), notes, file_name }))
 }
 
-fn load_params(link: &mut Link, text: &str, store: bool, any_model: bool) -> Result<Value, Failure> {
+fn load_params(link: &mut Link, text: &str, store: bool, any_model: bool) -> Result<Answer, Failure> {
     if text.len() > MAX_SOURCE {
         return Err(format!("the set is longer than {MAX_SOURCE} bytes").into());
     }
@@ -709,20 +796,18 @@ fn load_params(link: &mut Link, text: &str, store: bool, any_model: bool) -> Res
     let options = paramset::LoadOptions { store, interface: false };
     let outcomes = link.with_client(|c| paramset::load(c, model, &file, options))?;
     link.hurry(|p| matches!(p, Poll::Axis { .. } | Poll::Global { .. }));
-    to_value(&Loaded::of(outcomes))
+    Ok(Answer::Loaded(Loaded::of(outcomes)))
 }
 
-fn store_all(link: &mut Link) -> Result<Value, Failure> {
+fn store_all(link: &mut Link) -> Result<Answer, Failure> {
     let model = link.model.ok_or_else(|| "the model is unknown: give --module MODEL".to_string())?;
     let outcomes = link.with_client(|c| paramset::store_all(c, model))?;
-    to_value(&Loaded::of(outcomes))
+    Ok(Answer::Loaded(Loaded::of(outcomes)))
 }
 
-/// Asks each address for its binary version (136 type 1) with a short wait, as `tmcl scan` does, then
-/// goes back to the address it talked to.
 /// A module that answered a scan.
 #[derive(Debug, Serialize)]
-struct Found {
+pub(crate) struct Found {
     address: u8,
     /// `null` when the module answered the binary version but not the string.
     version: Option<String>,
@@ -730,11 +815,13 @@ struct Found {
 
 /// The answer to `scan`: the modules that answered, by address.
 #[derive(Debug, Serialize)]
-struct Scanned {
+pub(crate) struct Scanned {
     modules: Vec<Found>,
 }
 
-fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
+/// Asks each address for its binary version (136 type 1) with a short wait, as `tmcl scan` does, then
+/// goes back to the address it talked to.
+fn scan(link: &mut Link, first: u8, last: u8) -> Result<Answer, Failure> {
     if first > last {
         return Err(format!("the first address {first} is after the last {last}").into());
     }
@@ -774,5 +861,5 @@ fn scan(link: &mut Link, first: u8, last: u8) -> Result<Value, Failure> {
     link.set_address(address);
     link.settle();
     client_result?;
-    Ok(typed(&Scanned { modules }))
+    Ok(Answer::Scanned(Scanned { modules }))
 }

@@ -18,8 +18,8 @@ use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
-use serde::Deserialize;
-use serde_json::{json, Value};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::Arc;
@@ -104,12 +104,41 @@ struct Incoming {
     op: Op,
 }
 
+/// The answer to the request `id`: `{"id": N, "ok": ANSWER}`.
+#[derive(Serialize)]
+struct Answered {
+    id: u64,
+    ok: ops::Answer,
+}
+
+/// A request that failed: `{"id": N, "error": TEXT, ...}` (see [`ops::FailureBody`]). For a message that
+/// is no request, `id` is whatever id it carried (`null` if none); a binary message gets no `id`.
+#[derive(Serialize)]
+struct Failed<'a> {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    id: Option<Value>,
+    #[serde(flatten)]
+    failure: &'a ops::FailureBody,
+}
+
+/// The `lagged` event: the page missed `n` events (it was too slow to take them).
+#[derive(Serialize)]
+struct Lagged {
+    e: &'static str,
+    n: u64,
+}
+
+/// `value` as JSON text (these types always serialise).
+fn to_text(value: &impl Serialize) -> String {
+    serde_json::to_string(value).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+}
+
 /// Serves one open page until it closes or the server stops.
 async fn page(mut socket: WebSocket, state: Arc<AppState>) {
     let page = state.next_page.fetch_add(1, Ordering::Relaxed);
     let mut events = state.events.subscribe();
     let mut shutdown = state.shutdown.clone();
-    let (answers, mut answered) = mpsc::unbounded_channel::<Value>();
+    let (answers, mut answered) = mpsc::unbounded_channel::<String>();
     tracing::info!(page, "page connected");
     loop {
         let outgoing = tokio::select! {
@@ -119,7 +148,10 @@ async fn page(mut socket: WebSocket, state: Arc<AppState>) {
                     Ok(Some(refusal)) => refusal,
                     Err(()) => break,
                 },
-                Some(Ok(Message::Binary(_))) => json!({"error": "requests are JSON text"}),
+                Some(Ok(Message::Binary(_))) => {
+                    let failure = ops::FailureBody::from_error("requests are JSON text".into());
+                    to_text(&Failed { id: None, failure: &failure })
+                }
                 Some(Ok(_)) => continue,
                 Some(Err(_)) | None => break,
             },
@@ -142,12 +174,12 @@ async fn page(mut socket: WebSocket, state: Arc<AppState>) {
                     }
                     continue;
                 }
-                Err(broadcast::error::RecvError::Lagged(n)) => json!([{"e": "lagged", "n": n}]),
+                Err(broadcast::error::RecvError::Lagged(n)) => to_text(&[Lagged { e: "lagged", n }]),
                 Err(broadcast::error::RecvError::Closed) => break,
             },
             _ = shutdown.changed() => break,
         };
-        if socket.send(Message::Text(outgoing.to_string().into())).await.is_err() {
+        if socket.send(Message::Text(outgoing.into())).await.is_err() {
             break;
         }
     }
@@ -162,14 +194,15 @@ fn submit(
     state: &AppState,
     page: u64,
     text: &str,
-    answers: &mpsc::UnboundedSender<Value>,
-) -> Result<Option<Value>, ()> {
+    answers: &mpsc::UnboundedSender<String>,
+) -> Result<Option<String>, ()> {
     let incoming: Incoming = match serde_json::from_str(text) {
         Ok(incoming) => incoming,
         Err(e) => {
             let id = serde_json::from_str::<Value>(text).ok().and_then(|v| v.get("id").cloned());
             tracing::warn!(page, "not a request: {e}");
-            return Ok(Some(json!({"id": id, "error": format!("not a request: {e}")})));
+            let failure = ops::FailureBody::from_error(format!("not a request: {e}"));
+            return Ok(Some(to_text(&Failed { id: Some(id.unwrap_or(Value::Null)), failure: &failure })));
         }
     };
     let answers = answers.clone();
@@ -177,12 +210,10 @@ fn submit(
         let id = incoming.id;
         tracing::debug!(page, id, op = incoming.op.name(), "request");
         let answer = match ops::handle(link, page, incoming.op) {
-            Ok(ok) => json!({"id": incoming.id, "ok": ok}),
+            Ok(ok) => to_text(&Answered { id, ok }),
             Err(failure) => {
                 tracing::debug!(page, id, "refused: {}", failure.message());
-                let mut v = failure.into_value();
-                v["id"] = json!(incoming.id);
-                v
+                to_text(&Failed { id: Some(Value::from(id)), failure: failure.body() })
             }
         };
         let _ = answers.send(answer);

@@ -37,7 +37,11 @@ fn link() -> (Link, tokio::sync::broadcast::Receiver<Arc<str>>) {
 
 fn op(link: &mut Link, request: Value) -> Result<Value, Value> {
     let op: Op = serde_json::from_value(request).expect("a request");
-    handle(link, 1, op).map_err(|f| f.into_value())
+    // The answers as the page reads them: JSON.
+    fn json(v: &impl serde::Serialize) -> Value {
+        serde_json::to_value(v).expect("answers serialise")
+    }
+    handle(link, 1, op).map(|a| json(&a)).map_err(|f| json(f.body()))
 }
 
 #[test]

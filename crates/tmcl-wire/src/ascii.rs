@@ -491,6 +491,29 @@ pub fn parse_instruction(text: &str, resolve: &mut dyn FnMut(&str) -> Option<i32
     Ok(i)
 }
 
+/// A number as the host tools take it on their command lines and in settings (`tmcl set`, `--set`, the
+/// debugger's `set`): decimal or `0x` hexadecimal, with an optional sign (`-5`, `+5`, `0x1F`, `-0x10`).
+/// `None` for anything else: no spaces, no names, and none of the assembler's `$` or `0b` forms.
+pub fn parse_number(text: &str) -> Option<i64> {
+    let (negative, digits) = match text.strip_prefix('-') {
+        Some(rest) => (true, rest),
+        None => (false, text.strip_prefix('+').unwrap_or(text)),
+    };
+    let (radix, digits) = match digits.strip_prefix("0x").or_else(|| digits.strip_prefix("0X")) {
+        Some(hex) if !hex.is_empty() && hex.bytes().all(|b| b.is_ascii_hexdigit()) => (16, hex),
+        None if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) => (10, digits),
+        _ => return None,
+    };
+    let magnitude = i64::from_str_radix(digits, radix).ok()?;
+    Some(if negative { -magnitude } else { magnitude })
+}
+
+/// The 32-bit value a number names: −2³¹..2³¹−1 as it is, and 2³¹..2³²−1 as the two's complement pattern
+/// (`0xFFFFFFFF` = −1), as pytrinamic packs values unsigned and the assembler takes them.
+pub fn value32(n: i64) -> Option<i32> {
+    i32::try_from(n).ok().or_else(|| u32::try_from(n).ok().map(|v| v as i32))
+}
+
 /// Parses a value on its own, as in the value position of an instruction: a number, or a name for
 /// `resolve`. Surrounding white space is ignored; spans are relative to `text`. The assembler uses it for
 /// constant definitions (`MaxSpeed = 50000`).

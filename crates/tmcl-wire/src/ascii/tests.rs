@@ -243,3 +243,22 @@ proptest::proptest! {
         let _ = with_labels(&text);
     }
 }
+
+#[test]
+fn numbers_of_the_host_tools() {
+    for (text, n) in
+        [("0", 0), ("-5", -5), ("+5", 5), ("0x1F", 31), ("0X1f", 31), ("-0x10", -16), ("4294967295", 4294967295)]
+    {
+        assert_eq!(parse_number(text), Some(n), "{text}");
+    }
+    for bad in
+        ["", "-", "+", "0x", "0x+1", "--5", "++5", "+-5", " 5", "5 ", "1e3", "$10", "0b1", "x", "99999999999999999999"]
+    {
+        assert_eq!(parse_number(bad), None, "{bad:?}");
+    }
+    assert_eq!(value32(-1), Some(-1));
+    assert_eq!(value32(0xFFFF_FFFF), Some(-1));
+    assert_eq!(value32(i64::from(i32::MIN)), Some(i32::MIN));
+    assert_eq!(value32(0x1_0000_0000), None);
+    assert_eq!(value32(i64::from(i32::MIN) - 1), None);
+}
