@@ -152,7 +152,7 @@ impl Session {
             command: command.map(String::from),
             output: String::from_utf8_lossy(output).lines().map(String::from).collect(),
             pc: self.module.vm().pc,
-            state: state_name(self.module.vm().state).to_string(),
+            state: state_name(self.module.vm().state()).to_string(),
             time_s: self.now.micros() as f64 / 1e6,
             refused: std::mem::take(&mut self.refused),
         }
@@ -250,7 +250,7 @@ impl Session {
         let stop = loop {
             let deadline = poll(&mut self.module, self.now);
             let vm = self.module.vm();
-            if vm.at_breakpoint() && vm.state == RunState::Stopped {
+            if vm.at_breakpoint() && vm.state() == RunState::Stopped {
                 if until.is_some_and(|u| u == self.depth()) {
                     break Stop::Stepped;
                 }
@@ -262,7 +262,7 @@ impl Session {
                 let _ = self.module.execute(Command::RunApplication { from: None }, self.now);
                 continue;
             }
-            if vm.state != RunState::Running {
+            if vm.state() != RunState::Running {
                 break Stop::Ended;
             }
             if self.now >= limit {
@@ -289,7 +289,7 @@ impl Session {
             || self.module.program().get(usize::from(pc)).is_some_and(|i| i.opcode == Opcode::Csub);
         self.step_raw();
         let vm = self.module.vm();
-        if vm.state == RunState::Stopped {
+        if vm.state() == RunState::Stopped {
             return Stop::Ended;
         }
         if vm.wait.is_some() || (over && is_csub && vm.stack_depth() > depth) {
@@ -511,7 +511,7 @@ impl Session {
         let label = self.source.label_at(pc).map(|l| format!(" ({l})")).unwrap_or_default();
         write!(out, "pc {pc}{label}: ")?;
         self.location(out, pc)?;
-        let mut state = state_name(vm.state).to_string();
+        let mut state = state_name(vm.state()).to_string();
         if vm.at_breakpoint() {
             state.push_str(" at a breakpoint");
         }

@@ -216,7 +216,7 @@ impl Simulation {
             wall_s: started.elapsed().as_secs_f64(),
             executed: module.vm().executed(),
             pc: module.vm().pc,
-            state: state_name(module.vm().state),
+            state: state_name(module.vm().state()),
             rows,
             refused: module.vm().refusals().count(),
         })
@@ -277,7 +277,7 @@ fn quiet_until(module: &Module<SimBoard>, until: Instant) -> bool {
         return false;
     }
     match vm.wait {
-        _ if vm.state != RunState::Running => true,
+        _ if vm.state() != RunState::Running => true,
         Some(w) if w.condition == WaitCondition::Ticks => w.until.is_some_and(|u| u >= until),
         _ => false,
     }
@@ -338,7 +338,7 @@ impl Traced {
             events.clear();
             events
                 .extend(refusals.collect(module, source).iter().map(|r| Event::Refused { pc: r.pc, status: r.status }));
-            if module.vm().at_breakpoint() && module.vm().state == RunState::Stopped {
+            if module.vm().at_breakpoint() && module.vm().state() == RunState::Stopped {
                 // A handler's first instruction: name the interrupt(s) whose vector points here, go on.
                 let pc = module.vm().pc;
                 if module.vm().in_handler() {

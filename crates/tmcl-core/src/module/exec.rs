@@ -25,10 +25,10 @@ use crate::motion::reference::Action;
 use crate::motion::SearchMode;
 use crate::param::{persist, ParamError, Role};
 use crate::time::Instant;
-use crate::vm::{flags, Registers};
+use crate::vm::{alu, Registers};
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
-    CalcOp, CalcxOp, Command, ErrorFlag, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
+    CalcOp, CalcxOp, Command, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
 };
 
 type Exec = Result<Outcome, Status>;
@@ -169,7 +169,7 @@ impl<B: Board> Module<B> {
             }
             // §3.7.31 CLE: clears error flags (the comparison flags stay).
             C::Cle { flag } => {
-                self.regs(origin).flags &= !error_mask(flag);
+                self.regs(origin).flags &= !alu::error_mask(flag);
                 value(0)
             }
             // §3.7.32 EI / §3.7.33 DI: interrupt n (Table 12) or 255 = global.
@@ -326,48 +326,16 @@ impl<B: Board> Module<B> {
         value(self.read_port(desc.kind))
     }
 
-    /// CALC (§3.7.16): A ← A op operand; division by 0 is status 4 (−1 divides without overflow).
+    /// CALC (§3.7.16) on the host's or the program's registers (`vm/alu.rs`); the reply carries the
+    /// operand.
     fn calc(&mut self, op: CalcOp, operand: i32, origin: Origin) -> Exec {
-        let a = self.regs(origin).accumulator;
-        let r = match op {
-            CalcOp::Add => a.wrapping_add(operand),
-            CalcOp::Sub => a.wrapping_sub(operand),
-            CalcOp::Mul => a.wrapping_mul(operand),
-            CalcOp::Div => divide(a, operand)?,
-            CalcOp::Mod => remainder(a, operand)?,
-            CalcOp::And => a & operand,
-            CalcOp::Or => a | operand,
-            CalcOp::Xor => a ^ operand,
-            CalcOp::Not => !a,
-            CalcOp::Load => operand,
-        };
-        self.load_accumulator(origin, r);
+        alu::calc(self.regs(origin), op.code(), operand)?;
         value(operand)
     }
 
-    /// CALCX (§3.7.28): A ← A op X; LOAD copies A to X, SWAP exchanges them, NOT inverts X (Table of
-    /// §3.7.28: "logical invert X register", although every other operation writes A).
+    /// CALCX (§3.7.28) on the host's or the program's registers (`vm/alu.rs`).
     fn calcx(&mut self, op: CalcxOp, origin: Origin) -> Exec {
-        let Registers { accumulator: a, x, .. } = *self.regs(origin);
-        let r = match op {
-            CalcxOp::Add => a.wrapping_add(x),
-            CalcxOp::Sub => a.wrapping_sub(x),
-            CalcxOp::Mul => a.wrapping_mul(x),
-            CalcxOp::Div => divide(a, x)?,
-            CalcxOp::Mod => remainder(a, x)?,
-            CalcxOp::And => a & x,
-            CalcxOp::Or => a | x,
-            CalcxOp::Xor => a ^ x,
-            CalcxOp::Not | CalcxOp::Load => {
-                self.regs(origin).x = if op == CalcxOp::Not { !x } else { a };
-                return value(0);
-            }
-            CalcxOp::Swap => {
-                self.regs(origin).x = a;
-                x
-            }
-        };
-        self.load_accumulator(origin, r);
+        alu::calcx(self.regs(origin), op.code())?;
         value(0)
     }
 
@@ -478,14 +446,6 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Loads the accumulator and sets the comparison flags from it, as a comparison with 0. The manual never
-    /// lists which commands set the flags, but its §3.6.6.4 example jumps with `JC NZ` right after a GIO.
-    pub(crate) fn load_accumulator(&mut self, origin: Origin, v: i32) {
-        let regs = self.regs(origin);
-        regs.accumulator = v;
-        regs.set_compare(v.cmp(&0));
-    }
-
     fn read_port(&mut self, kind: PortKind) -> i32 {
         match kind {
             PortKind::DigitalInput(bit) => i32::from((self.board.digital_inputs() >> bit) & 1),
@@ -533,27 +493,5 @@ impl<B: Board> Module<B> {
             }
             RfsAction::Status => Ok(self.st.axes[m].reference.status()),
         }
-    }
-}
-
-/// A ÷ b, as CALC and CALCX divide: b = −1 negates without overflow, b = 0 is status 4.
-fn divide(a: i32, b: i32) -> Result<i32, Status> {
-    a.checked_div(b).or((b == -1).then(|| a.wrapping_neg())).ok_or(Status::InvalidValue)
-}
-
-/// A mod b, as CALC and CALCX take it: b = −1 gives 0, b = 0 is status 4.
-fn remainder(a: i32, b: i32) -> Result<i32, Status> {
-    a.checked_rem(b).or((b == -1).then_some(0)).ok_or(Status::InvalidValue)
-}
-
-/// The error flags CLE clears (§3.7.31).
-fn error_mask(flag: ErrorFlag) -> u16 {
-    match flag {
-        ErrorFlag::All => flags::TIMEOUT | flags::ALARM | flags::DEVIATION | flags::POSITION | flags::SHUTDOWN,
-        ErrorFlag::Timeout => flags::TIMEOUT,
-        ErrorFlag::ExternalAlarm => flags::ALARM,
-        ErrorFlag::Deviation => flags::DEVIATION,
-        ErrorFlag::PositionError => flags::POSITION,
-        ErrorFlag::Shutdown => flags::SHUTDOWN,
     }
 }

@@ -1,5 +1,6 @@
-//! Running programs on the module: the step, the waits, the interrupts, and the control commands 128–135
-//! (the program machine's state is [`crate::vm`]'s).
+//! Running programs on the module: the module as the program machine's bus (`vm::Bus`: the commands a
+//! program gives, the WAIT conditions, the hooks), the interrupt sources, and the control commands
+//! 128–135 (the machine itself, its state and its cycle, is [`crate::vm`]'s).
 
 use super::{Module, Origin};
 use crate::hal::prelude::*;
@@ -7,12 +8,9 @@ use crate::hal::Board;
 use crate::model::{Setting, Source};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
-use crate::vm::{
-    flags, Context, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM, MAX_VECTORS,
-    NO_VECTOR, STACK_DEPTH, WAIT_TICK,
-};
+use crate::vm::{self, Bus, Parts, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
 use tmcl_model::capacity::MAX_MOTORS;
-use tmcl_wire::{Command, Condition, Instruction, Status, WaitCondition, FRAME_LEN};
+use tmcl_wire::{Command, Instruction, Status, WaitCondition, FRAME_LEN};
 
 impl<B: Board> Module<B> {
     /// The program machine.
@@ -32,173 +30,15 @@ impl<B: Board> Module<B> {
             if i == EMPTY && program.get(address) == Some(&EMPTY) {
                 return; // already so (a fresh module, or an empty cell before and after a restart)
             }
-            let known = i != EMPTY && spec.commands.contains(i.opcode);
-            program.set(address, i, known);
+            program.set(address, i, spec);
         });
-    }
-
-    /// Whether the model has the command of `i`.
-    fn knows(&self, i: Instruction) -> bool {
-        self.spec.commands.contains(i.opcode)
     }
 
     /// Runs the program up to (not including) `limit`, at most `budget` instructions. Returns whether it
     /// jumped over turns of a loop in a fixed point (`module/spin.rs`): then the program's and the motion
     /// controller's clocks have moved on, past `limit`.
     pub(crate) fn run_program(&mut self, limit: Instant, budget: &mut u32) -> bool {
-        while self.vm.state == RunState::Running && self.vm.time < limit && *budget > 0 {
-            let t = self.vm.time;
-            self.service_interrupts();
-            if let Some(wait) = self.vm.wait {
-                match self.wait_done(wait, t) {
-                    Some(timeout) => {
-                        if timeout {
-                            self.st.regs.flags |= flags::TIMEOUT;
-                        }
-                        self.vm.wait = None;
-                        self.vm.pc = self.vm.pc.wrapping_add(1);
-                    }
-                    None => {
-                        // Sleep until the wait can end by time, or to the limit (motion may end it). A
-                        // wait that has not ended has its end after `t`, so this always moves on.
-                        self.vm.time =
-                            wait.until.unwrap_or(limit).min(limit).max(t + crate::time::Duration::from_micros(1));
-                        continue;
-                    }
-                }
-            }
-            if self.vm.has_breakpoint(self.vm.pc) && !core::mem::take(&mut self.vm.at_breakpoint) {
-                // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
-                self.vm.set_state(RunState::Stopped);
-                self.vm.at_breakpoint = true;
-                return false;
-            }
-            *budget -= 1;
-            self.vm.executed += 1;
-            let pc = self.vm.pc;
-            self.step_instruction(t);
-            self.vm.time = self.vm.time.max(t) + INSTRUCTION_TIME;
-            if self.drive_due().is_some_and(|(_, d)| d <= t) {
-                return false; // the board hears of it before the next instruction (see `module/advance.rs`)
-            }
-            // A jump back: perhaps a loop in a fixed point.
-            if self.vm.pc <= pc && self.spin_pass() {
-                return true;
-            }
-        }
-        false
-    }
-
-    /// Executes the instruction at the PC (fetch, decode, execute).
-    fn step_instruction(&mut self, now: Instant) {
-        let pc = self.vm.pc;
-        let Some(&instruction) = self.program.get(usize::from(pc)) else {
-            self.vm.set_state(RunState::Stopped); // ran off the end of memory
-            return;
-        };
-        // A command the model lacks ends the program like garbage (checked when the cell was written).
-        let decoded = if self.program.is_known(usize::from(pc)) { Command::decode(instruction).ok() } else { None };
-        let Some(command) = decoded else {
-            // Opcode 0 (empty memory), garbage, or a command the model lacks: the program ends.
-            self.vm.set_state(RunState::Stopped);
-            return;
-        };
-        let mut next = pc.wrapping_add(1);
-        match command {
-            // §3.7.17 COMP: flags from A − operand.
-            Command::Comp { operand } => {
-                let a = self.st.regs.accumulator;
-                self.st.regs.set_compare(a.cmp(&operand));
-            }
-            // §3.7.18 JC.
-            Command::Jc { condition, address } => {
-                if self.condition(condition) {
-                    next = jump(address);
-                }
-            }
-            // §3.7.19 JA.
-            Command::Ja { address } => next = jump(address),
-            // §3.7.20 CSUB: ignored when the stack is full.
-            Command::Csub { address } => {
-                if usize::from(self.vm.sp) < STACK_DEPTH {
-                    self.vm.stack[usize::from(self.vm.sp)] = next;
-                    self.vm.sp += 1;
-                    next = jump(address);
-                }
-            }
-            // §3.7.21 RSUB: ignored when the stack is empty.
-            Command::Rsub => {
-                if self.vm.sp > 0 {
-                    self.vm.sp -= 1;
-                    next = self.vm.stack[usize::from(self.vm.sp)];
-                }
-            }
-            // §3.7.22 WAIT: waiting is a state; the PC stays on the WAIT until it ends.
-            // The motor byte names the motor POS, REFSW, LIMSW and RFS watch; a WAIT for a motor the model
-            // lacks is passed over like a command with status 4 (our decision).
-            Command::Wait { condition, motor, .. }
-                if condition != WaitCondition::Ticks && usize::from(motor) >= self.st.axes.count() => {}
-            Command::Wait { condition, motor, ticks } => {
-                let ticks = if ticks == -1 { self.st.regs.accumulator } else { ticks };
-                // −1 takes the value from A for every condition (§3.7.22 shows it only for TICKS); a negative
-                // value, which the manual forbids without saying what it does, waits no time (TICKS) or has
-                // no timeout (the others).
-                let span = Duration::from_micros(WAIT_TICK.micros() * ticks.max(0) as u64);
-                let until = match condition {
-                    WaitCondition::Ticks => Some(now + span),
-                    _ if ticks > 0 => Some(now + span),
-                    _ => None,
-                };
-                let wait = Wait { condition, motor, until };
-                match self.wait_done(wait, now) {
-                    Some(timeout) => {
-                        if timeout {
-                            self.st.regs.flags |= flags::TIMEOUT;
-                        }
-                    }
-                    None => {
-                        self.vm.wait = Some(wait);
-                        return;
-                    }
-                }
-            }
-            // §3.7.23 STOP.
-            Command::Stop => {
-                self.vm.set_state(RunState::Stopped);
-                return;
-            }
-            // §3.7.34 VECT.
-            Command::Vect { interrupt, address } => {
-                if let Some(v) = self.vm.vectors.get_mut(usize::from(interrupt)) {
-                    *v = u16::try_from(address).unwrap_or(NO_VECTOR);
-                }
-            }
-            // §3.7.35 RETI: restores A, X, flags and the PC (and a preempted WAIT).
-            Command::Reti => {
-                if let Some(ctx) = self.vm.handler.take() {
-                    self.st.regs = ctx.regs;
-                    self.vm.wait = ctx.wait;
-                    next = ctx.pc;
-                }
-            }
-            // Control commands and 242 are direct-mode only: in memory they end the program.
-            c if instruction.opcode.is_control() => {
-                let _ = c;
-                self.vm.set_state(RunState::Stopped);
-                return;
-            }
-            other => match self.exec(other, now, Origin::Program) {
-                // §3.6.5: in standalone mode a command that reads a value loads the accumulator
-                // (FW V1.35: RFS STATUS too, setting the flags).
-                Ok(super::Outcome::Value(v)) if other.reads_value() => {
-                    self.load_accumulator(Origin::Program, v);
-                }
-                Ok(_) => {}
-                // Refused: skipped, the program goes on; noted for a simulator (`vm/refusal.rs`).
-                Err(status) => self.vm.refusals.note(now, pc, instruction, status),
-            },
-        }
-        self.vm.pc = next;
+        vm::run(self, limit, budget)
     }
 
     /// Whether a wait has ended at `now`: `Some(false)` met, `Some(true)` timed out (ETO), `None` not yet.
@@ -224,39 +64,9 @@ impl<B: Board> Module<B> {
         }
     }
 
-    fn condition(&self, c: Condition) -> bool {
-        let f = self.st.regs.flags;
-        match c {
-            Condition::Zero | Condition::Equal => f & flags::ZERO != 0,
-            Condition::NotZero | Condition::NotEqual => f & flags::ZERO == 0,
-            Condition::Greater => f & flags::GREATER != 0,
-            Condition::GreaterOrEqual => f & (flags::GREATER | flags::ZERO) != 0,
-            Condition::Lower => f & flags::LOWER != 0,
-            Condition::LowerOrEqual => f & (flags::LOWER | flags::ZERO) != 0,
-            Condition::Timeout => f & flags::TIMEOUT != 0,
-            Condition::ExternalAlarm => f & flags::ALARM != 0,
-            Condition::Deviation => f & flags::DEVIATION != 0,
-            Condition::PositionError => f & flags::POSITION != 0,
-        }
-    }
-
-    /// Raises interrupt `n` if it is enabled and has a vector (see the module docs).
+    /// Raises interrupt `n` if it is enabled and has a vector (see [`crate::vm`]).
     pub(crate) fn raise_interrupt(&mut self, n: u8) {
-        if usize::from(n) < MAX_VECTORS && self.vm.enabled & (1 << n) != 0 && self.vm.vector(n).is_some() {
-            self.vm.pending |= 1 << n;
-        }
-    }
-
-    /// Enters the handler of the highest-priority pending interrupt, if allowed (between instructions).
-    fn service_interrupts(&mut self) {
-        if self.vm.pending == 0 || !self.vm.global || self.vm.handler.is_some() {
-            return;
-        }
-        let n = self.vm.pending.trailing_zeros() as u8; // lower number = higher priority (§3.7.34)
-        self.vm.pending &= !(1 << n);
-        let Some(address) = self.vm.vector(n) else { return };
-        self.vm.handler = Some(Context { pc: self.vm.pc, regs: self.st.regs, wait: self.vm.wait.take() });
-        self.vm.pc = address;
+        self.vm.raise_interrupt(n);
     }
 
     /// Samples the interrupt sources at a motion tick (timers, target reached, switch and input changes),
@@ -428,7 +238,7 @@ impl<B: Board> Module<B> {
             let i = instructions.get(address).copied().unwrap_or(EMPTY);
             if self.program.cells[address] != i {
                 persist::store_program_cell(&mut self.board, self.spec, address, &i)?;
-                self.program.set(address, i, self.knows(i));
+                self.program.set(address, i, self.spec);
             }
         }
         Ok(())
@@ -449,11 +259,7 @@ impl<B: Board> Module<B> {
         // A waiting instruction is checked once; a step never blocks.
         if let Some(wait) = self.vm.wait {
             if let Some(timeout) = self.wait_done(wait, now) {
-                if timeout {
-                    self.st.regs.flags |= flags::TIMEOUT;
-                }
-                self.vm.wait = None;
-                self.vm.pc = self.vm.pc.wrapping_add(1);
+                self.vm.end_wait(&mut self.st.regs, timeout);
             }
         } else {
             self.run_program(limit, &mut budget);
@@ -507,7 +313,7 @@ impl<B: Board> Module<B> {
         // Only what a program of this model can execute is stored; anything else is refused and not stored.
         self.decode(instruction)?;
         persist::store_program_cell(&mut self.board, self.spec, usize::from(address), &instruction)?;
-        self.program.set(usize::from(address), instruction, true); // decoded for this model above
+        self.program.set(usize::from(address), instruction, self.spec);
         self.vm.download = Some(address + 1); // at most program_memory ≤ 2048
 
         Ok(())
@@ -560,7 +366,38 @@ impl<B: Board> Module<B> {
     }
 }
 
-/// A jump target from a value: out-of-range targets land past memory, which stops the program.
-fn jump(address: i32) -> u16 {
-    u16::try_from(address).unwrap_or(u16::MAX)
+/// The module is the program machine's bus: it lends the machine its parts and runs the commands a
+/// program gives it through the one dispatcher, as a host's (see [`crate::vm::Bus`]).
+impl<B: Board> Bus for Module<B> {
+    #[inline(always)]
+    fn parts(&mut self) -> Parts<'_> {
+        Parts { vm: &mut self.vm, regs: &mut self.st.regs, program: &self.program }
+    }
+
+    #[inline]
+    fn execute(&mut self, command: Command, now: Instant) -> Result<i32, Status> {
+        match self.exec(command, now, Origin::Program)? {
+            super::Outcome::Value(v) => Ok(v),
+            // (Commands with other replies are control commands, which end a program instead.)
+            _ => Ok(0),
+        }
+    }
+
+    #[inline]
+    fn wait_over(&mut self, wait: &Wait, now: Instant) -> Option<bool> {
+        self.wait_done(*wait, now)
+    }
+
+    /// A command that changed what the driver sees (a parameter, a stop) has its board update due at
+    /// once (`module/advance.rs`). Only a command can bring it forward: an update due before the run is
+    /// within the limit `advance` gave it.
+    #[inline(always)]
+    fn must_act(&self, now: Instant) -> bool {
+        self.drive_due().is_some_and(|(_, d)| d <= now)
+    }
+
+    #[inline(always)]
+    fn jumped_back(&mut self) -> bool {
+        self.spin_pass()
+    }
 }

@@ -284,7 +284,7 @@ fn run_program(exact: bool) -> Bench {
 #[test]
 fn a_program_moves_every_axis_and_takes_each_axis_interrupt() {
     let mut b = run_program(false);
-    assert_eq!(b.module.vm().state, RunState::Stopped, "the program ran to its STOP");
+    assert_eq!(b.module.vm().state(), RunState::Stopped, "the program ran to its STOP");
     for m in 0..3u8 {
         assert_eq!(b.gap(1, m), 0, "motor {m} back at 0");
         // Each motor reached a target twice: its own move, and the move back (all three at once).

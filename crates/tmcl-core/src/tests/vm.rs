@@ -421,7 +421,7 @@ fn running_off_the_end_or_into_empty_memory_stops() {
     download(&mut b, &[C::Calc { op: CalcOp::Load, operand: 3 }]);
     run_from(&mut b, 0);
     b.run(Duration::from_millis(10));
-    assert_eq!(b.module.vm().state, RunState::Stopped);
+    assert_eq!(b.module.vm().state(), RunState::Stopped);
     assert_eq!(b.module.vm().pc, 1);
 }
 
@@ -523,7 +523,7 @@ fn a_current_set_at_rest_reaches_the_driver_at_once() {
     );
     run_from(&mut b, 0);
     b.run(Duration::from_millis(200));
-    assert_eq!(b.module.vm().state, crate::vm::RunState::Stopped);
+    assert_eq!(b.module.vm().state(), crate::vm::RunState::Stopped);
     assert_eq!(b.module.board().drive.current, 200);
     let now = b.now;
     assert!(b.module.execute(C::Sap { param: 6, motor: 0, value: 64 }, now).is_ok());

@@ -1,12 +1,16 @@
 //! The TMCL program machine: standalone mode (PD28-1021 manual §3.3, §3.6.3–3.6.6, §3.7.16–3.7.38,
 //! chapter 8).
 //!
-//! Data lives here ([`Vm`], [`Program`], [`Registers`]); the stepping is in the module's `program.rs`,
-//! because instructions act on the whole module (motion, parameters, I/O).
+//! The machine's state ([`Vm`], [`Program`], [`Registers`]) and its cycle (`machine.rs`) live here; it
+//! reaches the rest of the module only through a narrow bus trait (`machine::Bus`: run a command, ask
+//! whether a WAIT has ended, two hooks), which the module implements (`module/program.rs`), so nothing
+//! here imports the module. Program memory is decoded once, when a cell is written (`decode.rs`), and
+//! the arithmetic is shared with the host's direct-mode CALC and CALCX (`alu.rs`).
 //!
-//! The machine: `step` fetches the instruction at the PC, decodes it to a command, runs
-//! it, then checks the interrupts. Waiting is a state ([`Wait`]), never a loop. It runs a bounded number of
-//! instructions per poll, each taking [`INSTRUCTION_TIME`] of simulated time.
+//! The machine: between two instructions it services an interrupt and looks at a WAIT in progress, then
+//! runs the decoded cell at the PC; each instruction reports what it did (`machine::Step`), and the run
+//! state changes only through [`Vm::set_state`]. Waiting is a state ([`Wait`]), never a loop. It runs a
+//! bounded number of instructions per poll, each taking [`INSTRUCTION_TIME`] of simulated time.
 //!
 //! Decisions (the manual is silent; see docs/decisions.md):
 //! - **Instruction time.** Each instruction takes 20 µs of module time (about 50 000 commands per second,
@@ -27,10 +31,16 @@
 //!   ms) from the moment its period is set; period 0 = off. Which vectors exist and what raises each is
 //!   the model's table ([`tmcl_model::Interrupts`]).
 
+pub(crate) mod alu;
+pub(crate) mod decode;
+pub(crate) mod machine;
 pub mod refusal;
 
+pub(crate) use decode::Op;
+pub(crate) use machine::{run, Bus, Parts};
 pub use refusal::{Refusal, Refusals};
 
+use crate::model::ModelSpec;
 use crate::time::Instant;
 use tmcl_wire::{Instruction, Opcode, WaitCondition};
 
@@ -95,15 +105,31 @@ impl Registers {
             core::cmp::Ordering::Less => flags::LOWER,
         };
     }
+
+    /// Loads the accumulator and sets the comparison flags from it, as a comparison with 0. The manual
+    /// never lists which commands set the flags, but its §3.6.6.4 example jumps with `JC NZ` right after
+    /// a GIO.
+    #[inline(always)]
+    pub(crate) fn load(&mut self, v: i32) {
+        self.accumulator = v;
+        self.set_compare(v.cmp(&0));
+    }
 }
 
-/// The TMCL program memory, in RAM (a copy of the EEPROM's program area, written through on download).
+/// The TMCL program memory, in RAM (a copy of the EEPROM's program area, written through on download),
+/// decoded once.
+///
+/// Each cell keeps the byte image the firmware stores and command 134 reads back ([`Instruction`]), and
+/// beside it one byte, its [`Op`]: what the program machine does with it, decided when the cell is
+/// written (a download, a store, the program read from the EEPROM at start-up) against the model — its
+/// command set, its motors, the type byte's meaning. The machine then runs a cell without looking its
+/// command up or checking its type byte again (see [`decode`]). The cost is one byte per cell (2 KiB for
+/// 2048 cells, of which the 256 bytes of the earlier "command of the model" bits are saved).
 #[derive(Debug, Clone)]
 pub struct Program {
     pub(crate) cells: [Instruction; MAX_PROGRAM],
-    /// Bit n: cell n holds a command of the model (checked once when the cell is written, so that the
-    /// program machine does not look the command up in the model's set at every step).
-    known: [u64; MAX_PROGRAM / 64],
+    /// What each cell does, decoded when it was written.
+    ops: [Op; MAX_PROGRAM],
     /// Every cell from here on is empty.
     end: usize,
 }
@@ -116,28 +142,26 @@ impl Default for Program {
 
 impl Program {
     /// Empty program memory, as a constant: `Program::default()` copies it into place, where building
-    /// the array of empty cells would take a 16 KiB temporary on the stack first (too much for a
+    /// the array of empty cells would take an 18 KiB temporary on the stack first (too much for a
     /// microcontroller port, see `firmware/`).
-    const EMPTY: Program = Program { cells: [EMPTY; MAX_PROGRAM], known: [0; MAX_PROGRAM / 64], end: 0 };
+    const EMPTY: Program = Program { cells: [EMPTY; MAX_PROGRAM], ops: [Op::End; MAX_PROGRAM], end: 0 };
 
-    /// Empties every cell, in place: a `Program` is 16 KiB, more than a microcontroller port can afford
+    /// Empties every cell, in place: a `Program` is 18 KiB, more than a microcontroller port can afford
     /// to build on its stack as a temporary (`*self = Program::default()` would).
     pub(crate) fn clear(&mut self) {
         self.cells.fill(EMPTY);
-        self.known.fill(0);
+        self.ops.fill(Op::End);
         self.end = 0;
     }
 
-    /// Writes cell `address` (inside memory); `known` says whether the model has its command.
-    pub(crate) fn set(&mut self, address: usize, instruction: Instruction, known: bool) {
+    /// Writes cell `address` (inside memory) and decodes it once for `spec`'s model ([`decode::decode`]).
+    pub(crate) fn set(&mut self, address: usize, instruction: Instruction, spec: &ModelSpec) {
         if address < MAX_PROGRAM {
             self.cells[address] = instruction;
+            self.ops[address] = decode::decode(instruction, spec);
             if instruction != EMPTY {
                 self.end = self.end.max(address + 1);
             }
-            let bit = 1u64 << (address % 64);
-            let word = &mut self.known[address / 64];
-            *word = if known { *word | bit } else { *word & !bit };
         }
     }
 
@@ -146,10 +170,17 @@ impl Program {
         self.end
     }
 
-    /// Whether cell `address` holds a command of the model.
-    #[inline]
-    pub(crate) fn is_known(&self, address: usize) -> bool {
-        address < MAX_PROGRAM && self.known[address / 64] & (1 << (address % 64)) != 0
+    /// The decoded cell at `address` and its byte image, if inside memory.
+    #[inline(always)]
+    pub(crate) fn fetch(&self, address: u16) -> Option<(Op, Instruction)> {
+        let a = usize::from(address);
+        (a < MAX_PROGRAM).then(|| (self.ops[a], self.cells[a]))
+    }
+
+    /// The decoded op at `address`, if inside memory.
+    #[inline(always)]
+    pub(crate) fn op(&self, address: u16) -> Option<Op> {
+        self.ops.get(usize::from(address)).copied()
     }
 
     /// The instruction at `address`, if inside memory.
@@ -164,7 +195,7 @@ impl Program {
 
     /// Number of cells up to and including the last non-empty one.
     pub fn len(&self) -> usize {
-        self.cells.iter().rposition(|c| *c != EMPTY).map_or(0, |i| i + 1)
+        self.cells[..self.end].iter().rposition(|c| *c != EMPTY).map_or(0, |i| i + 1)
     }
 
     /// Whether no cell is programmed.
@@ -225,8 +256,9 @@ pub struct Context {
 /// The program machine's state.
 #[derive(Debug, Clone)]
 pub struct Vm {
-    /// Run state: read it here; the firmware changes it only through one setter (`Vm::set_state`).
-    pub state: RunState,
+    /// Run state: read with [`Vm::state`]; it changes only through one setter, `Vm::set_state` (crate
+    /// visible only so that the loop skip can compare it).
+    pub(crate) state: RunState,
     /// Program counter: the address of the next instruction (GP 130).
     pub pc: u16,
     pub(crate) stack: [u16; STACK_DEPTH],
@@ -295,6 +327,12 @@ impl Vm {
     #[inline]
     pub(crate) fn set_state(&mut self, to: RunState) {
         self.state = to;
+    }
+
+    /// The run state (GP 128).
+    #[inline(always)]
+    pub fn state(&self) -> RunState {
+        self.state
     }
 
     /// Whether instructions execute (running, not waiting).
