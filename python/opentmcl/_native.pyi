@@ -118,6 +118,7 @@ class Module:
         link: Union[bool, str, "os.PathLike[str]", None] = None,
         tcp: Union[bool, str, None] = None,
         wire_timing: bool = False,
+        interface: Optional[str] = None,
     ) -> None: ...
     @staticmethod
     def bus(
@@ -125,6 +126,7 @@ class Module:
         link: Union[bool, str, "os.PathLike[str]", None] = None,
         tcp: Union[bool, str, None] = None,
         wire_timing: bool = False,
+        interface: Optional[str] = None,
     ) -> List["Module"]: ...
     @property
     def link(self) -> Optional[str]: ...

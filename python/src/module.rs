@@ -455,9 +455,9 @@ pub(crate) fn tmcl_error(status: u8, opcode: u8) -> PyErr {
 }
 
 /// One module of `Module.bus`: a model id, or a dict of `Module`'s keywords.
-fn wanted_of(entry: &Bound<'_, PyAny>, position: usize) -> PyResult<Wanted> {
+fn wanted_of(entry: &Bound<'_, PyAny>, position: usize, interface: Option<&str>) -> PyResult<Wanted> {
     if let Ok(model) = entry.extract::<String>() {
-        let spec = crate::model_by_id(&model)?;
+        let spec = on_interface(crate::model_by_id(&model)?, interface)?;
         return Ok(Wanted { spec, world: tmcl_sim::World::default(), eeprom: None, address: position as u8 + 1 });
     }
     let dict = entry
@@ -465,7 +465,7 @@ fn wanted_of(entry: &Bound<'_, PyAny>, position: usize) -> PyResult<Wanted> {
         .map_err(|_| PyValueError::new_err("a module of a bus is a model id or a dict of Module's keywords"))?;
     for key in dict.keys() {
         let key: String = key.extract()?;
-        if !["model", "world", "eeprom", "address"].contains(&key.as_str()) {
+        if !["model", "world", "eeprom", "address", "interface"].contains(&key.as_str()) {
             return Err(PyValueError::new_err(format!("unknown keyword {key:?} for a module of a bus")));
         }
     }
@@ -476,8 +476,30 @@ fn wanted_of(entry: &Bound<'_, PyAny>, position: usize) -> PyResult<Wanted> {
     if address == 0 {
         return Err(PyValueError::new_err("a module address is 1..255"));
     }
+    let own: Option<String> = dict.get_item("interface")?.filter(|i| !i.is_none()).map(|i| i.extract()).transpose()?;
     let world = load_world(world.as_ref().filter(|w| !w.is_none()))?;
-    Ok(Wanted { spec: crate::model_by_id(&model)?, world, eeprom, address })
+    let spec = on_interface(crate::model_by_id(&model)?, own.as_deref().or(interface))?;
+    Ok(Wanted { spec, world, eeprom, address })
+}
+
+/// The model served on its host interface `interface` (`"usb"`, `"rs485"`; `None`: its first), as
+/// `tmcl serve --interface`: a USB-first module (the TMCM-1140, -3110, -6110) goes on an RS485 bus with
+/// `interface="rs485"`.
+fn on_interface(spec: &'static ModelSpec, interface: Option<&str>) -> PyResult<&'static ModelSpec> {
+    let Some(name) = interface else { return Ok(spec) };
+    tmcl_core::model::on_interface(spec, name).ok_or_else(|| {
+        let names: Vec<&str> = spec
+            .interfaces
+            .iter()
+            .map(|i| i.name)
+            .filter(|i| tmcl_core::model::on_interface(spec, i).is_some())
+            .collect();
+        PyValueError::new_err(format!(
+            "the {} cannot be served on {name:?}; it is served on: {}",
+            spec.name,
+            names.join(", ")
+        ))
+    })
 }
 
 #[pymethods]
@@ -489,7 +511,7 @@ impl Module {
     /// `"HOST:PORT"`) on a loopback TCP port (`.tcp_address`), or on both at once: each link is a host
     /// interface of its own, and a host on one never sees the replies to the other.
     #[new]
-    #[pyo3(signature = (model = "pd28-1021", world = None, eeprom = None, address = 1, link = None, tcp = None, wire_timing = false))]
+    #[pyo3(signature = (model = "pd28-1021", world = None, eeprom = None, address = 1, link = None, tcp = None, wire_timing = false, interface = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &str,
@@ -499,8 +521,9 @@ impl Module {
         link: Option<&Bound<'_, PyAny>>,
         tcp: Option<&Bound<'_, PyAny>>,
         wire_timing: bool,
+        interface: Option<&str>,
     ) -> PyResult<Module> {
-        let spec = crate::model_by_id(model)?;
+        let spec = on_interface(crate::model_by_id(model)?, interface)?;
         let world = load_world(world)?;
         if address == 0 {
             return Err(PyValueError::new_err("a module address is 1..255"));
@@ -527,20 +550,24 @@ impl Module {
     /// Several modules on one line, as on an RS485 bus, served on one pty (`link=True` or a path, the
     /// default), a TCP port (`tcp=True` or `"HOST:PORT"`) or both: `modules` lists model ids or dicts of
     /// `Module`'s keywords (`model`, `world`, `eeprom`, `address`; addresses default to 1, 2, ...).
-    /// `wire_timing=True` times every byte at its module's baud rate. Returns the modules in line order;
-    /// the line stops when the last of them is closed.
+    /// `wire_timing=True` times every byte at its module's baud rate. `interface="rs485"` serves every
+    /// module on its RS485 port (a dict's `interface` key, one of them), as `tmcl serve --interface`: the
+    /// TMCM-1140, -3110 and -6110 are USB first, and a USB port answers every address (one per link).
+    /// Returns the modules in line order; the line stops when the last of them is closed.
     #[staticmethod]
-    #[pyo3(signature = (modules, link = None, tcp = None, wire_timing = false))]
+    #[pyo3(signature = (modules, link = None, tcp = None, wire_timing = false, interface = None))]
     fn bus(
         modules: Vec<Bound<'_, PyAny>>,
         link: Option<&Bound<'_, PyAny>>,
         tcp: Option<&Bound<'_, PyAny>>,
         wire_timing: bool,
+        interface: Option<&str>,
     ) -> PyResult<Vec<Module>> {
         if modules.is_empty() {
             return Err(PyValueError::new_err("a bus needs at least one module"));
         }
-        let wanted = modules.iter().enumerate().map(|(n, m)| wanted_of(m, n)).collect::<PyResult<Vec<_>>>()?;
+        let wanted =
+            modules.iter().enumerate().map(|(n, m)| wanted_of(m, n, interface)).collect::<PyResult<Vec<_>>>()?;
         let (mut link, tcp) = (link_option(link)?, link_option(tcp)?);
         if link.is_none() && tcp.is_none() {
             link = Some(None);

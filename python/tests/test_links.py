@@ -71,6 +71,32 @@ def test_bus_of_two_models():
     assert not os.path.lexists(second.link)
 
 
+def test_usb_modules_on_an_rs485_bus():
+    """The TMCM-1140, -3110 and -6110 are USB first (a USB port answers every address, one module per
+    link); `interface="rs485"` puts them on one RS485 line, each answering its own address, every axis."""
+    with pytest.raises(RuntimeError, match="one module per link"):
+        opentmcl.Module.bus(["tmcm-3110", "tmcm-6110"])
+    with pytest.raises(ValueError, match="cannot be served on"):
+        opentmcl.Module.bus(["pd28-1021"], interface="usb")
+    modules = opentmcl.Module.bus(["tmcm-3110", "tmcm-6110", {"model": "tmcm-1140", "address": 7}],
+                                  interface="rs485")
+    try:
+        with serial.Serial(str(modules[0].link), 9600, timeout=5) as port:
+            for address, number in ((1, 3110), (2, 6110), (7, 1140)):
+                port.write(frame(address, 136, 1, 0, 0))
+                reply = port.read(9)
+                assert reply[1] == address and struct.unpack(">i", reply[4:8])[0] >> 16 == number
+            port.write(frame(2, 5, 4, 5, 321))  # SAP 4 of motor 5 of the TMCM-6110
+            assert port.read(9)[2] == 100
+            port.write(frame(5, 6, 4, 0, 0))  # nobody at 5
+            assert port.read(9) == b""
+        assert modules[1].get("MaxVelocity", motor=5) == 321
+        assert modules[1].get("MaxVelocity", motor=4) == 1000
+    finally:
+        for module in modules:
+            module.close()
+
+
 def test_eeprom_across_a_restart_of_a_served_module(tmp_path):
     eeprom = tmp_path / "m.eeprom"
     with opentmcl.Module(eeprom=eeprom, link=True) as module:

@@ -405,3 +405,19 @@ def test_the_debugger_on_a_pdx_113(browser, tmcl_bin, tmp_path, serve):
         by_name(browser, "button", "Stop").click()
     finally:
         assert u.stop() == 0
+
+
+def test_a_tmcm_3110_shows_its_supply_voltage(browser, tmcl_bin, tmp_path, serve):
+    """The TMCM-3110's I/O view: eight inputs, eight outputs, AIN0 and AIN4, and the supply voltage (GIO 8, 1,
+    0.1 V) in the analog table; the pull-ups (SIO 0, 0, written only) are not polled."""
+    server = serve("pty", modules=["tmcm-3110"])
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(server.link)]).start()
+    try:
+        open_page(browser, u, "io")
+        wait_until(lambda: wb(browser, "values['io.1.8']") == 240, what="the supply voltage, 24.0 V")
+        rows = [r.text for r in all_css(browser, "#io-analog tbody tr")]
+        assert any(r.startswith("supply voltage (0.1 V)") and "240" in r for r in rows), rows
+        assert len(all_css(browser, "#io-inputs li")) == 8 and len(all_css(browser, "#io-outputs li")) == 8
+        shot(browser, "io-tmcm-3110")
+    finally:
+        assert u.stop() == 0, u.stderr()

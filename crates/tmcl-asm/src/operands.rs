@@ -90,10 +90,13 @@ pub fn why_refused(instruction: Instruction, model: &ModelSpec) -> Option<Findin
         C::Agp { param, bank } => global(model, param, bank, None, |d| d.access.write),
         C::Stgp { param, bank } | C::Rsgp { param, bank } => global(model, param, bank, None, |d| d.access.auto),
         C::Sio { port, bank, value } => {
-            if bank != 2 {
+            if !model.writes_bank(bank) {
                 return finding(1, Status::InvalidValue, format!("SIO sets outputs, bank 2 (bank {bank} given)"));
             }
-            match model.port(bank, port).map(|p| p.kind) {
+            match model.output_port(bank, port).map(|p| p.kind) {
+                None if bank != 2 => {
+                    finding(0, Status::WrongType, format!("the {m} has no port {port} SIO sets in bank {bank}"))
+                }
                 None => {
                     finding(0, Status::WrongType, format!("the {m} has no output {port} (bank 2: {})", ports(model, 2)))
                 }
@@ -105,6 +108,9 @@ pub fn why_refused(instruction: Instruction, model: &ModelSpec) -> Option<Findin
                     Status::InvalidValue,
                     format!("SIO 255 takes a bit vector 0..255 (or -1, the accumulator): {value} is outside"),
                 ),
+                Some(PortKind::PullUps) if !(0..=3).contains(&value) => {
+                    finding(2, Status::InvalidValue, format!("the pull-ups take 0..3: {value} is outside"))
+                }
                 _ => None,
             }
         }

@@ -12,13 +12,13 @@ use std::io::Write;
 use tmcl_core::model::names::{self as by_name, NameError, INTERRUPT_BANK};
 use tmcl_core::model::{self, ModelSpec, ParamDesc, Table, Unit};
 use tmcl_host::HostError;
-use tmcl_wire::{Instruction, Opcode, Reply};
+use tmcl_wire::{Instruction, Opcode, Reply, Status};
 
 /// `--module MODEL`: which parameter tables the names come from.
 #[derive(Debug, Clone, Args)]
 pub struct ModelOption {
     /// The module's model, for parameter names, ranges and units (pd28-1021, tmcm-1310, pd-113,
-    /// tmcm-1140). Default: ask the module for its version string (command 136) when a name needs it.
+    /// tmcm-1140, tmcm-3110, tmcm-6110). Default: ask the module for its version string (command 136) when a name needs it.
     #[arg(long = "module", value_name = "MODEL", global = true)]
     pub module: Option<String>,
 }
@@ -227,6 +227,12 @@ impl Target {
     /// ([`tmcl_core::model::names::explain`]).
     pub(crate) fn explain(&self, err: HostError, value: Option<i32>) -> CliError {
         let HostError::Status { status, .. } = &err else { return err.into() };
+        if let Some(model) =
+            self.model.filter(|m| self.axis && *status == Status::InvalidValue && self.index >= m.motors)
+        {
+            let explanation = format!("{} (--motor {} given)", motors_of(model), self.index);
+            return CliError::Explained { source: err, explanation };
+        }
         let Some(refusal) = by_name::explain(self.model, self.axis, self.index, self.number, *status, value, false)
         else {
             return err.into();
@@ -238,6 +244,14 @@ impl Target {
             _ => refusal.to_string(),
         };
         CliError::Explained { source: err, explanation }
+    }
+}
+
+/// `the TMCM-3110 has motors 0..2`, `the PD28-1021 has motor 0`.
+pub(crate) fn motors_of(model: &ModelSpec) -> String {
+    match model.motors {
+        1 => format!("the {} has motor 0", model.name),
+        n => format!("the {} has motors 0..{}", model.name, n - 1),
     }
 }
 
@@ -269,9 +283,10 @@ pub struct ParamsArgs {
     /// Which parameters.
     #[arg(value_enum, default_value_t = Which::All)]
     pub which: Which,
-    /// The motor whose axis parameters are read.
-    #[arg(long, short, default_value_t = 0)]
-    pub motor: u8,
+    /// The motor whose axis parameters are listed [default: every motor of the model, `ap N:M` for motor
+    /// M > 0].
+    #[arg(long, short)]
+    pub motor: Option<u8>,
     /// List the tables only, without reading values (needs no module with --module).
     #[arg(long)]
     pub no_values: bool,
@@ -328,15 +343,19 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
         let mut client = args.conn.open()?;
         (models.get(&mut client)?, Some(client))
     };
-    let tables: Vec<(&str, &'static Table, bool, u8)> = [
-        (Which::Ap, "ap", &model.axis, true, args.motor),
-        (Which::Gp, "gp", &model.global, false, 0),
-        (Which::Ip, "gp", &model.interrupt, false, INTERRUPT_BANK),
-    ]
-    .into_iter()
-    .filter(|(w, ..)| args.which == Which::All || args.which == *w)
-    .map(|(_, kind, table, axis, index)| (kind, table, axis, index))
-    .collect();
+    let motors = match args.motor {
+        Some(m) if m >= model.motors => {
+            return Err(CliError::Usage(format!("{} (--motor {m} given)", motors_of(model))));
+        }
+        Some(m) => m..m + 1,
+        None => 0..model.motors,
+    };
+    let axes = motors.map(|m| (Which::Ap, "ap", &model.axis, true, m));
+    let tables: Vec<(&str, &'static Table, bool, u8)> = axes
+        .chain([(Which::Gp, "gp", &model.global, false, 0), (Which::Ip, "gp", &model.interrupt, false, INTERRUPT_BANK)])
+        .filter(|(w, ..)| args.which == Which::All || args.which == *w)
+        .map(|(_, kind, table, axis, index)| (kind, table, axis, index))
+        .collect();
     if !json {
         writeln!(out, "{} ({}), {}", model.name, model.id, model.manual)?;
         writeln!(out, "{:<11} {:<28} {:<6} {:<24} {:<22} value", "parameter", "name", "access", "range", "unit")?;
@@ -464,6 +483,16 @@ mod tests {
         );
         let t = lookup(pd28(), "ActualSpeed", true, None).unwrap();
         assert_eq!(t.desc.unwrap().access.to_string(), "RW");
+    }
+
+    #[test]
+    fn a_motor_the_model_lacks_is_explained() {
+        let m3110 = model::by_id("tmcm-3110").unwrap();
+        let t = lookup(m3110, "MaxVelocity", true, Some(3)).unwrap();
+        let reply = Reply { host: 2, module: 1, status: Status::InvalidValue, opcode: 6, value: 0 };
+        let err = t.explain(HostError::Status { status: Status::InvalidValue, reply }, None);
+        assert!(err.to_string().ends_with("the TMCM-3110 has motors 0..2 (--motor 3 given)"), "{err}");
+        assert_eq!(motors_of(pd28()), "the PD28-1021 has motor 0");
     }
 
     #[test]

@@ -15,7 +15,8 @@ use tmcl_serve::{EtherCatOptions, Fleet, LinkOptions, ModuleInfo, ModuleOptions,
 /// Options of `tmcl serve`.
 #[derive(Debug, Args)]
 pub struct ServeArgs {
-    /// The module to simulate (pd28-1021, tmcm-1310, pd-113, tmcm-1140), as MODEL or MODEL@ADDRESS.
+    /// The module to simulate (pd28-1021, tmcm-1310, pd-113, tmcm-1140, tmcm-3110,
+    /// tmcm-6110), as MODEL or MODEL@ADDRESS.
     /// Give it several times to put several independent modules on one line (an RS485 bus), e.g.
     /// `--module pd28-1021@1 --module pd28-1021@2`.
     #[arg(long, value_name = "MODEL[@ADDR]", default_value = "pd28-1021")]

@@ -13,7 +13,8 @@ use tmcl_sim::SimBoard;
 /// Options shared by `tmcl run` and `tmcl debug`: which module, its settings, its world.
 #[derive(Debug, Clone, Args)]
 pub struct SimOptions {
-    /// The module to simulate: pd28-1021, tmcm-1310, pd-113 or tmcm-1140.
+    /// The module to simulate: pd28-1021, tmcm-1310, pd-113, tmcm-1140, tmcm-3110 or
+    /// tmcm-6110.
     #[arg(long, value_name = "MODEL", default_value = "pd28-1021")]
     pub module: String,
     /// Set a parameter before the program starts: apN=V (axis parameter N of motor 0), gpN=V (global

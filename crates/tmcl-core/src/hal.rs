@@ -68,6 +68,12 @@ pub trait Inputs {
 pub trait Outputs {
     /// Drives the outputs; bit n = OUTn.
     fn set_outputs(&mut self, bits: u8);
+
+    /// Switches the reference switch inputs' pull-up resistors (SIO on a model's `PortKind::PullUps`
+    /// port, 0..=3); a board without switchable pull-ups ignores it (the default).
+    fn set_pull_ups(&mut self, bits: u8) {
+        let _ = bits;
+    }
 }
 
 /// Analog inputs and the temperature sensor (PD28-1021 manual §3.7.15, bank 1).
@@ -248,7 +254,7 @@ macro_rules! forward {
 
 forward! {
     Inputs { fn digital_inputs(&mut self) -> u8; }
-    Outputs { fn set_outputs(&mut self, bits: u8); }
+    Outputs { fn set_outputs(&mut self, bits: u8); fn set_pull_ups(&mut self, bits: u8); }
     Analog { fn analog_input(&mut self, channel: u8) -> u16; fn temperature(&mut self) -> i32; fn supply_voltage(&mut self) -> u16; }
     SwitchInputs { fn switches(&mut self, motor: usize) -> Switches; }
     StepDriver {

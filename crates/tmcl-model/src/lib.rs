@@ -41,7 +41,9 @@ pub mod port;
 pub mod test_three_axes;
 pub mod tmcm_1140;
 pub mod tmcm_1310;
+#[cfg(feature = "multi-axis")]
 pub mod tmcm_3110;
+#[cfg(feature = "multi-axis")]
 pub mod tmcm_6110;
 pub mod variant;
 
@@ -260,6 +262,9 @@ impl ModelSpec {
             let ok = match d.ports[i].kind {
                 PortKind::DigitalInput(bit) => bit < d.inputs,
                 PortKind::Output(bit) => bit < d.outputs,
+                // The supply voltage is an analog reading (bank 1), the pull-ups a setting of bank 0.
+                PortKind::SupplyVoltage => d.ports[i].bank == 1,
+                PortKind::PullUps => d.ports[i].bank == 0,
                 _ => true,
             };
             if !ok || d.ports[i].bank > 2 {
@@ -350,9 +355,20 @@ impl ModelSpec {
         &self.desc
     }
 
-    /// Looks up a port.
+    /// Looks up a port GIO reads.
     pub fn port(&self, bank: u8, port: u8) -> Option<&'static PortDesc> {
-        self.ports.iter().find(|p| p.bank == bank && p.port == port)
+        self.ports.iter().find(|p| p.bank == bank && p.port == port && p.kind.is_readable())
+    }
+
+    /// Looks up a port SIO writes (an output, all outputs, the switches' pull-ups).
+    pub fn output_port(&self, bank: u8, port: u8) -> Option<&'static PortDesc> {
+        self.ports.iter().find(|p| p.bank == bank && p.port == port && p.kind.is_writable())
+    }
+
+    /// Whether SIO writes a port of `bank` (bank 2, the outputs, on every model; bank 0 where the model has
+    /// the switches' pull-ups there).
+    pub fn writes_bank(&self, bank: u8) -> bool {
+        self.ports.iter().any(|p| p.bank == bank && p.kind.is_writable())
     }
 }
 
@@ -367,11 +383,22 @@ const fn any_protected(params: &[ParamDesc]) -> bool {
     false
 }
 
-/// Every model this build knows.
+/// Every model this build knows: the multi-axis TMCM-3110 and TMCM-6110 with the `multi-axis` feature
+/// (every `std` build), the one-axis models always.
+#[cfg(feature = "multi-axis")]
+pub static MODELS: &[&ModelSpec] =
+    &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC, &tmcm_1140::SPEC, &tmcm_3110::SPEC, &tmcm_6110::SPEC];
+/// Every model this build knows: the one-axis models (a build without the `multi-axis` feature drives
+/// one motor, see [`capacity::MAX_MOTORS`]).
+#[cfg(not(feature = "multi-axis"))]
 pub static MODELS: &[&ModelSpec] = &[&pd28_1021::SPEC, &tmcm_1310::SPEC, &pd_113::SPEC, &tmcm_1140::SPEC];
 
 /// Models served on another of their interfaces than the first: the same module, its interfaces in
-/// another order (the TMCM-1140 on its RS485 port instead of USB).
+/// another order (the TMCM-1140, -3110 and -6110 on their RS485 port instead of USB).
+#[cfg(feature = "multi-axis")]
+static INTERFACE_VARIANTS: &[&ModelSpec] = &[&tmcm_1140::SPEC_RS485, &tmcm_3110::SPEC_RS485, &tmcm_6110::SPEC_RS485];
+/// Models served on another of their interfaces than the first (the TMCM-1140 on its RS485 port).
+#[cfg(not(feature = "multi-axis"))]
 static INTERFACE_VARIANTS: &[&ModelSpec] = &[&tmcm_1140::SPEC_RS485];
 
 /// The model `spec` served on its interface named `interface` (`usb`, `rs485`): `spec` itself when that

@@ -21,6 +21,25 @@ pub enum PortKind {
     Output(u8),
     /// All outputs as a bit vector (SIO 255, 2).
     AllOutputs,
+    /// The supply voltage in 0.1 V (GIO 8, 1 on the TMCM-3110/6110: odemis' TMCL driver reads it before
+    /// it moves anything, "the IDE uses this feature too").
+    SupplyVoltage,
+    /// The pull-up resistors of the reference switch inputs, set with SIO (SIO 0, 0 on the TMCM-3110/6110,
+    /// as odemis' TMCL driver sets them): the value's low bits switch them (0..=3). Written only: GIO of the
+    /// same port reads the input there.
+    PullUps,
+}
+
+impl PortKind {
+    /// Whether GIO reads the port.
+    pub const fn is_readable(self) -> bool {
+        !matches!(self, PortKind::PullUps)
+    }
+
+    /// Whether SIO writes the port.
+    pub const fn is_writable(self) -> bool {
+        matches!(self, PortKind::Output(_) | PortKind::AllOutputs | PortKind::PullUps)
+    }
 }
 
 /// One I/O port.

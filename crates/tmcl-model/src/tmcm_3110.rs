@@ -1,9 +1,8 @@
 //! The TMCM-3110 (three axes) and, in [`crate::tmcm_6110`], the TMCM-6110 (six): the TMCM-1140's
 //! generation with more axes — TMC429 motion controllers in their units, a TMC262 per axis with
 //! stallGuard2 and coolStep, two reference switches per axis, eight inputs and eight outputs, USB, RS485
-//! and CAN — as data, **prepared**: not in [`crate::MODELS`] yet. The core takes the number of axes from
-//! the model now (`ModelDesc::motors`, up to [`crate::capacity::MAX_MOTORS`]) and `ModelSpec::check`
-//! accepts these descriptions; they carry axis 0's vectors only so far ([`VECTORS_3110`] has all).
+//! and CAN — as data: the core drives as many motors as the model has, each axis with its own parameters,
+//! switches, ramp and interrupt sources.
 //!
 //! # Sources
 //!
@@ -27,15 +26,17 @@
 //! - **Per axis** every axis parameter exists once per motor, the same table for each.
 //! - **Interrupt vectors** per axis: target reached 3 + n, stallGuard2 15 + n, deviation 21 + n, left and
 //!   right stop switch 27 + 2n and 28 + 2n (the numbering of the ARM generation's interrupt table, the
-//!   bank 3 numbers of pytrinamic's `GP3`). [`VECTORS_3110`] lists them with their axis; the description
-//!   carries the timers, axis 0's vectors and the inputs, which the core's one-axis sources express.
-//! - **Bank 3** has 17 entries on the TMCM-3110 (23 on the -6110): more than the core's 16
-//!   ([`crate::capacity::MAX_INTERRUPT_PARAMS`]); the capacity grows with the axes.
+//!   bank 3 numbers of pytrinamic's `GP3`), each source naming its axis.
+//! - **Bank 3** has 17 entries on the TMCM-3110 (23 on the -6110): the core's capacity
+//!   ([`crate::capacity::MAX_INTERRUPT_PARAMS`]) is 24 for them.
 //! - **Encoder** (TMCM-3110 only): an external A/B encoder per axis (AP 209, prescaler 210, deviation
 //!   212); AP 201 (encoder mode) is kept and stored. The TMCM-6110 has no encoder inputs.
 //! - **Stored only**: AP 213 (group index), AP 254 (step/direction mode), besides the TMCM-1140's.
-//! - **Not expressible yet**: GIO 8, 1 (the supply voltage odemis reads before it moves anything: a port
-//!   kind the core does not have), SIO 0, 0 (the limit switches' pull-ups odemis sets).
+//! - **odemis' ports**: GIO 8, 1 reads the supply voltage in 0.1 V (odemis refuses to start below its
+//!   `minpower`, 10.8 V by default; the simulated board's supply, 24 V unless the world says otherwise);
+//!   SIO 0, 0, v sets the reference switches' pull-ups (odemis stores two bits for it in its user
+//!   configuration and writes them back with SIO at start-up): 0..=3 taken and passed to the board, no
+//!   other effect on the simulated switches, which have defined levels; GIO 0, 0 still reads IN0.
 
 use crate::interface::InterfaceDesc;
 use crate::interrupt::{InterruptDesc, Interrupts, Source};
@@ -43,7 +44,7 @@ use crate::param::{cited, join, Access, ParamDesc, Range, Table};
 use crate::port::{PortDesc, PortKind};
 use crate::tmcm_1140;
 use crate::variant::{AppStatusReply, Driver, Encoder, EncoderKind, GlobalBanks, Kinematics, ReferenceModes};
-use crate::{pd28_1021, ModelDesc};
+use crate::{pd28_1021, ModelDesc, ModelSpec};
 
 /// pytrinamic's `TMCM3110` class, where it agrees with the TMCM-1140's tables.
 const PY: &str = "pytrinamic TMCM3110 (as TMCM-1140)";
@@ -186,24 +187,8 @@ pub static INTERRUPT_PARAMS: [ParamDesc; 17] = bank3(3);
 
 // ---- interrupt vectors ---------------------------------------------------------------------------------
 
-/// One interrupt vector of a multi-axis module and the axis its event belongs to (`None` for the
-/// timers and the inputs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct AxisVector {
-    /// The vector.
-    pub desc: InterruptDesc,
-    /// The axis whose target, stall, deviation or switch raises it.
-    pub axis: Option<u8>,
-}
-
 const fn v(number: u8, name: &'static str, symbol: &'static str, source: Source, config: Option<u8>) -> InterruptDesc {
     InterruptDesc { number, name, symbol, source, config }
-}
-const fn global(desc: InterruptDesc) -> AxisVector {
-    AxisVector { desc, axis: None }
-}
-const fn of(axis: u8, desc: InterruptDesc) -> AxisVector {
-    AxisVector { desc, axis: Some(axis) }
 }
 
 /// The timers.
@@ -226,58 +211,41 @@ pub(crate) const INPUTS: [InterruptDesc; 8] = [
 
 /// Every vector of the TMCM-3110 with its axis, in number order: 3 timers, target reached 3–5,
 /// stallGuard2 15–17, deviation 21–23, stop switches 27–32, inputs 39–46.
-pub static VECTORS_3110: [AxisVector; 26] = [
-    global(TIMERS[0]),
-    global(TIMERS[1]),
-    global(TIMERS[2]),
-    of(0, v(3, "Target position reached 0", "TI_TARGET0", Source::TargetReached(0), None)),
-    of(1, v(4, "Target position reached 1", "TI_TARGET1", Source::TargetReached(1), None)),
-    of(2, v(5, "Target position reached 2", "TI_TARGET2", Source::TargetReached(2), None)),
-    of(0, v(15, "stallGuard axis 0", "TI_STALLGUARD0", Source::Stall(0), None)),
-    of(1, v(16, "stallGuard axis 1", "TI_STALLGUARD1", Source::Stall(1), None)),
-    of(2, v(17, "stallGuard axis 2", "TI_STALLGUARD2", Source::Stall(2), None)),
-    of(0, v(21, "Deviation axis 0", "TI_DEVIATION0", Source::Deviation(0), None)),
-    of(1, v(22, "Deviation axis 1", "TI_DEVIATION1", Source::Deviation(1), None)),
-    of(2, v(23, "Deviation axis 2", "TI_DEVIATION2", Source::Deviation(2), None)),
-    of(0, v(27, "Left stop switch 0", "TI_STOPLEFT0", Source::LeftStop(0), Some(27))),
-    of(0, v(28, "Right stop switch 0", "TI_STOPRIGHT0", Source::RightStop(0), Some(28))),
-    of(1, v(29, "Left stop switch 1", "TI_STOPLEFT1", Source::LeftStop(1), Some(29))),
-    of(1, v(30, "Right stop switch 1", "TI_STOPRIGHT1", Source::RightStop(1), Some(30))),
-    of(2, v(31, "Left stop switch 2", "TI_STOPLEFT2", Source::LeftStop(2), Some(31))),
-    of(2, v(32, "Right stop switch 2", "TI_STOPRIGHT2", Source::RightStop(2), Some(32))),
-    global(INPUTS[0]),
-    global(INPUTS[1]),
-    global(INPUTS[2]),
-    global(INPUTS[3]),
-    global(INPUTS[4]),
-    global(INPUTS[5]),
-    global(INPUTS[6]),
-    global(INPUTS[7]),
+pub static VECTORS_3110: [InterruptDesc; 26] = [
+    TIMERS[0],
+    TIMERS[1],
+    TIMERS[2],
+    v(3, "Target position reached 0", "TI_TARGET0", Source::TargetReached(0), None),
+    v(4, "Target position reached 1", "TI_TARGET1", Source::TargetReached(1), None),
+    v(5, "Target position reached 2", "TI_TARGET2", Source::TargetReached(2), None),
+    v(15, "stallGuard axis 0", "TI_STALLGUARD0", Source::Stall(0), None),
+    v(16, "stallGuard axis 1", "TI_STALLGUARD1", Source::Stall(1), None),
+    v(17, "stallGuard axis 2", "TI_STALLGUARD2", Source::Stall(2), None),
+    v(21, "Deviation axis 0", "TI_DEVIATION0", Source::Deviation(0), None),
+    v(22, "Deviation axis 1", "TI_DEVIATION1", Source::Deviation(1), None),
+    v(23, "Deviation axis 2", "TI_DEVIATION2", Source::Deviation(2), None),
+    v(27, "Left stop switch 0", "TI_STOPLEFT0", Source::LeftStop(0), Some(27)),
+    v(28, "Right stop switch 0", "TI_STOPRIGHT0", Source::RightStop(0), Some(28)),
+    v(29, "Left stop switch 1", "TI_STOPLEFT1", Source::LeftStop(1), Some(29)),
+    v(30, "Right stop switch 1", "TI_STOPRIGHT1", Source::RightStop(1), Some(30)),
+    v(31, "Left stop switch 2", "TI_STOPLEFT2", Source::LeftStop(2), Some(31)),
+    v(32, "Right stop switch 2", "TI_STOPRIGHT2", Source::RightStop(2), Some(32)),
+    INPUTS[0],
+    INPUTS[1],
+    INPUTS[2],
+    INPUTS[3],
+    INPUTS[4],
+    INPUTS[5],
+    INPUTS[6],
+    INPUTS[7],
 ];
-
-/// What the core's one-axis sources express today: the timers, axis 0's vectors, the inputs.
-pub(crate) const fn axis0_vectors<const N: usize>(all: &[AxisVector]) -> [InterruptDesc; N] {
-    let mut out = [TIMERS[0]; N];
-    let mut n = 0;
-    let mut i = 0;
-    while i < all.len() {
-        if !matches!(all[i].axis, Some(a) if a > 0) {
-            out[n] = all[i].desc;
-            n += 1;
-        }
-        i += 1;
-    }
-    assert!(n == N, "the array holds the global vectors and those of axis 0");
-    out
-}
-
-static VECTORS_3110_AXIS0: [InterruptDesc; 16] = axis0_vectors(&VECTORS_3110);
 
 // ---- I/O, interfaces, description ---------------------------------------------------------------------
 
 /// I/O ports (pytrinamic's `IO`): IN0–IN7 digital on bank 0, AIN0 and AIN4 analog on bank 1, OUT0–OUT7
-/// on bank 2.
-pub static PORTS: [PortDesc; 20] = [
+/// on bank 2; and, as odemis' TMCL driver uses them, the supply voltage GIO 8, 1 (0.1 V) and the reference
+/// switches' pull-ups SIO 0, 0.
+pub static PORTS: [PortDesc; 22] = [
     PortDesc { bank: 0, port: 0, kind: PortKind::DigitalInput(0), name: "AIN0" },
     PortDesc { bank: 0, port: 1, kind: PortKind::DigitalInput(1), name: "IN1" },
     PortDesc { bank: 0, port: 2, kind: PortKind::DigitalInput(2), name: "IN2" },
@@ -289,6 +257,8 @@ pub static PORTS: [PortDesc; 20] = [
     PortDesc { bank: 0, port: 255, kind: PortKind::AllInputs, name: "all digital inputs" },
     PortDesc { bank: 1, port: 0, kind: PortKind::Analog(0), name: "analog AIN0" },
     PortDesc { bank: 1, port: 4, kind: PortKind::Analog(1), name: "analog AIN4" },
+    PortDesc { bank: 1, port: 8, kind: PortKind::SupplyVoltage, name: "supply voltage (0.1 V)" },
+    PortDesc { bank: 0, port: 0, kind: PortKind::PullUps, name: "reference switch pull-ups" },
     PortDesc { bank: 2, port: 0, kind: PortKind::Output(0), name: "OUT0" },
     PortDesc { bank: 2, port: 1, kind: PortKind::Output(1), name: "OUT1" },
     PortDesc { bank: 2, port: 2, kind: PortKind::Output(2), name: "OUT2" },
@@ -300,8 +270,7 @@ pub static PORTS: [PortDesc; 20] = [
     PortDesc { bank: 2, port: 255, kind: PortKind::AllOutputs, name: "all outputs" },
 ];
 
-/// The TMCM-3110 with firmware V1.11 (USB first, as the TMCM-1140), three axes: prepared, not in
-/// [`crate::MODELS`] until the core drives more than one motor.
+/// The TMCM-3110 with firmware V1.11 (USB first, as the TMCM-1140), three axes.
 pub const DESC: ModelDesc = ModelDesc {
     id: "tmcm-3110",
     name: "TMCM-3110",
@@ -317,7 +286,7 @@ pub const DESC: ModelDesc = ModelDesc {
     coordinates: 20,
     program_memory: 2048,
     ports: &PORTS,
-    interrupts: Interrupts::new(&VECTORS_3110_AXIS0),
+    interrupts: Interrupts::new(&VECTORS_3110),
     inputs: 8,
     outputs: 8,
     interfaces: &[tmcm_1140::USB, InterfaceDesc::RS485],
@@ -338,10 +307,17 @@ pub const DESC: ModelDesc = ModelDesc {
     manual: "TMCM-3110 TMCL firmware manual V1.11 (Rev. 1.05)",
 };
 
+/// The TMCM-3110 with firmware V1.11.
+pub static SPEC: ModelSpec = ModelSpec::new(DESC);
+
+/// The TMCM-3110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
+pub static SPEC_RS485: ModelSpec =
+    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ModelSpec;
+    use crate::{FitError, ModelSpec};
 
     #[test]
     fn tables_are_sorted_and_defaults_in_range() {
@@ -351,7 +327,7 @@ mod tests {
                 assert!(d.range.contains(d.default) || !d.access.write, "{} default {}", d.name, d.default);
             }
         }
-        assert!(VECTORS_3110.windows(2).all(|w| w[0].desc.number < w[1].desc.number));
+        assert!(VECTORS_3110.windows(2).all(|w| w[0].number < w[1].number));
     }
 
     /// pytrinamic's `TMCM3110` AP table, but AP 135 (not provided, as on the TMCM-1140).
@@ -369,11 +345,12 @@ mod tests {
         assert_eq!(bank3, [0, 1, 2, 27, 28, 29, 30, 31, 32, 39, 40, 41, 42, 43, 44, 45, 46]);
     }
 
-    /// The description is whole but for what the core lacks: more than one motor.
     #[test]
-    fn fits_the_core_s_axes() {
-        // The core takes the number of axes from the model now (`ModelDesc::motors`, 1 to 6).
-        assert!(ModelSpec::check(&DESC).is_ok(), "{:?}", ModelSpec::check(&DESC).err());
+    fn fits_the_core() {
+        assert_eq!(ModelSpec::check(&DESC).map(|_| ()), Ok(()));
+        // One motor more than the core drives does not fit.
+        let seven = ModelDesc { motors: 7, ..DESC };
+        assert_eq!(ModelSpec::check(&seven).map(|_| ()), Err(FitError::Motors));
         assert_eq!(DESC.version_binary >> 16, 3110, "odemis reads the model from the high word");
         assert_eq!(DESC.version_binary & 0xFFFF, 0x010B);
     }

@@ -1,5 +1,5 @@
-//! The TMCM-6110: six axes of the TMCM-3110's kind without encoder inputs, **prepared** as the TMCM-3110
-//! is ([`crate::tmcm_3110`] has the sources and decisions they share).
+//! The TMCM-6110: six axes of the TMCM-3110's kind without encoder inputs ([`crate::tmcm_3110`] has the
+//! sources and decisions they share).
 //!
 //! # Sources
 //!
@@ -12,12 +12,13 @@
 //!   bank 1).
 
 use crate::interface::InterfaceDesc;
+use crate::interrupt::InterruptDesc;
 use crate::interrupt::{Interrupts, Source};
 use crate::param::{join, ParamDesc, Table};
 use crate::tmcm_1140;
-use crate::tmcm_3110::{self, axis0_vectors, bank3, AxisVector};
+use crate::tmcm_3110::{self, bank3};
 use crate::variant::{AppStatusReply, Driver, GlobalBanks, Kinematics, ReferenceModes};
-use crate::ModelDesc;
+use crate::{ModelDesc, ModelSpec};
 
 /// Axis parameters of each axis: 59 entries.
 pub static AXIS_PARAMS: [ParamDesc; 59] = join(&[
@@ -35,68 +36,61 @@ pub static AXIS_PARAMS: [ParamDesc; 59] = join(&[
 /// Bank 3: the timers, the stop switches of six axes, inputs 0–7: 23 entries.
 pub static INTERRUPT_PARAMS: [ParamDesc; 23] = bank3(6);
 
-const fn global(desc: crate::interrupt::InterruptDesc) -> AxisVector {
-    AxisVector { desc, axis: None }
-}
-
-const fn axis_vector(axis: u8, number: u8, name: &'static str, symbol: &'static str, source: Source) -> AxisVector {
+const fn axis_vector(number: u8, name: &'static str, symbol: &'static str, source: Source) -> InterruptDesc {
     let config = if source.is_level() { Some(number) } else { None };
-    AxisVector { desc: crate::interrupt::InterruptDesc { number, name, symbol, source, config }, axis: Some(axis) }
+    InterruptDesc { number, name, symbol, source, config }
 }
 
 /// Every vector of the TMCM-6110 with its axis, in number order: 3 timers, target reached 3–8,
 /// stallGuard2 15–20, deviation 21–26, stop switches 27–38, inputs 39–46.
-pub static VECTORS_6110: [AxisVector; 41] = {
+pub static VECTORS_6110: [InterruptDesc; 41] = {
     use Source::*;
     [
-        global(tmcm_3110::TIMERS[0]),
-        global(tmcm_3110::TIMERS[1]),
-        global(tmcm_3110::TIMERS[2]),
-        axis_vector(0, 3, "Target position reached 0", "TI_TARGET0", TargetReached(0)),
-        axis_vector(1, 4, "Target position reached 1", "TI_TARGET1", TargetReached(1)),
-        axis_vector(2, 5, "Target position reached 2", "TI_TARGET2", TargetReached(2)),
-        axis_vector(3, 6, "Target position reached 3", "TI_TARGET3", TargetReached(3)),
-        axis_vector(4, 7, "Target position reached 4", "TI_TARGET4", TargetReached(4)),
-        axis_vector(5, 8, "Target position reached 5", "TI_TARGET5", TargetReached(5)),
-        axis_vector(0, 15, "stallGuard axis 0", "TI_STALLGUARD0", Stall(0)),
-        axis_vector(1, 16, "stallGuard axis 1", "TI_STALLGUARD1", Stall(1)),
-        axis_vector(2, 17, "stallGuard axis 2", "TI_STALLGUARD2", Stall(2)),
-        axis_vector(3, 18, "stallGuard axis 3", "TI_STALLGUARD3", Stall(3)),
-        axis_vector(4, 19, "stallGuard axis 4", "TI_STALLGUARD4", Stall(4)),
-        axis_vector(5, 20, "stallGuard axis 5", "TI_STALLGUARD5", Stall(5)),
-        axis_vector(0, 21, "Deviation axis 0", "TI_DEVIATION0", Deviation(0)),
-        axis_vector(1, 22, "Deviation axis 1", "TI_DEVIATION1", Deviation(1)),
-        axis_vector(2, 23, "Deviation axis 2", "TI_DEVIATION2", Deviation(2)),
-        axis_vector(3, 24, "Deviation axis 3", "TI_DEVIATION3", Deviation(3)),
-        axis_vector(4, 25, "Deviation axis 4", "TI_DEVIATION4", Deviation(4)),
-        axis_vector(5, 26, "Deviation axis 5", "TI_DEVIATION5", Deviation(5)),
-        axis_vector(0, 27, "Left stop switch 0", "TI_STOPLEFT0", LeftStop(0)),
-        axis_vector(0, 28, "Right stop switch 0", "TI_STOPRIGHT0", RightStop(0)),
-        axis_vector(1, 29, "Left stop switch 1", "TI_STOPLEFT1", LeftStop(1)),
-        axis_vector(1, 30, "Right stop switch 1", "TI_STOPRIGHT1", RightStop(1)),
-        axis_vector(2, 31, "Left stop switch 2", "TI_STOPLEFT2", LeftStop(2)),
-        axis_vector(2, 32, "Right stop switch 2", "TI_STOPRIGHT2", RightStop(2)),
-        axis_vector(3, 33, "Left stop switch 3", "TI_STOPLEFT3", LeftStop(3)),
-        axis_vector(3, 34, "Right stop switch 3", "TI_STOPRIGHT3", RightStop(3)),
-        axis_vector(4, 35, "Left stop switch 4", "TI_STOPLEFT4", LeftStop(4)),
-        axis_vector(4, 36, "Right stop switch 4", "TI_STOPRIGHT4", RightStop(4)),
-        axis_vector(5, 37, "Left stop switch 5", "TI_STOPLEFT5", LeftStop(5)),
-        axis_vector(5, 38, "Right stop switch 5", "TI_STOPRIGHT5", RightStop(5)),
-        global(tmcm_3110::INPUTS[0]),
-        global(tmcm_3110::INPUTS[1]),
-        global(tmcm_3110::INPUTS[2]),
-        global(tmcm_3110::INPUTS[3]),
-        global(tmcm_3110::INPUTS[4]),
-        global(tmcm_3110::INPUTS[5]),
-        global(tmcm_3110::INPUTS[6]),
-        global(tmcm_3110::INPUTS[7]),
+        tmcm_3110::TIMERS[0],
+        tmcm_3110::TIMERS[1],
+        tmcm_3110::TIMERS[2],
+        axis_vector(3, "Target position reached 0", "TI_TARGET0", TargetReached(0)),
+        axis_vector(4, "Target position reached 1", "TI_TARGET1", TargetReached(1)),
+        axis_vector(5, "Target position reached 2", "TI_TARGET2", TargetReached(2)),
+        axis_vector(6, "Target position reached 3", "TI_TARGET3", TargetReached(3)),
+        axis_vector(7, "Target position reached 4", "TI_TARGET4", TargetReached(4)),
+        axis_vector(8, "Target position reached 5", "TI_TARGET5", TargetReached(5)),
+        axis_vector(15, "stallGuard axis 0", "TI_STALLGUARD0", Stall(0)),
+        axis_vector(16, "stallGuard axis 1", "TI_STALLGUARD1", Stall(1)),
+        axis_vector(17, "stallGuard axis 2", "TI_STALLGUARD2", Stall(2)),
+        axis_vector(18, "stallGuard axis 3", "TI_STALLGUARD3", Stall(3)),
+        axis_vector(19, "stallGuard axis 4", "TI_STALLGUARD4", Stall(4)),
+        axis_vector(20, "stallGuard axis 5", "TI_STALLGUARD5", Stall(5)),
+        axis_vector(21, "Deviation axis 0", "TI_DEVIATION0", Deviation(0)),
+        axis_vector(22, "Deviation axis 1", "TI_DEVIATION1", Deviation(1)),
+        axis_vector(23, "Deviation axis 2", "TI_DEVIATION2", Deviation(2)),
+        axis_vector(24, "Deviation axis 3", "TI_DEVIATION3", Deviation(3)),
+        axis_vector(25, "Deviation axis 4", "TI_DEVIATION4", Deviation(4)),
+        axis_vector(26, "Deviation axis 5", "TI_DEVIATION5", Deviation(5)),
+        axis_vector(27, "Left stop switch 0", "TI_STOPLEFT0", LeftStop(0)),
+        axis_vector(28, "Right stop switch 0", "TI_STOPRIGHT0", RightStop(0)),
+        axis_vector(29, "Left stop switch 1", "TI_STOPLEFT1", LeftStop(1)),
+        axis_vector(30, "Right stop switch 1", "TI_STOPRIGHT1", RightStop(1)),
+        axis_vector(31, "Left stop switch 2", "TI_STOPLEFT2", LeftStop(2)),
+        axis_vector(32, "Right stop switch 2", "TI_STOPRIGHT2", RightStop(2)),
+        axis_vector(33, "Left stop switch 3", "TI_STOPLEFT3", LeftStop(3)),
+        axis_vector(34, "Right stop switch 3", "TI_STOPRIGHT3", RightStop(3)),
+        axis_vector(35, "Left stop switch 4", "TI_STOPLEFT4", LeftStop(4)),
+        axis_vector(36, "Right stop switch 4", "TI_STOPRIGHT4", RightStop(4)),
+        axis_vector(37, "Left stop switch 5", "TI_STOPLEFT5", LeftStop(5)),
+        axis_vector(38, "Right stop switch 5", "TI_STOPRIGHT5", RightStop(5)),
+        tmcm_3110::INPUTS[0],
+        tmcm_3110::INPUTS[1],
+        tmcm_3110::INPUTS[2],
+        tmcm_3110::INPUTS[3],
+        tmcm_3110::INPUTS[4],
+        tmcm_3110::INPUTS[5],
+        tmcm_3110::INPUTS[6],
+        tmcm_3110::INPUTS[7],
     ]
 };
 
-static VECTORS_6110_AXIS0: [crate::interrupt::InterruptDesc; 16] = axis0_vectors(&VECTORS_6110);
-
-/// The TMCM-6110 with firmware V1.19, six axes: prepared, not in [`crate::MODELS`] until the core drives
-/// more than one motor.
+/// The TMCM-6110 with firmware V1.19, six axes.
 pub const DESC: ModelDesc = ModelDesc {
     id: "tmcm-6110",
     name: "TMCM-6110",
@@ -112,7 +106,7 @@ pub const DESC: ModelDesc = ModelDesc {
     coordinates: 20,
     program_memory: 2048,
     ports: &tmcm_3110::PORTS,
-    interrupts: Interrupts::new(&VECTORS_6110_AXIS0),
+    interrupts: Interrupts::new(&VECTORS_6110),
     inputs: 8,
     outputs: 8,
     interfaces: &[tmcm_1140::USB, InterfaceDesc::RS485],
@@ -133,10 +127,17 @@ pub const DESC: ModelDesc = ModelDesc {
     manual: "TMCM-6110 TMCL firmware manual V1.19 (Rev. 1.03)",
 };
 
+/// The TMCM-6110 with firmware V1.19.
+pub static SPEC: ModelSpec = ModelSpec::new(DESC);
+
+/// The TMCM-6110 served on its RS485 port (`tmcl serve --interface rs485`): on a bus with others.
+pub static SPEC_RS485: ModelSpec =
+    ModelSpec::new(ModelDesc { interfaces: &[InterfaceDesc::RS485, tmcm_1140::USB], ..DESC });
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ModelSpec;
+    use crate::{FitError, ModelSpec};
 
     #[test]
     fn tables_are_sorted_and_defaults_in_range() {
@@ -146,7 +147,7 @@ mod tests {
                 assert!(d.range.contains(d.default) || !d.access.write, "{} default {}", d.name, d.default);
             }
         }
-        assert!(VECTORS_6110.windows(2).all(|w| w[0].desc.number < w[1].desc.number));
+        assert!(VECTORS_6110.windows(2).all(|w| w[0].number < w[1].number));
     }
 
     /// pytrinamic's `TMCM6110` AP table, but AP 135 (not provided, as on the TMCM-1140).
@@ -165,9 +166,11 @@ mod tests {
     }
 
     #[test]
-    fn fits_the_core_s_axes() {
-        // The core takes the number of axes from the model now (`ModelDesc::motors`, 1 to 6).
-        assert!(ModelSpec::check(&DESC).is_ok(), "{:?}", ModelSpec::check(&DESC).err());
+    fn fits_the_core() {
+        assert_eq!(ModelSpec::check(&DESC).map(|_| ()), Ok(()));
+        // One motor more than the core drives does not fit.
+        let seven = ModelDesc { motors: 7, ..DESC };
+        assert_eq!(ModelSpec::check(&seven).map(|_| ()), Err(FitError::Motors));
         assert_eq!(DESC.version_binary >> 16, 6110);
     }
 }

@@ -21,6 +21,11 @@ pub enum Kinematics {
 }
 
 impl Kinematics {
+    /// Whether velocities and accelerations are TMC428/TMC429 units ([`Kinematics::Tmc428`]).
+    pub const fn is_tmc428(self) -> bool {
+        matches!(self, Kinematics::Tmc428 { .. })
+    }
+
     /// The width of the position counter in bits (the counters wrap around at it).
     pub const fn position_bits(self) -> u32 {
         match self {

@@ -328,6 +328,8 @@ pub struct SimBoard {
     /// Its square in (mA/32)², for the energy figure ([`driver::coil_square`]).
     coil_square: u64,
     outputs: u8,
+    /// The reference switches' pull-ups as SIO set them (`PortKind::PullUps`, 0..=3).
+    pull_ups: u8,
     drive: DriveState,
     updated: Instant,
     /// Motors 1.. of a model with several: each an axis of its own in a world of its own (the same world
@@ -376,6 +378,7 @@ impl SimBoard {
             coil: 0.0,
             coil_square: 0,
             outputs: 0,
+            pull_ups: 0,
             drive: DriveState::default(),
             updated: Instant::ZERO,
             spec: world,
@@ -556,6 +559,12 @@ impl SimBoard {
     /// Output levels (bit n = OUTn).
     pub fn outputs(&self) -> u8 {
         self.outputs
+    }
+
+    /// The reference switches' pull-ups as the firmware last set them (SIO 0, 0 on the TMCM-3110/6110):
+    /// kept, no effect on the simulated switches, whose levels are defined by the world.
+    pub fn pull_ups(&self) -> u8 {
+        self.pull_ups
     }
 
     /// What the firmware last asked of the driver.
@@ -933,6 +942,9 @@ impl Analog for SimBoard {
 impl Outputs for SimBoard {
     fn set_outputs(&mut self, bits: u8) {
         self.outputs = bits & self.profile.output_mask();
+    }
+    fn set_pull_ups(&mut self, bits: u8) {
+        self.pull_ups = bits;
     }
 }
 

@@ -19,10 +19,6 @@ use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, tmcm_3110, Kinem
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CalcOp, Command, Condition, EventMode, Instruction, MoveTarget, Request, RfsAction, WaitCondition};
 
-/// The TMCM-3110 (three axes), as data in `tmcl_model` but not yet among its served models: drawn here so
-/// that event-driven runs of several moving motors are checked against tick-by-tick ones.
-static TMCM_3110: ModelSpec = ModelSpec::new(tmcm_3110::DESC);
-
 /// Reads a scenario out of bytes: every read succeeds (0 past the end).
 struct Bytes<'a>(&'a [u8]);
 
@@ -133,7 +129,9 @@ impl Scenario {
             0 => &tmcm_1310::SPEC,
             1 => &pd_113::SPEC,
             6 => &tmcm_1140::SPEC,
-            7 => &TMCM_3110,
+            // 7: the TMCM-3110, so that event-driven runs of several moving motors are checked against
+            // tick-by-tick ones.
+            7 => &tmcm_3110::SPEC,
             _ => &pd28_1021::SPEC,
         };
         let world = world(&mut b);

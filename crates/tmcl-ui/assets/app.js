@@ -649,7 +649,7 @@
       const key = `io.${p.bank}.${p.port}`;
       if (p.kind === "input") {
         ins.append(el("li", {}, el("span", { text: p.name }), el("span", { class: "lamp", "data-key": key, "aria-label": `${p.name} input`, text: "–" })));
-      } else if (p.kind === "analog" || p.kind === "temperature") {
+      } else if (p.kind === "analog" || p.kind === "temperature" || p.kind === "supply") {
         an.append(el("tr", {}, el("th", { scope: "row", text: p.name }), el("td", { "data-key": key, text: "–" }),
           el("td", {}, p.kind === "analog" ? el("meter", { min: 0, max: 4095, value: 0, "data-meter": key, "aria-label": `${p.name} level` }) : "")));
       } else if (p.kind === "output") {

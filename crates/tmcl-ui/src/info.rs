@@ -91,7 +91,7 @@ impl ModelInfo {
         let ports = model
             .ports
             .iter()
-            .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs))
+            .filter(|p| !matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps))
             .map(|p| PortInfo {
                 bank: p.bank,
                 port: p.port,
@@ -99,8 +99,9 @@ impl ModelInfo {
                     PortKind::DigitalInput(_) | PortKind::EncoderNearZero => "input",
                     PortKind::Analog(_) | PortKind::Analog10(_) => "analog",
                     PortKind::Temperature => "temperature",
+                    PortKind::SupplyVoltage => "supply",
                     PortKind::Output(_) => "output",
-                    PortKind::AllInputs | PortKind::AllOutputs => "all",
+                    PortKind::AllInputs | PortKind::AllOutputs | PortKind::PullUps => "all",
                 },
                 name: p.name,
             })

@@ -723,7 +723,7 @@ impl Link {
             if w.views.contains("io") {
                 for p in model.map_or(&[][..], |m| m.ports) {
                     let all = matches!(p.kind, PortKind::AllInputs | PortKind::AllOutputs);
-                    if !all {
+                    if !all && p.kind.is_readable() {
                         polls.push((Poll::Input { port: p.port, bank: p.bank }, IO_PERIOD));
                     }
                 }

@@ -288,13 +288,19 @@ impl<B: Board> Module<B> {
         })
     }
 
-    /// SIO: only bank 2 (outputs) can be set; another bank is an invalid value of the bank byte.
+    /// SIO: bank 2 (outputs) and, where the model has them, the switches' pull-ups of bank 0; another bank
+    /// is an invalid value of the bank byte.
     fn sio(&mut self, port: u8, bank: u8, v: i32, origin: Origin) -> Exec {
-        if bank != 2 {
+        if !self.spec.writes_bank(bank) {
             return Err(Status::InvalidValue);
         }
-        let desc = self.spec.port(bank, port).ok_or(Status::WrongType)?;
+        let desc = self.spec.output_port(bank, port).ok_or(Status::WrongType)?;
         let bits = match desc.kind {
+            PortKind::PullUps => {
+                let bits = u8::try_from(v).ok().filter(|b| *b <= 3).ok_or(Status::InvalidValue)?;
+                self.board.set_pull_ups(bits);
+                return value(v);
+            }
             PortKind::Output(bit) => match v {
                 0 => self.st.outputs & !(1 << bit),
                 1 => self.st.outputs | (1 << bit),
@@ -434,6 +440,9 @@ impl<B: Board> Module<B> {
             PortKind::Temperature => self.board.temperature(),
             PortKind::Output(bit) => i32::from((self.st.outputs >> bit) & 1),
             PortKind::AllOutputs => i32::from(self.st.outputs),
+            PortKind::SupplyVoltage => i32::from(self.board.supply_voltage()),
+            // Written only (`ModelSpec::port` never gives it to GIO).
+            PortKind::PullUps => 0,
         }
     }
 

@@ -6,7 +6,7 @@
 use super::{Module, RNG_SEED};
 use crate::hal::prelude::*;
 use crate::hal::Board;
-use crate::model::{Driver, Setting};
+use crate::model::Setting;
 use crate::motion::Mode;
 use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
@@ -168,9 +168,10 @@ impl<B: Board> Module<B> {
             Role::TargetPosition => ramp.target_position,
             Role::ActualPosition if self.st.axes[m].cl.active => self.encoder_position(m),
             Role::ActualPosition => ramp.position,
-            // TMC428: in position mode the ramp sets v_target itself (see `hardware_target_speed`).
-            Role::TargetSpeed if ramp.mode == Mode::Position && self.spec.driver == Driver::Tmc428Tmc24x => {
-                self.hardware_target_speed()
+            // TMC428/TMC429 units (the PDx-113, the TMCM-1140/3110/6110): in position mode the motion
+            // controller sets v_target itself (see `hardware_target_speed`).
+            Role::TargetSpeed if ramp.mode == Mode::Position && self.spec.kinematics.is_tmc428() => {
+                self.hardware_target_speed(m)
             }
             Role::TargetSpeed => self.pps_to_units(m, ramp.target_velocity),
             Role::ActualSpeed => self.pps_to_units(m, ramp.velocity()),

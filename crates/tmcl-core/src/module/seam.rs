@@ -91,6 +91,12 @@ impl<B: Outputs> Outputs for Seam<B> {
         }
         self.board.set_outputs(bits);
     }
+    /// The switches' pull-ups: a change (rare: a host's SIO).
+    #[inline]
+    fn set_pull_ups(&mut self, bits: u8) {
+        self.input();
+        self.board.set_pull_ups(bits);
+    }
 }
 
 impl<B: StepDriver> StepDriver for Seam<B> {
