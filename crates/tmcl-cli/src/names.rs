@@ -283,8 +283,8 @@ pub struct ParamsArgs {
     /// Which parameters.
     #[arg(value_enum, default_value_t = Which::All)]
     pub which: Which,
-    /// The motor whose axis parameters are listed [default: every motor of the model, `ap N:M` for motor
-    /// M > 0].
+    /// The motor whose axis parameters are listed (without it: every motor of the model, `ap N:M` for
+    /// motor M > 0).
     #[arg(long, short)]
     pub motor: Option<u8>,
     /// List the tables only, without reading values (needs no module with --module).

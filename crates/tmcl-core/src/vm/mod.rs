@@ -9,8 +9,9 @@
 //!
 //! The machine: between two instructions it services an interrupt and looks at a WAIT in progress, then
 //! runs the decoded cell at the PC; each instruction reports what it did (`machine::Step`), and the run
-//! state changes only through [`Vm::set_state`]. Waiting is a state ([`Wait`]), never a loop. It runs a
-//! bounded number of instructions per poll, each taking [`INSTRUCTION_TIME`] of simulated time.
+//! state changes only through one setter (`Vm::set_state`, crate-internal). Waiting is a state
+//! ([`Wait`]), never a loop. It runs a bounded number of instructions per poll, each taking
+//! [`INSTRUCTION_TIME`] of simulated time.
 //!
 //! Decisions (the manual is silent; see docs/decisions.md):
 //! - **Instruction time.** Each instruction takes 20 µs of module time (about 50 000 commands per second,
@@ -120,10 +121,10 @@ impl Registers {
 /// decoded once.
 ///
 /// Each cell keeps the byte image the firmware stores and command 134 reads back ([`Instruction`]), and
-/// beside it one byte, its [`Op`]: what the program machine does with it, decided when the cell is
+/// beside it one byte, its op: what the program machine does with it, decided when the cell is
 /// written (a download, a store, the program read from the EEPROM at start-up) against the model — its
 /// command set, its motors, the type byte's meaning. The machine then runs a cell without looking its
-/// command up or checking its type byte again (see [`decode`]). The cost is one byte per cell (2 KiB for
+/// command up or checking its type byte again (the crate's `vm::decode`). The cost is one byte per cell (2 KiB for
 /// 2048 cells, of which the 256 bytes of the earlier "command of the model" bits are saved).
 #[derive(Debug, Clone)]
 pub struct Program {
