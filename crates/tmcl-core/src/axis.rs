@@ -164,6 +164,34 @@ impl Axes {
     pub fn get(&self, m: usize) -> Option<&Axis> {
         self.list[..self.count()].get(m)
     }
+
+    /// The earliest instant at which a motor's driver current changes by itself (standby,
+    /// freewheeling) or the board must be told of a change, and which motor.
+    #[inline]
+    pub(crate) fn drive_due(&self) -> Option<(usize, Instant)> {
+        if self.count() == 1 {
+            // (One motor, the common case: on the path of every instruction and tick.)
+            return self.list[0].drive_due.map(|d| (0, d));
+        }
+        let mut due: Option<(usize, Instant)> = None;
+        for (m, axis) in self.iter().enumerate() {
+            if let Some(d) = axis.drive_due {
+                if due.is_none_or(|(_, t)| d < t) {
+                    due = Some((m, d));
+                }
+            }
+        }
+        due
+    }
+
+    /// Whether every motor stands (no ramp moving, no reference search).
+    #[inline]
+    pub(crate) fn all_standing(&self) -> bool {
+        if self.count() == 1 {
+            return self.list[0].is_standing();
+        }
+        self.iter().all(|a| a.is_standing())
+    }
 }
 
 impl core::ops::Index<usize> for Axes {

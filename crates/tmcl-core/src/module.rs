@@ -50,11 +50,11 @@ mod drive;
 mod exec;
 mod host;
 mod params;
+mod pass;
 mod program;
 mod sac;
 mod seam;
 mod spans;
-mod spin;
 
 use seam::Seam;
 
@@ -192,8 +192,9 @@ pub struct Module<B: Board> {
     pub(crate) exact: bool,
     /// The spans computed last (see `module/spans.rs`).
     pub(crate) memos: spans::Memos,
-    /// Watches a program spinning in a fixed point (see `module/spin.rs`).
-    pub(crate) spin: spin::Spin,
+    /// Within a poll's advance: a jump back of the program is reported to the board's hook
+    /// (`hal::Hook::jumped_back`); in a single step (command 130) it is not.
+    pub(crate) advancing: bool,
     /// The gap after which a partial binary frame is dropped (`None`: never), see
     /// [`Module::set_inter_byte_timeout`].
     pub(crate) inter_byte_timeout: Option<Duration>,
@@ -222,7 +223,7 @@ impl<B: Board> Module<B> {
             program: Program::default(),
             exact: false,
             memos: Default::default(),
-            spin: Default::default(),
+            advancing: false,
             inter_byte_timeout: Some(crate::iface::INTER_BYTE_TIMEOUT),
         }
     }
@@ -243,9 +244,9 @@ impl<B: Board> Module<B> {
         self.board.get()
     }
 
-    /// The board, mutably (the simulator changes its world through this). The module takes it that the
-    /// board may have changed in any way (a program spinning in a fixed point is looked at afresh, see
-    /// `module/spin.rs`); to move the board's world on along its own timeline, or to read it, use
+    /// The board, mutably (the simulator changes its world, or its hook's breakpoints, through this).
+    /// The module takes it that the board may have changed in any way: it counts as a change
+    /// (`module/seam.rs`); to move the board's world on along its own timeline, or to read it, use
     /// [`Module::board_timeline`].
     pub fn board_mut(&mut self) -> &mut B {
         self.board.changed()
