@@ -326,7 +326,7 @@ impl<B: Board> Module<B> {
     /// The value of the axis parameter with `setting`, if the model has one.
     #[inline]
     pub(crate) fn ap(&self, m: usize, setting: Setting) -> Option<i32> {
-        self.spec.axis.setting(setting).map(|i| self.st.axes[m].params[i])
+        self.st.axes[m].ap(&self.spec.axis, setting)
     }
 
     /// The value of the bank 0 parameter with `setting`, if the model has one.
@@ -498,7 +498,7 @@ impl<B: Board> Module<B> {
     /// Time after the motor stopped given in `setting` (10 ms units), if the model has it and it is set.
     #[inline]
     fn delay(&self, m: usize, setting: Setting) -> Option<Duration> {
-        self.ap(m, setting).filter(|d| *d > 0).map(|d| Duration::from_millis(d as u64 * 10))
+        self.st.axes[m].delay(&self.spec.axis, setting)
     }
 
     /// The current setting now (AP 6, 7, 200, 204, 214, 167) and whether the driver is on.
@@ -550,14 +550,7 @@ impl<B: Board> Module<B> {
             enabled,
             reverse: self.gp_flag(Setting::ReverseShaft),
         };
-        self.st.axes[m].drive_due = self.st.axes[m].standstill_since.and_then(|since| {
-            [self.delay(m, Setting::PowerDownDelay), self.delay(m, Setting::FreewheelingDelay)]
-                .into_iter()
-                .flatten()
-                .map(|d| since + d)
-                .filter(|t| *t > now)
-                .min()
-        });
+        self.st.axes[m].drive_due = self.st.axes[m].next_event(&self.spec.axis, now);
         let unchanged = DriveState { moved: 0, ..state };
         if state.moved == 0 && self.st.axes[m].last_drive == Some(unchanged) {
             return;

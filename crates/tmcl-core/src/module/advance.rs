@@ -174,13 +174,8 @@ impl<B: Board> Module<B> {
     /// the reference search.
     #[inline]
     fn tick_axis(&mut self, m: usize, tick_at: Instant, params: &RampParams, closed_loop: bool) {
-        // A reference search looks at its switch after every microstep (sub-ticks), so that the
-        // switching points, and with them the zero point, are exact to the microstep (§7.1).
-        let parts = if self.st.axes[m].reference.is_active() {
-            (u64::from(self.st.axes[m].ramp.velocity().unsigned_abs()) / 1000 + 1).min(TICK.micros())
-        } else {
-            1
-        };
+        // A reference search looks at its switch after every microstep (sub-ticks, §7.1).
+        let parts = self.st.axes[m].tick_parts(TICK);
         // (Most ticks are one part: no 64-bit division for them.)
         let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
         for k in 1..=parts {
@@ -190,18 +185,9 @@ impl<B: Board> Module<B> {
             // board's clock there, not where the last update or the caller's poll left it.
             self.sync_board(m, t - Duration::from_micros(dt));
             let limits = self.limits(m);
-            let axis = &mut self.st.axes[m];
-            let r = axis.ramp.tick(Duration::from_micros(dt), params, limits);
-            axis.ramping = r.ramping;
-            let steps = if closed_loop { self.closed_loop_tick(m, r.steps, dt as i64) } else { r.steps };
-            let axis = &mut self.st.axes[m];
-            axis.unreported_steps += steps;
-            let moving = axis.ramp.velocity() != 0;
-            match (moving, axis.standstill_since) {
-                (true, Some(_)) => axis.standstill_since = None,
-                (false, None) => axis.standstill_since = Some(t),
-                _ => {}
-            }
+            let steps = self.st.axes[m].advance(Duration::from_micros(dt), params, limits);
+            let steps = if closed_loop { self.closed_loop_tick(m, steps, dt as i64) } else { steps };
+            self.st.axes[m].moved(t, steps);
             self.update_board(m, t);
             if self.st.axes[m].reference.is_active() {
                 self.step_reference(m);
@@ -416,17 +402,9 @@ impl<B: Board> Module<B> {
         for t in [program, self.timer_deadline()].into_iter().flatten() {
             consider(t.max(self.st.now));
         }
-        for m in 0..self.st.axes.count() {
-            if let Some(since) = self.st.axes[m].standstill_since {
-                for delay in [self.delay(m, Setting::PowerDownDelay), self.delay(m, Setting::FreewheelingDelay)]
-                    .into_iter()
-                    .flatten()
-                {
-                    let t = since + delay;
-                    if t > self.st.now {
-                        consider(t);
-                    }
-                }
+        for axis in self.st.axes.iter() {
+            if let Some(t) = axis.next_event(&self.spec.axis, self.st.now) {
+                consider(t);
             }
         }
         if let Some(expiry) = self.heartbeat_expiry() {
