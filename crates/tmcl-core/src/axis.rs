@@ -135,7 +135,7 @@ impl Axis {
     /// The motor's own next event after `now`: when its driver current changes by itself while it
     /// stands (the standby current after the power-down delay AP 214, freewheeling after AP 204; PD28-1021
     /// manual §4, Table 22), if it will. `table` is the model's axis table.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn next_event(&self, table: &Table, now: Instant) -> Option<Instant> {
         let since = self.standstill_since?;
         [self.delay(table, Setting::PowerDownDelay), self.delay(table, Setting::FreewheelingDelay)]
