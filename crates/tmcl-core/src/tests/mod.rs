@@ -65,6 +65,8 @@ pub struct TestBoard {
     pub stop_at: Option<u16>,
     /// The hook stopped the program (cleared when it lets it pass).
     pub stopped: bool,
+    /// The board says it is quiet for good while the motor stands (`StepDriver::quiet`).
+    pub quiet: bool,
 }
 
 impl TestBoard {
@@ -81,6 +83,7 @@ impl TestBoard {
             updates: 0,
             stop_at: None,
             stopped: false,
+            quiet: false,
         }
     }
 }
@@ -151,6 +154,16 @@ impl StepDriver for TestBoard {
         self.physical += if state.reverse { -moved } else { moved };
         self.drive = *state;
         self.updates += 1;
+    }
+    fn quiet(&mut self, _motor: usize, _now: Instant, state: &DriveState) -> Option<crate::hal::Quiet> {
+        (self.quiet && state.velocity == 0).then_some(crate::hal::Quiet {
+            until: None,
+            forward: 0,
+            backward: 0,
+            min_speed: 0,
+            max_speed: 0,
+            load: 700,
+        })
     }
 }
 

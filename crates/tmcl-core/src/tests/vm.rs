@@ -568,3 +568,24 @@ fn refused_instructions_are_skipped_and_noted() {
     let at: Vec<Instant> = r.since(0).map(|r| r.at).collect();
     assert_eq!(at[1] - at[0], crate::vm::INSTRUCTION_TIME);
 }
+
+/// The firmware knows none of the simulator's shortcuts: on a board that says it is quiet for good but
+/// whose hook keeps its defaults at a jump back, a loop that spins in a fixed point runs every one of its
+/// instructions, 50 a motion tick, and the deadline is always its next instruction (a simulator's hook
+/// jumps such a loop over: `tmcl-sim`'s tests/spin.rs).
+#[test]
+fn without_a_hook_a_spinning_loop_runs_every_instruction() {
+    let mut board = TestBoard::new();
+    board.quiet = true;
+    let mut b = Bench::with_board(board);
+    let program: Vec<Instruction> =
+        [C::Gio { port: 0, bank: 0 }, C::Ja { address: 0 }].iter().map(Command::encode).collect();
+    b.module.load_program(&program).unwrap();
+    run_from(&mut b, 0);
+    let before = b.module.vm().executed();
+    b.run(Duration::from_millis(100));
+    // One instruction every 20 µs, those at both ends of the 100 ms included.
+    assert_eq!(b.module.vm().executed() - before, 100_000 / 20 + 1, "every instruction ran");
+    let deadline = b.module.poll(b.now, &mut |_: &[u8]| {});
+    assert_eq!(deadline, Some(b.module.program_time()), "the next instruction is due");
+}
