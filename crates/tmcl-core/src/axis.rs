@@ -15,7 +15,7 @@
 use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
 use crate::hal::DriveState;
-use crate::motion::{Ramp, Reference};
+use crate::motion::{Ramp, RampParams, Reference};
 use crate::time::Instant;
 use tmcl_model::capacity::{MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_MOTORS};
 
@@ -62,6 +62,9 @@ pub struct Axis {
     pub(crate) cl: ClosedLoop,
     /// An SSI encoder's last reading and the counts it adds up to.
     pub(crate) ssi: (i64, i64),
+    /// The scaled speed and acceleration of an interpolated MVP COORD (`module/coordinated.rs`), in
+    /// force while the axis is in position mode towards that move's target.
+    pub(crate) interpolation: Option<(i32, RampParams)>,
 }
 
 impl Axis {
@@ -85,6 +88,7 @@ impl Axis {
             last_counts: 0,
             cl: ClosedLoop::default(),
             ssi: (0, 0),
+            interpolation: None,
         }
     }
 

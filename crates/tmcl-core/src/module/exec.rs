@@ -93,6 +93,11 @@ impl<B: Board> Module<B> {
                 self.start_rotation(m, 0);
                 value(0)
             }
+            // MVP COORD with a motor mask (bit 6 or 7 set; TMCM-3110/6110 firmware manuals, MVP): several
+            // motors to their coordinate n at once, interpolated or each at its own speed.
+            C::Mvp { motor, target: MoveTarget::Coord(n) } if motor & 0xC0 != 0 && self.spec.motors > 1 => {
+                self.mvp_coordinated(motor, n)
+            }
             // §3.7.4 MVP ABS/REL/COORD: AP 0 = new target, position mode (AP 128 = 0).
             C::Mvp { motor, target } => self.mvp(motor, target),
             // §3.7.5 SAP: RAM only.
@@ -407,6 +412,7 @@ impl<B: Board> Module<B> {
     }
 
     fn start_rotation(&mut self, m: usize, velocity: i32) {
+        self.st.axes[m].interpolation = None;
         self.leave_torque_mode(m);
         self.st.axes[m].reference.stop();
         self.st.axes[m].ramp.rotate(velocity);
@@ -414,7 +420,8 @@ impl<B: Board> Module<B> {
         self.st.event.pending = false;
     }
 
-    fn start_move(&mut self, m: usize, target: i32) {
+    pub(super) fn start_move(&mut self, m: usize, target: i32) {
+        self.st.axes[m].interpolation = None;
         self.leave_torque_mode(m);
         self.st.axes[m].reference.stop();
         self.st.axes[m].ramp.move_to(target);
@@ -461,6 +468,7 @@ impl<B: Board> Module<B> {
                 self.st.axes[m].error_flags = 0;
                 self.st.event.pending = false;
                 self.leave_torque_mode(m);
+                self.st.axes[m].interpolation = None;
                 if let Action::Rotate(v) = self.st.axes[m].reference.start(mode, fast) {
                     self.st.axes[m].ramp.hard_stop();
                     self.st.axes[m].ramp.rotate(v);
