@@ -40,6 +40,11 @@ enum Read {
     Variable(u8),
     Energy,
     Axis(u8),
+    /// Motor N > 0's AP 0, AP 1 (its step counter), AP 3 (pps), and an axis parameter of it.
+    TargetOf(u8),
+    ActualOf(u8),
+    VelocityOf(u8),
+    AxisOf(u8, u8),
 }
 
 /// What it takes to place the step counter in the world.
@@ -93,6 +98,24 @@ impl Recorder {
         if spec.kinematics != Kinematics::Pps {
             columns.extend(by_role(Quantity::VelocityUnits));
         }
+        let mut motors = vec![0u8; columns.len()];
+        // The other motors' own columns, motor by motor (a model with several).
+        for m in 1..spec.motors {
+            let before = columns.len();
+            columns.extend([
+                (Quantity::TargetPosition, Read::TargetOf(m)),
+                (Quantity::ActualPosition, Read::ActualOf(m)),
+                (Quantity::Velocity, Read::VelocityOf(m)),
+            ]);
+            let of = |q: Quantity| q.role().and_then(|r| axis_number(spec, r)).map(|n| (q, Read::AxisOf(n, m)));
+            if drive {
+                columns.extend([Quantity::Load, Quantity::CurrentScale, Quantity::Encoder].into_iter().filter_map(of));
+            }
+            if spec.kinematics != Kinematics::Pps {
+                columns.extend(of(Quantity::VelocityUnits));
+            }
+            motors.resize(motors.len() + columns.len() - before, m);
+        }
         let world_scale = world.and_then(|w| {
             let units_per_rev = match w.axis.kind {
                 AxisKind::Linear => *w.axis.lead.get_ref(),
@@ -113,7 +136,7 @@ impl Recorder {
             },
         });
         let header = Header {
-            columns: columns.iter().map(|&(q, _)| Column::of(q)).collect(),
+            columns: columns.iter().zip(&motors).map(|(&(q, _), &m)| Column::of_motor(q, m)).collect(),
             model: spec.name.to_string(),
             world_unit,
         };
@@ -164,6 +187,10 @@ impl Recorder {
                 // Rounded to an integer number of µA²·s, so traces stay byte-identical everywhere.
                 Read::Energy => Some((module.board().energy() * 1e6).round() as i64),
                 Read::Axis(n) => module.get_axis(n).ok().map(i64::from),
+                Read::TargetOf(m) => module.axis(usize::from(m)).map(|a| i64::from(a.ramp().target_position)),
+                Read::ActualOf(m) => module.axis(usize::from(m)).map(|a| i64::from(a.ramp().position)),
+                Read::VelocityOf(m) => module.axis(usize::from(m)).map(|a| i64::from(a.ramp().velocity())),
+                Read::AxisOf(n, m) => module.get_axis_of(m, n).ok().map(i64::from),
             };
         }
         if let Some(w) = self.world {

@@ -28,6 +28,7 @@ fn the_library_gives_the_checked_in_traces() {
         ("manual_p08_csub", "pd28-1021", 5, 50, None, false),
         ("pd113_first_program", "pd-113", 12, 100, None, false),
         ("tmcm1310_closed_loop", "tmcm-1310", 6, 20, Some("examples/worlds/closed-loop-seizure.toml"), true),
+        ("tmcm3110_xyz", "tmcm-3110", 3600, 20000, Some("examples/worlds/xyz-stage.toml"), false),
     ] {
         let mut setup = Setup::new(model).unwrap();
         let source = Source::load(&root().join(format!("tests/programs/{name}.tmc")), setup.model).unwrap();

@@ -283,8 +283,9 @@ struct Columns<'a> {
 }
 
 impl<'a> Columns<'a> {
-    fn of(trace: &'a Trace) -> Columns<'a> {
-        let column = |q: Quantity| trace.column(q);
+    /// Motor `motor`'s columns (the drive's and the closed loop's are motor 0's only).
+    fn of(trace: &'a Trace, motor: u8) -> Columns<'a> {
+        let column = |q: Quantity| trace.column_of(q, motor);
         Columns {
             trace,
             target: column(Quantity::TargetPosition),
@@ -354,7 +355,7 @@ fn event_text(trace: &Trace, stamped: &Stamped) -> String {
 
 /// Draws the plot into `out` with plotters, and returns the curves as SVG elements to add at its end.
 fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotError> {
-    let samples = &Columns::of(trace);
+    let samples = &Columns::of(trace, 0);
     let events: &[Event] =
         &trace.events.iter().map(|e| Event { micros: e.micros, text: event_text(trace, e) }).collect::<Vec<_>>();
     let levels: &[Levels] = &trace.levels;
@@ -362,7 +363,19 @@ fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotErro
     let end = last.max(events.last().map_or(0, |e| e.micros)).max(1);
     let time = Scale::fixed(0.0, seconds(end), false, 12);
     let unit = trace.header.as_ref().and_then(|h| h.world_unit.as_ref()).map(|u| u.name.as_str());
-    let mut candidates = vec![position_panel(samples, unit), velocity_panel(samples)];
+    let motors = trace.motors();
+    let mut candidates = if motors == 1 {
+        vec![position_panel(samples, unit, None), velocity_panel(samples, None)]
+    } else {
+        // A position and a velocity panel per motor, motor by motor; the world's unit is motor 0's.
+        let mut panels = Vec::new();
+        for m in 0..motors {
+            let columns = Columns::of(trace, m);
+            panels.push(position_panel(&columns, if m == 0 { unit } else { None }, Some(m)));
+            panels.push(velocity_panel(&columns, Some(m)));
+        }
+        panels
+    };
     candidates.extend(drive_panels(samples, seconds(end)));
     let mut panels = Vec::new();
     let mut notes = Vec::new();
@@ -424,7 +437,15 @@ fn wrap_notes(notes: &[String]) -> Vec<String> {
     lines
 }
 
-fn position_panel(samples: &impl Samples, unit: Option<&str>) -> Panel {
+/// What a per-axis panel's names begin with: `motor N ` on a model with several motors.
+fn motor_label(motor: Option<u8>) -> String {
+    motor.map_or(String::new(), |m| format!("motor {m} "))
+}
+
+/// Target and actual position; `motor`: which, on a model with several (then in the names and smaller).
+fn position_panel(samples: &impl Samples, unit: Option<&str>, motor: Option<u8>) -> Panel {
+    let label = motor_label(motor);
+    let height = if motor.is_some() { 200 } else { 300 };
     match unit {
         Some(unit) => {
             let world = |f: fn((f64, f64)) -> f64| move |s: &Sample| s.world.map_or(0.0, f);
@@ -433,39 +454,42 @@ fn position_panel(samples: &impl Samples, unit: Option<&str>) -> Panel {
                     points: thin(samples, world(|w| w.0)),
                     color: TARGET,
                     style: Style::Line(2),
-                    name: "target position (AP 0)".into(),
+                    name: format!("{label}target position (AP 0)"),
                 },
                 Series {
                     points: thin(samples, world(|w| w.1)),
                     color: ACTUAL,
                     style: Style::Line(1),
-                    name: "actual position (AP 1)".into(),
+                    name: format!("{label}actual position (AP 1)"),
                 },
             ];
-            let mut panel = Panel::new(300, &format!("position [{unit}]"), false, None, series);
+            let mut panel = Panel::new(height, &format!("{label}position [{unit}]"), false, None, series);
             panel.decimals = panel.scale.decimals + 1;
             panel
         }
         None => {
             let series = vec![
-                line(samples, |s| s.target, TARGET, 2, "target position (AP 0)"),
-                line(samples, |s| s.actual, ACTUAL, 1, "actual position (AP 1)"),
+                line(samples, |s| s.target, TARGET, 2, &format!("{label}target position (AP 0)")),
+                line(samples, |s| s.actual, ACTUAL, 1, &format!("{label}actual position (AP 1)")),
             ];
-            Panel::new(300, "position [µsteps]", true, None, series)
+            Panel::new(height, &format!("{label}position [µsteps]"), true, None, series)
         }
     }
 }
 
-fn velocity_panel(samples: &impl Samples) -> Panel {
+fn velocity_panel(samples: &impl Samples, motor: Option<u8>) -> Panel {
+    let label = motor_label(motor);
     // On a closed loop the velocity measured at the encoder is drawn thin over a wider ramp velocity, so
     // the ramp stays visible where the two agree.
     let measured = samples.len() > 0 && samples.at(0).measured.is_some();
-    let mut series = vec![line(samples, |s| s.velocity, SPEED, if measured { 3 } else { 1 }, "actual velocity (AP 3)")];
+    let width = if measured { 3 } else { 1 };
+    let mut series = vec![line(samples, |s| s.velocity, SPEED, width, &format!("{label}actual velocity (AP 3)"))];
     if measured {
         let measured = |s: &Sample| s.measured.unwrap_or(0);
         series.push(line(samples, measured, MEASURED, 1, "measured velocity at the encoder (AP 131)"));
     }
-    Panel::new(220, "velocity [pps]", true, None, series)
+    let height = if motor.is_some() { 150 } else { 220 };
+    Panel::new(height, &format!("{label}velocity [pps]"), true, None, series)
 }
 
 /// The drive's panels, for the columns the trace has: load value, current scale or scaler, encoder −
