@@ -85,7 +85,7 @@ fn setup_errors_say_what_is_wrong() {
     };
     assert_eq!((diagnostics.len(), diagnostics[0].line, model), (1, 1, "PD28-1021"));
     assert!(Simulation::new(&sac, &Setup::new("pd-113").unwrap()).is_ok());
-    let refused = Setup::new("pd28-1021").unwrap().with_setting(Setting::Axis { number: 4, value: -5 });
+    let refused = Setup::new("pd28-1021").unwrap().with_setting(Setting::Axis { number: 4, motor: 0, value: -5 });
     let stop = Source::assemble("stop.tmc", "STOP\n", PD28).unwrap();
     assert!(matches!(Simulation::new(&stop, &refused), Err(SetupError::Setting { .. })));
 }

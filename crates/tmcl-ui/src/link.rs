@@ -731,7 +731,8 @@ impl Link {
                     roles.right,
                 ];
                 for m in (0..model.map_or(1, |m| m.motors)).filter(|m| *m != motor) {
-                    let axis = overview.into_iter().flatten().map(|param| (Poll::Axis { param, motor: m }, SWITCH_PERIOD));
+                    let axis =
+                        overview.into_iter().flatten().map(|param| (Poll::Axis { param, motor: m }, SWITCH_PERIOD));
                     polls.extend(axis);
                 }
             }
