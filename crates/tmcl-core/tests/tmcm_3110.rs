@@ -305,3 +305,26 @@ fn mvp_coord_mask_refusals_move_nothing() {
     let mut one = Rig::of(&tmcl_core::model::tmcm_1140::SPEC);
     assert_eq!(one.cmd(Opcode::Mvp, 2, 0x41, 1).0, Status::InvalidValue);
 }
+
+/// The EEPROM keeps each motor's coordinates apart (motor-major): SCO n, 255 stores every motor's
+/// coordinate n, GCO 0, 255 brings them all back after a power cycle, and MVP COORD with a mask moves
+/// each motor to its own.
+#[test]
+fn coordinates_per_axis_across_a_power_cycle() {
+    let mut r = Rig::of(&tmcm_6110::SPEC);
+    for m in 0..6u8 {
+        r.ok(Opcode::Sco, 7, m, 1000 * (i32::from(m) + 1));
+        r.ok(Opcode::Sco, 8, m, -7 * (i32::from(m) + 1));
+    }
+    r.ok(Opcode::Sco, 7, 255, 0); // every motor's coordinate 7 to the EEPROM; coordinate 8 stays in RAM
+    r.restart();
+    // GP 84 = 0 (the start value): the coordinates in RAM start at 0; GCO n, 255 copies them back from the
+    // EEPROM (PD28-1021 manual §3.7.25), each motor its own.
+    assert!((0..6).all(|m| r.ok(Opcode::Gco, 7, m, 0) == 0));
+    r.ok(Opcode::Gco, 0, 255, 0);
+    assert_eq!((0..6).map(|m| r.ok(Opcode::Gco, 7, m, 0)).collect::<Vec<_>>(), [1000, 2000, 3000, 4000, 5000, 6000]);
+    assert!((0..6).all(|m| r.ok(Opcode::Gco, 8, m, 0) == 0), "coordinate 8 was not stored");
+    r.ok(Opcode::Mvp, 2, 0x40 | 0b11_1111, 7);
+    r.arrivals(0b11_1111, Duration::from_secs(30));
+    assert_eq!((0..6).map(|m| r.gap(1, m)).collect::<Vec<_>>(), [1000, 2000, 3000, 4000, 5000, 6000]);
+}
