@@ -111,11 +111,13 @@ fn event_driven_traces_are_the_tick_by_tick_traces() {
             &["--module", "tmcm-1140"]
         } else if name.starts_with("tmcm3110") {
             &["--module", "tmcm-3110"]
+        } else if name.starts_with("tmcm6110") {
+            &["--module", "tmcm-6110"]
         } else {
             &[]
         };
         // A multi-axis program also in the world with an axis of each motor's own.
-        let multi = name.starts_with("tmcm3110");
+        let multi = name.starts_with("tmcm3110") || name.starts_with("tmcm6110");
         for world in worlds.iter().copied().chain(multi.then_some("xyz-stage")) {
             let world_args: Vec<String> =
                 if world.is_empty() { vec![] } else { vec!["--world".into(), format!("examples/worlds/{world}.toml")] };
