@@ -16,6 +16,10 @@
 //!    one per kind of program event (`interrupt 0`, `target`, `stop`, ...), a mark at each, labelled with
 //!    its value where there is room (`lanes.rs`).
 //!
+//! On a model with several motors (TMCM-3110, TMCM-6110) panels 1 and 2 come once per motor, smaller and
+//! named `motor N …`, motor 0's in the world's unit and the others in µsteps; panel 3 and the switch lanes
+//! are motor 0's.
+//!
 //! The ranges and units are those of the PD28-1021 TMCL manual's axis parameter table (chapter 4: AP 3 in
 //! pps, AP 180 0..31 meaning 1/32..32/32, AP 206 0..1023, AP 209 in µsteps); the TMCM-1310's closed-loop
 //! parameters (AP 123, 233, 237) as `docs/tmcm-1310.md` decides them, its manual lacking that table.
