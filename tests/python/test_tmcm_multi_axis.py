@@ -323,3 +323,47 @@ def test_odemis_referencing_program_on_an_axis(serve, tmp_path, vect_from_host):
         position = conn.send(6, 1, axis, 0).value
         assert abs(position - (1 << 32) if position >= 1 << 31 else position) < 300, "axis 1 at its reference"
         assert conn.send(6, 1, 0, 0).value == 0 and conn.send(6, 1, 2, 0).value == 0, "the others stood"
+
+
+def test_mvp_coord_of_several_motors(multi):
+    """MVP COORD with a motor mask, as host software for the TMCM-3110 sends it (tmcm-lib-py's `MotorUnion`:
+    SCO per motor, then MVP COORD with the mask ORed with 0x40, "synchronously", or 0x80): every motor of
+    the mask to its own coordinate; interpolated, all arrive together. Refusals (both bits, a motor beyond
+    the module's) are status 4 and move nothing."""
+    module, axes, _ = multi
+    conn = module.connection
+    mask = (1 << axes) - 1
+    targets = [3000 * (n + 1) * (-1) ** n for n in range(axes)]
+    for motor, target in enumerate(targets):
+        conn.send(30, 1, motor, target)  # SCO 1, motor, target
+    assert status_of(lambda: conn.send(4, 2, 0xC0 | mask, 1)) == 4
+    assert status_of(lambda: conn.send(4, 2, 0x40 | (1 << axes), 1)) == 4
+    assert all(conn.get_axis_parameter(0, m) == 0 for m in range(axes)), "nothing moved"
+    assert conn.send(4, 2, 0x40 | mask, 1).value == 1  # MVP COORD, $40 | mask, 1
+    # Polled by pytrinamic: while they move, each is about the same fraction of its way (the GAPs of one
+    # round are a few ms apart, so within 10 %; crates/tmcl-core/tests/tmcm_3110.rs checks 1 % at one
+    # instant and the arrivals within 3 ms), and they arrive together.
+    seen_moving = 0
+    while True:
+        reached = [conn.get_axis_parameter(8, m) for m in range(axes)]
+        if any(reached):
+            # Together, up to a few ms of rounding (the module serves in real time: 0.2 s of slack for a
+            # loaded machine; a move takes about a second, and without interpolation the nearest arrives
+            # a third of the way in, below).
+            wait_until(lambda: all(conn.get_axis_parameter(8, m) for m in range(axes)), 0.2,
+                       what=f"every motor right after the first ({reached})")
+            break
+        positions = [conn.get_axis_parameter(1, m, signed=True) for m in range(axes)]
+        fractions = [p / t for p, t in zip(positions, targets)]
+        if 0.05 < fractions[-1] < 0.95:
+            seen_moving += 1
+            assert max(fractions) - min(fractions) < 0.1, fractions
+    assert seen_moving > 0, "polled while they moved"
+    assert [conn.get_axis_parameter(1, m, signed=True) for m in range(axes)] == targets
+    # Back to 0 each at its own speed (0x80): the nearest first.
+    for motor in range(axes):
+        conn.send(30, 2, motor, 0)
+    conn.send(4, 2, 0x80 | mask, 2)
+    wait_until(lambda: conn.get_axis_parameter(8, 0), 10, what="motor 0 back at 0")
+    assert conn.get_axis_parameter(8, axes - 1) == 0, "the farthest still on its way"
+    wait_until(lambda: all(conn.get_axis_parameter(8, m) for m in range(axes)), 20, what="every motor at 0")
