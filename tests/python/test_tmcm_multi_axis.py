@@ -367,3 +367,23 @@ def test_mvp_coord_of_several_motors(multi):
     wait_until(lambda: conn.get_axis_parameter(8, 0), 10, what="motor 0 back at 0")
     assert conn.get_axis_parameter(8, axes - 1) == 0, "the farthest still on its way"
     wait_until(lambda: all(conn.get_axis_parameter(8, m) for m in range(axes)), 20, what="every motor at 0")
+
+
+@pytest.mark.parametrize("model, cls, axes, version", MODELS, ids=[m[0] for m in MODELS])
+def test_the_eeprom_file_keeps_every_axis(serve, tmp_path, model, cls, axes, version):
+    """The EEPROM image of N axes in a file (`--eeprom`): the last motor's stored AP 4 and its coordinate
+    20 (the last slot of the image, written through with GP 84 = 1) come back after a restart, and the
+    motor before it keeps its own."""
+    server = serve("pty", eeprom=tmp_path / "eeprom.bin", modules=[model])
+    last = axes - 1
+    with pytrinamic_connection(server) as conn:
+        conn.set_axis_parameter(4, last, 777)
+        conn.store_axis_parameter(4, last)
+        conn.set_global_parameter(84, 0, 1)
+        conn.send(30, 20, last, -4242)  # SCO 20, last, -4242
+    server.restart()
+    with pytrinamic_connection(server) as conn:
+        assert conn.get_axis_parameter(4, last) == 777
+        assert conn.get_axis_parameter(4, last - 1) == 1000
+        assert conn.send(31, 20, last, 0).value == (-4242) & 0xFFFFFFFF  # GCO 20, last (unsigned in the reply)
+        assert conn.send(31, 20, last - 1, 0).value == 0
