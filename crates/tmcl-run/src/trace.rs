@@ -355,6 +355,10 @@ pub struct Header {
     pub model: String,
     /// With a world file: the position axis in its unit.
     pub world_unit: Option<WorldUnit>,
+    /// With a world file, on a model with several motors: motor 1's, 2's, … position axis in its unit
+    /// (each motor's own world, `[motors.N]`).
+    #[serde(default)]
+    pub motor_world_units: Vec<WorldUnit>,
 }
 
 /// One row as a run records it.
@@ -368,6 +372,8 @@ pub struct Row<'a> {
     pub events: &'a [Event],
     /// With a [`WorldUnit`]: where the row's positions are in the world.
     pub placement: Option<Placement>,
+    /// With [`Header::motor_world_units`]: where motor 1's, 2's, … positions are in its world.
+    pub motor_placements: &'a [Placement],
 }
 
 /// Where a run's rows go.
@@ -578,6 +584,9 @@ pub struct Trace {
     pub levels: Vec<Levels>,
     /// With a world unit: where each row's positions are in the world.
     pub placements: Vec<Placement>,
+    /// With [`Header::motor_world_units`]: `motor_placements[m - 1][row]`, where motor m's positions are.
+    #[serde(default)]
+    pub motor_placements: Vec<Vec<Placement>>,
 }
 
 impl Trace {
@@ -654,7 +663,7 @@ impl Trace {
                 next_event += 1;
             }
             let events: Vec<Event> = self.events[first..next_event].iter().map(|e| e.event.clone()).collect();
-            csv.row(Row { micros, values: &values, events: &events, placement: None })?;
+            csv.row(Row { micros, values: &values, events: &events, placement: None, motor_placements: &[] })?;
         }
         csv.finish()
     }
@@ -676,6 +685,10 @@ impl Sink for Trace {
         self.events.extend(row.events.iter().map(|e| Stamped { micros: row.micros, row: r, event: e.clone() }));
         if let Some(p) = row.placement {
             self.placements.push(p);
+        }
+        self.motor_placements.resize(row.motor_placements.len().max(self.motor_placements.len()), Vec::new());
+        for (list, p) in self.motor_placements.iter_mut().zip(row.motor_placements) {
+            list.push(*p);
         }
         Ok(())
     }

@@ -17,8 +17,8 @@
 //!    its value where there is room (`lanes.rs`).
 //!
 //! On a model with several motors (TMCM-3110, TMCM-6110) panels 1 and 2 come once per motor, smaller and
-//! named `motor N …`, motor 0's in the world's unit and the others in µsteps; panel 3 and the switch lanes
-//! are motor 0's.
+//! named `motor N …`, each motor's positions in its own world's unit (`[motors.N]`) with a world file;
+//! panel 3 and the switch lanes are motor 0's.
 //!
 //! The ranges and units are those of the PD28-1021 TMCL manual's axis parameter table (chapter 4: AP 3 in
 //! pps, AP 180 0..31 meaning 1/32..32/32, AP 206 0..1023, AP 209 in µsteps); the TMCM-1310's closed-loop
@@ -274,6 +274,8 @@ impl Samples for Vec<Sample> {
 /// The panels' columns of a trace, found by meaning.
 struct Columns<'a> {
     trace: &'a Trace,
+    /// Where the motor's positions are in its world, per row (empty without a world).
+    placements: &'a [crate::trace::Placement],
     target: Option<&'a Values>,
     actual: Option<&'a Values>,
     velocity: Option<&'a Values>,
@@ -290,8 +292,13 @@ impl<'a> Columns<'a> {
     /// Motor `motor`'s columns (the drive's and the closed loop's are motor 0's only).
     fn of(trace: &'a Trace, motor: u8) -> Columns<'a> {
         let column = |q: Quantity| trace.column_of(q, motor);
+        let placements = match motor {
+            0 => &trace.placements[..],
+            m => trace.motor_placements.get(usize::from(m) - 1).map_or(&[][..], |p| &p[..]),
+        };
         Columns {
             trace,
+            placements,
             target: column(Quantity::TargetPosition),
             actual: column(Quantity::ActualPosition),
             velocity: column(Quantity::Velocity),
@@ -323,7 +330,7 @@ impl Samples for Columns<'_> {
             target: t,
             actual: a,
             velocity: at(self.velocity).unwrap_or(0),
-            world: self.trace.placements.get(r).map(|p| (p.place(t.into()), p.place(a.into()))),
+            world: self.placements.get(r).map(|p| (p.place(t.into()), p.place(a.into()))),
             load: at(self.load),
             current_scale: at(self.scale),
             encoder: at(self.encoder),
@@ -353,6 +360,19 @@ fn event_text(trace: &Trace, stamped: &Stamped) -> String {
             let text = text.trim_end_matches('0').trim_end_matches('.');
             format!("target={text} {unit}", unit = unit.name)
         }
+        (crate::Event::MotorTarget { motor, target }, ..) => {
+            let m = usize::from(*motor);
+            let unit = trace.header.as_ref().and_then(|h| h.motor_world_units.get(m - 1));
+            let placement = trace.motor_placements.get(m - 1).and_then(|p| p.get(stamped.row));
+            match (unit, placement) {
+                (Some(unit), Some(placement)) => {
+                    let text = format_number(placement.place(i64::from(*target)), 2);
+                    let text = text.trim_end_matches('0').trim_end_matches('.');
+                    format!("target_m{m}={text} {unit}", unit = unit.name)
+                }
+                _ => stamped.event.to_string(),
+            }
+        }
         (event, ..) => event.to_string(),
     }
 }
@@ -373,9 +393,11 @@ fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotErro
     } else {
         // A position and a velocity panel per motor, motor by motor; the world's unit is motor 0's.
         let mut panels = Vec::new();
+        let units = trace.header.as_ref().map_or(&[][..], |h| &h.motor_world_units[..]);
         for m in 0..motors {
             let columns = Columns::of(trace, m);
-            panels.push(position_panel(&columns, if m == 0 { unit } else { None }, Some(m)));
+            let unit = if m == 0 { unit } else { units.get(usize::from(m) - 1).map(|u| u.name.as_str()) };
+            panels.push(position_panel(&columns, unit, Some(m)));
             panels.push(velocity_panel(&columns, Some(m)));
         }
         panels
