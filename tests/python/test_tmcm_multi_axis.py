@@ -259,13 +259,7 @@ def test_a_twin_keeps_every_axis(serve, tmcl_bin, tmp_path, model, axes):
     assert not differ, differ
 
 
-VECT_FROM_HOST = pytest.mark.xfail(
-    strict=True, raises=TMCLReplyStatusError,
-    reason="VECT from the host is status 6 (the PD28-1021 manual: 'for use in standalone mode only'); odemis sets it "
-           "in direct mode on the TMCM-3110 (docs/tmcm-3110.md, Not covered)")
-
-
-@pytest.mark.parametrize("vect_from_host", [pytest.param(True, marks=VECT_FROM_HOST, id="as-odemis"),
+@pytest.mark.parametrize("vect_from_host", [pytest.param(True, id="as-odemis"),
                                             pytest.param(False, id="vector-in-the-routine")])
 def test_odemis_referencing_program_on_an_axis(serve, tmp_path, vect_from_host):
     """The way odemis' TMCL driver references an axis with its "2xFinalForward" procedure, command by
@@ -274,7 +268,8 @@ def test_odemis_referencing_program_on_an_axis(serve, tmp_path, vect_from_host):
     bank 3 trigger both edges, EI 40 + n, EI 255), and starts the program with 129 type 1 at its address;
     the program clears a bank 2 variable, starts RFS on its motor, waits for it with WAIT RFS and a timeout,
     jumps on ETO and reports 1 (done) or 2 (timed out) in the variable, which the host polls. The second
-    case sets the vector as the routine's first instruction instead (VECT is program-only here)."""
+    case sets the vector as the routine's first instruction instead. The TMCM-3110 takes VECT from the host
+    (`ModelDesc::host_vect`), as odemis' production use of it shows."""
     from test_tmcm1140 import STAGE
 
     world = tmp_path / "stage.toml"

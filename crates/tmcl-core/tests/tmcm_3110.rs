@@ -328,3 +328,21 @@ fn coordinates_per_axis_across_a_power_cycle() {
     r.arrivals(0b11_1111, Duration::from_secs(30));
     assert_eq!((0..6).map(|m| r.gap(1, m)).collect::<Vec<_>>(), [1000, 2000, 3000, 4000, 5000, 6000]);
 }
+
+/// VECT from the host (direct mode) on the TMCM-3110/6110 (`ModelDesc::host_vect`), as odemis' TMCL driver
+/// sends it before starting its referencing routine: `VECT 41, 95` = 01 25 29 00 00 00 00 5F, checksum AE,
+/// sets interrupt 41's vector (IN2's input interrupt) and replies with the address; an interrupt the model
+/// lacks is status 3, an address beyond program memory status 4. On the TMCM-1140 VECT stays
+/// program-only: status 6.
+#[test]
+fn vect_from_the_host() {
+    let mut r = Rig::of(&tmcm_3110::SPEC);
+    assert_eq!(r.bytes(&[0x01, 0x25, 0x29, 0x00, 0x00, 0x00, 0x00, 0x5F, 0xAE]), reply(100, 0x25, 95));
+    assert_eq!(r.module.vm().vector(41), Some(95));
+    assert_eq!(r.cmd(Opcode::Vect, 200, 0, 10).0, Status::WrongType, "no interrupt 200");
+    assert_eq!(r.cmd(Opcode::Vect, 41, 0, 2048).0, Status::InvalidValue, "program memory is 0..2047");
+    assert_eq!(r.cmd(Opcode::Vect, 41, 0, -1).0, Status::InvalidValue);
+    assert_eq!(r.module.vm().vector(41), Some(95), "refusals change nothing");
+    let mut one = Rig::of(&tmcl_core::model::tmcm_1140::SPEC);
+    assert_eq!(one.cmd(Opcode::Vect, 0, 0, 10).0, Status::NotAvailable);
+}
