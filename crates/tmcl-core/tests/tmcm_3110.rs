@@ -346,3 +346,18 @@ fn vect_from_the_host() {
     let mut one = Rig::of(&tmcl_core::model::tmcm_1140::SPEC);
     assert_eq!(one.cmd(Opcode::Vect, 0, 0, 10).0, Status::NotAvailable);
 }
+
+/// The scaled speed of an interpolated move holds for that move only: a new target (SAP 0) on the way, or
+/// any other motion command, runs the motor at its own AP 4 again.
+#[test]
+fn interpolation_ends_with_a_new_target() {
+    let mut r = Rig::of(&tmcm_3110::SPEC);
+    r.ok(Opcode::Sco, 1, 0, 1_000_000);
+    r.ok(Opcode::Sco, 1, 2, 100_000); // a tenth of motor 0's way: a tenth of its speed
+    r.ok(Opcode::Mvp, 2, 0x45, 1);
+    r.run(Duration::from_millis(500));
+    assert_eq!((r.gap(3, 0), r.gap(3, 2)), (1000, 100), "motor 2 at a tenth of AP 4");
+    r.ok(Opcode::Sap, 0, 2, 2_000_000);
+    r.run(Duration::from_millis(500));
+    assert_eq!((r.gap(3, 0), r.gap(3, 2)), (1000, 1000), "motor 2's own AP 4 for its new target");
+}
