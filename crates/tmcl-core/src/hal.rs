@@ -9,6 +9,10 @@
 //! What belongs to a motor — its stop switches, driver, load measurement and encoder — is asked for by
 //! the motor's index (`motor`, 0 to the model's motors − 1); a one-motor board is only ever asked for
 //! motor 0.
+//!
+//! [`Hook`] is the one trait a real board leaves at its defaults (`impl Hook for MyBoard {}`): the points
+//! where a simulator hooks its shortcuts in (breakpoints, the loop skip), as a CPU emulator hooks its
+//! bus.
 
 use crate::time::{Duration, Instant};
 use core::fmt::Debug;

@@ -4,7 +4,8 @@
 //!
 //! - [`time`]: `Instant`/`Duration` in µs, passed in by the caller.
 //! - [`hal`]: the board traits, one per capability (EEPROM, inputs, outputs, analog, switches, step
-//!   driver, load measurement, encoder).
+//!   driver, load measurement, encoder), and the hook a simulator may fill in ([`hal::Hook`]: its
+//!   defaults do nothing; the firmware knows none of a simulator's shortcuts).
 //! - [`model`]: each product's description as data, from `tmcl-model` (parameters with their meaning,
 //!   ports, interrupt sources, interfaces, command set, units, driver), checked against this core's
 //!   capacities when it compiles. The core asks a model for a setting or a role, never for a parameter
