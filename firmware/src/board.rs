@@ -113,6 +113,9 @@ impl SwitchInputs for Lm3sBoard {
     }
 }
 
+/// The firmware image has none of a simulator's shortcuts: the hook's defaults do nothing.
+impl tmcl_core::hal::Hook for Lm3sBoard {}
+
 impl StepDriver for Lm3sBoard {
     fn update(&mut self, _motor: usize, _now: Instant, state: &DriveState) {
         // The current, the microstep resolution and the chopper settings would go to the driver's SPI

@@ -231,7 +231,7 @@ fn a_busy_program_runs_for_the_whole_run() {
 
 /// The manual's busy listings (they never WAIT): an hour of each event-driven executes every one of its
 /// 180 000 001 instructions (one every 20 µs from 0 to 3600 s) in a fraction of a second, a loop in a
-/// fixed point being jumped over (`tmcl_core` `module/spin.rs`); and over 65 s, more than three polls'
+/// fixed point being jumped over (`tmcl_sim::hook`); and over 65 s, more than three polls'
 /// worth of instructions, it ends where the tick-by-tick reference ends.
 #[test]
 fn the_busy_listings_spin_through_an_hour() {

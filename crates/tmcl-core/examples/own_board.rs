@@ -57,6 +57,9 @@ impl SwitchInputs for Bench {
         Switches::default()
     }
 }
+/// No simulator's shortcuts (the hook's defaults do nothing).
+impl tmcl_core::hal::Hook for Bench {}
+
 impl StepDriver for Bench {
     /// The firmware reports the microsteps it made since the last update.
     fn update(&mut self, _motor: usize, _now: Instant, state: &DriveState) {

@@ -15,8 +15,9 @@
 use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
 use crate::hal::DriveState;
-use crate::motion::{Ramp, Reference};
-use crate::time::Instant;
+use crate::model::{Setting, Table};
+use crate::motion::{Limits, Ramp, RampParams, Reference};
+use crate::time::{Duration, Instant};
 use tmcl_model::capacity::{MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_MOTORS};
 
 /// The encoder counter's reference point: AP 209 = `value` + (counts − `counts`) × prescaler.
@@ -119,6 +120,68 @@ impl Axis {
         self.ramp.is_idle() && !self.reference.is_active()
     }
 
+    /// The axis parameter with `setting` in the model's axis table `table`, if the model has it.
+    #[inline]
+    pub(crate) fn ap(&self, table: &Table, setting: Setting) -> Option<i32> {
+        table.setting(setting).map(|i| self.params[i])
+    }
+
+    /// Time after the motor stopped given in `setting` (10 ms units), if the model has it and it is set.
+    #[inline]
+    pub(crate) fn delay(&self, table: &Table, setting: Setting) -> Option<Duration> {
+        self.ap(table, setting).filter(|d| *d > 0).map(|d| Duration::from_millis(d as u64 * 10))
+    }
+
+    /// The motor's own next event after `now`: when its driver current changes by itself while it
+    /// stands (the standby current after the power-down delay AP 214, freewheeling after AP 204; PD28-1021
+    /// manual §4, Table 22), if it will. `table` is the model's axis table.
+    #[inline]
+    pub(crate) fn next_event(&self, table: &Table, now: Instant) -> Option<Instant> {
+        let since = self.standstill_since?;
+        [self.delay(table, Setting::PowerDownDelay), self.delay(table, Setting::FreewheelingDelay)]
+            .into_iter()
+            .flatten()
+            .map(|d| since + d)
+            .filter(|t| *t > now)
+            .min()
+    }
+
+    /// One (part of a) motion tick of `dt`: the ramp generator moves on with the ramp parameters
+    /// `params` (the model's units already turned into microsteps per second) within the switches'
+    /// `limits`. Returns the microsteps the ramp moved (before a closed loop corrects them; then
+    /// [`Axis::moved`]).
+    #[inline]
+    pub(crate) fn advance(&mut self, dt: Duration, params: &RampParams, limits: Limits) -> i64 {
+        let r = self.ramp.tick(dt, params, limits);
+        self.ramping = r.ramping;
+        r.steps
+    }
+
+    /// After a (part of a) tick at `t` that moved `steps` (after the closed loop): the steps the board has
+    /// yet to hear of, and the standstill's start or end.
+    #[inline]
+    pub(crate) fn moved(&mut self, t: Instant, steps: i64) {
+        self.unreported_steps += steps;
+        let moving = self.ramp.velocity() != 0;
+        match (moving, self.standstill_since) {
+            (true, Some(_)) => self.standstill_since = None,
+            (false, None) => self.standstill_since = Some(t),
+            _ => {}
+        }
+    }
+
+    /// How many parts a motion tick of this motor has: a reference search looks at its switch after every
+    /// microstep, so that the switching points, and with them the zero point, are exact to the microstep
+    /// (PD28-1021 manual §7.1); otherwise one.
+    #[inline]
+    pub(crate) fn tick_parts(&self, tick: Duration) -> u64 {
+        if self.reference.is_active() {
+            (u64::from(self.ramp.velocity().unsigned_abs()) / 1000 + 1).min(tick.micros())
+        } else {
+            1
+        }
+    }
+
     /// The axis parameter in RAM at table index `i` (the model's table order).
     pub fn param(&self, i: usize) -> Option<i32> {
         self.params.get(i).copied()
@@ -163,6 +226,34 @@ impl Axes {
     /// Motor `m`, if the model has it.
     pub fn get(&self, m: usize) -> Option<&Axis> {
         self.list[..self.count()].get(m)
+    }
+
+    /// The earliest instant at which a motor's driver current changes by itself (standby,
+    /// freewheeling) or the board must be told of a change, and which motor.
+    #[inline]
+    pub(crate) fn drive_due(&self) -> Option<(usize, Instant)> {
+        if self.count() == 1 {
+            // (One motor, the common case: on the path of every instruction and tick.)
+            return self.list[0].drive_due.map(|d| (0, d));
+        }
+        let mut due: Option<(usize, Instant)> = None;
+        for (m, axis) in self.iter().enumerate() {
+            if let Some(d) = axis.drive_due {
+                if due.is_none_or(|(_, t)| d < t) {
+                    due = Some((m, d));
+                }
+            }
+        }
+        due
+    }
+
+    /// Whether every motor stands (no ramp moving, no reference search).
+    #[inline]
+    pub(crate) fn all_standing(&self) -> bool {
+        if self.count() == 1 {
+            return self.list[0].is_standing();
+        }
+        self.iter().all(|a| a.is_standing())
     }
 }
 

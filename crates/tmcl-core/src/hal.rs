@@ -10,7 +10,7 @@
 //! the motor's index (`motor`, 0 to the model's motors − 1); a one-motor board is only ever asked for
 //! motor 0.
 
-use crate::time::Instant;
+use crate::time::{Duration, Instant};
 use core::fmt::Debug;
 
 /// Non-volatile memory: the module's configuration and program EEPROM.
@@ -270,17 +270,142 @@ forward! {
     EncoderCounter { fn encoder_counts(&mut self, motor: usize) -> i64; }
 }
 
-/// Everything a module needs from its board: one trait per capability, so a board implements what it
-/// has (with the defaults of [`LoadSensor`] and [`EncoderCounter`] for what it has not).
-pub trait Board: Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter {}
+/// A simulator's hook into the program machine, as a CPU emulator has hooks on its bus: the firmware
+/// calls it at fixed points and it does nothing by default — a microcontroller's board implements it
+/// with `impl Hook for MyBoard {}`, and the calls compile to nothing. The simulator (`tmcl-sim`) puts its
+/// shortcuts behind it: a debugger's breakpoints and the loop skip (a program spinning in a fixed point
+/// jumped over in whole turns). The firmware knows none of them; it only says where it is.
+pub trait Hook {
+    /// Whether the program machine is to ask [`Hook::stop_before`] before each instruction (a
+    /// debugger's breakpoints are set). Asked once per run of the program, when its first instruction
+    /// is due; `false` (the default) lets the machine run plain instructions without asking.
+    #[inline(always)]
+    fn watches_instructions(&self) -> bool {
+        false
+    }
 
-impl<T: Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter> Board for T {}
+    /// Before the instruction at `pc` of a running program, when [`Hook::watches_instructions`]: whether
+    /// the program stops there, before executing it (its run state becomes stopped, as after command
+    /// 128). Never by default.
+    #[inline(always)]
+    fn stop_before(&mut self, pc: u16) -> bool {
+        let _ = pc;
+        false
+    }
+
+    /// After a jump back of a running program (the PC not past where it was), within a poll and in
+    /// event-driven mode (not in a single step, command 130, nor tick by tick): the hook may move the
+    /// program and the motion controller on by whole turns of a loop ([`Pass::skip`]). Returns whether
+    /// it did. Never by default.
+    #[inline(always)]
+    fn jumped_back<P: Pass>(&mut self, pass: &mut P) -> bool {
+        let _ = pass;
+        false
+    }
+
+    /// When the running program next needs a poll, if the hook knows better than the program's next
+    /// instruction: `Some(Some(t))` not before `t`, `Some(None)` not by itself; `now` is the module's
+    /// time, `changes` its count of changes ([`Pass::changes`]). `None` (the default): at its next
+    /// instruction, as the firmware says.
+    #[inline(always)]
+    fn program_rest(&self, now: Instant, changes: u32) -> Option<Option<Instant>> {
+        let _ = (now, changes);
+        None
+    }
+}
+
+/// The firmware at a jump back of its program, as [`Hook::jumped_back`] sees it: where the program is,
+/// what may change by itself ahead, and a copy of the whole state to compare a later pass with (a save
+/// state, as an emulator has). Implemented by the module; a hook only reads it and may move it on.
+pub trait Pass {
+    /// The whole firmware state and program machine at a pass.
+    type Saved: Clone + Debug + Send + 'static;
+
+    /// The pass's key; `None` when the program is not at an instruction that runs by itself alone (it
+    /// is not running, a WAIT is in progress, or its clock is not after the last motion tick).
+    fn key(&self) -> Option<PassKey>;
+    /// Instructions executed since power-up.
+    fn executed(&self) -> u64;
+    /// The program's clock: when its next instruction runs.
+    fn time(&self) -> Instant;
+    /// The motion controller's clock (tick-aligned).
+    fn motion_time(&self) -> Instant;
+    /// The time the caller's poll runs up to: instructions up to and including it run in this poll.
+    fn now(&self) -> Instant;
+    /// The module's count of changes (every board write, EEPROM write and input from outside moves it
+    /// on): equal counts at two passes say nothing was told to the board or came from outside between.
+    fn changes(&self) -> u32;
+    /// The number of motors.
+    fn motors(&self) -> usize;
+    /// Whether every motor stands with its standstill begun, and nothing ticks by itself (no closed
+    /// loop): then only the board's readings, within their quiet windows, could change what a turn does.
+    fn standing(&self) -> bool;
+    /// The drive state motor `motor` was last given (to ask the board's quiet window with).
+    fn drive(&self, motor: usize) -> DriveState;
+    /// The next instant at which something changes by itself, whatever the program does: a standby or
+    /// freewheeling delay, the heartbeat, an enabled timer.
+    fn next_event(&self) -> Option<Instant>;
+    /// A copy of the whole state.
+    fn save(&self) -> Self::Saved;
+    /// Whether the state now is `saved` a whole number of turns later: every field equal but the clocks,
+    /// the program's and the motion controller's by the same Δ > 0, and the instruction count by n > 0.
+    /// Returns (Δ, n).
+    fn turned(&self, saved: &Self::Saved) -> Option<(Duration, u64)>;
+    /// Moves the program's and the motion controller's clocks on by `by` and the instruction count by
+    /// `instructions`: what whole turns of a loop in a fixed point do.
+    fn skip(&mut self, by: Duration, instructions: u64);
+}
+
+/// What a pass of a program is recognised by, cheaply ([`Pass::key`]): two passes with different keys are
+/// in different states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PassKey {
+    /// The program counter.
+    pub pc: u16,
+    /// Microseconds from the last motion tick to the next instruction.
+    pub phase: u64,
+    /// The program's accumulator, X register and flags.
+    pub registers: (i32, i32, u16),
+    /// The subroutine stack's depth.
+    pub sp: u8,
+    /// Whether an interrupt handler runs.
+    pub handler: bool,
+}
+
+impl<T: Hook + ?Sized> Hook for &mut T {
+    #[inline(always)]
+    fn watches_instructions(&self) -> bool {
+        T::watches_instructions(self)
+    }
+    #[inline(always)]
+    fn stop_before(&mut self, pc: u16) -> bool {
+        T::stop_before(self, pc)
+    }
+    #[inline(always)]
+    fn jumped_back<P: Pass>(&mut self, pass: &mut P) -> bool {
+        T::jumped_back(self, pass)
+    }
+    #[inline(always)]
+    fn program_rest(&self, now: Instant, changes: u32) -> Option<Option<Instant>> {
+        T::program_rest(self, now, changes)
+    }
+}
+
+/// Everything a module needs from its board: one trait per capability, so a board implements what it
+/// has (with the defaults of [`LoadSensor`] and [`EncoderCounter`] for what it has not, and of [`Hook`],
+/// which only a simulator fills in).
+pub trait Board:
+    Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter + Hook
+{
+}
+
+impl<T: Nvm + Inputs + Outputs + Analog + SwitchInputs + StepDriver + LoadSensor + EncoderCounter + Hook> Board for T {}
 
 /// The capability traits under no names, for code that calls them on a concrete board type (the
 /// module's board behind its seam).
 pub mod prelude {
     pub use super::{
-        Analog as _, EncoderCounter as _, Inputs as _, LoadSensor as _, Nvm as _, Outputs as _, StepDriver as _,
-        SwitchInputs as _,
+        Analog as _, EncoderCounter as _, Hook as _, Inputs as _, LoadSensor as _, Nvm as _, Outputs as _,
+        StepDriver as _, SwitchInputs as _,
     };
 }

@@ -50,11 +50,11 @@ mod drive;
 mod exec;
 mod host;
 mod params;
+mod pass;
 mod program;
 mod sac;
 mod seam;
 mod spans;
-mod spin;
 
 use seam::Seam;
 
@@ -192,8 +192,9 @@ pub struct Module<B: Board> {
     pub(crate) exact: bool,
     /// The spans computed last (see `module/spans.rs`).
     pub(crate) memos: spans::Memos,
-    /// Watches a program spinning in a fixed point (see `module/spin.rs`).
-    pub(crate) spin: spin::Spin,
+    /// Within a poll's advance: a jump back of the program is reported to the board's hook
+    /// (`hal::Hook::jumped_back`); in a single step (command 130) it is not.
+    pub(crate) advancing: bool,
     /// The gap after which a partial binary frame is dropped (`None`: never), see
     /// [`Module::set_inter_byte_timeout`].
     pub(crate) inter_byte_timeout: Option<Duration>,
@@ -222,7 +223,7 @@ impl<B: Board> Module<B> {
             program: Program::default(),
             exact: false,
             memos: Default::default(),
-            spin: Default::default(),
+            advancing: false,
             inter_byte_timeout: Some(crate::iface::INTER_BYTE_TIMEOUT),
         }
     }
@@ -243,9 +244,9 @@ impl<B: Board> Module<B> {
         self.board.get()
     }
 
-    /// The board, mutably (the simulator changes its world through this). The module takes it that the
-    /// board may have changed in any way (a program spinning in a fixed point is looked at afresh, see
-    /// `module/spin.rs`); to move the board's world on along its own timeline, or to read it, use
+    /// The board, mutably (the simulator changes its world, or its hook's breakpoints, through this).
+    /// The module takes it that the board may have changed in any way: it counts as a change
+    /// (`module/seam.rs`); to move the board's world on along its own timeline, or to read it, use
     /// [`Module::board_timeline`].
     pub fn board_mut(&mut self) -> &mut B {
         self.board.changed()
@@ -325,7 +326,7 @@ impl<B: Board> Module<B> {
     /// The value of the axis parameter with `setting`, if the model has one.
     #[inline]
     pub(crate) fn ap(&self, m: usize, setting: Setting) -> Option<i32> {
-        self.spec.axis.setting(setting).map(|i| self.st.axes[m].params[i])
+        self.st.axes[m].ap(&self.spec.axis, setting)
     }
 
     /// The value of the bank 0 parameter with `setting`, if the model has one.
@@ -497,7 +498,7 @@ impl<B: Board> Module<B> {
     /// Time after the motor stopped given in `setting` (10 ms units), if the model has it and it is set.
     #[inline]
     fn delay(&self, m: usize, setting: Setting) -> Option<Duration> {
-        self.ap(m, setting).filter(|d| *d > 0).map(|d| Duration::from_millis(d as u64 * 10))
+        self.st.axes[m].delay(&self.spec.axis, setting)
     }
 
     /// The current setting now (AP 6, 7, 200, 204, 214, 167) and whether the driver is on.
@@ -549,14 +550,7 @@ impl<B: Board> Module<B> {
             enabled,
             reverse: self.gp_flag(Setting::ReverseShaft),
         };
-        self.st.axes[m].drive_due = self.st.axes[m].standstill_since.and_then(|since| {
-            [self.delay(m, Setting::PowerDownDelay), self.delay(m, Setting::FreewheelingDelay)]
-                .into_iter()
-                .flatten()
-                .map(|d| since + d)
-                .filter(|t| *t > now)
-                .min()
-        });
+        self.st.axes[m].drive_due = self.st.axes[m].next_event(&self.spec.axis, now);
         let unchanged = DriveState { moved: 0, ..state };
         if state.moved == 0 && self.st.axes[m].last_drive == Some(unchanged) {
             return;

@@ -7,7 +7,7 @@
 //! the PC (`file:line: text`).
 //!
 //! How it drives the core: stepping is command 130 ([`Command::StepApplication`]), which executes one
-//! instruction; running is command 129 with the core's breakpoints set ([`tmcl_core::vm::Vm::set_breakpoint`]),
+//! instruction; running is command 129 with the simulator's breakpoints set ([`tmcl_sim::Breakpoints`]),
 //! polling the module from deadline to deadline, so the program never runs past a breakpoint. A WAIT
 //! that does not end at once lets simulated time pass (the program runs, interrupts included) until the
 //! next instruction; `next` steps over a CSUB the same way. While the program stands still, motion and
@@ -227,14 +227,13 @@ impl Session {
     /// time of one instruction pass.
     fn step_raw(&mut self) {
         let pc = self.module.vm().pc;
-        let vm = self.module.vm_mut();
-        // The core skips a breakpoint only right after stopping at it (a flag it clears when passing);
-        // make the breakpoint bit agree with that flag for this one instruction.
-        let passing = vm.at_breakpoint();
-        vm.set_breakpoint(pc, passing);
+        // The simulator's breakpoints let one pass only right after stopping at it (a flag cleared when
+        // passing); make the breakpoint bit agree with that flag for this one instruction.
+        let passing = self.module.board().breakpoints().stopped_at();
+        self.module.board_mut().breakpoints_mut().set(pc, passing);
         let _ = self.module.execute(Command::StepApplication, self.now);
         let user = self.is_user_breakpoint(pc);
-        self.module.vm_mut().set_breakpoint(pc, user);
+        self.module.board_mut().breakpoints_mut().set(pc, user);
         self.now += INSTRUCTION_TIME;
         poll(&mut self.module, self.now);
     }
@@ -244,13 +243,14 @@ impl Session {
         let limit = self.now + self.limit;
         let temporary = until.map(|u| u.0).filter(|a| !self.is_user_breakpoint(*a));
         if let Some(a) = temporary {
-            self.module.vm_mut().set_breakpoint(a, true);
+            self.module.board_mut().breakpoints_mut().set(a, true);
         }
         let _ = self.module.execute(Command::RunApplication { from: None }, self.now);
         let stop = loop {
             let deadline = poll(&mut self.module, self.now);
+            let at_breakpoint = self.module.board().breakpoints().stopped_at();
             let vm = self.module.vm();
-            if vm.at_breakpoint() && vm.state() == RunState::Stopped {
+            if at_breakpoint && vm.state() == RunState::Stopped {
                 if until.is_some_and(|u| u == self.depth()) {
                     break Stop::Stepped;
                 }
@@ -272,7 +272,7 @@ impl Session {
             self.now = deadline.unwrap_or(limit).max(self.now).min(limit);
         };
         if let Some(a) = temporary {
-            self.module.vm_mut().set_breakpoint(a, false);
+            self.module.board_mut().breakpoints_mut().set(a, false);
         }
         stop
     }
@@ -343,7 +343,7 @@ impl Session {
         self.now = Instant::ZERO;
         self.ended = false;
         for b in &self.breakpoints {
-            self.module.vm_mut().set_breakpoint(b.address, true);
+            self.module.board_mut().breakpoints_mut().set(b.address, true);
         }
         let stop = match self.user_breakpoint(0) {
             Some(b) => Stop::Breakpoint(b),
@@ -512,7 +512,7 @@ impl Session {
         write!(out, "pc {pc}{label}: ")?;
         self.location(out, pc)?;
         let mut state = state_name(vm.state()).to_string();
-        if vm.at_breakpoint() {
+        if self.module.board().breakpoints().stopped_at() {
             state.push_str(" at a breakpoint");
         }
         if let Some(ctx) = vm.saved_context() {
@@ -578,7 +578,7 @@ impl Session {
         let number = self.next_number;
         self.next_number += 1;
         self.breakpoints.push(Breakpoint { number, address });
-        self.module.vm_mut().set_breakpoint(address, true);
+        self.module.board_mut().breakpoints_mut().set(address, true);
         write!(out, "breakpoint {number} at {address}: ")?;
         self.location(out, address).map(Ok)
     }
@@ -601,11 +601,11 @@ impl Session {
         };
         let gone = self.breakpoints.len() - keep.len();
         for b in &self.breakpoints {
-            self.module.vm_mut().set_breakpoint(b.address, false);
+            self.module.board_mut().breakpoints_mut().set(b.address, false);
         }
         self.breakpoints = keep;
         for b in &self.breakpoints {
-            self.module.vm_mut().set_breakpoint(b.address, true);
+            self.module.board_mut().breakpoints_mut().set(b.address, true);
         }
         writeln!(out, "deleted {gone} breakpoint{}", if gone == 1 { "" } else { "s" }).map(Ok)
     }

@@ -324,7 +324,7 @@ impl Traced {
     ) -> Result<(), RunError> {
         let handlers = source.handler_addresses();
         for &address in &handlers {
-            module.vm_mut().set_breakpoint(address, true);
+            module.board_mut().breakpoints_mut().set(address, true);
         }
         let mut watch = Watch::of(module);
         let mut events: Vec<Event> = Vec::new();
@@ -338,7 +338,7 @@ impl Traced {
             events.clear();
             events
                 .extend(refusals.collect(module, source).iter().map(|r| Event::Refused { pc: r.pc, status: r.status }));
-            if module.vm().at_breakpoint() && module.vm().state() == RunState::Stopped {
+            if module.board().breakpoints().stopped_at() && module.vm().state() == RunState::Stopped {
                 // A handler's first instruction: name the interrupt(s) whose vector points here, go on.
                 let pc = module.vm().pc;
                 if module.vm().in_handler() {

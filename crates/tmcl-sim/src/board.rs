@@ -23,10 +23,11 @@ use crate::profile::Profile;
 use crate::world::{Active, DriverFlag, EncoderType, Invalid, World, WorldError};
 
 pub mod change;
+use crate::hook::{Breakpoints, LoopSkip};
 pub use change::{Change, SwitchId};
 use tmcl_core::hal::{
-    Analog, DriveState, DriverSettings, EncoderCounter, Inputs, LoadSensor, Nvm, Outputs, Quiet, StepDriver,
-    SwitchInputs, Switches,
+    Analog, DriveState, DriverSettings, EncoderCounter, Hook, Inputs, LoadSensor, Nvm, Outputs, Pass, Quiet,
+    StepDriver, SwitchInputs, Switches,
 };
 use tmcl_core::model::{EncoderKind, ModelSpec};
 use tmcl_core::param::persist;
@@ -337,6 +338,36 @@ pub struct SimBoard {
     /// Only their motor, switches, driver and encoder are used: the EEPROM, inputs, outputs and analog
     /// values are this board's.
     axes: Vec<SimBoard>,
+    /// A debugger's breakpoints, behind the firmware's hook (`hook.rs`).
+    breakpoints: Breakpoints,
+    /// The loop skip, behind the firmware's hook (`hook.rs`).
+    loop_skip: LoopSkip,
+}
+
+/// The simulator's shortcuts behind the firmware's hook (see `hook.rs`): breakpoints and the loop skip.
+impl Hook for SimBoard {
+    #[inline(always)]
+    fn watches_instructions(&self) -> bool {
+        self.breakpoints.any()
+    }
+
+    #[inline]
+    fn stop_before(&mut self, pc: u16) -> bool {
+        self.breakpoints.stop_before(pc)
+    }
+
+    #[inline]
+    fn jumped_back<P: Pass>(&mut self, pass: &mut P) -> bool {
+        let mut skip = std::mem::take(&mut self.loop_skip);
+        let jumped = skip.pass(pass, |m, now, drive| self.quiet(m, now, drive));
+        self.loop_skip = skip;
+        jumped
+    }
+
+    #[inline]
+    fn program_rest(&self, now: Instant, changes: u32) -> Option<Option<Instant>> {
+        self.loop_skip.rest(now, changes)
+    }
 }
 
 impl SimBoard {
@@ -384,6 +415,8 @@ impl SimBoard {
             spec: world,
             plan,
             axes: Vec::new(),
+            breakpoints: Breakpoints::default(),
+            loop_skip: LoopSkip::default(),
         };
         board.fire(Instant::ZERO);
         for _ in 1..profile.motors.max(1) {
@@ -396,6 +429,18 @@ impl SimBoard {
     /// A PD28-1021 board with an in-memory EEPROM of `capacity` bytes.
     pub fn in_memory(capacity: usize) -> SimBoard {
         SimBoard::new(Eeprom::Memory(MemNvm::new(capacity)))
+    }
+
+    /// A debugger's breakpoints: the program stops before an address that has one (see [`Breakpoints`]).
+    pub fn breakpoints(&self) -> &Breakpoints {
+        &self.breakpoints
+    }
+
+    /// The breakpoints, to set or clear one. Reach them through `Module::board_mut`, which tells the
+    /// module that something changed (a program resting in a loop is polled again, and stops at a
+    /// breakpoint set in it).
+    pub fn breakpoints_mut(&mut self) -> &mut Breakpoints {
+        &mut self.breakpoints
     }
 
     /// The same board in `world`, at power-up (the rotor at `axis.start`, time 0).
@@ -457,6 +502,7 @@ impl SimBoard {
         let eeprom = std::mem::replace(&mut self.eeprom, fresh.eeprom);
         let clock = self.clock.take();
         let outputs = self.outputs;
+        let breakpoints = std::mem::take(&mut self.breakpoints);
         let plan = Plan::compile(&world).expect("checked");
         *self = SimBoard {
             eeprom,
@@ -470,6 +516,7 @@ impl SimBoard {
             spec: world,
             plan,
             axes,
+            breakpoints,
             ..fresh
         };
         self.fire(Instant::ZERO);

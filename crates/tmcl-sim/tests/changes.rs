@@ -1,4 +1,4 @@
-//! The loop skip's "did anything change" (`tmcl_core`'s `module/spin.rs`): a program spinning in a fixed
+//! The loop skip's "did anything change" (`tmcl_sim::hook`, behind the firmware's hook): a program spinning in a fixed
 //! point needs no poll until something from outside reaches the module. Each write path that reaches it
 //! without a host frame — the library calls a simulator, a debugger or a process-data image use — must
 //! wake it: before the change counter each one had to remember a hand-placed call, and these did not.
@@ -58,5 +58,28 @@ fn an_axis_parameter_set_through_the_library_wakes_a_resting_loop() {
     // AP 12, right limit switch disable: 0 by default, read back as written.
     let (mut m, t) = resting(&waits_for(Command::Gap { param: 12, motor: 0 }), &[]);
     m.set_axis(12, 1, t).unwrap();
+    wakes(m, t);
+}
+
+/// The loop skip and the breakpoints now live behind the board's hook (`tmcl_sim::hook`), outside the
+/// firmware: a breakpoint set in a resting loop through the board must wake it, and the program stops
+/// there, though no host frame reached the module and the firmware knows nothing of breakpoints.
+#[test]
+fn a_breakpoint_set_in_a_resting_loop_stops_it_there() {
+    let (mut m, t) = resting(&waits_for(Command::Ggp { param: 0, bank: 2 }), &[]);
+    m.board_mut().breakpoints_mut().set(1, true);
+    let deadline = m.poll(t, &mut |_: &[u8]| {});
+    assert!(deadline.is_some_and(|d| d <= t + Duration::from_millis(1)), "deadline after the change: {deadline:?}");
+    m.poll(t + Duration::from_millis(1), &mut |_: &[u8]| {});
+    assert!(m.board().breakpoints().stopped_at(), "stopped at the breakpoint");
+    assert_eq!((m.vm().pc, m.vm().state()), (1, tmcl_core::vm::RunState::Stopped));
+}
+
+/// A debugger that changes the program machine (its registers, its PC) through the library wakes a
+/// resting loop too: the skip's fixed point was found for the machine as it was.
+#[test]
+fn the_program_machine_changed_through_the_library_wakes_a_resting_loop() {
+    let (mut m, t) = resting(&waits_for(Command::Ggp { param: 0, bank: 2 }), &[]);
+    m.vm_mut().pc = 2; // past the loop: SIO 0, 2, 1, then STOP
     wakes(m, t);
 }

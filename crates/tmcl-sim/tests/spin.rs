@@ -1,4 +1,4 @@
-//! Programs that never wait and spin in a fixed point (`tmcl_core`'s `module/spin.rs`): the manual's busy
+//! Programs that never wait and spin in a fixed point (the loop skip, `tmcl_sim::hook`): the manual's busy
 //! listings run event-driven exactly as tick by tick, across several polls' worth of instructions (one
 //! poll runs at most 2^20, 21 s of module time), an hour of each takes a few polls, and an input timeline
 //! reaches the copy loop at the instant it does tick by tick.

@@ -19,13 +19,13 @@
 //!
 //! # A program that never waits
 //!
-//! Each instruction is an event (it takes [`crate::vm::INSTRUCTION_TIME`]), so a busy loop would make
-//! every 20 µs one. A loop that spins in a fixed point — its whole state back as it was one turn before
-//! at the same address and the same phase to the ticks, the axis standing, the board quiet and told
-//! nothing new — is jumped over in whole turns, ticks and all, up to the next event that is not the
-//! loop's (a timer, a standby delay, the heartbeat, the end of the board's quiet window, the caller's
-//! `now`), and the deadline says the program needs no poll before that event (`spin.rs`, with the
-//! default feature `spin-skip`). Tick-by-tick mode runs every instruction: it stays the reference.
+//! Each instruction is an event (it takes [`crate::vm::INSTRUCTION_TIME`]), so a busy loop makes one
+//! every 20 µs, and the firmware runs every one of them. A simulator may do better behind the board's
+//! hook ([`crate::hal::Hook`]): at each jump back of the program within an advance the module hands the
+//! hook its state (`module/pass.rs`), and the hook may move the program's and the motion controller's
+//! clocks on by whole turns of a loop in a fixed point (`tmcl-sim` does); the deadline then asks the
+//! hook when the program next needs a poll. Tick-by-tick mode never calls the hook: it stays the
+//! reference.
 //!
 //! # The same result however often the caller polls
 //!
@@ -33,9 +33,10 @@
 //! again after the program has run (an instruction may have changed AP 4, 5 or 130), the heartbeat is
 //! checked at every tick, and a standby or freewheeling delay takes effect at its time.
 
-use super::Module;
+use super::{Module, State};
 use crate::hal::prelude::*;
 use crate::hal::Board;
+use crate::model::ModelSpec;
 use crate::model::Setting;
 use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Mode, RampParams, TICK};
@@ -80,30 +81,15 @@ impl<B: Board> Module<B> {
 
     /// The earliest instant at which a motor's driver current changes by itself (standby,
     /// freewheeling) or must be told of a change, and which motor.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn drive_due(&self) -> Option<(usize, Instant)> {
-        if self.st.axes.count() == 1 {
-            // (One motor, the common case: on the path of every instruction and tick.)
-            return self.st.axes[0].drive_due.map(|d| (0, d));
-        }
-        let mut due: Option<(usize, Instant)> = None;
-        for (m, axis) in self.st.axes.iter().enumerate() {
-            if let Some(d) = axis.drive_due {
-                if due.is_none_or(|(_, t)| d < t) {
-                    due = Some((m, d));
-                }
-            }
-        }
-        due
+        self.st.axes.drive_due()
     }
 
     /// Whether every motor stands (no ramp moving, no reference search).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn all_standing(&self) -> bool {
-        if self.st.axes.count() == 1 {
-            return self.st.axes[0].is_standing();
-        }
-        self.st.axes.iter().all(|a| a.is_standing())
+        self.st.axes.all_standing()
     }
 
     /// [`Module::advance`] when a tick is due or a program runs.
@@ -121,8 +107,8 @@ impl<B: Board> Module<B> {
         }
         let mut budget = BUDGET;
         let closed_loop = self.has_closed_loop();
-        // A program spinning in a fixed point is looked for in advances only (`module/spin.rs`).
-        self.spin.arm(true);
+        // The program's jumps back are reported to the board's hook within advances only.
+        self.advancing = true;
         // Instructions up to and including `now`.
         let horizon = now + MICROSECOND;
         loop {
@@ -172,7 +158,7 @@ impl<B: Board> Module<B> {
             self.st.motion_time = tick_at;
             self.tick_done(tick_at);
         }
-        self.spin.arm(false);
+        self.advancing = false;
         self.after_advance(now);
     }
 
@@ -188,13 +174,8 @@ impl<B: Board> Module<B> {
     /// the reference search.
     #[inline]
     fn tick_axis(&mut self, m: usize, tick_at: Instant, params: &RampParams, closed_loop: bool) {
-        // A reference search looks at its switch after every microstep (sub-ticks), so that the
-        // switching points, and with them the zero point, are exact to the microstep (§7.1).
-        let parts = if self.st.axes[m].reference.is_active() {
-            (u64::from(self.st.axes[m].ramp.velocity().unsigned_abs()) / 1000 + 1).min(TICK.micros())
-        } else {
-            1
-        };
+        // A reference search looks at its switch after every microstep (sub-ticks, §7.1).
+        let parts = self.st.axes[m].tick_parts(TICK);
         // (Most ticks are one part: no 64-bit division for them.)
         let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
         for k in 1..=parts {
@@ -204,18 +185,9 @@ impl<B: Board> Module<B> {
             // board's clock there, not where the last update or the caller's poll left it.
             self.sync_board(m, t - Duration::from_micros(dt));
             let limits = self.limits(m);
-            let axis = &mut self.st.axes[m];
-            let r = axis.ramp.tick(Duration::from_micros(dt), params, limits);
-            axis.ramping = r.ramping;
-            let steps = if closed_loop { self.closed_loop_tick(m, r.steps, dt as i64) } else { r.steps };
-            let axis = &mut self.st.axes[m];
-            axis.unreported_steps += steps;
-            let moving = axis.ramp.velocity() != 0;
-            match (moving, axis.standstill_since) {
-                (true, Some(_)) => axis.standstill_since = None,
-                (false, None) => axis.standstill_since = Some(t),
-                _ => {}
-            }
+            let steps = self.st.axes[m].advance(Duration::from_micros(dt), params, limits);
+            let steps = if closed_loop { self.closed_loop_tick(m, steps, dt as i64) } else { steps };
+            self.st.axes[m].moved(t, steps);
             self.update_board(m, t);
             if self.st.axes[m].reference.is_active() {
                 self.step_reference(m);
@@ -397,8 +369,7 @@ impl<B: Board> Module<B> {
     /// When the heartbeat runs out (GP 68), if it is armed: the first time more than its milliseconds
     /// after the last command.
     pub(super) fn heartbeat_expiry(&self) -> Option<Instant> {
-        let limit = self.gp(Setting::SerialHeartbeat).unwrap_or(0);
-        (limit > 0 && !self.st.heartbeat_tripped).then(|| self.st.last_command + Duration::from_millis(limit as u64))
+        heartbeat_expiry(self.spec, &self.st)
     }
 
     /// §5.1 GP 68: stop the motor when no command arrived within the heartbeat time (milliseconds; the
@@ -434,22 +405,20 @@ impl<B: Board> Module<B> {
                 None => consider(self.st.motion_time + TICK),
             }
         }
-        // A program spinning in a fixed point (`module/spin.rs`) needs no poll before the next event.
-        let program = self.spin.rest(self.st.now, self.board.changes()).unwrap_or_else(|| self.program_deadline());
+        // The board's hook may know better when a running program needs its next poll (a simulator that
+        // found it spinning in a fixed point: not before the next event, `hal::Hook::program_rest`).
+        let rest = if self.vm.state == RunState::Running && !self.exact {
+            self.board.get().program_rest(self.st.now, self.board.changes())
+        } else {
+            None
+        };
+        let program = rest.unwrap_or_else(|| self.program_deadline());
         for t in [program, self.timer_deadline()].into_iter().flatten() {
             consider(t.max(self.st.now));
         }
-        for m in 0..self.st.axes.count() {
-            if let Some(since) = self.st.axes[m].standstill_since {
-                for delay in [self.delay(m, Setting::PowerDownDelay), self.delay(m, Setting::FreewheelingDelay)]
-                    .into_iter()
-                    .flatten()
-                {
-                    let t = since + delay;
-                    if t > self.st.now {
-                        consider(t);
-                    }
-                }
+        for axis in self.st.axes.iter() {
+            if let Some(t) = axis.next_event(&self.spec.axis, self.st.now) {
+                consider(t);
             }
         }
         if let Some(expiry) = self.heartbeat_expiry() {
@@ -486,4 +455,11 @@ impl<B: Board> Module<B> {
         }
         Some(until)
     }
+}
+
+/// When the heartbeat runs out (GP 68) in `st`, if it is armed (see [`Module::check_heartbeat`]).
+#[inline]
+pub(super) fn heartbeat_expiry(spec: &ModelSpec, st: &State) -> Option<Instant> {
+    let limit = spec.global.setting(Setting::SerialHeartbeat).map_or(0, |i| st.global[i]);
+    (limit > 0 && !st.heartbeat_tripped).then(|| st.last_command + Duration::from_millis(limit as u64))
 }

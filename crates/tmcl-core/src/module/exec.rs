@@ -57,8 +57,8 @@ impl<B: Board> Module<B> {
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
         if origin == Origin::Host {
-            // A host input: a change (`module/seam.rs`); a program spinning in a fixed point may do
-            // otherwise now.
+            // A host input: a change (`module/seam.rs`); what the board's hook concluded while nothing
+            // changed (a program spinning in a fixed point) is void.
             self.board.input();
         }
         // A parameter write may change what the driver sees (a current, the chopper, the resolution), and a

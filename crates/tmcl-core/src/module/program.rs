@@ -2,6 +2,7 @@
 //! program gives, the WAIT conditions, the hooks), the interrupt sources, and the control commands
 //! 128–135 (the machine itself, its state and its cycle, is [`crate::vm`]'s).
 
+use super::pass::Turn;
 use super::{Module, Origin};
 use crate::hal::prelude::*;
 use crate::hal::Board;
@@ -34,9 +35,9 @@ impl<B: Board> Module<B> {
         });
     }
 
-    /// Runs the program up to (not including) `limit`, at most `budget` instructions. Returns whether it
-    /// jumped over turns of a loop in a fixed point (`module/spin.rs`): then the program's and the motion
-    /// controller's clocks have moved on, past `limit`.
+    /// Runs the program up to (not including) `limit`, at most `budget` instructions. Returns whether the
+    /// board's hook moved it on by whole turns of a loop (`hal::Hook::jumped_back`): then the program's
+    /// and the motion controller's clocks have moved on, past `limit`.
     pub(crate) fn run_program(&mut self, limit: Instant, budget: &mut u32) -> bool {
         vm::run(self, limit, budget)
     }
@@ -244,7 +245,7 @@ impl<B: Board> Module<B> {
         Ok(())
     }
 
-    /// Mutable access to the program machine (debuggers: breakpoints).
+    /// Mutable access to the program machine (a debugger's registers and PC; a change from outside).
     pub fn vm_mut(&mut self) -> &mut Vm {
         self.board.input(); // a change from outside (`module/seam.rs`)
         &mut self.vm
@@ -396,8 +397,25 @@ impl<B: Board> Bus for Module<B> {
         self.drive_due().is_some_and(|(_, d)| d <= now)
     }
 
+    /// Within an advance, in event-driven mode: the board's hook sees the module at the jump back
+    /// (`module/pass.rs`) and may move it on by whole turns.
     #[inline(always)]
     fn jumped_back(&mut self) -> bool {
-        self.spin_pass()
+        if !self.advancing || self.exact {
+            return false;
+        }
+        let changes = self.board.changes();
+        let mut turn = Turn { spec: self.spec, st: &mut self.st, vm: &mut self.vm, changes };
+        self.board.timeline().jumped_back(&mut turn)
+    }
+
+    #[inline(always)]
+    fn watches_instructions(&self) -> bool {
+        self.board.get().watches_instructions()
+    }
+
+    #[inline(always)]
+    fn stop_before(&mut self, pc: u16) -> bool {
+        self.board.timeline().stop_before(pc)
     }
 }

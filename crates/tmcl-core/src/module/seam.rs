@@ -5,8 +5,9 @@
 //! counts one change, whichever path of the firmware makes it; every input from outside (a host frame, a
 //! mailbox message, a library call that writes firmware state, the board changed from outside) counts one
 //! at the module's public entry points ([`Seam::input`]). What keeps a result that holds only while
-//! nothing changes — a program spinning in a fixed point (`module/spin.rs`) — remembers the count it was
-//! found at and is void when the count moved on: no caller has to remember a hook.
+//! nothing changes — a simulator that found the program spinning in a fixed point, behind the board's
+//! hook ([`crate::hal::Hook`], [`crate::hal::Pass::changes`]) — remembers the count it was found at and
+//! is void when the count moved on: no write path has to remember a call.
 //!
 //! What the board does along its own timeline (the module bringing the board's clock to an instant with
 //! the state it was last told, [`Seam::timeline`]) is not a change.

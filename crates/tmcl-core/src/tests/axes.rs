@@ -86,6 +86,8 @@ impl SwitchInputs for AxesBoard {
     }
 }
 
+impl crate::hal::Hook for AxesBoard {}
+
 impl StepDriver for AxesBoard {
     fn update(&mut self, motor: usize, _: Instant, state: &DriveState) {
         let m = &mut self.motors[motor];

@@ -61,6 +61,10 @@ pub struct TestBoard {
     /// Physical position in 1/256 microsteps.
     pub physical: i64,
     pub updates: usize,
+    /// A breakpoint behind the board's hook: the program stops before this address once.
+    pub stop_at: Option<u16>,
+    /// The hook stopped the program (cleared when it lets it pass).
+    pub stopped: bool,
 }
 
 impl TestBoard {
@@ -75,6 +79,8 @@ impl TestBoard {
             drive: DriveState::default(),
             physical: 0,
             updates: 0,
+            stop_at: None,
+            stopped: false,
         }
     }
 }
@@ -121,6 +127,20 @@ impl SwitchInputs for TestBoard {
             right: self.switches.right || at(&self.zones[1]),
             home: self.switches.home || at(&self.zones[2]),
         }
+    }
+}
+
+/// The hook, as a debugger would fill it in: one breakpoint that stops the program once.
+impl crate::hal::Hook for TestBoard {
+    fn watches_instructions(&self) -> bool {
+        self.stop_at.is_some()
+    }
+    fn stop_before(&mut self, pc: u16) -> bool {
+        if self.stop_at == Some(pc) {
+            self.stopped = !self.stopped;
+            return self.stopped;
+        }
+        false
     }
 }
 

@@ -11,7 +11,7 @@
 
 use super::decode::Op;
 use super::{alu, flags, Context, Program, Registers, RunState, Vm, Wait, INSTRUCTION_TIME, NO_VECTOR, STACK_DEPTH};
-use super::{MAX_PROGRAM, MAX_VECTORS, WAIT_TICK};
+use super::{MAX_VECTORS, WAIT_TICK};
 use crate::model::{Interrupts, GLOBAL_INTERRUPTS};
 use crate::time::{Duration, Instant};
 use tmcl_wire::{Command, Status, WaitCondition};
@@ -39,9 +39,14 @@ pub(crate) trait Bus {
     /// After a command for the module at `now`: whether the module must act before the next instruction
     /// (the board hears of a change at its instant), so that the machine returns to it.
     fn must_act(&self, now: Instant) -> bool;
-    /// After a jump back (the PC not past where it was): a loop may spin in a fixed point, which the
-    /// module may jump over in whole turns. Returns whether it did: then the clocks have moved on.
+    /// After a jump back (the PC not past where it was): the simulator's hook may move the program on by
+    /// whole turns of a loop (`hal::Hook::jumped_back`). Returns whether it did: then the clocks have
+    /// moved on.
     fn jumped_back(&mut self) -> bool;
+    /// Whether to ask [`Bus::stop_before`] before each instruction of this run (`hal::Hook`).
+    fn watches_instructions(&self) -> bool;
+    /// Before the instruction at `pc`: whether the program stops there (`hal::Hook::stop_before`).
+    fn stop_before(&mut self, pc: u16) -> bool;
 }
 
 /// What one instruction did.
@@ -111,14 +116,16 @@ impl Vm {
 }
 
 /// Runs the program up to (not including) `limit`, at most `budget` instructions: each cycle services
-/// an interrupt, looks at a WAIT in progress and at a breakpoint, then runs the instruction at the PC.
+/// an interrupt, looks at a WAIT in progress and asks the bus whether to stop before the instruction
+/// (a simulator's breakpoint, when it watches the instructions), then runs the instruction at the PC.
 /// Returns whether the module jumped over turns of a loop ([`Bus::jumped_back`]); then the clocks have
 /// moved on, past `limit`. It returns early after a command the module must act on ([`Bus::must_act`]).
 #[inline(always)]
 pub(crate) fn run<B: Bus>(bus: &mut B, limit: Instant, budget: &mut u32) -> bool {
-    // Whether any breakpoint is set: they change only from outside, between runs; looked at once, when the
-    // first instruction is due (a run that only finds its WAIT going on does not pay for it).
-    let mut breakpoints: Option<bool> = None;
+    // Whether the bus watches the instructions (a simulator's breakpoints): that changes only from outside,
+    // between runs; asked once, when the first instruction is due (a run that only finds its WAIT going on
+    // does not pay for it).
+    let mut watched: Option<bool> = None;
     loop {
         let Parts { vm, regs, .. } = bus.parts();
         if vm.state != RunState::Running || vm.time >= limit || *budget == 0 {
@@ -140,8 +147,8 @@ pub(crate) fn run<B: Bus>(bus: &mut B, limit: Instant, budget: &mut u32) -> bool
                 }
             }
         }
-        let breakpoints = *breakpoints.get_or_insert_with(|| bus.parts().vm.breakpoints != [0; MAX_PROGRAM / 64]);
-        if !breakpoints {
+        let watched = *watched.get_or_insert_with(|| bus.watches_instructions());
+        if !watched {
             // A run of plain instructions: nothing happens between two of them but the clock (no interrupt
             // becomes serviceable, no WAIT, the run state stays), so only the limit, the budget and the
             // jumps back are looked at. `fit`: the instructions that fit before the limit and the budget.
@@ -169,13 +176,15 @@ pub(crate) fn run<B: Bus>(bus: &mut B, limit: Instant, budget: &mut u32) -> bool
                 continue; // (the next instruction is not plain, or the run is over: looked at from the top)
             }
         }
-        let vm = bus.parts().vm;
-        if breakpoints && vm.has_breakpoint(vm.pc) && !core::mem::take(&mut vm.at_breakpoint) {
-            // Stop before the instruction; the next run executes it (at_breakpoint lets it pass once).
-            vm.set_state(RunState::Stopped);
-            vm.at_breakpoint = true;
-            return false;
+        if watched {
+            let pc = bus.parts().vm.pc;
+            if bus.stop_before(pc) {
+                // Stop before the instruction, as command 128 would.
+                bus.parts().vm.set_state(RunState::Stopped);
+                return false;
+            }
         }
+        let vm = bus.parts().vm;
         vm.executed += 1;
         *budget -= 1;
         let pc = vm.pc;
@@ -358,6 +367,10 @@ mod tests {
         program: Program,
         commands: std::vec::Vec<Command>,
         jumps_back: u32,
+        /// The hook's breakpoint: stop before this address (every time it is asked).
+        stop_at: Option<u16>,
+        /// The addresses the machine asked about.
+        asked: std::vec::Vec<u16>,
     }
 
     impl Bus for Bench {
@@ -381,6 +394,13 @@ mod tests {
             self.jumps_back += 1;
             false
         }
+        fn watches_instructions(&self) -> bool {
+            self.stop_at.is_some()
+        }
+        fn stop_before(&mut self, pc: u16) -> bool {
+            self.asked.push(pc);
+            self.stop_at == Some(pc)
+        }
     }
 
     fn bench(program: &[Command]) -> Bench {
@@ -391,12 +411,34 @@ mod tests {
             program: Program::default(),
             commands: std::vec::Vec::new(),
             jumps_back: 0,
+            stop_at: None,
+            asked: std::vec::Vec::new(),
         };
         for (a, c) in program.iter().enumerate() {
             b.program.set(a, c.encode(), spec);
         }
         b.vm.set_state(RunState::Running);
         b
+    }
+
+    #[test]
+    fn the_machine_asks_the_bus_before_each_instruction_only_when_it_watches_them() {
+        let program = [
+            Command::Calc { op: CalcOp::Add, operand: 1 },
+            Command::Calc { op: CalcOp::Add, operand: 1 },
+            Command::Calc { op: CalcOp::Add, operand: 1 },
+            Command::Stop,
+        ];
+        let mut b = bench(&program);
+        run(&mut b, Instant::from_millis(1), &mut 100);
+        assert!(b.asked.is_empty(), "nothing watched: the bus is not asked");
+        assert_eq!((b.regs.accumulator, b.vm.state()), (3, RunState::Stopped));
+        let mut b = bench(&program);
+        b.stop_at = Some(2);
+        run(&mut b, Instant::from_millis(1), &mut 100);
+        assert_eq!(b.asked, [0, 1, 2], "asked before each instruction, up to the stop");
+        assert_eq!((b.vm.pc, b.regs.accumulator, b.vm.state()), (2, 2, RunState::Stopped), "stopped before it");
+        assert_eq!(b.vm.executed, 2);
     }
 
     #[test]

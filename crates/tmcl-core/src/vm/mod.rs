@@ -258,7 +258,7 @@ pub struct Context {
 #[derive(Debug, Clone)]
 pub struct Vm {
     /// Run state: read with [`Vm::state`]; it changes only through one setter, `Vm::set_state` (crate
-    /// visible only so that the loop skip can compare it).
+    /// visible only so that a pass of the program can be compared, `module/pass.rs`).
     pub(crate) state: RunState,
     /// Program counter: the address of the next instruction (GP 130).
     pub pc: u16,
@@ -286,10 +286,6 @@ pub struct Vm {
     /// The position-reached state of each motor at the last sample (bit m: motor m; its target-reached
     /// interrupt fires on the edge).
     pub(crate) was_reached: u8,
-    /// Debugger breakpoints: bit n = stop before executing address n.
-    pub(crate) breakpoints: [u64; MAX_PROGRAM / 64],
-    /// The program stopped at a breakpoint (cleared when it runs again).
-    pub(crate) at_breakpoint: bool,
     /// Instructions executed since power-up (for traces and benchmarks).
     pub(crate) executed: u64,
     /// Instructions the module refused and skipped (for simulators; the firmware ignores it).
@@ -314,8 +310,6 @@ impl Default for Vm {
             download: None,
             last_levels: None,
             was_reached: u8::MAX,
-            breakpoints: [0; MAX_PROGRAM / 64],
-            at_breakpoint: false,
             executed: 0,
             refusals: Refusals::default(),
         }
@@ -324,7 +318,7 @@ impl Default for Vm {
 
 impl Vm {
     /// The one place the run state changes (GP 128; command 128–131, STOP, an instruction that does not
-    /// decode, a breakpoint, auto start): every transition of the program machine passes here.
+    /// decode, a simulator's breakpoint, auto start): every transition of the program machine passes here.
     #[inline]
     pub(crate) fn set_state(&mut self, to: RunState) {
         self.state = to;
@@ -373,27 +367,6 @@ impl Vm {
     /// Download mode's next address.
     pub fn download_address(&self) -> Option<u16> {
         self.download
-    }
-
-    /// Sets or clears a breakpoint (a debugger feature; the program stops before executing `address`).
-    pub fn set_breakpoint(&mut self, address: u16, on: bool) {
-        let a = usize::from(address);
-        if a < MAX_PROGRAM {
-            let bit = 1u64 << (a % 64);
-            let word = &mut self.breakpoints[a / 64];
-            *word = if on { *word | bit } else { *word & !bit };
-        }
-    }
-
-    /// Whether `address` has a breakpoint.
-    pub fn has_breakpoint(&self, address: u16) -> bool {
-        let a = usize::from(address);
-        a < MAX_PROGRAM && self.breakpoints[a / 64] & (1 << (a % 64)) != 0
-    }
-
-    /// Whether the program stopped at a breakpoint.
-    pub fn at_breakpoint(&self) -> bool {
-        self.at_breakpoint
     }
 
     /// Instructions executed since power-up.

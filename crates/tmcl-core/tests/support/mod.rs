@@ -90,6 +90,8 @@ impl SwitchInputs for Board {
         Switches::default()
     }
 }
+impl tmcl_core::hal::Hook for Board {}
+
 impl StepDriver for Board {
     fn update(&mut self, _motor: usize, _now: Instant, state: &DriveState) {
         let moved = state.moved << (8 - state.resolution.min(8));
