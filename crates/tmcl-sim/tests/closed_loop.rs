@@ -376,3 +376,32 @@ fn a_closed_loop_at_rest_sleeps_and_agrees_with_ticking() {
     assert!(gap(fast, 27, end) > 0);
     assert_eq!(gap(fast, 123, end), 100, "the scaler at its minimum (AP 113)");
 }
+
+#[test]
+fn an_open_loop_turning_takes_spans_and_measures_as_ticking() {
+    // Open loop, the TMCM-1310 measures its velocity (AP 131) from the encoder over the last 32 ms: a
+    // minute of turning is spans but for the last 33 ticks before each poll, and reads as ticking.
+    let mut runs = [true, false].map(|exact| {
+        let mut m = module(&tmcm_1310::SPEC, "");
+        m.set_exact_ticks(exact);
+        exec(&mut m, Command::Ror { motor: 0, velocity: 51200 }, Instant::ZERO).unwrap();
+        m
+    });
+    let end = Instant::ZERO + Duration::from_secs(60);
+    let [exact, fast] = &mut runs;
+    let ticked = polls_to(exact, Instant::ZERO, end);
+    let spanned = polls_to(fast, Instant::ZERO, end);
+    assert!(ticked >= 59_000, "ticking: {ticked} polls");
+    assert!(spanned <= 100, "turning takes spans: {spanned} polls in a minute");
+    let (a, b) = (&fast.state().axes()[0], &exact.state().axes()[0]);
+    assert_eq!(a.closed_loop(), b.closed_loop());
+    assert_eq!(a.ramp(), b.ramp());
+    assert_eq!(gap(fast, 131, end), gap(exact, 131, end));
+    assert!((gap(fast, 131, end) - 51200).abs() <= 400, "AP 131 {}", gap(fast, 131, end));
+    // Read in the middle of a cruise too (the window then holds the last 32 ticks before the read).
+    let t = end + Duration::from_micros(12_345_678);
+    run_to(exact, t);
+    run_to(fast, t);
+    assert_eq!(fast.state().axes()[0].closed_loop(), exact.state().axes()[0].closed_loop());
+    assert_eq!(gap(fast, 131, t), gap(exact, 131, t));
+}

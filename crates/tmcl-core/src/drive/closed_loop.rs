@@ -319,6 +319,15 @@ impl ClosedLoop {
         true
     }
 
+    /// Passes over `ticks` ticks whose moves are not recorded: only where the next move goes into the
+    /// velocity window moves on. (For a span of ticks in open loop whose last [`VELOCITY_WINDOW`] + 1
+    /// ticks are ticked: those overwrite every slot, and the first of them `actual` and the pending
+    /// move.)
+    pub fn skip_ticks(&mut self, ticks: u64) {
+        let window = VELOCITY_WINDOW as u64;
+        self.moves_at = ((u64::from(self.moves_at) % window + ticks % window) % window) as u8;
+    }
+
     /// Whether the closed loop is at rest (see the module docs) with the ramp standing at the rotor:
     /// the next tick of the controller and of the current scaling changes nothing but counters and the
     /// I²t sum. The caller has checked that the ramp stands where the encoder reads (`error` 0 now) and

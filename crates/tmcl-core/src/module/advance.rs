@@ -13,9 +13,11 @@
 //! [`Module::poll`] returns is the next of these, not the next tick.
 //!
 //! Where no closed form exists the module ticks, for as long as that holds: a reference search (it
-//! samples its switch at every microstep), a closed-loop model (the loop measures and corrects every
-//! tick), coolStep regulating, a deviation check that is armed, and a board that cannot say when its
-//! readings next change ([`crate::hal::StepDriver::quiet`] returns `None`).
+//! samples its switch at every microstep), a closed loop while it moves or settles (it measures and
+//! corrects every tick; at rest it sleeps, see [`crate::drive::closed_loop`], and in open loop a
+//! closed-loop model's spans leave the velocity window's ticks to ticking, `spans.rs`), coolStep
+//! regulating, a deviation check that is armed, and a board that cannot say when its readings next
+//! change ([`crate::hal::StepDriver::quiet`] returns `None`).
 //!
 //! # A program that never waits
 //!
