@@ -158,7 +158,9 @@ impl Scenario {
 
     fn decode_as(data: &[u8], closed_loop: bool) -> Scenario {
         let mut b = Bytes(data);
-        let model = if closed_loop { b.u8() & 0 } else { b.u8() };
+        // (The model's byte is read either way, so that the rest decodes alike; 0 is the TMCM-1310.)
+        let model = b.u8();
+        let model = if closed_loop { 0 } else { model };
         // 6: the TMCM-1140 (a value no stored regression starts with, so that they decode as before).
         let spec: &'static ModelSpec = match model % 8 {
             0 => &tmcm_1310::SPEC,
