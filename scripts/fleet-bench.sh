@@ -11,7 +11,8 @@
 #   Memory: the resident set (VmRSS) of `tmcl serve` with one module, and of the fleet after one request to
 #   every module; the difference over 99 is what a module costs beyond the process.
 #   BEFORE_TMCL: a `tmcl` binary from before `--fleet`, served as one `tmcl serve` per line (what a
-#   fleet took before), measured in the same run.
+#   fleet took before), measured in the same run. FLEET_COMPARE=PATH (environment): another build's `tmcl`,
+#   served with --fleet and its loops closed, alternating with this build's.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 args=(--only fleet)

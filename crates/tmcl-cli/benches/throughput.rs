@@ -723,6 +723,10 @@ fn main() {
                 let name = format!("before: one process per line, loop closed [{round}]");
                 fleet_run(before, &name, true, true, true, idle);
             }
+            if let Ok(other) = std::env::var("FLEET_COMPARE") {
+                // `FLEET_COMPARE=PATH`: another build's `tmcl --fleet`, loop closed, alternating with this one.
+                fleet_run(&other, &format!("--fleet, other build, loop closed [{round}]"), false, true, true, idle);
+            }
             fleet_run(tmcl, &format!("--fleet, loop closed [{round}]"), false, true, true, idle);
             fleet_run(tmcl, &format!("--fleet, loop open [{round}]"), false, false, true, idle);
             fleet_run(tmcl, &format!("--fleet, loop open, all standing [{round}]"), false, false, false, idle);
