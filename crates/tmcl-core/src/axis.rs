@@ -14,7 +14,7 @@
 
 use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
-use crate::hal::DriveState;
+use crate::hal::{DriveState, SwitchInputs};
 use crate::model::{Setting, Table};
 use crate::motion::{Limits, Ramp, RampParams, Reference};
 use crate::time::{Duration, Instant};
@@ -135,7 +135,7 @@ impl Axis {
     /// The motor's own next event after `now`: when its driver current changes by itself while it
     /// stands (the standby current after the power-down delay AP 214, freewheeling after AP 204; PD28-1021
     /// manual §4, Table 22), if it will. `table` is the model's axis table.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn next_event(&self, table: &Table, now: Instant) -> Option<Instant> {
         let since = self.standstill_since?;
         [self.delay(table, Setting::PowerDownDelay), self.delay(table, Setting::FreewheelingDelay)]
@@ -150,7 +150,7 @@ impl Axis {
     /// `params` (the model's units already turned into microsteps per second) within the switches'
     /// `limits`. Returns the microsteps the ramp moved (before a closed loop corrects them; then
     /// [`Axis::moved`]).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn advance(&mut self, dt: Duration, params: &RampParams, limits: Limits) -> i64 {
         let r = self.ramp.tick(dt, params, limits);
         self.ramping = r.ramping;
@@ -159,7 +159,7 @@ impl Axis {
 
     /// After a (part of a) tick at `t` that moved `steps` (after the closed loop): the steps the board has
     /// yet to hear of, and the standstill's start or end.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn moved(&mut self, t: Instant, steps: i64) {
         self.unreported_steps += steps;
         let moving = self.ramp.velocity() != 0;
@@ -173,7 +173,7 @@ impl Axis {
     /// How many parts a motion tick of this motor has: a reference search looks at its switch after every
     /// microstep, so that the switching points, and with them the zero point, are exact to the microstep
     /// (PD28-1021 manual §7.1); otherwise one.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn tick_parts(&self, tick: Duration) -> u64 {
         if self.reference.is_active() {
             (u64::from(self.ramp.velocity().unsigned_abs()) / 1000 + 1).min(tick.micros())
@@ -182,10 +182,35 @@ impl Axis {
         }
     }
 
+    /// What motor `m`'s stop switches block now: a pressed left (right) switch blocks moving down (up)
+    /// unless AP 12 (13) disables it; during a reference search nothing, since the search handles the
+    /// switches itself (PD28-1021 manual §7.1: AP 12/13 do not affect it). `table` is the model's axis
+    /// table, `invert` GP 79 (the end switches' polarity reversed).
+    #[inline]
+    pub(crate) fn limits(&self, m: usize, table: &Table, board: &mut impl SwitchInputs, invert: bool) -> Limits {
+        if self.reference.is_active() {
+            return Limits::default();
+        }
+        let (left, right, _) = switches(m, board, invert);
+        let enabled = |disable: Option<i32>| disable.unwrap_or(0) == 0;
+        Limits {
+            block_negative: left && enabled(self.ap(table, Setting::LeftSwitchDisable)),
+            block_positive: right && enabled(self.ap(table, Setting::RightSwitchDisable)),
+        }
+    }
+
     /// The axis parameter in RAM at table index `i` (the model's table order).
     pub fn param(&self, i: usize) -> Option<i32> {
         self.params.get(i).copied()
     }
+}
+
+/// Motor `m`'s logical switch states (AP 9, 10, 11: left, right, home) as `board` reads them; `invert`
+/// (GP 79) reverses the polarity of the end switches.
+#[inline(always)]
+pub(crate) fn switches(m: usize, board: &mut impl SwitchInputs, invert: bool) -> (bool, bool, bool) {
+    let s = board.switches(m);
+    (s.left ^ invert, s.right ^ invert, s.home)
 }
 
 /// The motors of a module: [`MAX_MOTORS`] slots, of which the model's first `count` run.
@@ -230,7 +255,7 @@ impl Axes {
 
     /// The earliest instant at which a motor's driver current changes by itself (standby,
     /// freewheeling) or the board must be told of a change, and which motor.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn drive_due(&self) -> Option<(usize, Instant)> {
         if self.count() == 1 {
             // (One motor, the common case: on the path of every instruction and tick.)
@@ -248,7 +273,7 @@ impl Axes {
     }
 
     /// Whether every motor stands (no ramp moving, no reference search).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn all_standing(&self) -> bool {
         if self.count() == 1 {
             return self.list[0].is_standing();

@@ -468,22 +468,14 @@ impl<B: Board> Module<B> {
 
     /// Logical switch states (AP 9, 10, 11): GP 79 reverses the polarity of the end switches.
     pub(crate) fn switches(&mut self, m: usize) -> (bool, bool, bool) {
-        let s = self.board.switches(m);
         let invert = self.gp_flag(Setting::EndSwitchPolarity);
-        (s.left ^ invert, s.right ^ invert, s.home)
+        crate::axis::switches(m, &mut self.board, invert)
     }
 
+    /// What motor `m`'s stop switches block now (see [`Axis::limits`]).
     pub(crate) fn limits(&mut self, m: usize) -> Limits {
-        if self.st.axes[m].reference.is_active() {
-            // The reference search handles the switches itself (§7.1: AP 12/13 do not affect it).
-            return Limits::default();
-        }
-        let (left, right, _) = self.switches(m);
-        let enabled = |disable: Option<i32>| disable.unwrap_or(0) == 0;
-        Limits {
-            block_negative: left && enabled(self.ap(m, Setting::LeftSwitchDisable)),
-            block_positive: right && enabled(self.ap(m, Setting::RightSwitchDisable)),
-        }
+        let invert = self.gp_flag(Setting::EndSwitchPolarity);
+        self.st.axes[m].limits(m, &self.spec.axis, &mut self.board, invert)
     }
 
     /// Encoder counts in the logical direction (GP 90 reverses motor and encoder, manual §5.1).

@@ -356,10 +356,15 @@ impl Hook for SimBoard {
         self.breakpoints.stop_before(pc)
     }
 
-    #[inline]
+    #[inline(always)]
     fn jumped_back<P: Pass>(&mut self, pass: &mut P) -> bool {
+        // (At every jump back only the key is looked at; the skip is lent out only for a look, which asks
+        // the board's quiet windows.)
+        if !self.loop_skip.due(pass) {
+            return false;
+        }
         let mut skip = std::mem::take(&mut self.loop_skip);
-        let jumped = skip.pass(pass, |m, now, drive| self.quiet(m, now, drive));
+        let jumped = skip.look(pass, |m, now, drive| self.quiet(m, now, drive));
         self.loop_skip = skip;
         jumped
     }

@@ -121,8 +121,15 @@ impl LoopSkip {
     pub fn pass<P: Pass>(
         &mut self,
         pass: &mut P,
-        mut quiet: impl FnMut(usize, Instant, &DriveState) -> Option<Quiet>,
+        quiet: impl FnMut(usize, Instant, &DriveState) -> Option<Quiet>,
     ) -> bool {
+        self.due(pass) && self.look(pass, quiet)
+    }
+
+    /// The cheap part of a pass, at every jump back: whether its key came round and a look at the whole
+    /// state is due ([`LoopSkip::look`]).
+    #[inline]
+    pub fn due<P: Pass>(&mut self, pass: &P) -> bool {
         let Some(key) = pass.key() else { return false };
         let executed = pass.executed();
         match &mut self.anchor {
@@ -138,6 +145,16 @@ impl LoopSkip {
             self.skip -= 1;
             return false;
         }
+        true
+    }
+
+    /// A pass whose look is due ([`LoopSkip::due`]): copies the whole state, or compares it with the copy
+    /// and jumps over whole turns. Returns whether it jumped.
+    pub fn look<P: Pass>(
+        &mut self,
+        pass: &mut P,
+        mut quiet: impl FnMut(usize, Instant, &DriveState) -> Option<Quiet>,
+    ) -> bool {
         // Every axis stands, nothing ticks by itself, and the board is quiet for each.
         let mut quiet_until: Option<Option<Instant>> = pass.standing().then_some(None);
         let motion_time = pass.motion_time();

@@ -189,12 +189,12 @@ impl<B: Board> Module<B> {
             | C::UserFunction { .. } => Err(Status::NotAvailable),
             // §3.7.38 128: stop the program.
             C::StopApplication => {
-                self.stop_application();
+                self.vm.stop();
                 value(0)
             }
             // §3.7.38 129: run from the current address (type 0) or a given one (type 1, §8.6).
             C::RunApplication { from } => {
-                self.run_application(from, now)?;
+                self.vm.run_from(from, now, self.spec.program_memory)?;
                 value(from.unwrap_or(0))
             }
             // §3.7.38 130: one instruction.
@@ -204,7 +204,7 @@ impl<B: Board> Module<B> {
             }
             // §3.7.38 131: stop, PC 0, stack, A, X and flags cleared.
             C::ResetApplication => {
-                self.reset_application();
+                self.vm.reset(&mut self.st.regs);
                 value(0)
             }
             // §3.7.38 132/133: download mode.
@@ -213,7 +213,7 @@ impl<B: Board> Module<B> {
                 value(address)
             }
             C::QuitDownload => {
-                self.quit_download();
+                self.vm.quit_download();
                 value(0)
             }
             // §3.7.38 134: read program memory (special reply).
@@ -346,8 +346,8 @@ impl<B: Board> Module<B> {
             return self.vm.state().code();
         }
         match kind {
-            StatusKind::MemoryPointer => self.application_status(false),
-            StatusKind::ProgramCounter => self.application_status(true),
+            StatusKind::MemoryPointer => self.vm.status(false),
+            StatusKind::ProgramCounter => self.vm.status(true),
             StatusKind::Accumulator => self.st.regs.accumulator,
             StatusKind::XRegister => self.st.regs.x,
         }

@@ -9,7 +9,7 @@ use crate::hal::Board;
 use crate::model::{Setting, Source};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
-use crate::vm::{self, Bus, Parts, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
+use crate::vm::{self, Bus, Parts, Program, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
 use tmcl_model::capacity::MAX_MOTORS;
 use tmcl_wire::{Command, Instruction, Status, WaitCondition, FRAME_LEN};
 
@@ -202,25 +202,6 @@ impl<B: Board> Module<B> {
 
     // ---- control commands (§3.7.38) -------------------------------------------------------------
 
-    /// 128: stop the program.
-    pub(crate) fn stop_application(&mut self) {
-        if self.vm.state == RunState::Running {
-            self.vm.set_state(RunState::Stopped);
-        }
-    }
-
-    /// 129: run from the current address (type 0) or from `from` (type 1).
-    pub(crate) fn run_application(&mut self, from: Option<i32>, now: Instant) -> Result<(), Status> {
-        if let Some(a) = from {
-            let a = u16::try_from(a).ok().filter(|a| *a < self.spec.program_memory).ok_or(Status::InvalidValue)?;
-            self.vm.pc = a;
-            self.vm.wait = None;
-        }
-        self.vm.set_state(RunState::Running);
-        self.vm.time = self.vm.time.max(now);
-        Ok(())
-    }
-
     /// Loads a whole program into memory and the EEPROM from address 0 and clears the rest, as a
     /// download of it would (for tools: `tmcl run`, the debugger). Refused like command 132 when the
     /// program is protected against overwriting.
@@ -232,7 +213,7 @@ impl<B: Board> Module<B> {
         if instructions.len() > usize::from(self.spec.program_memory) {
             return Err(Status::InvalidValue);
         }
-        self.reset_application();
+        self.vm.reset(&mut self.st.regs);
         self.vm.set_state(RunState::Stopped);
         let memory = usize::from(self.spec.program_memory).min(MAX_PROGRAM);
         for address in 0..memory {
@@ -270,17 +251,6 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// 131: stop, PC = 0, stack empty, A = X = 0, flags cleared.
-    pub(crate) fn reset_application(&mut self) {
-        self.vm.set_state(RunState::Reset);
-        self.vm.pc = 0;
-        self.vm.sp = 0;
-        self.vm.wait = None;
-        self.vm.handler = None;
-        self.vm.pending = 0;
-        self.st.regs = Registers::default();
-    }
-
     /// GP 81 bits: 1 = no read-back (disassembly), 2 = no overwrite.
     fn protection(&self) -> i32 {
         self.gp(Setting::CodeProtection).unwrap_or(0)
@@ -293,14 +263,9 @@ impl<B: Board> Module<B> {
             return Err(Status::EepromLocked);
         }
         let a = u16::try_from(address).ok().filter(|a| *a < self.spec.program_memory).ok_or(Status::InvalidValue)?;
-        self.stop_application();
+        self.vm.stop();
         self.vm.download = Some(a);
         Ok(())
-    }
-
-    /// 133: leave download mode.
-    pub(crate) fn quit_download(&mut self) {
-        self.vm.download = None;
     }
 
     /// In download mode: stores one instruction at the next address (status 101, §3.2.1).
@@ -337,21 +302,13 @@ impl<B: Board> Module<B> {
         Ok(raw)
     }
 
-    /// 135 types 0/1: mode in bits 31..24 (GP 128), wait flag in bits 23..16 (1 = a WAIT is pending),
-    /// and the download pointer (type 0) or the PC (type 1) in bits 15..0. The manual (§3.7.38) names the
-    /// three fields but not their packing; this is ours.
-    pub(crate) fn application_status(&self, program_counter: bool) -> i32 {
-        let pointer = if program_counter { self.vm.pc } else { self.vm.download.unwrap_or(0) };
-        (self.vm.state.code() << 24) | (i32::from(self.vm.wait.is_some()) << 16) | i32::from(pointer)
-    }
-
     /// GP 81 written: leaving protection against disassembly (1 or 3 → 0 or 2) erases the program first
     /// (§5.1).
     pub(crate) fn protection_changed(&mut self, old: i32, new: i32) -> Result<(), Status> {
         if old & 1 != 0 && new & 1 == 0 {
             persist::erase_program(&mut self.board, self.spec)?;
             self.program.clear();
-            self.reset_application();
+            self.vm.reset(&mut self.st.regs);
             self.vm.set_state(RunState::Stopped);
         }
         Ok(())

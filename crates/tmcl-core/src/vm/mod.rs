@@ -43,7 +43,7 @@ pub use refusal::{Refusal, Refusals};
 
 use crate::model::ModelSpec;
 use crate::time::Instant;
-use tmcl_wire::{Instruction, Opcode, WaitCondition};
+use tmcl_wire::{Instruction, Opcode, Status, WaitCondition};
 
 /// Program memory of the largest model, in commands (every model is checked against it at compile time).
 pub use tmcl_model::capacity::MAX_PROGRAM;
@@ -367,6 +367,51 @@ impl Vm {
     /// Download mode's next address.
     pub fn download_address(&self) -> Option<u16> {
         self.download
+    }
+
+    /// Command 128 (PD28-1021 manual §3.7.38): stop the program.
+    pub(crate) fn stop(&mut self) {
+        if self.state == RunState::Running {
+            self.set_state(RunState::Stopped);
+        }
+    }
+
+    /// Command 129 (§3.7.38, §8.6): run from the current address (type 0) or from `from` (type 1) at
+    /// `now`; an address outside the model's `program_memory` is refused with status 4.
+    pub(crate) fn run_from(&mut self, from: Option<i32>, now: Instant, program_memory: u16) -> Result<(), Status> {
+        if let Some(a) = from {
+            let a = u16::try_from(a).ok().filter(|a| *a < program_memory).ok_or(Status::InvalidValue)?;
+            self.pc = a;
+            self.wait = None;
+        }
+        self.set_state(RunState::Running);
+        self.time = self.time.max(now);
+        Ok(())
+    }
+
+    /// Command 131 (§3.7.38): stop, PC = 0, stack empty, the program's registers `regs` cleared (A = X =
+    /// 0, flags).
+    pub(crate) fn reset(&mut self, regs: &mut Registers) {
+        self.set_state(RunState::Reset);
+        self.pc = 0;
+        self.sp = 0;
+        self.wait = None;
+        self.handler = None;
+        self.pending = 0;
+        *regs = Registers::default();
+    }
+
+    /// Command 133 (§3.7.38): leave download mode.
+    pub(crate) fn quit_download(&mut self) {
+        self.download = None;
+    }
+
+    /// Command 135 types 0/1 (§3.7.38): mode in bits 31..24 (GP 128), wait flag in bits 23..16 (1 = a
+    /// WAIT is pending), and the download pointer (type 0) or the PC (type 1) in bits 15..0. The manual
+    /// names the three fields but not their packing; this is ours.
+    pub(crate) fn status(&self, program_counter: bool) -> i32 {
+        let pointer = if program_counter { self.pc } else { self.download.unwrap_or(0) };
+        (self.state.code() << 24) | (i32::from(self.wait.is_some()) << 16) | i32::from(pointer)
     }
 
     /// Instructions executed since power-up.
