@@ -728,6 +728,7 @@ fn main() {
                 fleet_run(&other, &format!("--fleet, other build, loop closed [{round}]"), false, true, true, idle);
             }
             fleet_run(tmcl, &format!("--fleet, loop closed [{round}]"), false, true, true, idle);
+            fleet_run(tmcl, &format!("--fleet, loop closed, all standing [{round}]"), false, true, false, idle);
             fleet_run(tmcl, &format!("--fleet, loop open [{round}]"), false, false, true, idle);
             fleet_run(tmcl, &format!("--fleet, loop open, all standing [{round}]"), false, false, false, idle);
         }
