@@ -259,13 +259,7 @@ def test_a_twin_keeps_every_axis(serve, tmcl_bin, tmp_path, model, axes):
     assert not differ, differ
 
 
-VECT_FROM_HOST = pytest.mark.xfail(
-    strict=True, raises=TMCLReplyStatusError,
-    reason="VECT from the host is status 6 (the PD28-1021 manual: 'for use in standalone mode only'); odemis sets it "
-           "in direct mode on the TMCM-3110 (docs/tmcm-3110.md, Not covered)")
-
-
-@pytest.mark.parametrize("vect_from_host", [pytest.param(True, marks=VECT_FROM_HOST, id="as-odemis"),
+@pytest.mark.parametrize("vect_from_host", [pytest.param(True, id="as-odemis"),
                                             pytest.param(False, id="vector-in-the-routine")])
 def test_odemis_referencing_program_on_an_axis(serve, tmp_path, vect_from_host):
     """The way odemis' TMCL driver references an axis with its "2xFinalForward" procedure, command by
@@ -274,7 +268,8 @@ def test_odemis_referencing_program_on_an_axis(serve, tmp_path, vect_from_host):
     bank 3 trigger both edges, EI 40 + n, EI 255), and starts the program with 129 type 1 at its address;
     the program clears a bank 2 variable, starts RFS on its motor, waits for it with WAIT RFS and a timeout,
     jumps on ETO and reports 1 (done) or 2 (timed out) in the variable, which the host polls. The second
-    case sets the vector as the routine's first instruction instead (VECT is program-only here)."""
+    case sets the vector as the routine's first instruction instead. The TMCM-3110 takes VECT from the host
+    (`ModelDesc::host_vect`), as odemis' production use of it shows."""
     from test_tmcm1140 import STAGE
 
     world = tmp_path / "stage.toml"
@@ -323,3 +318,67 @@ def test_odemis_referencing_program_on_an_axis(serve, tmp_path, vect_from_host):
         position = conn.send(6, 1, axis, 0).value
         assert abs(position - (1 << 32) if position >= 1 << 31 else position) < 300, "axis 1 at its reference"
         assert conn.send(6, 1, 0, 0).value == 0 and conn.send(6, 1, 2, 0).value == 0, "the others stood"
+
+
+def test_mvp_coord_of_several_motors(multi):
+    """MVP COORD with a motor mask, as host software for the TMCM-3110 sends it (tmcm-lib-py's `MotorUnion`:
+    SCO per motor, then MVP COORD with the mask ORed with 0x40, "synchronously", or 0x80): every motor of
+    the mask to its own coordinate; interpolated, all arrive together. Refusals (both bits, a motor beyond
+    the module's) are status 4 and move nothing."""
+    module, axes, _ = multi
+    conn = module.connection
+    mask = (1 << axes) - 1
+    targets = [3000 * (n + 1) * (-1) ** n for n in range(axes)]
+    for motor, target in enumerate(targets):
+        conn.send(30, 1, motor, target)  # SCO 1, motor, target
+    assert status_of(lambda: conn.send(4, 2, 0xC0 | mask, 1)) == 4
+    assert status_of(lambda: conn.send(4, 2, 0x40 | (1 << axes), 1)) == 4
+    assert all(conn.get_axis_parameter(0, m) == 0 for m in range(axes)), "nothing moved"
+    assert conn.send(4, 2, 0x40 | mask, 1).value == 1  # MVP COORD, $40 | mask, 1
+    # Polled by pytrinamic: while they move, each is about the same fraction of its way (the GAPs of one
+    # round are a few ms apart, so within 10 %; crates/tmcl-core/tests/tmcm_3110.rs checks 1 % at one
+    # instant and the arrivals within 3 ms), and they arrive together.
+    seen_moving = 0
+    while True:
+        reached = [conn.get_axis_parameter(8, m) for m in range(axes)]
+        if any(reached):
+            # Together, up to a few ms of rounding (the module serves in real time: 0.2 s of slack for a
+            # loaded machine; a move takes about a second, and without interpolation the nearest arrives
+            # a third of the way in, below).
+            wait_until(lambda: all(conn.get_axis_parameter(8, m) for m in range(axes)), 0.2,
+                       what=f"every motor right after the first ({reached})")
+            break
+        positions = [conn.get_axis_parameter(1, m, signed=True) for m in range(axes)]
+        fractions = [p / t for p, t in zip(positions, targets)]
+        if 0.05 < fractions[-1] < 0.95:
+            seen_moving += 1
+            assert max(fractions) - min(fractions) < 0.1, fractions
+    assert seen_moving > 0, "polled while they moved"
+    assert [conn.get_axis_parameter(1, m, signed=True) for m in range(axes)] == targets
+    # Back to 0 each at its own speed (0x80): the nearest first.
+    for motor in range(axes):
+        conn.send(30, 2, motor, 0)
+    conn.send(4, 2, 0x80 | mask, 2)
+    wait_until(lambda: conn.get_axis_parameter(8, 0), 10, what="motor 0 back at 0")
+    assert conn.get_axis_parameter(8, axes - 1) == 0, "the farthest still on its way"
+    wait_until(lambda: all(conn.get_axis_parameter(8, m) for m in range(axes)), 20, what="every motor at 0")
+
+
+@pytest.mark.parametrize("model, cls, axes, version", MODELS, ids=[m[0] for m in MODELS])
+def test_the_eeprom_file_keeps_every_axis(serve, tmp_path, model, cls, axes, version):
+    """The EEPROM image of N axes in a file (`--eeprom`): the last motor's stored AP 4 and its coordinate
+    20 (the last slot of the image, written through with GP 84 = 1) come back after a restart, and the
+    motor before it keeps its own."""
+    server = serve("pty", eeprom=tmp_path / "eeprom.bin", modules=[model])
+    last = axes - 1
+    with pytrinamic_connection(server) as conn:
+        conn.set_axis_parameter(4, last, 777)
+        conn.store_axis_parameter(4, last)
+        conn.set_global_parameter(84, 0, 1)
+        conn.send(30, 20, last, -4242)  # SCO 20, last, -4242
+    server.restart()
+    with pytrinamic_connection(server) as conn:
+        assert conn.get_axis_parameter(4, last) == 777
+        assert conn.get_axis_parameter(4, last - 1) == 1000
+        assert conn.send(31, 20, last, 0).value == (-4242) & 0xFFFFFFFF  # GCO 20, last (unsigned in the reply)
+        assert conn.send(31, 20, last - 1, 0).value == 0

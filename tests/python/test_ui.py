@@ -14,6 +14,7 @@ import subprocess
 
 import pytest
 
+from tmcltest import REPO_ROOT
 from uitest import Ui, new_browser, screenshot_dir, wait_until
 
 
@@ -419,5 +420,39 @@ def test_a_tmcm_3110_shows_its_supply_voltage(browser, tmcl_bin, tmp_path, serve
         assert any(r.startswith("supply voltage (0.1 V)") and "240" in r for r in rows), rows
         assert len(all_css(browser, "#io-inputs li")) == 8 and len(all_css(browser, "#io-outputs li")) == 8
         shot(browser, "io-tmcm-3110")
+    finally:
+        assert u.stop() == 0, u.stderr()
+
+
+def test_a_tmcm_3110_shows_every_axis(browser, tmcl_bin, tmp_path, serve):
+    """The motion view of a TMCM-3110: the axes table has a row per motor (positions, speed, position reached,
+    switches), kept up to date for every motor while one is selected; a row's button selects its motor, and
+    a move of motor 2 from the controls shows in its row while motors 0 and 1 stay at 0. Each axis in its
+    own world (examples/worlds/xyz-stage.toml)."""
+    world = REPO_ROOT / "examples" / "worlds" / "xyz-stage.toml"
+    server = serve("pty", modules=["tmcm-3110"], extra=["--world", str(world)])
+    u = Ui(tmcl_bin, tmp_path, ["--port", str(server.link)]).start()
+    try:
+        open_page(browser, u, "motion")
+        wait_until(lambda: len(all_css(browser, "#axes-body tr")) == 3 and by_css(browser, "#axes-card").is_displayed(),
+                   what="three rows in the axes table")
+        assert by_css(browser, "#axes-body tr[data-motor='0']").get_attribute("aria-current") == "true"
+        by_name(browser, "button", "Show motor 2").click()
+        wait_until(lambda: by_css(browser, "#axes-body tr[data-motor='2']").get_attribute("aria-current") == "true",
+                   what="motor 2 selected")
+        assert wb(browser, "hello") and browser.execute_script(
+            "return [...document.querySelectorAll('.motor-select')].every(s => s.value === '2')")
+        position = by_css(browser, "#position")
+        position.clear()
+        position.send_keys("20000")
+        by_name(browser, "button", "Move absolute").click()
+        cell = lambda m, role: by_css(browser, f"#axes-body tr[data-motor='{m}'] td[data-axis-role='{role}']").text
+        wait_until(lambda: cell(2, "actual_position").startswith("20000 ") and cell(2, "reached") == "yes",
+                   timeout=20, what="motor 2 at 20000 in its row")
+        assert cell(2, "target_position").startswith("20000 ")
+        for m in (0, 1):
+            wait_until(lambda: cell(m, "actual_position").startswith("0 "), what=f"motor {m} at 0")
+        browser.execute_script("document.getElementById('axes-card').scrollIntoView()")
+        shot(browser, "motion-tmcm-3110-axes")
     finally:
         assert u.stop() == 0, u.stderr()

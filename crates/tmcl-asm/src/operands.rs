@@ -61,6 +61,34 @@ pub fn why_refused(instruction: Instruction, model: &ModelSpec) -> Option<Findin
         }
         C::Mst { motor: n } => motor(0, n),
         C::Rfs { motor: n, .. } => motor(1, n),
+        // MVP COORD with a motor mask (bit 7 or 6; the TMCM-3110/6110 manuals' MVP, tmcl-core's
+        // `module/coordinated.rs`): the motors of the mask, on a model with several.
+        C::Mvp { motor: n, target: MoveTarget::Coord(c) } if n & 0xC0 != 0 && model.motors > 1 => {
+            let mask = n & 0x3F;
+            let all = ((1u16 << model.motors) - 1) as u8;
+            if n & 0xC0 == 0xC0 {
+                finding(
+                    1,
+                    Status::InvalidValue,
+                    format!("a motor mask has bit 7 ($80, together) or bit 6 ($40, interpolated), not both: {n:#04X}"),
+                )
+            } else if mask == 0 || mask & !all != 0 {
+                let motors = plural(model.motors);
+                finding(
+                    1,
+                    Status::InvalidValue,
+                    format!("motor mask {mask:#04X}: the {m} has {motors} (mask bits {all:#04X})"),
+                )
+            } else if c < 0 || c > i32::from(model.coordinates) {
+                finding(
+                    2,
+                    Status::InvalidValue,
+                    format!("the {m} has coordinates 0..{}: {c} is not one", model.coordinates),
+                )
+            } else {
+                None
+            }
+        }
         C::Mvp { motor: n, target } => motor(1, n).or_else(|| match target {
             MoveTarget::Abs(p) => {
                 let d = model.axis.role(Role::TargetPosition).map(|i| &model.axis.params[i])?;
@@ -316,5 +344,19 @@ mod tests {
         assert_eq!(operand_span("Loop: MVP ABS, 0, 512000 // far", 2), Some((18, 24)));
         assert_eq!(operand_span("  SAP APMaxPositioningSpeed, Motor0, 3", 0), Some((6, 27)));
         assert_eq!(operand_span("STOP", 0), None);
+    }
+
+    /// MVP COORD with a motor mask on a multi-axis model: the motors of the mask, not a motor number; the
+    /// mask's mistakes are named. A one-motor model knows no mask (a motor it lacks).
+    #[test]
+    fn a_motor_mask_of_mvp_coord_is_checked_as_a_mask() {
+        let text = "MVP COORD, $47, 1\nMVP COORD, $87, 20\nMVP COORD, $C7, 1\nMVP COORD, $48, 1\nMVP COORD, $40, 1\nMVP COORD, $47, 21\n";
+        let d = check(&tmcl_model::tmcm_3110::SPEC, text);
+        assert_eq!(d.iter().map(|d| d.line).collect::<Vec<_>>(), [3, 4, 5, 6], "{d:#?}");
+        assert!(d[0].message.contains("not both"), "{}", d[0].message);
+        assert!(d[1].message.starts_with("motor mask 0x08: the TMCM-3110 has 3 motors"), "{}", d[1].message);
+        assert!(d[3].message.contains("coordinates 0..20"), "{}", d[3].message);
+        let one = check(&pd28_1021::SPEC, "MVP COORD, $41, 1\n");
+        assert!(one[0].message.starts_with("motor 65: the PD28-1021 has one motor"), "{}", one[0].message);
     }
 }

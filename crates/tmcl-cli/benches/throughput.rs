@@ -416,6 +416,21 @@ fn memory() {
     println!("debugger breakpoints (not counted): {breakpoints} bytes");
     println!("program memory: {} bytes", size_of::<Program>());
     println!("size_of::<Module<SimBoard>>() = {} bytes", size_of::<Module<SimBoard>>());
+    // Per axis: the state holds MAX_MOTORS axes (6 in a host build, 1 in the firmware image), each an
+    // `Axis`; a build for n axes holds the rest once and n of them.
+    let (axis, slots) = (size_of::<tmcl_core::axis::Axis>(), usize::from(tmcl_core::model::capacity::MAX_MOTORS));
+    let base = state + vm - slots * axis;
+    println!(
+        "per axis: Axis {axis} bytes, {slots} slots in this build; module RAM but program memory = {base} + n x {axis}: \
+         1 axis {}, 3 axes {}, 6 axes {} bytes",
+        base + axis,
+        base + 3 * axis,
+        base + 6 * axis
+    );
+    println!(
+        "simulated board: SimBoard {} bytes, one more per axis beyond the first (without its world's heap)",
+        size_of::<SimBoard>()
+    );
 }
 
 /// EtherCAT frames per second through `Slave::process` in process (no socket): SOEM's cyclic LRW of the

@@ -51,6 +51,11 @@ tmcm-1140):
                     module refused the instruction at N and the program went on without it);
                     several are joined with `;`
 
+On a model with several motors (--module tmcm-3110, tmcm-6110) the columns above are motor 0's; each
+further motor M adds its own before `event`: target_position_mM, actual_position_mM, velocity_mM, with
+--drive load_mM, current_scale_mM and encoder_mM, and velocity_units_mM; a new target of motor M is the
+event `target_mM=N`. The plot then has a position and a velocity panel for each motor.
+
 A column is read from the model's parameter table by meaning (the parameter with that role, whatever its
 number); a column whose parameter the model lacks is left out (the PDx-113 with --drive has energy_a2s
 only), never filled with zeros, and a value the module refuses to give is an empty cell.

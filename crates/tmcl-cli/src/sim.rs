@@ -17,9 +17,10 @@ pub struct SimOptions {
     /// tmcm-6110.
     #[arg(long, value_name = "MODEL", default_value = "pd28-1021")]
     pub module: String,
-    /// Set a parameter before the program starts: apN=V (axis parameter N of motor 0), gpN=V (global
-    /// parameter N, bank 0) or gpN.B=V (bank B; bank 2 holds the user variables). Repeatable.
-    #[arg(long = "set", value_name = "apN=V|gpN=V|gpN.B=V")]
+    /// Set a parameter before the program starts: apN=V (axis parameter N of motor 0), apN.M=V (of motor
+    /// M), gpN=V (global parameter N, bank 0) or gpN.B=V (bank B; bank 2 holds the user variables).
+    /// Repeatable.
+    #[arg(long = "set", value_name = "apN=V|apN.M=V|gpN=V|gpN.B=V")]
     pub set: Vec<Setting>,
     /// The world around the motor: a TOML world file (motor, axis, switches, loads, inputs over time,
     /// faults; see docs/world.md). Without it, a free axis.

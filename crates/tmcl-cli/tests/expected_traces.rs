@@ -34,6 +34,9 @@ const RUNS: &[(&str, &str, &str, &[&str])] = &[
     ("pd113_first_program", "12", "100", &["--module", "pd-113"]),
     // TMCM-1140: a reference search on the linear stage, moves in TMC429 units, a timer interrupt blinking OUT1.
     ("tmcm1140_stage", "30", "250", &["--module", "tmcm-1140", "--world", "examples/worlds/linear-stage.toml"]),
+    // TMCM-3110: an XYZ stage, each axis its own world; a reference search on all three at once, then an
+    // hour of moves of the three together, interpolated (MVP COORD, $47) and each at its own speed ($87).
+    ("tmcm3110_xyz", "3600", "20000", &["--module", "tmcm-3110", "--world", "examples/worlds/xyz-stage.toml"]),
     // TMCM-1310 closed loop through a seizure (position error, scaler and status word with --drive).
     (
         "tmcm1310_closed_loop",
@@ -106,10 +109,16 @@ fn event_driven_traces_are_the_tick_by_tick_traces() {
             &["--module", "pd-113"]
         } else if name.starts_with("tmcm1140") {
             &["--module", "tmcm-1140"]
+        } else if name.starts_with("tmcm3110") {
+            &["--module", "tmcm-3110"]
+        } else if name.starts_with("tmcm6110") {
+            &["--module", "tmcm-6110"]
         } else {
             &[]
         };
-        for world in worlds {
+        // A multi-axis program also in the world with an axis of each motor's own.
+        let multi = name.starts_with("tmcm3110") || name.starts_with("tmcm6110");
+        for world in worlds.iter().copied().chain(multi.then_some("xyz-stage")) {
             let world_args: Vec<String> =
                 if world.is_empty() { vec![] } else { vec!["--world".into(), format!("examples/worlds/{world}.toml")] };
             let run = |exact: bool, traced: bool| {

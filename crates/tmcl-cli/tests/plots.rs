@@ -325,3 +325,18 @@ fn event_lines_leave_the_value_axis_alone() {
     let axis_x = 110.0; // MARGIN_LEFT + Y_LABELS: the value axis
     assert!(lines.iter().all(|l| l.iter().all(|p| p.0 > axis_x + 1.0)), "{lines:?}");
 }
+
+/// A multi-axis model: motor 0's columns as listed, then each further motor's own, named with `_mM`, as
+/// the help says.
+#[test]
+fn a_multi_axis_trace_has_every_motors_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let names = header(dir.path(), "tmcm3110_xyz.tmc", &["--module", "tmcm-3110", "--drive"]);
+    let per_motor = |m: u8| {
+        ["target_position", "actual_position", "velocity", "load", "current_scale", "encoder", "velocity_units"]
+            .map(|n| format!("{n}_m{m}"))
+    };
+    let tail: Vec<String> = [per_motor(1), per_motor(2)].concat().into_iter().chain(["event".to_string()]).collect();
+    assert!(names.ends_with(&tail), "{names:?}");
+    assert_eq!(names.iter().filter(|n| n.ends_with("_m3")).count(), 0);
+}

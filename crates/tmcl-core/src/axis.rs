@@ -63,6 +63,9 @@ pub struct Axis {
     pub(crate) cl: ClosedLoop,
     /// An SSI encoder's last reading and the counts it adds up to.
     pub(crate) ssi: (i64, i64),
+    /// The scaled speed and acceleration of an interpolated MVP COORD (`module/coordinated.rs`), in
+    /// force while the axis is in position mode towards that move's target.
+    pub(crate) interpolation: Option<(i32, RampParams)>,
 }
 
 impl Axis {
@@ -86,6 +89,7 @@ impl Axis {
             last_counts: 0,
             cl: ClosedLoop::default(),
             ssi: (0, 0),
+            interpolation: None,
         }
     }
 

@@ -46,6 +46,7 @@ pub use crate::vm::{flags, Registers};
 mod advance;
 mod ascii;
 mod closed_loop;
+mod coordinated;
 mod drive;
 mod exec;
 mod host;
@@ -448,6 +449,19 @@ impl<B: Board> Module<B> {
     }
 
     pub(crate) fn ramp_params(&self, m: usize) -> RampParams {
+        // An interpolated MVP COORD's scaled speed and acceleration, while this axis still heads for that
+        // move's target in position mode (`module/coordinated.rs`).
+        if let Some((target, p)) = self.st.axes[m].interpolation {
+            let ramp = &self.st.axes[m].ramp;
+            if ramp.mode == crate::motion::Mode::Position && ramp.target_position == target {
+                return p;
+            }
+        }
+        self.own_ramp_params(m)
+    }
+
+    /// The ramp parameters motor `m`'s own AP 4, 5 and 130 give.
+    pub(crate) fn own_ramp_params(&self, m: usize) -> RampParams {
         // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
         let (v, a) =
             (self.ap(m, Setting::MaxPositioningSpeed).unwrap_or(1), self.ap(m, Setting::MaxAcceleration).unwrap_or(1));

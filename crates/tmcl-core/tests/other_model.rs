@@ -104,6 +104,7 @@ const DESC: ModelDesc = ModelDesc {
     ethercat: None,
     commands: COMMANDS,
     ascii_commands: COMMANDS.ascii_subset(),
+    host_vect: false,
     app_status: AppStatusReply::Typed,
     banks: GlobalBanks::ARM,
     kinematics: Kinematics::Tmc428 { clock_hz: 16_000_000 },

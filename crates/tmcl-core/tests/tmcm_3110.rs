@@ -193,3 +193,171 @@ fn odemis_ports() {
     assert_eq!(r.ok(Opcode::Sio, 7, 2, 1), 1);
     assert_eq!(r.ok(Opcode::Gio, 7, 2, 0), 1);
 }
+
+impl Rig {
+    /// Runs in steps of 1 ms until every motor of `mask` has reached its target (AP 8), at most
+    /// `limit`; returns each one's arrival time since the start, in ms (`u32::MAX` for one not in the mask).
+    fn arrivals(&mut self, mask: u8, limit: Duration) -> Vec<u32> {
+        let motors = self.spec.motors;
+        let mut at = vec![u32::MAX; usize::from(motors)];
+        let mut ms = 0;
+        while at.iter().enumerate().any(|(m, t)| mask & (1 << m) != 0 && *t == u32::MAX) {
+            assert!(Duration::from_millis(u64::from(ms)) < limit, "not all arrived: {at:?}");
+            self.run(Duration::from_millis(1));
+            ms += 1;
+            for m in 0..motors {
+                if mask & (1 << m) != 0 && at[usize::from(m)] == u32::MAX && self.gap(8, m) == 1 {
+                    at[usize::from(m)] = ms;
+                }
+            }
+        }
+        at
+    }
+}
+
+/// MVP COORD with a motor mask, interpolated (bit 6; TMCM-3110/6110 manuals, MVP): the manual's form as
+/// bytes, `MVP COORD, $47, 1` = 01 04 02 47 00 00 00 01, checksum 4F; the reply carries the coordinate
+/// number. The three motors start and arrive together, on a straight line between the two points (their
+/// positions in proportion all the way), none faster than its own AP 4; AP 4 and 5 read as set.
+#[test]
+fn mvp_coord_interpolated_moves_on_a_straight_line() {
+    let mut r = Rig::of(&tmcm_3110::SPEC);
+    let to = [60_000, -20_000, 5_000];
+    for (m, p) in to.iter().enumerate() {
+        r.ok(Opcode::Sco, 1, m as u8, *p);
+    }
+    r.ok(Opcode::Sap, 4, 1, 300); // motor 1 the slow one: the whole move at its pace
+    assert_eq!(r.bytes(&[0x01, 0x04, 0x02, 0x47, 0x00, 0x00, 0x00, 0x01, 0x4F]), reply(100, 4, 1));
+    // On the way: each position the same fraction of its distance (within 1 %), none over its AP 4.
+    let mut samples = 0;
+    loop {
+        r.run(Duration::from_millis(50));
+        let p: Vec<i32> = (0..3).map(|m| r.gap(1, m)).collect();
+        if p[0] == to[0] {
+            break;
+        }
+        let f = f64::from(p[0]) / f64::from(to[0]);
+        for m in 1..3 {
+            let g = f64::from(p[m]) / f64::from(to[m]);
+            assert!((f - g).abs() < 0.01, "motor {m} at {g:.4} of its way, motor 0 at {f:.4}");
+        }
+        assert!(r.gap(3, 1).abs() <= 300, "motor 1 over its AP 4: {}", r.gap(3, 1));
+        samples += 1;
+    }
+    assert!(samples > 10, "the move took {samples} samples");
+    assert_eq!((0..3).map(|m| r.gap(1, m)).collect::<Vec<_>>(), to);
+    assert_eq!((r.gap(4, 0), r.gap(4, 1), r.gap(4, 2)), (1000, 300, 1000), "AP 4 as set");
+
+    // Back to coordinate 2 (0 for all): arrivals within a few ms of each other.
+    for m in 0..3 {
+        r.ok(Opcode::Sco, 2, m, 0);
+    }
+    r.ok(Opcode::Mvp, 2, 0x47, 2);
+    let at = r.arrivals(0b111, Duration::from_secs(60));
+    let (first, last) = (at.iter().min().unwrap(), at.iter().max().unwrap());
+    assert!(last - first <= 3, "arrivals {at:?} ms");
+    // A plain MVP afterwards runs at the motor's own speed again.
+    r.ok(Opcode::Mvp, 0, 2, 2_000_000);
+    r.run(Duration::from_secs(1));
+    assert_eq!(r.gap(3, 2), 1000);
+}
+
+/// MVP COORD with bit 7 (`$80 | mask`): the motors start together, each at its own speed; the nearest
+/// arrives first. The 6110's six motors: `MVP COORD, $BF, 3` = 01 04 02 BF 00 00 00 03, checksum C9.
+#[test]
+fn mvp_coord_together_each_at_its_own_speed() {
+    let mut r = Rig::of(&tmcm_6110::SPEC);
+    for m in 0..6u8 {
+        r.ok(Opcode::Sco, 3, m, 10_000 * (i32::from(m) + 1));
+    }
+    assert_eq!(r.bytes(&[0x01, 0x04, 0x02, 0xBF, 0x00, 0x00, 0x00, 0x03, 0xC9]), reply(100, 4, 3));
+    let at = r.arrivals(0b11_1111, Duration::from_secs(60));
+    assert!(at.windows(2).all(|w| w[0] < w[1]), "the nearest first: {at:?}");
+    assert!((0..6).all(|m| r.gap(1, m) == 10_000 * (i32::from(m) + 1)));
+    // A mask of some: only those move.
+    for m in 0..6u8 {
+        r.ok(Opcode::Sco, 4, m, -5_000);
+    }
+    r.ok(Opcode::Mvp, 2, 0x80 | 0b10_0100, 4);
+    r.arrivals(0b10_0100, Duration::from_secs(60));
+    let p: Vec<i32> = (0..6).map(|m| r.gap(1, m)).collect();
+    assert_eq!(p, [10_000, 20_000, -5_000, 40_000, 50_000, -5_000]);
+}
+
+/// Refusals leave every motor as it was, status 4: bits 6 and 7 both, an empty mask, a motor beyond the
+/// model's, a coordinate number beyond 20, a coordinate outside the 24-bit position counter on one of the
+/// motors. A one-motor model knows no mask (status 4, as any other motor byte).
+#[test]
+fn mvp_coord_mask_refusals_move_nothing() {
+    let mut r = Rig::of(&tmcm_3110::SPEC);
+    for m in 0..3 {
+        r.ok(Opcode::Sco, 1, m, 1000);
+    }
+    r.ok(Opcode::Sco, 5, 0, 1000);
+    r.ok(Opcode::Sco, 5, 1, 1000);
+    r.ok(Opcode::Sco, 5, 2, 1 << 24); // beyond the counter
+    for (motor, coord) in [(0xC7, 1), (0x40, 1), (0x80, 1), (0x48, 1), (0x87, 21), (0x87, -1), (0x47, 5), (0x87, 5)] {
+        assert_eq!(r.cmd(Opcode::Mvp, 2, motor, coord).0, Status::InvalidValue, "MVP COORD, {motor:#x}, {coord}");
+    }
+    r.run(Duration::from_millis(100));
+    assert!((0..3).all(|m| r.gap(1, m) == 0 && r.gap(0, m) == 0 && r.gap(3, m) == 0));
+    // The TMCM-1140 (one motor): $41 is not a motor.
+    let mut one = Rig::of(&tmcl_core::model::tmcm_1140::SPEC);
+    assert_eq!(one.cmd(Opcode::Mvp, 2, 0x41, 1).0, Status::InvalidValue);
+}
+
+/// The EEPROM keeps each motor's coordinates apart (motor-major): SCO n, 255 stores every motor's
+/// coordinate n, GCO 0, 255 brings them all back after a power cycle, and MVP COORD with a mask moves
+/// each motor to its own.
+#[test]
+fn coordinates_per_axis_across_a_power_cycle() {
+    let mut r = Rig::of(&tmcm_6110::SPEC);
+    for m in 0..6u8 {
+        r.ok(Opcode::Sco, 7, m, 1000 * (i32::from(m) + 1));
+        r.ok(Opcode::Sco, 8, m, -7 * (i32::from(m) + 1));
+    }
+    r.ok(Opcode::Sco, 7, 255, 0); // every motor's coordinate 7 to the EEPROM; coordinate 8 stays in RAM
+    r.restart();
+    // GP 84 = 0 (the start value): the coordinates in RAM start at 0; GCO n, 255 copies them back from the
+    // EEPROM (PD28-1021 manual §3.7.25), each motor its own.
+    assert!((0..6).all(|m| r.ok(Opcode::Gco, 7, m, 0) == 0));
+    r.ok(Opcode::Gco, 0, 255, 0);
+    assert_eq!((0..6).map(|m| r.ok(Opcode::Gco, 7, m, 0)).collect::<Vec<_>>(), [1000, 2000, 3000, 4000, 5000, 6000]);
+    assert!((0..6).all(|m| r.ok(Opcode::Gco, 8, m, 0) == 0), "coordinate 8 was not stored");
+    r.ok(Opcode::Mvp, 2, 0x40 | 0b11_1111, 7);
+    r.arrivals(0b11_1111, Duration::from_secs(30));
+    assert_eq!((0..6).map(|m| r.gap(1, m)).collect::<Vec<_>>(), [1000, 2000, 3000, 4000, 5000, 6000]);
+}
+
+/// VECT from the host (direct mode) on the TMCM-3110/6110 (`ModelDesc::host_vect`), as odemis' TMCL driver
+/// sends it before starting its referencing routine: `VECT 41, 95` = 01 25 29 00 00 00 00 5F, checksum AE,
+/// sets interrupt 41's vector (IN2's input interrupt) and replies with the address; an interrupt the model
+/// lacks is status 3, an address beyond program memory status 4. On the TMCM-1140 VECT stays
+/// program-only: status 6.
+#[test]
+fn vect_from_the_host() {
+    let mut r = Rig::of(&tmcm_3110::SPEC);
+    assert_eq!(r.bytes(&[0x01, 0x25, 0x29, 0x00, 0x00, 0x00, 0x00, 0x5F, 0xAE]), reply(100, 0x25, 95));
+    assert_eq!(r.module.vm().vector(41), Some(95));
+    assert_eq!(r.cmd(Opcode::Vect, 200, 0, 10).0, Status::WrongType, "no interrupt 200");
+    assert_eq!(r.cmd(Opcode::Vect, 41, 0, 2048).0, Status::InvalidValue, "program memory is 0..2047");
+    assert_eq!(r.cmd(Opcode::Vect, 41, 0, -1).0, Status::InvalidValue);
+    assert_eq!(r.module.vm().vector(41), Some(95), "refusals change nothing");
+    let mut one = Rig::of(&tmcl_core::model::tmcm_1140::SPEC);
+    assert_eq!(one.cmd(Opcode::Vect, 0, 0, 10).0, Status::NotAvailable);
+}
+
+/// The scaled speed of an interpolated move holds for that move only: a new target (SAP 0) on the way, or
+/// any other motion command, runs the motor at its own AP 4 again.
+#[test]
+fn interpolation_ends_with_a_new_target() {
+    let mut r = Rig::of(&tmcm_3110::SPEC);
+    r.ok(Opcode::Sco, 1, 0, 1_000_000);
+    r.ok(Opcode::Sco, 1, 2, 100_000); // a tenth of motor 0's way: a tenth of its speed
+    r.ok(Opcode::Mvp, 2, 0x45, 1);
+    r.run(Duration::from_millis(500));
+    assert_eq!((r.gap(3, 0), r.gap(3, 2)), (1000, 100), "motor 2 at a tenth of AP 4");
+    r.ok(Opcode::Sap, 0, 2, 2_000_000);
+    r.run(Duration::from_millis(500));
+    assert_eq!((r.gap(3, 0), r.gap(3, 2)), (1000, 1000), "motor 2's own AP 4 for its new target");
+}

@@ -108,6 +108,10 @@ pub struct ModelDesc {
     pub commands: CommandSet,
     /// The commands it takes in ASCII mode.
     pub ascii_commands: CommandSet,
+    /// VECT from the host (direct mode) sets an interrupt vector, as in a program: the TMCM-3110/6110's
+    /// firmware, whose vectors odemis' TMCL driver sets so before it starts its referencing routine. Else
+    /// VECT is a program-only command, status 6 from the host (PD28-1021 manual §3.6.3, §3.7.34).
+    pub host_vect: bool,
     /// What command 135 answers.
     pub app_status: AppStatusReply,
     /// The global parameter banks; SGP/GGP/STGP/RSGP/AGP of another bank is status 4.

@@ -268,6 +268,7 @@ pub const DESC: ModelDesc = ModelDesc {
     // §5.6.3: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SAC, SCO,
     // GCO, CCO, UF0 … UF7".
     ascii_commands: COMMANDS.ascii_subset(),
+    host_vect: false,
     app_status: AppStatusReply::Plain,
     banks: GlobalBanks::TMC428,
     // The TMC428/429 at 16 MHz (§2; the TMC428 datasheet's clock for these formulas).

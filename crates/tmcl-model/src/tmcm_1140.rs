@@ -250,6 +250,7 @@ pub const DESC: ModelDesc = ModelDesc {
     ethercat: None,
     commands: COMMANDS,
     ascii_commands: COMMANDS.ascii_subset(),
+    host_vect: false,
     app_status: AppStatusReply::Typed,
     banks: GlobalBanks::ARM,
     // The TMC429 at 16 MHz (hardware manual §8.1).

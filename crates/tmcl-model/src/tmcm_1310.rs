@@ -500,6 +500,7 @@ pub const DESC: ModelDesc = ModelDesc {
     // §5: "ROL, ROR, MST, MVP, SAP, GAP, STAP, RSAP, SGP, GGP, STGP, RSGP, RFS, SIO, GIO, SCO, GCO, CCO,
     // UF0–UF7", the PD28-1021's list.
     ascii_commands: COMMANDS.ascii_subset(),
+    host_vect: false,
     app_status: AppStatusReply::Typed,
     banks: GlobalBanks::ARM,
     kinematics: Kinematics::Pps,

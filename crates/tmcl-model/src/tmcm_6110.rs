@@ -113,6 +113,8 @@ pub const DESC: ModelDesc = ModelDesc {
     ethercat: None,
     commands: tmcm_1140::COMMANDS,
     ascii_commands: tmcm_1140::COMMANDS.ascii_subset(),
+    // odemis sets its referencing handler's vector in direct mode (docs/tmcm-3110.md).
+    host_vect: true,
     app_status: AppStatusReply::Typed,
     banks: GlobalBanks::ARM,
     kinematics: Kinematics::Tmc428 { clock_hz: 16_000_000 },

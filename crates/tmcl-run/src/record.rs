@@ -21,6 +21,9 @@ pub(crate) struct Recorder {
     world: Option<WorldScale>,
     /// The last placement (kept while a closed loop is closed: the field does not follow the step counter).
     placement: Option<Placement>,
+    /// Motors 1, 2, …: how to place their positions in their worlds, and this row's placements.
+    motor_worlds: Vec<WorldScale>,
+    motor_placements: Vec<Placement>,
     values: Vec<Option<i64>>,
     last_levels: Option<(u8, u8, u8)>,
     /// Rows recorded.
@@ -40,6 +43,11 @@ enum Read {
     Variable(u8),
     Energy,
     Axis(u8),
+    /// Motor N > 0's AP 0, AP 1 (its step counter), AP 3 (pps), and an axis parameter of it.
+    TargetOf(u8),
+    ActualOf(u8),
+    VelocityOf(u8),
+    AxisOf(u8, u8),
 }
 
 /// What it takes to place the step counter in the world.
@@ -93,29 +101,52 @@ impl Recorder {
         if spec.kinematics != Kinematics::Pps {
             columns.extend(by_role(Quantity::VelocityUnits));
         }
-        let world_scale = world.and_then(|w| {
+        let mut motors = vec![0u8; columns.len()];
+        // The other motors' own columns, motor by motor (a model with several).
+        for m in 1..spec.motors {
+            let before = columns.len();
+            columns.extend([
+                (Quantity::TargetPosition, Read::TargetOf(m)),
+                (Quantity::ActualPosition, Read::ActualOf(m)),
+                (Quantity::Velocity, Read::VelocityOf(m)),
+            ]);
+            let of = |q: Quantity| q.role().and_then(|r| axis_number(spec, r)).map(|n| (q, Read::AxisOf(n, m)));
+            if drive {
+                columns.extend([Quantity::Load, Quantity::CurrentScale, Quantity::Encoder].into_iter().filter_map(of));
+            }
+            if spec.kinematics != Kinematics::Pps {
+                columns.extend(of(Quantity::VelocityUnits));
+            }
+            motors.resize(motors.len() + columns.len() - before, m);
+        }
+        // Each motor's world (`[motors.N]`): how its step counter is placed in it, and its unit.
+        let scale_of = |w: &tmcl_sim::World| -> Option<(WorldScale, WorldUnit)> {
             let units_per_rev = match w.axis.kind {
                 AxisKind::Linear => *w.axis.lead.get_ref(),
                 AxisKind::Rotary => 360.0,
             };
-            Some(WorldScale {
+            let scale = WorldScale {
                 resolution: axis_number(spec, Role::MicrostepResolution)?,
                 full_steps: f64::from(*w.motor.full_steps.get_ref()),
                 units_per_rev,
                 reverse: spec.global.setting(Setting::ReverseShaft).map(|i| spec.global.params[i].number),
                 start: start_in_units(w, f64::from(*w.motor.full_steps.get_ref()), units_per_rev),
-            })
-        });
-        let world_unit = world_scale.zip(world).map(|(_, w)| WorldUnit {
-            name: match w.axis.kind {
+            };
+            let name = match w.axis.kind {
                 AxisKind::Linear => "mm".into(),
                 AxisKind::Rotary => "°".into(),
-            },
-        });
+            };
+            Some((scale, WorldUnit { name }))
+        };
+        let scales: Vec<Option<(WorldScale, WorldUnit)>> =
+            (0..usize::from(spec.motors)).map(|m| world.and_then(|w| scale_of(&w.of_motor(m)))).collect();
+        let (world_scale, world_unit) = scales[0].clone().unzip();
+        let others: Vec<(WorldScale, WorldUnit)> = scales.into_iter().skip(1).flatten().collect();
         let header = Header {
-            columns: columns.iter().map(|&(q, _)| Column::of(q)).collect(),
+            columns: columns.iter().zip(&motors).map(|(&(q, _), &m)| Column::of_motor(q, m)).collect(),
             model: spec.name.to_string(),
             world_unit,
+            motor_world_units: others.iter().map(|(_, u)| u.clone()).collect(),
         };
         Recorder {
             sources: columns.iter().map(|&(_, r)| r).collect(),
@@ -124,6 +155,8 @@ impl Recorder {
             actual: axis_number(spec, Role::ActualPosition),
             closed_loop,
             world: world_scale,
+            motor_worlds: others.into_iter().map(|(s, _)| s).collect(),
+            motor_placements: Vec::new(),
             placement: None,
             last_levels: None,
             rows: 0,
@@ -164,6 +197,10 @@ impl Recorder {
                 // Rounded to an integer number of µA²·s, so traces stay byte-identical everywhere.
                 Read::Energy => Some((module.board().energy() * 1e6).round() as i64),
                 Read::Axis(n) => module.get_axis(n).ok().map(i64::from),
+                Read::TargetOf(m) => module.axis(usize::from(m)).map(|a| i64::from(a.ramp().target_position)),
+                Read::ActualOf(m) => module.axis(usize::from(m)).map(|a| i64::from(a.ramp().position)),
+                Read::VelocityOf(m) => module.axis(usize::from(m)).map(|a| i64::from(a.ramp().velocity())),
+                Read::AxisOf(n, m) => module.get_axis_of(m, n).ok().map(i64::from),
             };
         }
         if let Some(w) = self.world {
@@ -180,8 +217,28 @@ impl Recorder {
                 self.placement = Some(Placement { per_microstep, offset });
             }
         }
+        // The other motors (no closed loop on a multi-axis model: the field follows the step counter).
+        self.motor_placements.clear();
+        for (i, w) in self.motor_worlds.iter().enumerate() {
+            let m = i + 1;
+            let resolution = module.get_axis_of(m as u8, w.resolution).unwrap_or(0).clamp(0, 8);
+            let reverse = w.reverse.is_some_and(|n| module.get_global(n, 0, now).unwrap_or(0) != 0);
+            let sign = if reverse { -1.0 } else { 1.0 };
+            let per_microstep = sign * w.units_per_rev / (w.full_steps * f64::from(1u32 << resolution));
+            let commanded = module.board().axis(m).map_or(0, |a| a.commanded());
+            let field = w.start + commanded as f64 * w.units_per_rev / (w.full_steps * 256.0);
+            let position = module.axis(m).map_or(0, |a| a.ramp().position);
+            self.motor_placements
+                .push(Placement { per_microstep, offset: field - f64::from(position) * per_microstep });
+        }
         self.rows += 1;
-        sink.row(Row { micros: now.micros(), values: &self.values, events, placement: self.placement })
+        sink.row(Row {
+            micros: now.micros(),
+            values: &self.values,
+            events,
+            placement: self.placement,
+            motor_placements: &self.motor_placements,
+        })
     }
 
     /// Hands the digital inputs, outputs and reference switches at `now` to the sink if they changed

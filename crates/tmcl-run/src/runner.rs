@@ -300,14 +300,21 @@ struct Watch {
     outputs: u8,
     running: bool,
     target: i32,
+    /// Motors 1, 2, …: their target positions in position mode (`None` in velocity mode).
+    targets: [Option<i32>; 7],
 }
 
 impl Watch {
     fn of(module: &Module<SimBoard>) -> Watch {
+        let mut targets = [None; 7];
+        for (m, t) in targets.iter_mut().enumerate() {
+            *t = module.axis(m + 1).map(|a| a.ramp()).filter(|r| r.mode == Mode::Position).map(|r| r.target_position);
+        }
         Watch {
             outputs: module.board().outputs(),
             running: module.vm().is_running(),
             target: module.ramp().target_position,
+            targets,
         }
     }
 }
@@ -391,6 +398,11 @@ impl Traced {
         let now = Watch::of(module);
         if now.target != watch.target && module.ramp().mode == Mode::Position {
             events.push(Event::Target(now.target));
+        }
+        for (m, (new, old)) in now.targets.iter().zip(&watch.targets).enumerate() {
+            if let Some(target) = new.filter(|n| Some(*n) != *old) {
+                events.push(Event::MotorTarget { motor: m as u8 + 1, target });
+            }
         }
         let changed = now.outputs ^ watch.outputs;
         for n in 0..8 {

@@ -22,10 +22,12 @@ pub const USER_BANK: u8 = 2;
 /// `gp42.2=-7` as text).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Setting {
-    /// `apN=V`: axis parameter N of motor 0 (SAP).
+    /// `apN=V` or `apN.M=V`: axis parameter N of motor M (0 unless given; SAP).
     Axis {
         /// Parameter number.
         number: u8,
+        /// Motor (0 unless given).
+        motor: u8,
         /// Value.
         value: i32,
     },
@@ -44,7 +46,7 @@ impl Setting {
     /// The command that applies it.
     pub fn command(self) -> Command {
         match self {
-            Setting::Axis { number, value } => Command::Sap { param: number, motor: 0, value },
+            Setting::Axis { number, motor, value } => Command::Sap { param: number, motor, value },
             Setting::Global { number, bank, value } => Command::Sgp { param: number, bank, value },
         }
     }
@@ -61,7 +63,8 @@ impl Setting {
 impl fmt::Display for Setting {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
-            Setting::Axis { number, value } => write!(f, "ap{number}={value}"),
+            Setting::Axis { number, motor: 0, value } => write!(f, "ap{number}={value}"),
+            Setting::Axis { number, motor, value } => write!(f, "ap{number}.{motor}={value}"),
             Setting::Global { number, bank: 0, value } => write!(f, "gp{number}={value}"),
             Setting::Global { number, bank, value } => write!(f, "gp{number}.{bank}={value}"),
         }
@@ -72,19 +75,23 @@ impl FromStr for Setting {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Setting, String> {
-        let usage = || format!("`{s}` is not a setting: write apN=V, gpN=V or gpN.B=V");
+        let usage = || format!("`{s}` is not a setting: write apN=V, apN.M=V, gpN=V or gpN.B=V");
         let (name, value) = s.split_once('=').ok_or_else(usage)?;
         let value = parse_value(value.trim()).ok_or_else(|| format!("`{}` is not a 32-bit number", value.trim()))?;
         let name = name.trim().to_ascii_lowercase();
+        // The parameter number and what follows the dot: a motor (ap) or a bank (gp), 0 if none.
+        let numbers = |n: &str| -> Result<(u8, u8), String> {
+            match n.split_once('.') {
+                Some((n, b)) => Ok((n.parse().map_err(|_| usage())?, b.parse().map_err(|_| usage())?)),
+                None => Ok((n.parse().map_err(|_| usage())?, 0)),
+            }
+        };
         if let Some(n) = name.strip_prefix("ap") {
-            let number = n.parse().map_err(|_| usage())?;
-            return Ok(Setting::Axis { number, value });
+            let (number, motor) = numbers(n)?;
+            return Ok(Setting::Axis { number, motor, value });
         }
         let n = name.strip_prefix("gp").ok_or_else(usage)?;
-        let (number, bank) = match n.split_once('.') {
-            Some((n, b)) => (n.parse().map_err(|_| usage())?, b.parse().map_err(|_| usage())?),
-            None => (n.parse().map_err(|_| usage())?, 0),
-        };
+        let (number, bank) = numbers(n)?;
         Ok(Setting::Global { number, bank, value })
     }
 }
@@ -349,12 +356,14 @@ mod tests {
 
     #[test]
     fn settings_parse() {
-        assert_eq!("ap4=51200".parse(), Ok(Setting::Axis { number: 4, value: 51200 }));
+        assert_eq!("ap4=51200".parse(), Ok(Setting::Axis { number: 4, motor: 0, value: 51200 }));
+        assert_eq!("ap4.2=300".parse(), Ok(Setting::Axis { number: 4, motor: 2, value: 300 }));
+        assert_eq!(Setting::Axis { number: 4, motor: 2, value: 300 }.to_string(), "ap4.2=300");
         assert_eq!("gp66=2".parse(), Ok(Setting::Global { number: 66, bank: 0, value: 2 }));
         assert_eq!("GP42.2=-7".parse(), Ok(Setting::Global { number: 42, bank: 2, value: -7 }));
         assert_eq!("gp0.3=0x3E8".parse(), Ok(Setting::Global { number: 0, bank: 3, value: 1000 }));
-        assert_eq!("ap1=0xFFFFFFFF".parse(), Ok(Setting::Axis { number: 1, value: -1 }));
-        for bad in ["ap4", "xp4=1", "ap=1", "ap4=one", "gp1.=1", "ap300=1", "ap1=99999999999"] {
+        assert_eq!("ap1=0xFFFFFFFF".parse(), Ok(Setting::Axis { number: 1, motor: 0, value: -1 }));
+        for bad in ["ap4", "xp4=1", "ap=1", "ap4=one", "gp1.=1", "ap300=1", "ap1=99999999999", "ap4.=1", "ap4.256=1"] {
             assert!(bad.parse::<Setting>().is_err(), "{bad}");
         }
         assert_eq!(Setting::Global { number: 42, bank: 2, value: -7 }.to_string(), "gp42.2=-7");

@@ -15,7 +15,9 @@
 //! The columns, in order (the CSV header; `tmcl run --help` lists them with their units and a test checks
 //! the two agree): `time_s`, [`Quantity::FIXED`], a `varN` per user variable, [`Quantity::DRIVE`] and
 //! [`Quantity::CLOSED_LOOP`] with `drive`, [`Quantity::VelocityUnits`] on a model with velocity units of
-//! its own, and `event`.
+//! its own, then on a model with several motors the per-axis columns of motors 1, 2, … ([`Column::motor`]:
+//! `target_position_m1`, `actual_position_m1`, `velocity_m1`, with `drive` the load value, current scale
+//! and encoder, and the velocity in the model's units, each named with `_mN`), and `event`.
 //!
 //! Every value is an integer, except two with six decimals that are formatted from integers: the time
 //! (from integer microseconds) and the coil energy (from integer µA²·s). The same run gives byte-identical
@@ -196,12 +198,18 @@ pub struct Column {
     pub unit: Unit,
     /// Decimals: a stored integer `v` means `v / 10^decimals` in `unit` (6 for the energy, else 0).
     pub decimals: u8,
+    /// The motor a per-axis column is of (0 for the rest); its name ends in `_mN` for N > 0.
+    #[serde(default)]
+    pub motor: u8,
 }
 
 impl Column {
-    pub(crate) fn of(quantity: Quantity) -> Column {
+    /// A per-axis column of motor `motor`: `target_position_m1`, `velocity_m2`, … (motor 0's keep their
+    /// plain names).
+    pub(crate) fn of_motor(quantity: Quantity, motor: u8) -> Column {
         let decimals = if quantity == Quantity::Energy { 6 } else { 0 };
-        Column { name: quantity.name(), quantity, unit: quantity.unit(), decimals }
+        let name = if motor == 0 { quantity.name() } else { format!("{}_m{motor}", quantity.name()) };
+        Column { name, quantity, unit: quantity.unit(), decimals, motor }
     }
 
     /// A stored integer in the column's unit.
@@ -230,6 +238,13 @@ pub enum Event {
     },
     /// A new target position (MVP, SAP 0); the row still shows where the motor stands.
     Target(i32),
+    /// A new target position of motor 1, 2, … of a model with several (`target_m1=…`).
+    MotorTarget {
+        /// The motor (1 or more).
+        motor: u8,
+        /// Its new target.
+        target: i32,
+    },
     /// The module refused the instruction at `pc` with `status`; the program went on without it.
     Refused {
         /// Its address.
@@ -245,6 +260,7 @@ impl Event {
         match self {
             Event::Output { number, .. } => format!("out{number}"),
             Event::Target(_) => "target".into(),
+            Event::MotorTarget { motor, .. } => format!("target_m{motor}"),
             Event::Refused { .. } => "refused".into(),
             other => other.to_string(),
         }
@@ -254,7 +270,7 @@ impl Event {
     pub fn value(&self) -> Option<String> {
         match self {
             Event::Output { level, .. } => Some(u8::from(*level).to_string()),
-            Event::Target(t) => Some(t.to_string()),
+            Event::Target(t) | Event::MotorTarget { target: t, .. } => Some(t.to_string()),
             Event::Refused { pc, status } => Some(format!("pc {pc} status {status}")),
             _ => None,
         }
@@ -270,6 +286,7 @@ impl fmt::Display for Event {
             Event::End => f.write_str("end"),
             Event::Output { number, level } => write!(f, "out{number}={}", u8::from(*level)),
             Event::Target(t) => write!(f, "target={t}"),
+            Event::MotorTarget { motor, target } => write!(f, "target_m{motor}={target}"),
             Event::Refused { pc, status } => write!(f, "refused=pc {pc} status {status}"),
         }
     }
@@ -338,6 +355,10 @@ pub struct Header {
     pub model: String,
     /// With a world file: the position axis in its unit.
     pub world_unit: Option<WorldUnit>,
+    /// With a world file, on a model with several motors: motor 1's, 2's, … position axis in its unit
+    /// (each motor's own world, `[motors.N]`).
+    #[serde(default)]
+    pub motor_world_units: Vec<WorldUnit>,
 }
 
 /// One row as a run records it.
@@ -351,6 +372,8 @@ pub struct Row<'a> {
     pub events: &'a [Event],
     /// With a [`WorldUnit`]: where the row's positions are in the world.
     pub placement: Option<Placement>,
+    /// With [`Header::motor_world_units`]: where motor 1's, 2's, … positions are in its world.
+    pub motor_placements: &'a [Placement],
 }
 
 /// Where a run's rows go.
@@ -561,6 +584,9 @@ pub struct Trace {
     pub levels: Vec<Levels>,
     /// With a world unit: where each row's positions are in the world.
     pub placements: Vec<Placement>,
+    /// With [`Header::motor_world_units`]: `motor_placements[m - 1][row]`, where motor m's positions are.
+    #[serde(default)]
+    pub motor_placements: Vec<Vec<Placement>>,
 }
 
 impl Trace {
@@ -584,14 +610,29 @@ impl Trace {
         self.times.is_empty()
     }
 
-    /// The index of the column holding `quantity`, if the trace has it.
+    /// The index of the column holding `quantity` (of motor 0, for a per-axis one), if the trace has it.
     pub fn position(&self, quantity: Quantity) -> Option<usize> {
-        self.columns().iter().position(|c| c.quantity == quantity)
+        self.position_of(quantity, 0)
     }
 
-    /// The values of the column holding `quantity`, if the trace has it.
+    /// The index of the column holding `quantity` of motor `motor`, if the trace has it.
+    pub fn position_of(&self, quantity: Quantity, motor: u8) -> Option<usize> {
+        self.columns().iter().position(|c| c.quantity == quantity && c.motor == motor)
+    }
+
+    /// The values of the column holding `quantity` (of motor 0, for a per-axis one), if the trace has it.
     pub fn column(&self, quantity: Quantity) -> Option<&Values> {
-        self.position(quantity).map(|i| &self.values[i])
+        self.column_of(quantity, 0)
+    }
+
+    /// The values of the column holding `quantity` of motor `motor`, if the trace has it.
+    pub fn column_of(&self, quantity: Quantity, motor: u8) -> Option<&Values> {
+        self.position_of(quantity, motor).map(|i| &self.values[i])
+    }
+
+    /// The motors the trace has per-axis columns of (at least motor 0).
+    pub fn motors(&self) -> u8 {
+        self.columns().iter().map(|c| c.motor + 1).max().unwrap_or(1)
     }
 
     /// The values of column `index` in its unit (the energy in A²·s, the rest as they are), `None` where
@@ -622,7 +663,7 @@ impl Trace {
                 next_event += 1;
             }
             let events: Vec<Event> = self.events[first..next_event].iter().map(|e| e.event.clone()).collect();
-            csv.row(Row { micros, values: &values, events: &events, placement: None })?;
+            csv.row(Row { micros, values: &values, events: &events, placement: None, motor_placements: &[] })?;
         }
         csv.finish()
     }
@@ -644,6 +685,10 @@ impl Sink for Trace {
         self.events.extend(row.events.iter().map(|e| Stamped { micros: row.micros, row: r, event: e.clone() }));
         if let Some(p) = row.placement {
             self.placements.push(p);
+        }
+        self.motor_placements.resize(row.motor_placements.len().max(self.motor_placements.len()), Vec::new());
+        for (list, p) in self.motor_placements.iter_mut().zip(row.motor_placements) {
+            list.push(*p);
         }
         Ok(())
     }

@@ -28,6 +28,7 @@ fn the_library_gives_the_checked_in_traces() {
         ("manual_p08_csub", "pd28-1021", 5, 50, None, false),
         ("pd113_first_program", "pd-113", 12, 100, None, false),
         ("tmcm1310_closed_loop", "tmcm-1310", 6, 20, Some("examples/worlds/closed-loop-seizure.toml"), true),
+        ("tmcm3110_xyz", "tmcm-3110", 3600, 20000, Some("examples/worlds/xyz-stage.toml"), false),
     ] {
         let mut setup = Setup::new(model).unwrap();
         let source = Source::load(&root().join(format!("tests/programs/{name}.tmc")), setup.model).unwrap();
@@ -84,7 +85,7 @@ fn setup_errors_say_what_is_wrong() {
     };
     assert_eq!((diagnostics.len(), diagnostics[0].line, model), (1, 1, "PD28-1021"));
     assert!(Simulation::new(&sac, &Setup::new("pd-113").unwrap()).is_ok());
-    let refused = Setup::new("pd28-1021").unwrap().with_setting(Setting::Axis { number: 4, value: -5 });
+    let refused = Setup::new("pd28-1021").unwrap().with_setting(Setting::Axis { number: 4, motor: 0, value: -5 });
     let stop = Source::assemble("stop.tmc", "STOP\n", PD28).unwrap();
     assert!(matches!(Simulation::new(&stop, &refused), Err(SetupError::Setting { .. })));
 }
@@ -120,4 +121,35 @@ fn positions_are_placed_in_the_world_also_after_a_reference_search() {
     let left = |l: &tmcl_run::Levels| l.switches & 0b010 != 0;
     assert!(trace.levels.iter().any(left));
     assert!(trace.levels.last().is_some_and(|l| l.switches & 0b001 != 0), "{:?}", trace.levels.last());
+}
+
+/// A multi-axis run in a world with `[motors.N]`: every motor's positions are placed in its own world, in
+/// its own unit (the XYZ stage: X on a 2 mm lead, Y on 1 mm, Z on 0.5 mm). After the reference searches
+/// and the first interpolated move the three stand at corner 1, X 10 mm, Y 10 mm, Z 5 mm from their left
+/// switches; at power-up each was where its world puts it (25, 10 and 5 mm).
+#[test]
+fn every_motor_is_placed_in_its_own_world() {
+    let spec = tmcl_core::model::by_id("tmcm-3110").unwrap();
+    let source = Source::load(&root().join("tests/programs/tmcm3110_xyz.tmc"), spec).unwrap();
+    let world = World::load(root().join("examples/worlds/xyz-stage.toml")).unwrap();
+    let setup = Setup::new("tmcm-3110").unwrap().with_world(world);
+    let (trace, _) = run(&source, &setup, &options(10, 100)).unwrap();
+    let header = trace.header.as_ref().unwrap();
+    assert_eq!(header.motor_world_units.iter().map(|u| u.name.as_str()).collect::<Vec<_>>(), ["mm", "mm"]);
+    assert_eq!(trace.motor_placements.len(), 2);
+    assert!(trace.motor_placements.iter().all(|p| p.len() == trace.len()));
+    // The row of the second move's start (MVP COORD to corner 2): every motor still at corner 1.
+    let second = trace.events.iter().find(|e| e.event == tmcl_run::Event::Target(80_000)).expect("the second move").row;
+    let actual = |m: u8| trace.column_of(Quantity::ActualPosition, m).unwrap();
+    let place = |m: u8, row: usize| match m {
+        0 => trace.placements[row].place(actual(0).get(row).unwrap()),
+        m => trace.motor_placements[usize::from(m) - 1][row].place(actual(m).get(row).unwrap()),
+    };
+    let at = |row| [place(0, row), place(1, row), place(2, row)];
+    for (got, want) in at(0).iter().zip([25.0, 10.0, 5.0]) {
+        assert!((got - want).abs() < 1e-9, "at power-up {:?}", at(0));
+    }
+    for (got, want) in at(second).iter().zip([10.0, 10.0, 5.0]) {
+        assert!((got - want).abs() < 0.01, "at corner 1 {:?}", at(second));
+    }
 }

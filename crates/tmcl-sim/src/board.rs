@@ -457,14 +457,24 @@ impl SimBoard {
     /// Puts the board into `world`, as at power-up: the rotor at `axis.start`, inputs and faults as at
     /// time 0, the energy figure and stallGuard2 reset. The EEPROM, the profile and the outputs are kept.
     ///
-    /// Every motor of a model with several gets its own axis in a copy of `world` (one world per axis);
+    /// Every motor of a model with several gets its own axis in a copy of `world` (one world per axis),
+    /// with what the file's `[motors.N]` table gives motor N ([`World::of_motor`]);
     /// [`SimBoard::set_world_of`] puts one motor into a world of its own.
     pub fn set_world(&mut self, world: World) -> Result<(), WorldError> {
         world.check()?;
-        for axis in &mut self.axes {
-            axis.set_world(world.clone())?;
+        let motors = 1 + self.axes.len();
+        if let Some((m, _)) = world.motors.iter().find(|(m, _)| *m >= motors) {
+            return Err(WorldError {
+                file: None,
+                key: Some(format!("motors.{m}")),
+                line: None,
+                message: format!("the module has {motors} motor(s), 0…{}", motors - 1),
+            });
         }
-        self.set_own_world(world)
+        for (m, axis) in self.axes.iter_mut().enumerate() {
+            axis.set_world(world.of_motor(m + 1))?;
+        }
+        self.set_own_world(world.of_motor(0))
     }
 
     /// Puts motor `motor`'s axis into `world`, as [`SimBoard::set_world`] does for all of them. A motor the

@@ -15,7 +15,7 @@
 
 use crate::board::SimBoard;
 use crate::world::World;
-use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, tmcm_3110, Kinematics, ModelSpec, Setting};
+use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, tmcm_3110, tmcm_6110, Kinematics, ModelSpec, Setting};
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CalcOp, Command, Condition, EventMode, Instruction, MoveTarget, Request, RfsAction, WaitCondition};
 
@@ -166,8 +166,9 @@ impl Scenario {
             0 => &tmcm_1310::SPEC,
             1 => &pd_113::SPEC,
             6 => &tmcm_1140::SPEC,
-            // 7: the TMCM-3110, so that event-driven runs of several moving motors are checked against
-            // tick-by-tick ones.
+            // 7: the TMCM-3110 or the TMCM-6110 (the next byte picks), so that event-driven runs of several
+            // moving motors are checked against tick-by-tick ones.
+            7 if b.u8() % 2 == 1 => &tmcm_6110::SPEC,
             7 => &tmcm_3110::SPEC,
             _ => &pd28_1021::SPEC,
         };
@@ -216,6 +217,18 @@ impl Scenario {
                 settings.iter_mut().skip(skip).chain(&mut program).chain(host.iter_mut().map(|(_, c)| c)).enumerate()
             {
                 on_motor(c, ((i + usize::from(first)) % usize::from(spec.motors)) as u8);
+            }
+            // Every `every`-th move (none for 0) becomes an MVP COORD of several motors at once,
+            // interpolated or each at its own speed (`module/coordinated.rs` in tmcl-core).
+            let every = usize::from(b.u8() % 4);
+            let all = (1u16 << spec.motors) as u8 - 1;
+            let moves = program.iter_mut().chain(host.iter_mut().map(|(_, c)| c));
+            for (i, c) in moves.filter(|c| matches!(c, Command::Mvp { .. })).enumerate() {
+                if every > 0 && i % every == 0 {
+                    let mask = (b.u8() & all).max(1);
+                    let mode = if b.u8() % 2 == 0 { 0x40 } else { 0x80 };
+                    *c = Command::Mvp { motor: mode | mask, target: MoveTarget::Coord(i32::from(b.u8() % 21)) };
+                }
             }
         }
         if spec.axis.has(Setting::ClosedLoop) && (b.u8() % 2 == 1 || closed_loop) {

@@ -536,6 +536,14 @@ pub struct World {
     pub faults: FaultsSpec,
     /// The encoder, if it is not the module's own.
     pub encoder: Option<EncoderSpec>,
+    /// `[motors.N]` as written: what motor N's axis has other than the file's top level (a module with
+    /// several motors; see [`World::of_motor`]).
+    #[serde(rename = "motors")]
+    pub motor_tables: std::collections::BTreeMap<String, toml::Table>,
+    /// The world of each motor with a `[motors.N]` table: the top level with that table merged over it
+    /// (filled by [`World::from_toml_str`]).
+    #[serde(skip)]
+    pub motors: Vec<(usize, World)>,
 }
 
 /// What is wrong with a world file: the key, its line (1-based) and what is wrong.

@@ -18,7 +18,17 @@ impl World {
             }
         })?;
         crate::board::Plan::compile(&world).map_err(|e| e.into_error(Some(source)))?;
+        let mut world = world;
+        world.motors = motor_worlds(source, &world)?;
         Ok(world)
+    }
+
+    /// The world of motor `motor`: its `[motors.N]` table merged over the top level, or the top level.
+    pub fn of_motor(&self, motor: usize) -> World {
+        self.motors.iter().find(|(m, _)| *m == motor).map_or_else(
+            || World { motors: Vec::new(), motor_tables: Default::default(), ..self.clone() },
+            |(_, w)| w.clone(),
+        )
     }
 
     /// Reads, parses and checks a world file.
@@ -38,6 +48,69 @@ impl World {
     /// and [`World::load`] already did; this is for worlds built or changed in code).
     pub fn check(&self) -> Result<(), WorldError> {
         crate::board::Plan::compile(self).map(|_| ()).map_err(|e| e.into_error(None))
+    }
+}
+
+/// Each `[motors.N]` table merged over the file's top level (tables key by key, any other value or array
+/// replaced) and checked as a world of its own. Errors name the key under `motors.N`; the line is that of
+/// the `[motors.N…]` header or key where it can be found.
+fn motor_worlds(source: &str, world: &World) -> Result<Vec<(usize, World)>, WorldError> {
+    if world.motor_tables.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut base: toml::Table = toml::from_str(source).map_err(|e| WorldError {
+        file: None,
+        key: None,
+        line: None,
+        message: e.message().trim().to_string(),
+    })?;
+    base.remove("motors");
+    let mut out = Vec::new();
+    for (name, table) in &world.motor_tables {
+        let line = source
+            .find(&format!("[motors.{name}"))
+            .or_else(|| source.find(&format!("motors.{name}")))
+            .map(|o| line_of(source, o));
+        let error = |key: Option<String>, message: String| WorldError {
+            file: None,
+            key: Some(key.map_or(format!("motors.{name}"), |k| format!("motors.{name}.{k}"))),
+            line,
+            message,
+        };
+        let motor: usize =
+            name.parse().ok().filter(|m| *m < 8).ok_or_else(|| error(None, "a motor number 0…7 is expected".into()))?;
+        if table.contains_key("inputs") {
+            return Err(error(
+                Some("inputs".into()),
+                "the inputs are the module's: give them at the top level, not per motor".into(),
+            ));
+        }
+        let mut merged = base.clone();
+        merge(&mut merged, table);
+        // Written out and read again: the world's values keep their places in a text (`Spanned`).
+        let text = toml::to_string(&merged).map_err(|e| error(None, e.to_string()))?;
+        let own: World = toml::from_str(&text).map_err(|e| {
+            let key = e.span().and_then(|s| key_at(&text, s.start));
+            error(key, e.message().trim().to_string())
+        })?;
+        crate::board::Plan::compile(&own).map_err(|e| {
+            let e = e.into_error(None);
+            error(e.key, e.message)
+        })?;
+        out.push((motor, own));
+    }
+    Ok(out)
+}
+
+/// Merges `over` into `base`: a table into a table key by key, anything else replaced.
+fn merge(base: &mut toml::Table, over: &toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            _ => {
+                base.insert(key.clone(), value.clone());
+            }
+        }
     }
 }
 

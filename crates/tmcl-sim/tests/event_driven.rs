@@ -86,3 +86,12 @@ fn a_three_axis_module_at_rest_is_the_same_both_ways() {
     assert_eq!(scenario.spec.motors, 3, "{}", scenario.spec.id);
     scenario.check().unwrap();
 }
+
+/// The scenarios draw both multi-axis models: a first byte of 7, then an odd byte, the TMCM-6110; an even
+/// one (or none), the TMCM-3110.
+#[test]
+fn the_scenarios_draw_the_tmcm_6110_too() {
+    assert_eq!(Scenario::decode(&[7, 1]).spec.name, "TMCM-6110");
+    assert_eq!(Scenario::decode(&[7, 2]).spec.name, "TMCM-3110");
+    assert_eq!(Scenario::decode(&[7]).spec.name, "TMCM-3110");
+}

@@ -28,7 +28,14 @@ fn every_example_world_loads() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "toml") {
             let world = World::load(&path).unwrap_or_else(|e| panic!("{e}"));
-            SimBoard::in_memory(16).with_world(world).unwrap();
+            if world.motors.is_empty() {
+                SimBoard::in_memory(16).with_world(world).unwrap();
+            } else {
+                // A world with `[motors.N]` tables is for a module with several motors.
+                let spec = tmcl_core::model::by_id("tmcm-6110").unwrap();
+                let nvm = tmcl_sim::Eeprom::Memory(tmcl_sim::MemNvm::new(4096));
+                SimBoard::for_model(spec, nvm).with_world(world).unwrap();
+            }
             n += 1;
         }
     }
@@ -171,4 +178,49 @@ fn check_catches_worlds_built_in_code() {
     let e = w.check().unwrap_err();
     assert_eq!((e.key.as_deref(), e.line), (Some("motor.full_steps"), None));
     assert!(SimBoard::in_memory(16).with_world(w).is_err());
+}
+
+/// `[motors.N]` gives motor N its own mechanics, merged over the file's top level: the XYZ example's Y and
+/// Z axes have their own lead, start and switches and keep X's motor; every other motor has the top level.
+#[test]
+fn motor_tables_give_each_axis_its_own_world() {
+    let w = World::load(examples().join("xyz-stage.toml")).unwrap();
+    assert_eq!(w.motors.iter().map(|(m, _)| *m).collect::<Vec<_>>(), [1, 2]);
+    let (x, y, z, other) = (w.of_motor(0), w.of_motor(1), w.of_motor(2), w.of_motor(3));
+    assert_eq!((*x.axis.lead.get_ref(), *y.axis.lead.get_ref(), *z.axis.lead.get_ref()), (2.0, 1.0, 0.5));
+    assert_eq!(y.motor, x.motor, "Y keeps X's motor");
+    assert_eq!(y.load, x.load, "and its load");
+    assert_ne!(z.load, x.load, "Z has its own friction");
+    assert_eq!(y.switches.left, x.switches.left, "Y keeps X's left switch");
+    assert_ne!(y.switches.right, x.switches.right);
+    assert_eq!(other, x, "a motor without a table: the top level");
+    assert!(x.motors.is_empty() && x.motor_tables.is_empty());
+
+    // On a TMCM-3110's board each axis starts where its world says.
+    let spec = tmcl_core::model::by_id("tmcm-3110").unwrap();
+    let board =
+        SimBoard::for_model(spec, tmcl_sim::Eeprom::Memory(tmcl_sim::MemNvm::new(4096))).with_world(w.clone()).unwrap();
+    let at = |m: usize| board.axis(m).unwrap().axis_position();
+    assert_eq!((at(0), at(1), at(2)), (25.0, 10.0, 5.0), "each axis where its world puts it");
+    assert_eq!(board.axis(1).unwrap().description().axis.lead.get_ref(), &1.0);
+    // A motor the module lacks is refused with its key.
+    let two = "[motors.3.axis]\nlead = 1.0\n";
+    let w3 = World::from_toml_str(two).unwrap();
+    let e =
+        SimBoard::for_model(spec, tmcl_sim::Eeprom::Memory(tmcl_sim::MemNvm::new(4096))).with_world(w3).unwrap_err();
+    assert_eq!(e.key.as_deref(), Some("motors.3"), "{e}");
+}
+
+/// Mistakes in a `[motors.N]` table name their key under it.
+#[test]
+fn motor_table_mistakes_name_their_key() {
+    let e = err("[axis]\nkind = \"linear\"\n[motors.1.axis]\nlead = -1.0\n");
+    assert!(e.key.as_deref().is_some_and(|k| k.starts_with("motors.1")), "{e}");
+    assert_eq!(e.line, Some(3), "{e}");
+    let e = err("[motors.x.axis]\nlead = 1.0\n");
+    assert_eq!(e.key.as_deref(), Some("motors.x"), "{e}");
+    let e = err("[motors.1.inputs]\ndigital = 1\n");
+    assert_eq!(e.key.as_deref(), Some("motors.1.inputs"), "{e}");
+    let e = err("[motors.1.axis]\nbogus = 1\n");
+    assert!(e.message.contains("bogus"), "{e}");
 }

@@ -137,7 +137,7 @@
       s.value = String(Math.min(motor, motors - 1));
       s.closest(".motor-choice").hidden = motors < 2;
     }
-    buildParams(); buildIo(); setupPlots(true); buildVars(); setupProgram();
+    buildParams(); buildIo(); setupPlots(true); buildVars(); setupProgram(); buildAxes();
     document.title = `${model ? model.name : "TMCL module"} ${h.address} · OpenTMCL workbench`;
     watch(); // what to poll depends on the model (its charts, its pulse divisor)
   }
@@ -170,13 +170,63 @@
       if (d) { const n = tabs[(i + d + tabs.length) % tabs.length]; n.focus(); selectTab(n); }
     });
   });
-  for (const s of document.querySelectorAll(".motor-select")) {
-    s.addEventListener("change", () => {
-      motor = Number(s.value);
-      for (const o of document.querySelectorAll(".motor-select")) o.value = s.value;
-      buildParams(); setupPlots(true); watch();
-    });
+  function selectMotor(m) {
+    motor = m;
+    for (const o of document.querySelectorAll(".motor-select")) o.value = String(m);
+    buildParams(); setupPlots(true); markAxis(); watch();
+    emit("motor", m);
   }
+  for (const s of document.querySelectorAll(".motor-select")) s.addEventListener("change", () => selectMotor(Number(s.value)));
+
+  // Axes (a model with several motors): a row per motor with its actual and target position, speed,
+  // position-reached flag and switches, from the values the server reads of every motor while the motion
+  // view is open; a row's button selects that motor.
+  let axisCells = new Map();
+  function buildAxes() {
+    const motors = model ? model.motors : 1;
+    $("axes-card").hidden = motors < 2;
+    axisCells = new Map();
+    if (motors < 2) { $("axes-body").replaceChildren(); return; }
+    const cell = (m, role, make) => {
+      const node = make();
+      if (has(roles[role])) axisCells.set(`ap.${m}.${roles[role]}`, { node, role });
+      return node;
+    };
+    const rows = Array.from({ length: motors }, (_, m) => {
+      const pick = el("button", { type: "button", text: `Motor ${m}`, "aria-label": `Show motor ${m}` });
+      pick.addEventListener("click", () => selectMotor(m));
+      const value = (role) => cell(m, role, () => el("td", { text: "–", "data-axis-role": role }));
+      const lamp = (role, text) => cell(m, role, () => el("span", { class: "lamp", text, "aria-label": `motor ${m} ${role} switch inactive` }));
+      return el("tr", { "data-motor": String(m) },
+        el("th", { scope: "row" }, pick),
+        value("actual_position"), value("target_position"), value("actual_speed"), value("reached"),
+        el("td", { class: "axis-switches" }, lamp("left", "L"), lamp("home", "H"), lamp("right", "R")));
+    });
+    $("axes-body").replaceChildren(...rows);
+    markAxis();
+  }
+  function markAxis() {
+    for (const tr of $("axes-body").children) {
+      const on = Number(tr.dataset.motor) === motor;
+      tr.classList.toggle("selected", on);
+      if (on) tr.setAttribute("aria-current", "true"); else tr.removeAttribute("aria-current");
+    }
+  }
+  on("value", (ev) => {
+    const c = axisCells.get(ev.k);
+    if (!c || !("v" in ev)) return;
+    const m = mi();
+    if (c.role === "left" || c.role === "right" || c.role === "home") {
+      c.node.classList.toggle("on", !!ev.v);
+      c.node.setAttribute("aria-label", `${c.node.getAttribute("aria-label").replace(/ (in)?active$/, "")} ${ev.v ? "active" : "inactive"}`);
+    } else if (c.role === "reached") {
+      c.node.textContent = ev.v ? "yes" : "no";
+    } else if (c.role === "actual_speed") {
+      c.node.textContent = `${ev.v} ${m.velocity_unit}`;
+    } else {
+      c.node.textContent = `${ev.v} ${m.position_unit}`;
+    }
+  });
 
   function say(id, text, ok) {
     const p = $(id); p.textContent = text; p.className = "status-line " + (ok === true ? "ok" : ok === false ? "bad" : "");

@@ -719,6 +719,22 @@ impl Link {
             }
             if w.views.contains("motion") {
                 polls.push((Poll::Reference { motor }, SWITCH_PERIOD));
+                // The axes table of a model with several motors: every other motor's positions, speed,
+                // position-reached flag and switches, at the switches' pace.
+                let overview = [
+                    roles.actual_position,
+                    roles.target_position,
+                    roles.actual_speed,
+                    roles.reached,
+                    roles.left,
+                    roles.home,
+                    roles.right,
+                ];
+                for m in (0..model.map_or(1, |m| m.motors)).filter(|m| *m != motor) {
+                    let axis =
+                        overview.into_iter().flatten().map(|param| (Poll::Axis { param, motor: m }, SWITCH_PERIOD));
+                    polls.extend(axis);
+                }
             }
             if w.views.contains("io") {
                 for p in model.map_or(&[][..], |m| m.ports) {

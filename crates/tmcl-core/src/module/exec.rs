@@ -93,6 +93,11 @@ impl<B: Board> Module<B> {
                 self.start_rotation(m, 0);
                 value(0)
             }
+            // MVP COORD with a motor mask (bit 6 or 7 set; TMCM-3110/6110 firmware manuals, MVP): several
+            // motors to their coordinate n at once, interpolated or each at its own speed.
+            C::Mvp { motor, target: MoveTarget::Coord(n) } if motor & 0xC0 != 0 && self.spec.motors > 1 => {
+                self.mvp_coordinated(motor, n)
+            }
             // §3.7.4 MVP ABS/REL/COORD: AP 0 = new target, position mode (AP 128 = 0).
             C::Mvp { motor, target } => self.mvp(motor, target),
             // §3.7.5 SAP: RAM only.
@@ -175,6 +180,22 @@ impl<B: Board> Module<B> {
             // §3.7.32 EI / §3.7.33 DI: interrupt n (Table 12) or 255 = global.
             C::Ei { interrupt } => self.vm.enable_interrupt(&self.spec.interrupts, interrupt, true).and(value(0)),
             C::Di { interrupt } => self.vm.enable_interrupt(&self.spec.interrupts, interrupt, false).and(value(0)),
+            // §3.7.34 VECT from the host, on a model whose firmware takes it in direct mode
+            // (`ModelDesc::host_vect`: the TMCM-3110/6110, as odemis' TMCL driver uses them): the vector of
+            // interrupt n, as a program's VECT sets it. An interrupt the model lacks: status 3 (as EI);
+            // an address outside program memory: status 4. The reply carries the address.
+            C::Vect { interrupt, address } if origin == Origin::Host && self.spec.host_vect => {
+                if self.spec.interrupts.find(interrupt).is_none() {
+                    return Err(Status::WrongType);
+                }
+                let to = u16::try_from(address)
+                    .ok()
+                    .filter(|a| usize::from(*a) < usize::from(self.spec.program_memory))
+                    .ok_or(Status::InvalidValue)?;
+                let slot = self.vm.vectors.get_mut(usize::from(interrupt)).ok_or(Status::WrongType)?;
+                *slot = to;
+                value(address)
+            }
             // Standalone-only program flow, run by the program machine (and refused from the host above),
             // and user functions, which the standard firmware does not have (§3.7.36).
             C::Comp { .. }
@@ -407,6 +428,7 @@ impl<B: Board> Module<B> {
     }
 
     fn start_rotation(&mut self, m: usize, velocity: i32) {
+        self.st.axes[m].interpolation = None;
         self.leave_torque_mode(m);
         self.st.axes[m].reference.stop();
         self.st.axes[m].ramp.rotate(velocity);
@@ -414,7 +436,8 @@ impl<B: Board> Module<B> {
         self.st.event.pending = false;
     }
 
-    fn start_move(&mut self, m: usize, target: i32) {
+    pub(super) fn start_move(&mut self, m: usize, target: i32) {
+        self.st.axes[m].interpolation = None;
         self.leave_torque_mode(m);
         self.st.axes[m].reference.stop();
         self.st.axes[m].ramp.move_to(target);
@@ -461,6 +484,7 @@ impl<B: Board> Module<B> {
                 self.st.axes[m].error_flags = 0;
                 self.st.event.pending = false;
                 self.leave_torque_mode(m);
+                self.st.axes[m].interpolation = None;
                 if let Action::Rotate(v) = self.st.axes[m].reference.start(mode, fast) {
                     self.st.axes[m].ramp.hard_stop();
                     self.st.axes[m].ramp.rotate(v);

@@ -218,10 +218,17 @@ impl<B: Board> Module<B> {
     pub(crate) fn decode_host(&self, instruction: Instruction) -> Result<Command, Status> {
         let code = instruction.opcode.code();
         let command = self.decode_code(instruction, code)?;
-        if CommandSet::PROGRAM_ONLY.contains_code(code) {
+        if self.program_only(code) {
             return Err(Status::NotAvailable);
         }
         Ok(command)
+    }
+
+    /// Whether command `code` is one the host may not send: the program-only commands (§3.6.3), but VECT
+    /// on a model that takes it in direct mode (`ModelDesc::host_vect`).
+    #[inline]
+    fn program_only(&self, code: u8) -> bool {
+        CommandSet::PROGRAM_ONLY.contains_code(code) && !(self.spec.host_vect && code == Opcode::Vect.code())
     }
 
     fn handle_frame(&mut self, port: usize, iface: &InterfaceDesc, bytes: [u8; FRAME_LEN], now: Instant) {
@@ -258,7 +265,7 @@ impl<B: Board> Module<B> {
         self.st.asking_port = port as u8;
         // As `decode_host`, with one check more: no ASCII mode on an interface without it.
         let result = self.decode_code(i, op).and_then(|c| {
-            if CommandSet::PROGRAM_ONLY.contains_code(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
+            if self.program_only(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
                 return Err(Status::NotAvailable);
             }
             self.exec(c, now, Origin::Host)

@@ -223,6 +223,7 @@ fn same_axis(a: &Axis, b: &Axis) -> bool {
         last_counts,
         cl,
         ssi,
+        interpolation,
     } = a;
     *params == b.params
         && *coords == b.coords
@@ -240,4 +241,5 @@ fn same_axis(a: &Axis, b: &Axis) -> bool {
         && *last_counts == b.last_counts
         && *cl == b.cl
         && *ssi == b.ssi
+        && *interpolation == b.interpolation
 }

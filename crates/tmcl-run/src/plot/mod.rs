@@ -16,6 +16,10 @@
 //!    one per kind of program event (`interrupt 0`, `target`, `stop`, ...), a mark at each, labelled with
 //!    its value where there is room (`lanes.rs`).
 //!
+//! On a model with several motors (TMCM-3110, TMCM-6110) panels 1 and 2 come once per motor, smaller and
+//! named `motor N …`, each motor's positions in its own world's unit (`[motors.N]`) with a world file;
+//! panel 3 and the switch lanes are motor 0's.
+//!
 //! The ranges and units are those of the PD28-1021 TMCL manual's axis parameter table (chapter 4: AP 3 in
 //! pps, AP 180 0..31 meaning 1/32..32/32, AP 206 0..1023, AP 209 in µsteps); the TMCM-1310's closed-loop
 //! parameters (AP 123, 233, 237) as `docs/tmcm-1310.md` decides them, its manual lacking that table.
@@ -270,6 +274,8 @@ impl Samples for Vec<Sample> {
 /// The panels' columns of a trace, found by meaning.
 struct Columns<'a> {
     trace: &'a Trace,
+    /// Where the motor's positions are in its world, per row (empty without a world).
+    placements: &'a [crate::trace::Placement],
     target: Option<&'a Values>,
     actual: Option<&'a Values>,
     velocity: Option<&'a Values>,
@@ -283,10 +289,16 @@ struct Columns<'a> {
 }
 
 impl<'a> Columns<'a> {
-    fn of(trace: &'a Trace) -> Columns<'a> {
-        let column = |q: Quantity| trace.column(q);
+    /// Motor `motor`'s columns (the drive's and the closed loop's are motor 0's only).
+    fn of(trace: &'a Trace, motor: u8) -> Columns<'a> {
+        let column = |q: Quantity| trace.column_of(q, motor);
+        let placements = match motor {
+            0 => &trace.placements[..],
+            m => trace.motor_placements.get(usize::from(m) - 1).map_or(&[][..], |p| &p[..]),
+        };
         Columns {
             trace,
+            placements,
             target: column(Quantity::TargetPosition),
             actual: column(Quantity::ActualPosition),
             velocity: column(Quantity::Velocity),
@@ -318,7 +330,7 @@ impl Samples for Columns<'_> {
             target: t,
             actual: a,
             velocity: at(self.velocity).unwrap_or(0),
-            world: self.trace.placements.get(r).map(|p| (p.place(t.into()), p.place(a.into()))),
+            world: self.placements.get(r).map(|p| (p.place(t.into()), p.place(a.into()))),
             load: at(self.load),
             current_scale: at(self.scale),
             encoder: at(self.encoder),
@@ -348,13 +360,26 @@ fn event_text(trace: &Trace, stamped: &Stamped) -> String {
             let text = text.trim_end_matches('0').trim_end_matches('.');
             format!("target={text} {unit}", unit = unit.name)
         }
+        (crate::Event::MotorTarget { motor, target }, ..) => {
+            let m = usize::from(*motor);
+            let unit = trace.header.as_ref().and_then(|h| h.motor_world_units.get(m - 1));
+            let placement = trace.motor_placements.get(m - 1).and_then(|p| p.get(stamped.row));
+            match (unit, placement) {
+                (Some(unit), Some(placement)) => {
+                    let text = format_number(placement.place(i64::from(*target)), 2);
+                    let text = text.trim_end_matches('0').trim_end_matches('.');
+                    format!("target_m{m}={text} {unit}", unit = unit.name)
+                }
+                _ => stamped.event.to_string(),
+            }
+        }
         (event, ..) => event.to_string(),
     }
 }
 
 /// Draws the plot into `out` with plotters, and returns the curves as SVG elements to add at its end.
 fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotError> {
-    let samples = &Columns::of(trace);
+    let samples = &Columns::of(trace, 0);
     let events: &[Event] =
         &trace.events.iter().map(|e| Event { micros: e.micros, text: event_text(trace, e) }).collect::<Vec<_>>();
     let levels: &[Levels] = &trace.levels;
@@ -362,7 +387,21 @@ fn draw(out: &mut String, title: &str, trace: &Trace) -> Result<String, PlotErro
     let end = last.max(events.last().map_or(0, |e| e.micros)).max(1);
     let time = Scale::fixed(0.0, seconds(end), false, 12);
     let unit = trace.header.as_ref().and_then(|h| h.world_unit.as_ref()).map(|u| u.name.as_str());
-    let mut candidates = vec![position_panel(samples, unit), velocity_panel(samples)];
+    let motors = trace.motors();
+    let mut candidates = if motors == 1 {
+        vec![position_panel(samples, unit, None), velocity_panel(samples, None)]
+    } else {
+        // A position and a velocity panel per motor, motor by motor; the world's unit is motor 0's.
+        let mut panels = Vec::new();
+        let units = trace.header.as_ref().map_or(&[][..], |h| &h.motor_world_units[..]);
+        for m in 0..motors {
+            let columns = Columns::of(trace, m);
+            let unit = if m == 0 { unit } else { units.get(usize::from(m) - 1).map(|u| u.name.as_str()) };
+            panels.push(position_panel(&columns, unit, Some(m)));
+            panels.push(velocity_panel(&columns, Some(m)));
+        }
+        panels
+    };
     candidates.extend(drive_panels(samples, seconds(end)));
     let mut panels = Vec::new();
     let mut notes = Vec::new();
@@ -424,7 +463,15 @@ fn wrap_notes(notes: &[String]) -> Vec<String> {
     lines
 }
 
-fn position_panel(samples: &impl Samples, unit: Option<&str>) -> Panel {
+/// What a per-axis panel's names begin with: `motor N ` on a model with several motors.
+fn motor_label(motor: Option<u8>) -> String {
+    motor.map_or(String::new(), |m| format!("motor {m} "))
+}
+
+/// Target and actual position; `motor`: which, on a model with several (then in the names and smaller).
+fn position_panel(samples: &impl Samples, unit: Option<&str>, motor: Option<u8>) -> Panel {
+    let label = motor_label(motor);
+    let height = if motor.is_some() { 200 } else { 300 };
     match unit {
         Some(unit) => {
             let world = |f: fn((f64, f64)) -> f64| move |s: &Sample| s.world.map_or(0.0, f);
@@ -433,39 +480,42 @@ fn position_panel(samples: &impl Samples, unit: Option<&str>) -> Panel {
                     points: thin(samples, world(|w| w.0)),
                     color: TARGET,
                     style: Style::Line(2),
-                    name: "target position (AP 0)".into(),
+                    name: format!("{label}target position (AP 0)"),
                 },
                 Series {
                     points: thin(samples, world(|w| w.1)),
                     color: ACTUAL,
                     style: Style::Line(1),
-                    name: "actual position (AP 1)".into(),
+                    name: format!("{label}actual position (AP 1)"),
                 },
             ];
-            let mut panel = Panel::new(300, &format!("position [{unit}]"), false, None, series);
+            let mut panel = Panel::new(height, &format!("{label}position [{unit}]"), false, None, series);
             panel.decimals = panel.scale.decimals + 1;
             panel
         }
         None => {
             let series = vec![
-                line(samples, |s| s.target, TARGET, 2, "target position (AP 0)"),
-                line(samples, |s| s.actual, ACTUAL, 1, "actual position (AP 1)"),
+                line(samples, |s| s.target, TARGET, 2, &format!("{label}target position (AP 0)")),
+                line(samples, |s| s.actual, ACTUAL, 1, &format!("{label}actual position (AP 1)")),
             ];
-            Panel::new(300, "position [µsteps]", true, None, series)
+            Panel::new(height, &format!("{label}position [µsteps]"), true, None, series)
         }
     }
 }
 
-fn velocity_panel(samples: &impl Samples) -> Panel {
+fn velocity_panel(samples: &impl Samples, motor: Option<u8>) -> Panel {
+    let label = motor_label(motor);
     // On a closed loop the velocity measured at the encoder is drawn thin over a wider ramp velocity, so
     // the ramp stays visible where the two agree.
     let measured = samples.len() > 0 && samples.at(0).measured.is_some();
-    let mut series = vec![line(samples, |s| s.velocity, SPEED, if measured { 3 } else { 1 }, "actual velocity (AP 3)")];
+    let width = if measured { 3 } else { 1 };
+    let mut series = vec![line(samples, |s| s.velocity, SPEED, width, &format!("{label}actual velocity (AP 3)"))];
     if measured {
         let measured = |s: &Sample| s.measured.unwrap_or(0);
         series.push(line(samples, measured, MEASURED, 1, "measured velocity at the encoder (AP 131)"));
     }
-    Panel::new(220, "velocity [pps]", true, None, series)
+    let height = if motor.is_some() { 150 } else { 220 };
+    Panel::new(height, &format!("{label}velocity [pps]"), true, None, series)
 }
 
 /// The drive's panels, for the columns the trace has: load value, current scale or scaler, encoder −
