@@ -7,11 +7,13 @@
 #   three RS485 buses of 22), set going by a host (each TMCM-1310's encoder initialised and its loop
 #   closed, every third module turning), then left without host traffic for 30 s (10 s with --quick)
 #   while the CPU time (user + system, /proc/PID/stat) of the serving process(es) is measured; two
-#   rounds. Variants: loop closed; loop open; loop open and nothing turning (the serve loops' own cost).
+#   rounds. Variants: loop closed; loop closed and nothing turning; loop open; loop open and nothing
+#   turning (the serve loops' own cost).
 #   Memory: the resident set (VmRSS) of `tmcl serve` with one module, and of the fleet after one request to
 #   every module; the difference over 99 is what a module costs beyond the process.
 #   BEFORE_TMCL: a `tmcl` binary from before `--fleet`, served as one `tmcl serve` per line (what a
-#   fleet took before), measured in the same run.
+#   fleet took before), measured in the same run. FLEET_COMPARE=PATH (environment): another build's `tmcl`,
+#   served with --fleet and its loops closed, alternating with this build's.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 args=(--only fleet)

@@ -2,8 +2,8 @@
 //! EtherCAT frames through the slave in process.
 //!
 //! Run: `cargo bench -p tmcl-cli --bench throughput` (a plain harness that prints its figures; pass
-//! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory|fleet` for one
-//! part; `fleet` is what `scripts/fleet-bench.sh` runs).
+//! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory|fleet|serve1310` for
+//! one part; `fleet` is what `scripts/fleet-bench.sh` runs, `serve1310` the TMCM-1310 under `tmcl serve`).
 
 use std::hint::black_box;
 use std::process::{Child, Command as Process, Stdio};
@@ -332,6 +332,71 @@ fn serve_cpu(secs: u64) {
     }
 }
 
+/// CPU time of `tmcl serve --module tmcm-1310` without host traffic over `secs` seconds of wall time
+/// (user + system of its threads, `/proc/PID/stat`, after a host set it up and 2 s of settling): the
+/// loop closed as pytrinamic's closed-loop demo closes it (AP 132 = 1 until it reads 2, then AP 129 = 1),
+/// standing or turning (ROR 51200), and the loop open turning. `SERVE_BEFORE=PATH`: another build's
+/// `tmcl`, measured alternately in the same run.
+fn serve_1310(secs: u64, rounds: usize) {
+    let this = env!("CARGO_BIN_EXE_tmcl").to_string();
+    let mut builds = vec![("this build", this)];
+    if let Ok(before) = std::env::var("SERVE_BEFORE") {
+        builds.insert(0, ("before", before));
+    }
+    let cases = [
+        ("loop closed, standing", true, 0),
+        ("loop closed, turning", true, 51_200),
+        ("loop open, turning", false, 51_200),
+    ];
+    for round in 0..rounds {
+        for (case, closed, velocity) in cases {
+            for (build, tmcl) in &builds {
+                let dir = std::env::temp_dir().join(format!("tmcl-bench-1310-{}", std::process::id()));
+                let _ = std::fs::remove_dir_all(&dir);
+                std::fs::create_dir_all(&dir).unwrap();
+                let link = dir.join("usb");
+                let child = Process::new(tmcl)
+                    .args(["serve", "--module", "tmcm-1310", "--pty"])
+                    .arg(&link)
+                    .stdout(Stdio::null())
+                    .spawn()
+                    .expect("start tmcl serve");
+                let server = Server(child, link.clone());
+                let line = FleetLine { link: link.clone(), modules: vec![("tmcm-1310", 1, velocity != 0)] };
+                fleet_wait_for_links(std::slice::from_ref(&line));
+                {
+                    let transport = SerialTransport::open(link.to_str().unwrap(), 115_200).unwrap();
+                    let mut client = Client::new(transport);
+                    if closed {
+                        client.set_axis_parameter(132, 0, 1).unwrap();
+                        while client.get_axis_parameter(132, 0).unwrap() != 2 {
+                            std::thread::sleep(StdDuration::from_millis(5));
+                        }
+                        client.set_axis_parameter(129, 0, 1).unwrap();
+                    }
+                    if velocity != 0 {
+                        client.rotate(0, velocity).unwrap();
+                    }
+                }
+                std::thread::sleep(StdDuration::from_secs(2));
+                let pid = server.0.id();
+                let (cpu0, _) = proc_usage(pid);
+                let wall0 = StdInstant::now();
+                std::thread::sleep(StdDuration::from_secs(secs));
+                let (cpu1, _) = proc_usage(pid);
+                let wall = wall0.elapsed().as_secs_f64();
+                println!(
+                    "serve tmcm-1310 {case:<24} {build:<10} [{round}]: {:.3} % of a core ({:.0} ms CPU in {wall:.1} s)",
+                    100.0 * (cpu1 - cpu0) / wall,
+                    (cpu1 - cpu0) * 1e3
+                );
+                drop(server);
+                let _ = std::fs::remove_dir_all(&dir);
+            }
+        }
+    }
+}
+
 /// What one module holds in RAM, without the heap (there is none): the firmware state (with every host
 /// interface's framer, outbox and ASCII line) and the program machine, but not program memory nor the
 /// debugger's breakpoints (a simulator feature a module does not have; printed apart).
@@ -656,6 +721,9 @@ fn main() {
     if part("serve") {
         serve_cpu(if quick { 10 } else { 60 });
     }
+    if only == Some("serve1310") {
+        serve_1310(if quick { 5 } else { 20 }, if quick { 1 } else { 2 });
+    }
     if part("pty") {
         pty_latency(if quick { 2_000 } else { 20_000 });
     }
@@ -670,7 +738,12 @@ fn main() {
                 let name = format!("before: one process per line, loop closed [{round}]");
                 fleet_run(before, &name, true, true, true, idle);
             }
+            if let Ok(other) = std::env::var("FLEET_COMPARE") {
+                // `FLEET_COMPARE=PATH`: another build's `tmcl --fleet`, loop closed, alternating with this one.
+                fleet_run(&other, &format!("--fleet, other build, loop closed [{round}]"), false, true, true, idle);
+            }
             fleet_run(tmcl, &format!("--fleet, loop closed [{round}]"), false, true, true, idle);
+            fleet_run(tmcl, &format!("--fleet, loop closed, all standing [{round}]"), false, true, false, idle);
             fleet_run(tmcl, &format!("--fleet, loop open [{round}]"), false, false, true, idle);
             fleet_run(tmcl, &format!("--fleet, loop open, all standing [{round}]"), false, false, false, idle);
         }

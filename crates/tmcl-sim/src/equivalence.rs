@@ -15,7 +15,7 @@
 
 use crate::board::SimBoard;
 use crate::world::World;
-use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, tmcm_3110, tmcm_6110, Kinematics, ModelSpec};
+use tmcl_core::model::{pd28_1021, pd_113, tmcm_1140, tmcm_1310, tmcm_3110, tmcm_6110, Kinematics, ModelSpec, Setting};
 use tmcl_core::{Duration, Instant, Module};
 use tmcl_wire::{CalcOp, Command, Condition, EventMode, Instruction, MoveTarget, Request, RfsAction, WaitCondition};
 
@@ -105,6 +105,30 @@ const AXIS: &[(u8, i64, i64)] = &[
     (212, 0, 3000),
 ];
 
+/// Closed-loop parameters a closed-loop scenario sets (TMCM-1310: I²t, β, current scaling, the
+/// controller, the following error, the position window), with a value range for each.
+const CLOSED_LOOP: &[(u8, i64, i64)] = &[
+    (25, 1, 20_000),
+    (26, 0, 3_000_000),
+    (111, 0, 256),
+    (113, 0, 255),
+    (114, 0, 255),
+    (115, 0, 1),
+    (116, 0, 300),
+    (117, 0, 300),
+    (118, 0, 40),
+    (119, 0, 40),
+    (120, 0, 50),
+    (121, 0, 50),
+    (122, 0, 1),
+    (124, 0, 200),
+    (125, 0, 20_000),
+    (126, 0, 100_000),
+    (134, 0, 300),
+    (136, 0, 1024),
+    (138, 0, 2000),
+];
+
 impl std::fmt::Debug for Scenario {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "model {}, until {}", self.spec.id, self.end)?;
@@ -123,9 +147,22 @@ impl std::fmt::Debug for Scenario {
 impl Scenario {
     /// Decodes arbitrary bytes into a scenario (see the module docs).
     pub fn decode(data: &[u8]) -> Scenario {
+        Scenario::decode_as(data, false)
+    }
+
+    /// [`Scenario::decode`] for a TMCM-1310 with its loop closed at the start, whatever the bytes say
+    /// (the property test of closed loops, which one scenario in sixteen of `decode` is).
+    pub fn decode_closed_loop(data: &[u8]) -> Scenario {
+        Scenario::decode_as(data, true)
+    }
+
+    fn decode_as(data: &[u8], closed_loop: bool) -> Scenario {
         let mut b = Bytes(data);
+        // (The model's byte is read either way, so that the rest decodes alike; 0 is the TMCM-1310.)
+        let model = b.u8();
+        let model = if closed_loop { 0 } else { model };
         // 6: the TMCM-1140 (a value no stored regression starts with, so that they decode as before).
-        let spec: &'static ModelSpec = match b.u8() % 8 {
+        let spec: &'static ModelSpec = match model % 8 {
             0 => &tmcm_1310::SPEC,
             1 => &pd_113::SPEC,
             6 => &tmcm_1140::SPEC,
@@ -191,6 +228,32 @@ impl Scenario {
                     let mask = (b.u8() & all).max(1);
                     let mode = if b.u8() % 2 == 0 { 0x40 } else { 0x80 };
                     *c = Command::Mvp { motor: mode | mask, target: MoveTarget::Coord(i32::from(b.u8() % 21)) };
+                }
+            }
+        }
+        if spec.axis.has(Setting::ClosedLoop) && (b.u8() % 2 == 1 || closed_loop) {
+            // A closed-loop model, one time in two (read last, so that earlier scenarios decode as
+            // before): the encoder initialised and the loop closed at the start, as pytrinamic's
+            // closed-loop demo does (AP 129 written during the initialisation closes the loop when it is
+            // done), with closed-loop settings drawn too (current scaling, I²t, the controller).
+            let mut first =
+                vec![Command::Sap { param: 132, motor: 0, value: 1 }, Command::Sap { param: 129, motor: 0, value: 1 }];
+            for _ in 0..b.u8() % 6 {
+                let (param, lo, hi) = b.pick(CLOSED_LOOP);
+                first.push(Command::Sap { param, motor: 0, value: b.range(lo, hi) as i32 });
+            }
+            settings.splice(0..0, first);
+            // Host commands that open and close the loop, or enter torque mode.
+            for (_, c) in host.iter_mut() {
+                if b.one_in(4) {
+                    *c = match b.u8() % 3 {
+                        0 => Command::Sap { param: 129, motor: 0, value: i32::from(b.u8() % 2) },
+                        1 => Command::Sap { param: 14, motor: 0, value: b.range(-1500, 1500) as i32 },
+                        _ => {
+                            let (param, lo, hi) = b.pick(CLOSED_LOOP);
+                            Command::Sap { param, motor: 0, value: b.range(lo, hi) as i32 }
+                        }
+                    };
                 }
             }
         }

@@ -324,3 +324,84 @@ fn ap_129_during_the_initialisation_closes_the_loop_when_it_ends() {
     assert_eq!((gap(&mut m, 132, end), gap(&mut m, 129, end), gap(&mut m, 133, end)), (3, 1, 0));
     assert_eq!(gap(&mut m, 18, end) & 4, 0, "open loop");
 }
+
+/// Polls `m` at its own deadlines from `from` to `until` (as `tmcl serve` and `tmcl run` do); returns
+/// how many polls that took.
+fn polls_to(m: &mut Module<SimBoard>, from: Instant, until: Instant) -> usize {
+    let (mut t, mut polls) = (from, 0);
+    while t < until {
+        polls += 1;
+        let next = m.poll(t, &mut |_: &[u8]| {});
+        t = next.map_or(until, |n| n.min(until).max(t + Duration::from_micros(1)));
+    }
+    run_to(m, until);
+    polls
+}
+
+#[test]
+fn a_closed_loop_at_rest_sleeps_and_agrees_with_ticking() {
+    // The loop closed, a move and back, then a minute standing: ticking takes a poll every millisecond;
+    // the loop at rest (no error, the current scaler at its minimum) sleeps through the minute, but for
+    // the I²t sum settling over the first seconds (one poll per stretch it computes ahead). Both end in
+    // the same state.
+    let mut runs = [true, false].map(|exact| {
+        let mut m = module(&tmcm_1310::SPEC, "");
+        m.set_exact_ticks(exact);
+        let t0 = close_the_loop(&mut m);
+        sap(&mut m, 0, REV, t0);
+        let t = run_until(&mut m, t0, Duration::from_secs(5), |m, t| gap(m, 8, t) == 1);
+        sap(&mut m, 0, 0, t);
+        let t = run_until(&mut m, t, Duration::from_secs(5), |m, t| gap(m, 8, t) == 1);
+        (m, t)
+    });
+    assert_eq!(runs[0].1, runs[1].1, "both arrive at the same tick");
+    let t = runs[0].1;
+    let end = t + Duration::from_secs(60);
+    let [(exact, _), (fast, _)] = &mut runs;
+    let ticked = polls_to(exact, t, end);
+    let slept = polls_to(fast, t, end);
+    assert!(ticked >= 59_000, "ticking: {ticked} polls");
+    assert!(slept <= 100, "a loop at rest sleeps: {slept} polls in a minute");
+    // (When each last called the board differs, as the equivalence harness allows: ticking brings the
+    // board's clock to every tick.)
+    let (a, b) = (&fast.state().axes()[0], &exact.state().axes()[0]);
+    assert_eq!(a.closed_loop(), b.closed_loop());
+    assert_eq!(a.ramp(), b.ramp());
+    assert_eq!(fast.board().shaft(), exact.board().shaft());
+    assert_eq!(fast.board().energy().to_bits(), exact.board().energy().to_bits());
+    for p in [1, 8, 18, 27, 123, 131, 133, 230, 237] {
+        assert_eq!(gap(fast, p, end), gap(exact, p, end), "AP {p}");
+    }
+    // The I²t sum settled on the way: I²·τ at the scaled-down current.
+    assert!(gap(fast, 27, end) > 0);
+    assert_eq!(gap(fast, 123, end), 100, "the scaler at its minimum (AP 113)");
+}
+
+#[test]
+fn an_open_loop_turning_takes_spans_and_measures_as_ticking() {
+    // Open loop, the TMCM-1310 measures its velocity (AP 131) from the encoder over the last 32 ms: a
+    // minute of turning is spans but for the last 33 ticks before each poll, and reads as ticking.
+    let mut runs = [true, false].map(|exact| {
+        let mut m = module(&tmcm_1310::SPEC, "");
+        m.set_exact_ticks(exact);
+        exec(&mut m, Command::Ror { motor: 0, velocity: 51200 }, Instant::ZERO).unwrap();
+        m
+    });
+    let end = Instant::ZERO + Duration::from_secs(60);
+    let [exact, fast] = &mut runs;
+    let ticked = polls_to(exact, Instant::ZERO, end);
+    let spanned = polls_to(fast, Instant::ZERO, end);
+    assert!(ticked >= 59_000, "ticking: {ticked} polls");
+    assert!(spanned <= 100, "turning takes spans: {spanned} polls in a minute");
+    let (a, b) = (&fast.state().axes()[0], &exact.state().axes()[0]);
+    assert_eq!(a.closed_loop(), b.closed_loop());
+    assert_eq!(a.ramp(), b.ramp());
+    assert_eq!(gap(fast, 131, end), gap(exact, 131, end));
+    assert!((gap(fast, 131, end) - 51200).abs() <= 400, "AP 131 {}", gap(fast, 131, end));
+    // Read in the middle of a cruise too (the window then holds the last 32 ticks before the read).
+    let t = end + Duration::from_micros(12_345_678);
+    run_to(exact, t);
+    run_to(fast, t);
+    assert_eq!(fast.state().axes()[0].closed_loop(), exact.state().axes()[0].closed_loop());
+    assert_eq!(gap(fast, 131, t), gap(exact, 131, t));
+}

@@ -23,6 +23,29 @@ proptest::proptest! {
     }
 }
 
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(
+        std::env::var("EVENT_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(16)
+    ))]
+    /// The same for a TMCM-1310 with its loop closed at the start: the loop sleeps while it is at rest
+    /// (`tmcl_core`'s `drive/closed_loop.rs`), and must do exactly what ticking does. (Fewer cases by
+    /// default: both runs of a closed loop tick while it moves, about 2.4 s a case in a release build;
+    /// `EVENT_CASES=200` ran before this was committed.)
+    #[test]
+    fn closed_loops_event_driven_are_closed_loops_tick_by_tick(
+        data in proptest::collection::vec(proptest::num::u8::ANY, 0..400)
+    ) {
+        let scenario = Scenario::decode_closed_loop(&data);
+        if let Err(e) = scenario.check() {
+            let same = match std::env::var_os("EVENT_DIAG") {
+                Some(_) => scenario.first_difference().unwrap_or_else(|| "none on the same polls".into()),
+                None => "(EVENT_DIAG=1 to look)".into(),
+            };
+            proptest::prop_assert!(false, "{e}\n{scenario:?}\nsame polls: {same}");
+        }
+    }
+}
+
 /// The TMCM-3110 case the property test found (proptest seed `286fcb50…`, shrunk): nothing moves, a
 /// program loops, the host reads AP 3. The two runs agree on everything; what differed was when each had
 /// last called the board of motors 1 and 2 (a tick-by-tick run brings every motor's board clock on at

@@ -57,6 +57,18 @@
 //! the counter AP 28 counts the event, and the current is held at the standby current AP 7 until the
 //! sum is below the limit again; AP 29 clears the flag. It runs with the closed loop.
 //!
+//! **At rest** (a loop that sleeps): while the ramp stands and the rotor stands on the encoder reading
+//! the loop last took, with no error, the controller's next tick leaves the field, the integrator and
+//! gamma where they are; if the current scaler cannot move either (at its limit in the direction the
+//! regulated error pushes it, or the error between the limits), every further tick changes only what
+//! counts: the velocity window fills with zeros, the scaler's millisecond counters run round, and the
+//! I²t sum runs on towards I²·τ. [`ClosedLoop::rest`] takes such ticks in closed form — the counters by
+//! arithmetic, the I²t sum one tick at a time in a tight loop, up to its fixed point (after which
+//! nothing changes at all) or to the tick at which it crosses its limit (which changes the current:
+//! that tick is ticked). The result is that of ticking them (`tests/event_driven.rs` in `tmcl-sim`).
+//! In open loop (the TMCM-1310 measures AP 131 from its encoder) a standing rotor's ticks only fill the
+//! velocity window with zeros.
+//!
 //! # Constants and units
 //! - β and gamma: 256 = one full step (90° electrical); β in microsteps = AP 111 · 2^res / 256, at least 1.
 //! - The status word's supply limits are the board's 10–51 V (the CoE manual of the same board).
@@ -260,6 +272,156 @@ pub fn control(p: &LoopParams, input: &LoopInput) -> FieldCommand {
     FieldCommand { field: f, hold }
 }
 
+/// What the ticks of a loop at rest depend on besides its state ([`ClosedLoop::rest`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RestParams {
+    /// The position controller's parameters.
+    pub control: LoopParams,
+    /// One full step in microsteps (gamma's unit).
+    pub full_step: i64,
+    /// The current scaling.
+    pub scale: ScaleParams,
+    /// The regulated error takes |e| (AP 115 = 1), not |gamma|.
+    pub scale_on_error: bool,
+    /// The RMS coil current (mA) while the loop rests: constant, since the scaler and the I²t limiting are.
+    pub rms_ma: i64,
+    /// AP 25 (ms).
+    pub tau_ms: i64,
+    /// AP 26 (0 = off).
+    pub i2t_limit: i64,
+}
+
+/// A millisecond counter of the current scaling after `ticks` ticks (≥ 1) in one branch: each tick adds
+/// one and a count that reaches `period` starts again at 0.
+fn counter_after(count: u32, period: u32, ticks: u64) -> u32 {
+    let period = u64::from(period.max(1));
+    let first = if u64::from(count) + 1 >= period { 0 } else { u64::from(count) + 1 };
+    ((first + (ticks - 1) % period) % period) as u32
+}
+
+impl ClosedLoop {
+    /// Records `ticks` whole ticks in which the rotor did not move (the velocity window fills with zeros)
+    /// — what [`ClosedLoop::record_move`] does at each of them. Only between whole ticks (nothing
+    /// pending); returns whether it could.
+    pub fn record_still(&mut self, ticks: u64) -> bool {
+        if self.pending_us != 0 || self.pending_move != 0 {
+            return false;
+        }
+        if ticks == 0 {
+            return true;
+        }
+        let at = usize::from(self.moves_at) % VELOCITY_WINDOW;
+        for k in 0..(ticks.min(VELOCITY_WINDOW as u64) as usize) {
+            self.moves[(at + k) % VELOCITY_WINDOW] = 0;
+        }
+        self.moves_at = ((at as u64 + ticks % VELOCITY_WINDOW as u64) % VELOCITY_WINDOW as u64) as u8;
+        self.last_move = 0;
+        true
+    }
+
+    /// Passes over `ticks` ticks whose moves are not recorded: only where the next move goes into the
+    /// velocity window moves on. (For a span of ticks in open loop whose last [`VELOCITY_WINDOW`] + 1
+    /// ticks are ticked: those overwrite every slot, and the first of them `actual` and the pending
+    /// move.)
+    pub fn skip_ticks(&mut self, ticks: u64) {
+        let window = VELOCITY_WINDOW as u64;
+        self.moves_at = ((u64::from(self.moves_at) % window + ticks % window) % window) as u8;
+    }
+
+    /// Whether the closed loop is at rest (see the module docs) with the ramp standing at the rotor:
+    /// the next tick of the controller and of the current scaling changes nothing but counters and the
+    /// I²t sum. The caller has checked that the ramp stands where the encoder reads (`error` 0 now) and
+    /// that the rotor has not moved since the last tick.
+    pub fn at_rest(&self, p: &RestParams) -> bool {
+        if !self.active
+            || self.torque.is_some()
+            || matches!(self.init, Init::Running { .. })
+            || self.error != 0
+            || self.last_move != 0
+            || self.pending_us != 0
+            || self.pending_move != 0
+            || self.moves.iter().any(|m| *m != 0)
+        {
+            return false;
+        }
+        // The controller, relative to the rotor (as the module calls it): no error, no step, the field
+        // where it is.
+        let input = LoopInput {
+            virtual_pos: 0,
+            step: 0,
+            standing: true,
+            actual: 0,
+            rotor_move: 0,
+            field: self.field_offset,
+            hold: self.hold,
+        };
+        let c = control(&p.control, &input);
+        let gamma = (c.field * 256 / p.full_step.max(1)).clamp(-256, 256) as i32;
+        if c.field != self.field_offset || c.hold != self.hold || gamma != self.gamma {
+            return false;
+        }
+        // The scaler stays where it is at every tick from now on.
+        let s = &p.scale;
+        let (lo, hi) = (s.min.min(s.max), s.max);
+        let error = self.regulated(p);
+        if !s.enabled {
+            self.scaler == hi && self.up_ms == 0 && self.down_ms == 0
+        } else if error > s.upper {
+            self.scaler.saturating_add(s.increment).clamp(lo, hi) == self.scaler
+        } else if error < s.lower {
+            self.scaler.saturating_sub(s.decrement).clamp(lo, hi) == self.scaler
+        } else {
+            self.scaler.clamp(lo, hi) == self.scaler
+        }
+    }
+
+    /// The error the current scaling regulates at rest: |gamma|, or |e| = 0.
+    fn regulated(&self, p: &RestParams) -> i64 {
+        if p.scale_on_error {
+            0
+        } else {
+            i64::from(self.gamma.unsigned_abs())
+        }
+    }
+
+    /// Takes up to `ticks` ticks of a loop [at rest](ClosedLoop::at_rest) in closed form, exactly as
+    /// ticking them would; stops before a tick at which the I²t monitor would start or stop limiting the
+    /// current (that tick changes the current: it is ticked). Returns how many it took.
+    pub fn rest(&mut self, p: &RestParams, ticks: u64) -> u64 {
+        // The I²t sum, tick by tick up to its fixed point (the sum at which the gain and the decay of a
+        // tick are equal: from there on every tick leaves it as it is).
+        let mut taken = 0;
+        while taken < ticks {
+            let next = i2t_sum(self.i2t, p.rms_ma, 1000, p.tau_ms);
+            if (p.i2t_limit > 0 && next > p.i2t_limit) != self.i2t_limiting {
+                break;
+            }
+            taken += 1;
+            if next == self.i2t {
+                taken = ticks;
+            }
+            self.i2t = next;
+        }
+        if taken == 0 {
+            return 0;
+        }
+        self.record_still(taken);
+        let s = &p.scale;
+        let error = self.regulated(p);
+        if !s.enabled || (s.lower..=s.upper).contains(&error) {
+            self.up_ms = 0;
+            self.down_ms = 0;
+        } else if error > s.upper {
+            self.down_ms = 0;
+            self.up_ms = counter_after(self.up_ms, s.up_ms, taken);
+        } else {
+            self.up_ms = 0;
+            self.down_ms = counter_after(self.down_ms, s.down_ms, taken);
+        }
+        taken
+    }
+}
+
 /// Current-scaling parameters (AP 113–122).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ScaleParams {
@@ -313,13 +475,19 @@ pub fn scale(cl: &mut ClosedLoop, p: &ScaleParams, error: i64) {
     cl.scaler = cl.scaler.clamp(lo, hi);
 }
 
+/// The I²t sum after `rms_ma` flowed for `dt_us` with time constant `tau_ms`: dS = I²·dt − S·dt/τ,
+/// in mA²·s.
+#[inline]
+pub fn i2t_sum(sum: i64, rms_ma: i64, dt_us: i64, tau_ms: i64) -> i64 {
+    let tau_us = tau_ms.max(1) * 1000;
+    let gain = rms_ma * rms_ma * dt_us / 1_000_000;
+    (sum + gain - sum * dt_us / tau_us).max(0)
+}
+
 /// One tick of the I²t monitor: `rms_ma` flowing for `dt_us`, time constant `tau_ms`, limit (0 = off).
 /// Returns whether the sum is above the limit now.
 pub fn i2t(cl: &mut ClosedLoop, rms_ma: i64, dt_us: i64, tau_ms: i64, limit: i64) -> bool {
-    // dS = I²·dt − S·dt/τ, in mA²·s.
-    let tau_us = tau_ms.max(1) * 1000;
-    let gain = rms_ma * rms_ma * dt_us / 1_000_000;
-    cl.i2t = (cl.i2t + gain - cl.i2t * dt_us / tau_us).max(0);
+    cl.i2t = i2t_sum(cl.i2t, rms_ma, dt_us, tau_ms);
     let over = limit > 0 && cl.i2t > limit;
     if over && !cl.i2t_limiting {
         cl.i2t_exceeded = true;
@@ -519,5 +687,108 @@ mod tests {
         assert_eq!(cl.measured_velocity(), 31 * 51 * 1000 / 32);
         cl.record_move(1 << 40, 1000);
         assert!(cl.measured_velocity() > 0, "a huge move is clamped, not wrapped");
+    }
+
+    #[test]
+    fn a_loop_at_rest_in_closed_form_is_the_loop_ticked() {
+        // Scaler at its minimum (down counter running round), at its maximum (up counter), between the
+        // limits, off; I²t settling, and crossing its limit.
+        let scale = ScaleParams {
+            enabled: true,
+            min: 100,
+            max: 240,
+            lower: 32,
+            upper: 128,
+            increment: 8,
+            decrement: 1,
+            up_ms: 7,
+            down_ms: 10,
+        };
+        let cases = [
+            (100u8, 0i32, scale, 0i64),
+            (240, 200, scale, 0),
+            (170, 64, scale, 0),
+            (240, 0, ScaleParams { enabled: false, ..scale }, 0),
+            (100, 0, scale, 100_000),
+        ];
+        for (scaler, gamma, scale, limit) in cases {
+            let field = i64::from(gamma); // at 256 microsteps per full step, gamma is the field's lead
+            let cl = ClosedLoop {
+                active: true,
+                init: Init::Done,
+                scaler,
+                gamma,
+                field_offset: field,
+                down_ms: if scale.enabled { 3 } else { 0 },
+                ..ClosedLoop::default()
+            };
+            let p = RestParams {
+                control: LoopParams { hold_gain: 0, ..P },
+                full_step: 256,
+                scale,
+                scale_on_error: false,
+                rms_ma: 800,
+                tau_ms: 300,
+                i2t_limit: limit,
+            };
+            assert!(cl.at_rest(&p), "{scaler} {gamma}");
+            let mut ticked = cl;
+            let mut rested = cl;
+            let mut n = 0u64;
+            while n < 5000 {
+                let before = ticked;
+                record_and_regulate(&mut ticked, &p);
+                if ticked.i2t_limiting != before.i2t_limiting {
+                    ticked = before;
+                    break;
+                }
+                n += 1;
+            }
+            assert_eq!(rested.rest(&p, 5000), n, "{scaler} {gamma} {limit}");
+            assert_eq!(rested, ticked, "{scaler} {gamma} {limit}");
+            if limit > 0 {
+                assert!(n < 5000, "the I²t limit crossed: the crossing tick is left to ticking");
+            }
+        }
+    }
+
+    /// One tick of a loop at rest, as the module runs it: the move recorded, the scaler, I²t.
+    fn record_and_regulate(cl: &mut ClosedLoop, p: &RestParams) {
+        assert!(cl.record_move(0, 1000));
+        scale(cl, &p.scale, i64::from(cl.gamma.abs()));
+        i2t(cl, p.rms_ma, 1000, p.tau_ms, p.i2t_limit);
+    }
+
+    #[test]
+    fn a_moving_or_loaded_loop_is_not_at_rest() {
+        let p = RestParams {
+            control: P,
+            full_step: 256,
+            scale: ScaleParams {
+                enabled: false,
+                min: 0,
+                max: 255,
+                lower: 0,
+                upper: 0,
+                increment: 0,
+                decrement: 0,
+                up_ms: 0,
+                down_ms: 0,
+            },
+            scale_on_error: false,
+            rms_ma: 0,
+            tau_ms: 1,
+            i2t_limit: 0,
+        };
+        let rest = ClosedLoop { active: true, init: Init::Done, scaler: 255, ..ClosedLoop::default() };
+        assert!(rest.at_rest(&p));
+        let mut moved = rest;
+        moved.moves[5] = 1;
+        assert!(!moved.at_rest(&p), "moved within the velocity window");
+        assert!(!ClosedLoop { error: 3, ..rest }.at_rest(&p), "an error: the loop corrects");
+        assert!(!ClosedLoop { torque: Some((100, 0)), ..rest }.at_rest(&p), "torque mode");
+        assert!(!ClosedLoop { active: false, ..rest }.at_rest(&p), "open");
+        assert!(!ClosedLoop { gamma: 12, ..rest }.at_rest(&p), "gamma not yet the field's lead");
+        assert!(!ClosedLoop { scaler: 200, ..rest }.at_rest(&p), "scaling off: the scaler goes to AP 114");
     }
 }

@@ -13,9 +13,11 @@
 //! [`Module::poll`] returns is the next of these, not the next tick.
 //!
 //! Where no closed form exists the module ticks, for as long as that holds: a reference search (it
-//! samples its switch at every microstep), a closed-loop model (the loop measures and corrects every
-//! tick), coolStep regulating, a deviation check that is armed, and a board that cannot say when its
-//! readings next change ([`crate::hal::StepDriver::quiet`] returns `None`).
+//! samples its switch at every microstep), a closed loop while it moves or settles (it measures and
+//! corrects every tick; at rest it sleeps, see [`crate::drive::closed_loop`], and in open loop a
+//! closed-loop model's spans leave the velocity window's ticks to ticking, `spans.rs`), coolStep
+//! regulating, a deviation check that is armed, and a board that cannot say when its readings next
+//! change ([`crate::hal::StepDriver::quiet`] returns `None`).
 //!
 //! # A program that never waits
 //!
@@ -217,9 +219,9 @@ impl<B: Board> Module<B> {
         // levels stay as they are, so the ticks up to its end may be jumped over too.
         let mut quiet_until = None;
         if watching {
-            if self.has_closed_loop() || self.exact || self.st.axes.iter().any(|a| a.standstill_since.is_none()) {
-                // A closed-loop model measures its velocity over the last ticks (AP 131); a motor that has
-                // just stopped starts its standstill at the next tick, as a sampled tick has it.
+            if self.exact || self.st.axes.iter().any(|a| a.standstill_since.is_none()) {
+                // A motor that has just stopped starts its standstill at the next tick, as a sampled tick
+                // has it.
                 return false;
             }
             for m in 0..motors {
@@ -251,7 +253,21 @@ impl<B: Board> Module<B> {
         if until < tick_at {
             return false;
         }
-        let ticks = (until - self.st.motion_time).micros() / TICK.micros();
+        let mut ticks = (until - self.st.motion_time).micros() / TICK.micros();
+        if watching && self.has_closed_loop() {
+            // A closed-loop model's loop measures (and, closed, corrects) at every tick: it sleeps through
+            // the ticks only while the rotor stands and the loop is at rest (`module/closed_loop.rs`), as
+            // many as every motor's allows.
+            for m in 0..motors {
+                ticks = ticks.min(self.closed_loop_rest(m, ticks, false));
+            }
+            if ticks == 0 {
+                return false;
+            }
+            for m in 0..motors {
+                self.closed_loop_rest(m, ticks, true);
+            }
+        }
         self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
         for m in 0..motors {
             self.st.axes[m].ramping = false;
@@ -416,13 +432,26 @@ impl<B: Board> Module<B> {
     /// Standing, with level interrupts watched and no 138 event pending: the end of the board's quiet
     /// window, if it has one (`Some(None)`: quiet for good); `None`: every tick must be sampled.
     fn idle_quiet_until(&mut self) -> Option<Option<Instant>> {
-        if self.st.event.pending || self.has_closed_loop() || self.exact {
+        if self.st.event.pending || self.exact {
             return None;
         }
         let mut until: Option<Instant> = None;
         for m in 0..self.st.axes.count() {
             let state = self.st.axes[m].last_drive.unwrap_or_default();
             if let Some(u) = self.board.quiet(m, self.st.motion_time, &state)?.until {
+                until = Some(until.map_or(u, |t| t.min(u)));
+            }
+        }
+        if self.has_closed_loop() {
+            // A loop at rest sleeps as long as its I²t sum neither settles nor crosses its limit: looked at
+            // over a bounded stretch (a deadline at its end is only an extra poll).
+            const LOOK: u64 = 1 << 16;
+            for m in 0..self.st.axes.count() {
+                let n = self.closed_loop_rest(m, LOOK, false);
+                if n == 0 {
+                    return None;
+                }
+                let u = self.st.motion_time + Duration::from_micros(n * TICK.micros());
                 until = Some(until.map_or(u, |t| t.min(u)));
             }
         }

@@ -2,7 +2,9 @@
 //! closed-loop parameters read (TMCM-1310 manual §3.4; the TMCM-1311 sibling's AP 14–29, 111–138, 230–237).
 
 use super::{error_flags, Module};
-use crate::drive::closed_loop::{self, status, FieldCommand, Init, LoopInput, LoopParams, ScaleParams, INIT_PHASE};
+use crate::drive::closed_loop::{
+    self, status, FieldCommand, Init, LoopInput, LoopParams, RestParams, ScaleParams, INIT_PHASE,
+};
 use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
@@ -130,16 +132,7 @@ impl<B: Board> Module<B> {
             self.st.axes[m].ramp.set_position(actual as i32);
             FieldCommand { field: beta * i64::from(current.signum()), hold: 0 }
         } else {
-            let ap = |s| i64::from(self.ap(m, s).unwrap_or(0));
-            let params = LoopParams {
-                beta,
-                max_lead: 2 * self.full_step(m) - 1,
-                gain: ap(Setting::CorrectionGain),
-                max_correction: ap(Setting::MaxCorrectionVelocity),
-                hold_gain: ap(Setting::HoldGain),
-                hold_limit: ap(Setting::HoldLimit),
-                dt_us,
-            };
+            let params = self.loop_params(m, beta, dt_us);
             let standing = self.st.axes[m].ramp.is_idle();
             let input = LoopInput {
                 virtual_pos: e,
@@ -174,11 +167,24 @@ impl<B: Board> Module<B> {
         command.field - field_before
     }
 
-    /// Current scaling and I²t, once per tick while the loop is closed.
-    fn regulate_current(&mut self, m: usize, e: i64) {
-        let dt_us = 1000;
+    /// The position controller's parameters (AP 124, 126, 136, 138) for a tick of `dt_us`.
+    fn loop_params(&self, m: usize, beta: i64, dt_us: i64) -> LoopParams {
+        let ap = |s| i64::from(self.ap(m, s).unwrap_or(0));
+        LoopParams {
+            beta,
+            max_lead: 2 * self.full_step(m) - 1,
+            gain: ap(Setting::CorrectionGain),
+            max_correction: ap(Setting::MaxCorrectionVelocity),
+            hold_gain: ap(Setting::HoldGain),
+            hold_limit: ap(Setting::HoldLimit),
+            dt_us,
+        }
+    }
+
+    /// The current scaling's parameters (AP 113, 114, 116–122).
+    fn scale_params(&self, m: usize) -> ScaleParams {
         let ap = |s| self.ap(m, s).unwrap_or(0);
-        let p = ScaleParams {
+        ScaleParams {
             enabled: ap(Setting::CurrentScaleEnable) == 1,
             min: ap(Setting::CurrentScaleMin).clamp(0, 255) as u8,
             max: ap(Setting::CurrentScaleMax).clamp(0, 255) as u8,
@@ -188,7 +194,61 @@ impl<B: Board> Module<B> {
             decrement: ap(Setting::CurrentScaleDecrement).clamp(0, 255) as u8,
             up_ms: ap(Setting::CurrentScaleUpTime) as u32,
             down_ms: ap(Setting::CurrentScaleDownTime) as u32,
+        }
+    }
+
+    /// How many of the next `ticks` motion ticks motor `m`'s loop sleeps through while the motor stands
+    /// (the idle jump in `module/advance.rs`; the board is quiet and the caller has checked that the
+    /// motor stands): 0 unless the rotor stands where the loop last measured it and the loop is open or
+    /// [at rest](closed_loop::ClosedLoop::at_rest). With `take` the ticks are taken — the loop's state
+    /// becomes what ticking them gives — otherwise only counted (for the deadline).
+    pub(crate) fn closed_loop_rest(&mut self, m: usize, ticks: u64, take: bool) -> u64 {
+        let actual = self.actual_now(m);
+        let want = self.ap(m, Setting::ClosedLoop) == Some(1) && self.st.axes[m].cl.init == Init::Done;
+        let mut cl = self.st.axes[m].cl;
+        if ticks == 0 || actual != cl.actual || want != cl.active || matches!(cl.init, Init::Running { .. }) {
+            return 0;
+        }
+        let taken = if !cl.active {
+            // Open loop: each tick records a rotor that did not move (AP 131).
+            if cl.record_still(ticks) {
+                ticks
+            } else {
+                0
+            }
+        } else {
+            let ramp = &self.st.axes[m].ramp;
+            if !ramp.is_idle() || ramp.position.wrapping_sub(actual as i32) != 0 {
+                return 0;
+            }
+            let res = self.microstep_resolution(m);
+            let beta = closed_loop::beta_usteps(self.ap(m, Setting::CommutationLimit).unwrap_or(255), res);
+            let ap = |s| i64::from(self.ap(m, s).unwrap_or(0));
+            let p = RestParams {
+                control: self.loop_params(m, beta, 1000),
+                full_step: self.full_step(m),
+                scale: self.scale_params(m),
+                scale_on_error: ap(Setting::CurrentScaleInput) == 1,
+                rms_ma: self.setting_to_rms_ma(m, self.closed_loop_current(m).unwrap_or(0)),
+                tau_ms: ap(Setting::I2tTimeConstant),
+                i2t_limit: ap(Setting::I2tLimit),
+            };
+            if !cl.at_rest(&p) {
+                return 0;
+            }
+            cl.rest(&p, ticks)
         };
+        if take {
+            self.st.axes[m].cl = cl;
+        }
+        taken
+    }
+
+    /// Current scaling and I²t, once per tick while the loop is closed.
+    fn regulate_current(&mut self, m: usize, e: i64) {
+        let dt_us = 1000;
+        let ap = |s| self.ap(m, s).unwrap_or(0);
+        let p = self.scale_params(m);
         let error =
             if ap(Setting::CurrentScaleInput) == 1 { e.abs() } else { i64::from(self.st.axes[m].cl.gamma.abs()) };
         let (tau, limit) = (ap(Setting::I2tTimeConstant), ap(Setting::I2tLimit));

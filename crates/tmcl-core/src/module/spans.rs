@@ -8,9 +8,10 @@
 //! A span needs every tick in it to be *silent*: nothing but the ramp may happen at those ticks. So the
 //! module takes none:
 //! - ticking one by one was asked for ([`Module::set_exact_ticks`]);
-//! - in a reference search (it samples its switch after every microstep), on a model with a closed loop
-//!   (it measures the encoder and corrects at every tick, and in open loop measures the velocity AP 131
-//!   over the last ticks);
+//! - in a reference search (it samples its switch after every microstep), while a closed loop is closed
+//!   or initialising (it measures the encoder and corrects at every tick); in open loop a closed-loop
+//!   model measures the velocity AP 131 over the last ticks, so its spans end that many ticks and one
+//!   before the event, and those ticks are ticked (`take_span`);
 //! - while coolStep regulates (every load measurement changes the current), while the encoder deviation
 //!   check (AP 212) is armed, or while an SSI encoder's clear-on-null counts turns from tick to tick;
 //! - while stop on stall (AP 181) is armed and the board's load measurements read 0;
@@ -22,6 +23,7 @@
 //! (AP 182), and any tick the ramp makes an event of ([`crate::motion::Ramp::span`]).
 
 use super::Module;
+use crate::drive::closed_loop::{Init, VELOCITY_WINDOW};
 use crate::drive::encoder;
 use crate::hal::prelude::*;
 use crate::hal::Board;
@@ -129,7 +131,20 @@ impl<B: Board> Module<B> {
             return false; // (the rest is left out of the build)
         }
         let Some((limits, bounds)) = self.span_bounds(Some(now)) else { return false };
-        let (to, span) = self.span(params, limits, &bounds);
+        let (mut to, mut span) = self.span(params, limits, &bounds);
+        if self.has_closed_loop() {
+            // Open loop, a closed-loop model measures AP 131 from its encoder over the last
+            // VELOCITY_WINDOW ticks, each tick the rotor's move since the one before: the span leaves
+            // that many ticks and one more before its end to ticking (the first of them measures the
+            // whole span's move, in a slot the others overwrite), so that the window is what ticking
+            // fills it with, whenever it is read.
+            let keep = VELOCITY_WINDOW as u64 + 1;
+            if span.ticks <= keep {
+                return false;
+            }
+            (to, span) = self.span(params, limits, &Bounds { ticks: span.ticks - keep, ..bounds });
+            self.st.axes[0].cl.skip_ticks(span.ticks);
+        }
         if span.ticks == 0 {
             return false;
         }
@@ -180,7 +195,7 @@ impl<B: Board> Module<B> {
     /// no tick after it (see the module docs).
     fn span_bounds(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds)> {
         if self.exact
-            || self.has_closed_loop()
+            || self.st.axes[0].cl.engaged()
             || self.st.axes[0].reference.is_active()
             || self.st.axes[0].standstill_since.is_some()
             || self.st.axes[0].ramp.velocity() == 0
@@ -196,6 +211,14 @@ impl<B: Board> Module<B> {
             self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axes[0].params[i]);
         if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected(0) {
             return None;
+        }
+        if self.has_closed_loop() {
+            // Open loop: the loop about to close (AP 129 and a done initialisation: it closes at the next
+            // tick), or an SSI encoder, whose turns the firmware counts from reading to reading.
+            let closing = self.ap(0, Setting::ClosedLoop) == Some(1) && self.st.axes[0].cl.init == Init::Done;
+            if closing || self.ssi_selected(0) {
+                return None;
+            }
         }
         // The board at the span's start, as a first tick would read it.
         self.sync_board(0, self.st.motion_time);
