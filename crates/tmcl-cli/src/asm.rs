@@ -48,7 +48,7 @@ pub struct DisasmArgs {
 
 /// Runs `tmcl asm`.
 pub(crate) fn run_asm(args: AsmArgs, json: bool) -> Result<(), CliError> {
-    let model = crate::names::model_by_id(&args.module)?;
+    let model = tmcl_host::models::model_by_id(&args.module)?;
     if let Some(dir) = &args.emit_includes {
         std::fs::create_dir_all(dir).map_err(|source| CliError::Write {
             action: "create",

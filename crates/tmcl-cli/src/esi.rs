@@ -32,7 +32,7 @@ pub(crate) struct EsiWritten {
 
 /// Runs `tmcl esi`.
 pub(crate) fn run(args: EsiArgs, json: bool) -> Result<(), CliError> {
-    let spec = crate::names::model_by_id(&args.module)?;
+    let spec = tmcl_host::models::model_by_id(&args.module)?;
     let map = spec.ethercat.ok_or_else(|| CliError::Usage(format!("the {} has no EtherCAT interface", spec.name)))?;
     let mut xml = String::new();
     tmcl_ethercat::esi::write(spec, map, &mut xml).map_err(CliError::Esi)?;

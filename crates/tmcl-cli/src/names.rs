@@ -10,7 +10,8 @@ use crate::error::{CliError, ReplyJson};
 use clap::{Args, ValueEnum};
 use std::io::Write;
 use tmcl_core::model::names::{self as by_name, NameError, INTERRUPT_BANK};
-use tmcl_core::model::{self, ModelSpec, ParamDesc, Table, Unit};
+use tmcl_core::model::{ModelSpec, ParamDesc, Table, Unit};
+use tmcl_host::models::ModelError;
 use tmcl_host::HostError;
 use tmcl_wire::{Instruction, Opcode, Reply, Status};
 
@@ -32,46 +33,36 @@ pub(crate) enum ParamRef<'a> {
     Global { param: &'a str, bank: Option<u8> },
 }
 
-/// The model, from `--module` or, once needed, from the module itself.
-pub(crate) struct Models {
-    known: Option<&'static ModelSpec>,
-    asked: bool,
-}
+/// The model, from `--module` or, once needed, from the module itself ([`tmcl_host::models::Models`]), and
+/// the parameters named by it.
+pub(crate) struct Models(tmcl_host::models::Models);
 
-/// A model by id, or a usage error listing the known ones.
-pub(crate) fn model_by_id(id: &str) -> Result<&'static ModelSpec, CliError> {
-    model::by_id(id).ok_or_else(|| {
-        let known: Vec<&str> = model::MODELS.iter().map(|m| m.id).collect();
-        CliError::Usage(format!("unknown module `{id}`; known: {}", known.join(", ")))
-    })
+impl From<ModelError> for CliError {
+    fn from(e: ModelError) -> CliError {
+        match e {
+            ModelError::Host(e) => CliError::Host(e),
+            e @ ModelError::UnknownId { .. } => CliError::Usage(e.to_string()),
+            e @ ModelError::UnknownVersion { .. } => {
+                CliError::Usage(format!("{e}: give parameters by number (or --module MODEL)"))
+            }
+        }
+    }
 }
 
 impl Models {
     /// From `--module` (checked now), or to be asked.
     pub(crate) fn new(option: &ModelOption) -> Result<Models, CliError> {
-        Ok(Models { known: option.module.as_deref().map(model_by_id).transpose()?, asked: false })
+        Ok(Models(tmcl_host::models::Models::new(option.module.as_deref())?))
     }
 
     /// The model if it is known without asking.
     pub(crate) fn known(&self) -> Option<&'static ModelSpec> {
-        self.known
+        self.0.known()
     }
 
     /// The model, asking the module for its version string the first time.
     pub(crate) fn get(&mut self, client: &mut HostClient) -> Result<&'static ModelSpec, CliError> {
-        if let Some(model) = self.known {
-            return Ok(model);
-        }
-        let text = client.version_string()?;
-        self.asked = true;
-        let model = model::by_version(&text).ok_or_else(|| {
-            CliError::Usage(format!(
-                "the module's version string is {text:?}, a model OpenTMCL has no parameter table of: give parameters \
-                 by number (or --module MODEL)"
-            ))
-        })?;
-        self.known = Some(model);
-        Ok(model)
+        Ok(self.0.get(client)?)
     }
 
     /// The parameter `p` names: by number (no request), or by name (asks for the model if needed).
@@ -82,8 +73,9 @@ impl Models {
         };
         if let Some(number) = param_number(text) {
             let index = index.unwrap_or(0);
-            let desc = self.known.and_then(|m| by_name::find(m, axis, index, number));
-            return Ok(Target { axis, number, index, desc, model: self.known });
+            let known = self.known();
+            let desc = known.and_then(|m| by_name::find(m, axis, index, number));
+            return Ok(Target { axis, number, index, desc, model: known });
         }
         let model = self.get(client)?;
         lookup(model, text, axis, index)
@@ -427,7 +419,7 @@ pub(crate) fn params(args: ParamsArgs, json: bool, out: &mut dyn Write) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tmcl_core::model::Range;
+    use tmcl_core::model::{self, Range};
     use tmcl_wire::Status;
 
     fn pd28() -> &'static ModelSpec {

@@ -1,5 +1,5 @@
 //! `tmcl params --save FILE`, `--load FILE [--store] [--any-model]` and `--diff FILE`: the parameter sets of
-//! [`tmcl_ui::paramset`] (what is saved, what a load writes and skips, what a diff compares) on the command
+//! [`tmcl_host::paramset`] (what is saved, what a load writes and skips, what a diff compares) on the command
 //! line.
 
 use crate::connection::HostClient;
@@ -8,7 +8,7 @@ use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
 use tmcl_core::model::ModelSpec;
-use tmcl_ui::paramset::{check_model, diff, from_toml, load, snapshot, to_toml, LoadOptions, Outcome, ParamFile};
+use tmcl_host::paramset::{check_model, diff, from_toml, load, snapshot, to_toml, LoadOptions, Outcome, ParamFile};
 
 /// Reads a set from `path`.
 pub(crate) fn read_file(path: &Path) -> Result<ParamFile, CliError> {

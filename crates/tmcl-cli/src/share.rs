@@ -6,12 +6,12 @@
 
 use crate::args::parse_seconds;
 use crate::error::CliError;
-use crate::names::model_by_id;
 use clap::Args;
 use serde::Serialize;
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
 use std::time::Duration;
+use tmcl_host::models::model_by_id;
 use tmcl_serve::monitor::{socket_beside, Transaction};
 use tmcl_serve::{DeviceOptions, LinkOptions, MonitorOptions, Share, ShareOptions};
 

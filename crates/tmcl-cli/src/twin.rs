@@ -20,9 +20,9 @@ use std::time::Duration;
 use tmcl_core::model::{ModelSpec, Role, Setting};
 use tmcl_core::param::persist;
 use tmcl_core::{Instant, Module};
+use tmcl_host::paramset::{self as params, Kind, LoadOptions, ParamFile};
 use tmcl_host::{Client, Transport};
 use tmcl_sim::{Eeprom, FileNvm, SimBoard};
-use tmcl_ui::paramset::{self as params, Kind, LoadOptions, ParamFile};
 use tmcl_wire::Command;
 
 /// Options of `tmcl twin`.

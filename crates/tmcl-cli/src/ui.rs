@@ -2,10 +2,11 @@
 
 use crate::connection::Connection;
 use crate::error::CliError;
-use crate::names::{model_by_id, ModelOption};
+use crate::names::ModelOption;
 use clap::Args;
 use std::io::Write;
 use std::net::SocketAddr;
+use tmcl_host::models::model_by_id;
 
 /// Options of `tmcl ui`.
 #[derive(Debug, Args)]

@@ -12,6 +12,9 @@
 //!   [`tmcl_wire::Command::encode`]. Framing itself is `tmcl_wire`'s.
 //! - [`HostError`]: what went wrong, in plain words.
 //! - [`poll`]: reading a module until a condition holds, or in rows at a steady pace (`tmcl wait`, `tmcl watch`).
+//! - [`models`]: the model of the module on the line, named by the user or found by its version string.
+//! - [`paramset`]: a module's parameters saved to a TOML file, loaded back and compared (`tmcl params
+//!   --save/--load/--diff`, the workbench's save and load), by the model's tables in `tmcl_model`.
 //!
 //! The behaviour follows what existing host software does (pytrinamic 0.2.26) where that is safe: host address
 //! not checked, statuses 100, 101 and 128 accepted, 5 s default timeout. Unlike pytrinamic, serial ports are
@@ -31,6 +34,8 @@
 
 mod client;
 mod error;
+pub mod models;
+pub mod paramset;
 pub mod poll;
 mod serial;
 mod tcp;

@@ -421,9 +421,14 @@ pub fn by_id(id: &str) -> Option<&'static ModelSpec> {
 }
 
 /// Finds the model whose version string starts like `text`: the module number and the `V` (`1021V` of
-/// `1021V142`; command 136 type 0, PD28-1021 TMCL manual §3.7.36).
+/// `1021V142`; command 136 type 0, PD28-1021 TMCL manual §3.7.38).
 pub fn by_version(text: &str) -> Option<&'static ModelSpec> {
-    let prefix = text.as_bytes().get(..5)?;
+    by_version_bytes(text.as_bytes())
+}
+
+/// [`by_version`] of the raw bytes of a reply (a relay that looks at frames need not decode them).
+pub fn by_version_bytes(text: &[u8]) -> Option<&'static ModelSpec> {
+    let prefix = text.get(..5)?;
     MODELS.iter().copied().find(|m| m.version_string.get(..5) == Some(prefix))
 }
 
@@ -440,6 +445,8 @@ mod tests {
         );
         assert!(by_version("9999V100").is_none());
         assert!(by_version("10").is_none(), "too short to name a module");
+        assert_eq!(by_version_bytes(b"1021V142\xff").map(|m| m.id), Some(pd28_1021::SPEC.id), "bytes past the prefix");
+        assert!(by_version_bytes(b"1021").is_none());
     }
 
     #[test]

@@ -745,7 +745,7 @@ impl Share {
             if raw_version {
                 // The version string (136 type 0, §3.7.38): no checksum, no status.
                 self.device_rx.drain(..FRAME_LEN);
-                if let Some(model) = model_by_version(&frame[1..]) {
+                if let Some(model) = tmcl_core::model::by_version_bytes(&frame[1..]) {
                     self.model = self.model.or(Some(model));
                 }
                 self.answer(frame, None);
@@ -926,12 +926,6 @@ fn request_frame(address: u8, opcode: Opcode, kind: u8, motor: u8, value: i32) -
     f[4..8].copy_from_slice(&value.to_be_bytes());
     f[8] = checksum(&f[..8]);
     f
-}
-
-/// The model whose version string starts like `text` (the module number and the `V`, e.g. `1021V`).
-fn model_by_version(text: &[u8]) -> Option<&'static ModelSpec> {
-    let prefix = text.get(..5)?;
-    tmcl_core::model::MODELS.iter().copied().find(|m| m.version_string.get(..5) == Some(prefix))
 }
 
 /// A share running on its own thread ([`Share::spawn`]); dropping it stops it.

@@ -24,7 +24,6 @@ mod guard;
 mod info;
 mod link;
 mod ops;
-pub mod paramset;
 mod schedule;
 mod server;
 #[cfg(test)]

@@ -8,12 +8,12 @@
 use crate::debug::{self, SOURCE_NAME};
 use crate::info;
 use crate::link::{DebugEvent, Hello, HelloEvent, Link, Poll, ProgressEvent, ValueEvent, Watch};
-use crate::paramset;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::time::Duration;
 use tmcl_asm::{assemble_str, BuiltinResolver, Diagnostic};
 use tmcl_debug::remote::Action;
+use tmcl_host::paramset;
 use tmcl_host::HostError;
 use tmcl_wire::{format_instruction, parse_instruction, Command, Instruction, MoveTarget, Opcode, RfsAction};
 

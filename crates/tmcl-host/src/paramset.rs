@@ -16,8 +16,8 @@
 //! parameter is matched by its kind, bank and number, and one whose unit differs on this model (the
 //! PDx-113's TMC428 velocity units against the PD28-1021's pps) is refused, never converted silently.
 
+use crate::{Client, HostError, Transport};
 use serde::{Deserialize, Serialize};
-use tmcl_host::{Client, HostError, Transport};
 use tmcl_model::{ModelSpec, ParamDesc, Role, Setting, MODELS};
 use tmcl_wire::{Command, Status};
 
