@@ -181,21 +181,12 @@ impl<B: Board> Module<B> {
             C::Ei { interrupt } => self.vm.enable_interrupt(&self.spec.interrupts, interrupt, true).and(value(0)),
             C::Di { interrupt } => self.vm.enable_interrupt(&self.spec.interrupts, interrupt, false).and(value(0)),
             // §3.7.34 VECT from the host, on a model whose firmware takes it in direct mode
-            // (`ModelDesc::host_vect`: the TMCM-3110/6110, as odemis' TMCL driver uses them): the vector of
-            // interrupt n, as a program's VECT sets it. An interrupt the model lacks: status 3 (as EI);
-            // an address outside program memory: status 4. The reply carries the address.
-            C::Vect { interrupt, address } if origin == Origin::Host && self.spec.host_vect => {
-                if self.spec.interrupts.find(interrupt).is_none() {
-                    return Err(Status::WrongType);
-                }
-                let to = u16::try_from(address)
-                    .ok()
-                    .filter(|a| usize::from(*a) < usize::from(self.spec.program_memory))
-                    .ok_or(Status::InvalidValue)?;
-                let slot = self.vm.vectors.get_mut(usize::from(interrupt)).ok_or(Status::WrongType)?;
-                *slot = to;
-                value(address)
-            }
+            // (`ModelDesc::host_vect`: the TMCM-3110/6110, as odemis' TMCL driver uses them); the reply
+            // carries the address.
+            C::Vect { interrupt, address } if origin == Origin::Host && self.spec.host_vect => self
+                .vm
+                .set_vector(&self.spec.interrupts, interrupt, address, self.spec.program_memory)
+                .and(value(address)),
             // Standalone-only program flow, run by the program machine (and refused from the host above),
             // and user functions, which the standard firmware does not have (§3.7.36).
             C::Comp { .. }

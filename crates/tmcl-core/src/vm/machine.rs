@@ -104,6 +104,28 @@ impl Vm {
         Ok(())
     }
 
+    /// VECT n, address from the host (§3.7.34, on a model whose firmware takes it in direct mode,
+    /// `ModelDesc::host_vect`): the vector of interrupt n, as a program's VECT sets it. An interrupt the
+    /// model lacks: status 3 (as EI); an address outside program memory (`program_memory` cells): status 4.
+    pub(crate) fn set_vector(
+        &mut self,
+        irqs: &Interrupts,
+        n: u8,
+        address: i32,
+        program_memory: u16,
+    ) -> Result<(), Status> {
+        if irqs.find(n).is_none() {
+            return Err(Status::WrongType);
+        }
+        let to = u16::try_from(address)
+            .ok()
+            .filter(|a| usize::from(*a) < usize::from(program_memory))
+            .ok_or(Status::InvalidValue)?;
+        let slot = self.vectors.get_mut(usize::from(n)).ok_or(Status::WrongType)?;
+        *slot = to;
+        Ok(())
+    }
+
     /// A WAIT that has ended: ETO if it timed out, the PC past it.
     #[inline]
     pub(crate) fn end_wait(&mut self, regs: &mut Registers, timeout: bool) {
