@@ -26,7 +26,6 @@
 use super::{Module, Outcome};
 use crate::hal::Board;
 use crate::motion::RampParams;
-use crate::param::Role;
 use tmcl_model::capacity::MAX_MOTORS;
 use tmcl_wire::Status;
 
@@ -48,11 +47,7 @@ impl<B: Board> Module<B> {
         if mask == 0 || u16::from(mask) & !all != 0 {
             return Err(Status::InvalidValue);
         }
-        let n = usize::try_from(coord)
-            .ok()
-            .filter(|n| *n <= usize::from(self.spec.coordinates))
-            .ok_or(Status::InvalidValue)?;
-        let range = self.spec.axis.role(Role::TargetPosition).map(|i| self.spec.axis.params[i].range);
+        let n = self.move_coordinate(coord)?;
         // Every target first: a refusal moves nothing.
         let mut targets: [Option<i32>; MAX_MOTORS as usize] = [None; MAX_MOTORS as usize];
         for (m, target) in targets.iter_mut().enumerate().take(usize::from(self.spec.motors)) {
@@ -60,9 +55,7 @@ impl<B: Board> Module<B> {
                 continue;
             }
             let to = self.st.axes[m].coords[n];
-            if range.is_some_and(|r| !r.contains(to)) {
-                return Err(Status::InvalidValue);
-            }
+            self.check_target(to)?;
             *target = Some(to);
         }
         let scaled = if interpolate { self.interpolation(&targets) } else { [None; MAX_MOTORS as usize] };

@@ -282,22 +282,28 @@ impl<B: Board> Module<B> {
             MoveTarget::Abs(p) => p,
             // "an offset to the actual position ... must not exceed the above mentioned limits".
             MoveTarget::Rel(d) => self.relative_base(m).checked_add(d).ok_or(Status::InvalidValue)?,
-            MoveTarget::Coord(n) => {
-                let n = usize::try_from(n).ok().filter(|n| *n <= usize::from(self.spec.coordinates));
-                self.st.axes[m].coords[n.ok_or(Status::InvalidValue)?]
-            }
+            MoveTarget::Coord(n) => self.st.axes[m].coords[self.move_coordinate(n)?],
         };
-        // The target must be a position the counter holds (PDx-113 manual §5.7.4: −2^23 … 2^23 − 1,
-        // "the new resulting position value must not exceed the above mentioned limits, too").
-        if let Some(i) = self.spec.axis.role(Role::TargetPosition) {
-            if !self.spec.axis.params[i].range.contains(to) {
-                return Err(Status::InvalidValue);
-            }
-        }
+        self.check_target(to)?;
         self.start_move(m, to);
         value(match target {
             MoveTarget::Abs(v) | MoveTarget::Rel(v) | MoveTarget::Coord(v) => v,
         })
+    }
+
+    /// The stored coordinate an MVP COORD goes to (§3.7.4): 0 to the model's last; another number is
+    /// status 4 (invalid value).
+    pub(super) fn move_coordinate(&self, n: i32) -> Result<usize, Status> {
+        usize::try_from(n).ok().filter(|n| *n <= usize::from(self.spec.coordinates)).ok_or(Status::InvalidValue)
+    }
+
+    /// A move's target must be a position the counter holds (PDx-113 manual §5.7.4: −2^23 … 2^23 − 1,
+    /// "the new resulting position value must not exceed the above mentioned limits, too"): status 4 if not.
+    pub(super) fn check_target(&self, to: i32) -> Result<(), Status> {
+        match self.spec.axis.role(Role::TargetPosition) {
+            Some(i) if !self.spec.axis.params[i].range.contains(to) => Err(Status::InvalidValue),
+            _ => Ok(()),
+        }
     }
 
     /// SIO: bank 2 (outputs) and, where the model has them, the switches' pull-ups of bank 0; another bank
