@@ -60,8 +60,5 @@ fn models() -> Vec<(&'static str, &'static str)> {
 
 /// A model by id, or a `ValueError` naming the known ones.
 pub(crate) fn model_by_id(id: &str) -> PyResult<&'static tmcl_core::model::ModelSpec> {
-    tmcl_core::model::by_id(id).ok_or_else(|| {
-        let known: Vec<&str> = tmcl_core::model::MODELS.iter().map(|m| m.id).collect();
-        pyo3::exceptions::PyValueError::new_err(format!("unknown model {id:?}; known: {}", known.join(", ")))
-    })
+    tmcl_core::model::find(id).map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))
 }

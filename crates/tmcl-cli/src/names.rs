@@ -41,7 +41,7 @@ impl From<ModelError> for CliError {
     fn from(e: ModelError) -> CliError {
         match e {
             ModelError::Host(e) => CliError::Host(e),
-            e @ ModelError::UnknownId { .. } => CliError::Usage(e.to_string()),
+            e @ ModelError::UnknownId(_) => CliError::Usage(e.to_string()),
             e @ ModelError::UnknownVersion { .. } => {
                 CliError::Usage(format!("{e}: give parameters by number (or --module MODEL)"))
             }

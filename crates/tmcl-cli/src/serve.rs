@@ -404,10 +404,7 @@ fn parse_module(text: &str) -> Result<(&'static ModelSpec, Option<u8>), String> 
         ),
         None => (text, None),
     };
-    let spec = model::by_id(id).ok_or_else(|| {
-        let known: Vec<&str> = model::MODELS.iter().map(|m| m.id).collect();
-        format!("unknown module `{id}`; known: {}", known.join(", "))
-    })?;
+    let spec = model::find(id).map_err(|e| e.to_string())?;
     Ok((spec, address))
 }
 

@@ -46,8 +46,7 @@ impl SimOptions {
 
     /// The program in `path`, assembled with the built-in include files of the chosen model.
     pub fn load(&self, path: &std::path::Path) -> Result<Source, CliError> {
-        let model = tmcl_core::model::by_id(&self.module)
-            .ok_or_else(|| setup_error(SetupError::UnknownModel { id: self.module.clone() }))?;
+        let model = tmcl_core::model::find(&self.module).map_err(|e| setup_error(SetupError::UnknownModel(e)))?;
         Ok(Source::load(path, model)?)
     }
 

@@ -9,13 +9,8 @@ use tmcl_model::ModelSpec;
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
     /// The user named a model that has no tables here.
-    #[error("unknown module `{id}`; known: {known}")]
-    UnknownId {
-        /// The name given.
-        id: String,
-        /// The known ids, comma-separated.
-        known: String,
-    },
+    #[error(transparent)]
+    UnknownId(#[from] tmcl_model::UnknownModel),
     /// The module's version string names none of the models.
     #[error("the module's version string is {version:?}, a model OpenTMCL has no parameter table of")]
     UnknownVersion {
@@ -29,10 +24,7 @@ pub enum ModelError {
 
 /// A model by its id (`pd28-1021`, `tmcm-1310`, ...), or an error listing the known ones.
 pub fn model_by_id(id: &str) -> Result<&'static ModelSpec, ModelError> {
-    tmcl_model::by_id(id).ok_or_else(|| {
-        let known: Vec<&str> = tmcl_model::MODELS.iter().map(|m| m.id).collect();
-        ModelError::UnknownId { id: id.to_owned(), known: known.join(", ") }
-    })
+    Ok(tmcl_model::find(id)?)
 }
 
 /// The model, from the user's word or, once needed, from the module itself.
@@ -74,7 +66,7 @@ mod tests {
     fn by_id_names_the_known_ones() {
         assert_eq!(model_by_id("pd28-1021").unwrap().id, pd28_1021::SPEC.id);
         let e = model_by_id("tmcm-9999").unwrap_err();
-        assert!(matches!(&e, ModelError::UnknownId { id, .. } if id == "tmcm-9999"));
+        assert!(matches!(&e, ModelError::UnknownId(u) if u.id == "tmcm-9999"));
         for model in MODELS {
             assert!(e.to_string().contains(model.id), "{e} lacks {}", model.id);
         }

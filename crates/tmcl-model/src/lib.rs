@@ -420,6 +420,35 @@ pub fn by_id(id: &str) -> Option<&'static ModelSpec> {
     MODELS.iter().copied().find(|m| m.id.eq_ignore_ascii_case(id))
 }
 
+/// A `--module` name that no model has. Its message names the known ids, so that every tool that takes a
+/// model's name (the command line, the runner, the Python package) refuses a wrong one in the same words.
+#[cfg(feature = "std")]
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UnknownModel {
+    /// The name given.
+    pub id: std::string::String,
+}
+
+#[cfg(feature = "std")]
+impl core::fmt::Display for UnknownModel {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "unknown module `{}`; known: ", self.id)?;
+        for (i, m) in MODELS.iter().enumerate() {
+            write!(f, "{}{}", if i == 0 { "" } else { ", " }, m.id)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for UnknownModel {}
+
+/// [`by_id`], or the error that names the known models.
+#[cfg(feature = "std")]
+pub fn find(id: &str) -> Result<&'static ModelSpec, UnknownModel> {
+    by_id(id).ok_or_else(|| UnknownModel { id: id.into() })
+}
+
 /// Finds the model whose version string starts like `text`: the module number and the `V` (`1021V` of
 /// `1021V142`; command 136 type 0, PD28-1021 TMCL manual §3.7.38).
 pub fn by_version(text: &str) -> Option<&'static ModelSpec> {
@@ -435,6 +464,14 @@ pub fn by_version_bytes(text: &[u8]) -> Option<&'static ModelSpec> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unknown_id_names_the_known_ones() {
+        assert_eq!(find("PD28-1021").map(|m| m.id), Ok("pd28-1021"));
+        let e = find("tmcm-9999").unwrap_err();
+        let ids: std::vec::Vec<&str> = MODELS.iter().map(|m| m.id).collect();
+        assert_eq!(e.to_string(), std::format!("unknown module `tmcm-9999`; known: {}", ids.join(", ")));
+    }
 
     #[test]
     fn models_by_version_string() {

@@ -229,11 +229,8 @@ impl Source {
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
     /// No model has this id.
-    #[error("unknown module `{id}`; known: {}", model::MODELS.iter().map(|m| m.id).collect::<Vec<_>>().join(", "))]
-    UnknownModel {
-        /// The id asked for.
-        id: String,
-    },
+    #[error(transparent)]
+    UnknownModel(#[from] model::UnknownModel),
     /// A world that does not fit the module (or cannot be read).
     #[error("{0}")]
     World(String),
@@ -286,7 +283,7 @@ pub struct Setup {
 impl Setup {
     /// A module of the model with this id (`pd28-1021`, `tmcm-1310`, `pd-113`), factory settings, free axis.
     pub fn new(model: &str) -> Result<Setup, SetupError> {
-        let model = model::by_id(model).ok_or_else(|| SetupError::UnknownModel { id: model.to_string() })?;
+        let model = model::find(model)?;
         Ok(Setup { model, settings: Vec::new(), world: None })
     }
 

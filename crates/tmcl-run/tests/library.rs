@@ -77,7 +77,7 @@ fn a_streamed_csv_and_the_trace_in_memory_agree() {
 
 #[test]
 fn setup_errors_say_what_is_wrong() {
-    assert!(matches!(Setup::new("tmcm-9999"), Err(SetupError::UnknownModel { .. })));
+    assert!(matches!(Setup::new("tmcm-9999"), Err(SetupError::UnknownModel(_))));
     let sac = Source::assemble("sac.tmc", "SAC 0, 1, 5\nSTOP\n", PD28).unwrap();
     let Err(SetupError::Commands { diagnostics, model, .. }) = Simulation::new(&sac, &Setup::new("pd28-1021").unwrap())
     else {
