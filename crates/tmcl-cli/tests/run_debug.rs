@@ -337,6 +337,22 @@ fn debug_session_from_stdin() {
     assert_eq!(lines.iter().filter(|l| l.starts_with("pc 10: ")).count(), 1, "nothing runs after quit: {out}");
 }
 
+/// `continue` from a breakpoint the program was stepped onto executes it and goes on (it used to report
+/// the same breakpoint again without moving), and a run restarted elsewhere stops at the first breakpoint.
+#[test]
+fn continue_from_a_breakpoint_stepped_onto_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = dir.path().join("counter.tmc");
+    std::fs::write(&prog, COUNTER).unwrap();
+    // Address 1 is `Loop` (GGP); the step from 0 (SGP) lands on it.
+    let out = debug(&prog, "break Loop\nstep\nprint var 7\ncontinue\nprint var 7\ncontinue\nprint var 7\n");
+    let vars: Vec<&str> = out.lines().filter(|l| l.starts_with("var 7 = ")).collect();
+    // 5 before the loop, then one turn each: 5 + 10 = 15, 15 + 10 = 25.
+    assert_eq!(vars, ["var 7 = 5", "var 7 = 15", "var 7 = 25"], "{out}");
+    // Reached by the step, then by each `continue`.
+    assert_eq!(out.lines().filter(|l| l.starts_with("breakpoint 1, pc 1 (Loop)")).count(), 3, "{out}");
+}
+
 #[test]
 fn debug_goes_on_after_unknown_commands_and_errors() {
     let dir = tempfile::tempdir().unwrap();

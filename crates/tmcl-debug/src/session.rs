@@ -13,8 +13,9 @@
 //! next instruction; `next` steps over a CSUB the same way. While the program stands still, motion and
 //! timers go on only when the debugger lets time pass (`advance`, or running).
 //!
-//! The core lets a breakpoint pass once after stopping at it (so that `continue` goes on); the debugger
-//! keeps that flag consistent when breakpoints are deleted or the PC is moved (see `Session::step_raw`).
+//! The simulator lets a breakpoint pass once when the run resumes where it stopped (so that `continue`
+//! goes on); a run the PC was moved for stops at the first breakpoint it meets (`tmcl_sim::Breakpoints`).
+//! A step executes the instruction at the PC whatever breakpoint sits there (see `Session::step_raw`).
 
 use crate::breakpoint;
 use std::collections::{BTreeSet, HashMap};
@@ -227,10 +228,9 @@ impl Session {
     /// time of one instruction pass.
     fn step_raw(&mut self) {
         let pc = self.module.vm().pc;
-        // The simulator's breakpoints let one pass only right after stopping at it (a flag cleared when
-        // passing); make the breakpoint bit agree with that flag for this one instruction.
-        let passing = self.module.board().breakpoints().stopped_at();
-        self.module.board_mut().breakpoints_mut().set(pc, passing);
+        // No breakpoint at the PC for this one instruction: the step executes it whether or not the
+        // program stopped there (the simulator's stop is forgotten at the next instruction either way).
+        self.module.board_mut().breakpoints_mut().set(pc, false);
         let _ = self.module.execute(Command::StepApplication, self.now);
         let user = self.is_user_breakpoint(pc);
         self.module.board_mut().breakpoints_mut().set(pc, user);
@@ -245,6 +245,10 @@ impl Session {
         if let Some(a) = temporary {
             self.module.board_mut().breakpoints_mut().set(a, true);
         }
+        // The run begins with the instruction at the PC, even when a breakpoint sits on it (the program
+        // stopped there, or was stepped onto it): `continue` goes on from where the program stands.
+        let pc = self.module.vm().pc;
+        self.module.board_mut().breakpoints_mut().resume_at(pc);
         let _ = self.module.execute(Command::RunApplication { from: None }, self.now);
         let stop = loop {
             let deadline = poll(&mut self.module, self.now);

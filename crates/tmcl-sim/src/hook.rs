@@ -234,13 +234,16 @@ pub struct Breakpoints {
     set: [u64; MAX_PROGRAM / 64],
     /// How many are set (none: the firmware is not asked to watch its instructions).
     count: usize,
-    /// The program stopped at a breakpoint (cleared when it runs past one again).
-    at: bool,
+    /// An address the next instruction passes without stopping if it is there (the breakpoint the
+    /// program stopped at, or the PC a debugger resumes from); forgotten at the next instruction.
+    pass: Option<u16>,
+    /// The program stopped at a breakpoint and has run no instruction since.
+    stopped: bool,
 }
 
 impl Default for Breakpoints {
     fn default() -> Breakpoints {
-        Breakpoints { set: [0; MAX_PROGRAM / 64], count: 0, at: false }
+        Breakpoints { set: [0; MAX_PROGRAM / 64], count: 0, pass: None, stopped: false }
     }
 }
 
@@ -275,16 +278,67 @@ impl Breakpoints {
 
     /// Whether the program stopped at a breakpoint (and has not run past one since).
     pub fn stopped_at(&self) -> bool {
-        self.at
+        self.stopped
+    }
+
+    /// A run about to start at `pc` executes the instruction there first, whatever breakpoint sits on it:
+    /// a debugger's `continue` from a breakpoint the program was stepped onto goes on, as it does after
+    /// stopping there.
+    pub fn resume_at(&mut self, pc: u16) {
+        self.pass = Some(pc);
+        self.stopped = false;
     }
 
     /// Before the instruction at `pc`: whether the program stops there. At a breakpoint it stops the
-    /// first time and passes the next (the run that follows the stop executes it).
+    /// first time and passes the next (the run that follows the stop executes it). Only a run that
+    /// resumes where it stopped passes: one the debugger started elsewhere (command 129 from an
+    /// address, a reset, a PC set by hand) stops at the first breakpoint it meets, even the one it
+    /// stopped at before.
     pub fn stop_before(&mut self, pc: u16) -> bool {
-        if self.has(pc) && !std::mem::take(&mut self.at) {
-            self.at = true;
-            return true;
+        let resuming = self.pass.take() == Some(pc);
+        self.stopped = self.has(pc) && !resuming;
+        if self.stopped {
+            self.pass = Some(pc);
         }
-        false
+        self.stopped
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Breakpoints;
+
+    #[test]
+    fn a_breakpoint_stops_once_and_the_resumed_run_passes_it() {
+        let mut b = Breakpoints::default();
+        b.set(5, true);
+        assert!(b.stop_before(5) && b.stopped_at());
+        assert!(!b.stop_before(5), "the run that resumes at the stop executes the instruction");
+        assert!(!b.stopped_at());
+        assert!(b.stop_before(5), "the next time round it stops again");
+    }
+
+    #[test]
+    fn a_run_started_elsewhere_after_a_stop_stops_at_the_first_breakpoint() {
+        let mut b = Breakpoints::default();
+        b.set(5, true);
+        b.set(9, true);
+        assert!(b.stop_before(5));
+        // The debugger moves the PC (129 from address 9): the stop at 5 is not this run's to pass.
+        assert!(b.stop_before(9), "stops at 9, the first breakpoint of the new run");
+        assert!(!b.stop_before(9));
+        // Moved back onto the old stop after passing other instructions: it stops there again.
+        assert!(!b.stop_before(6));
+        assert!(b.stop_before(5));
+    }
+
+    #[test]
+    fn a_run_resumed_on_a_breakpoint_executes_it_first() {
+        let mut b = Breakpoints::default();
+        b.set(5, true);
+        b.resume_at(5);
+        assert!(!b.stopped_at());
+        assert!(!b.stop_before(5));
+        assert!(b.stop_before(5), "the next time round it stops");
     }
 }
