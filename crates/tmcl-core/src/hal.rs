@@ -171,6 +171,13 @@ pub struct Quiet {
     pub max_speed: u32,
     /// The load value (AP 206) every load measurement in the window reads.
     pub load: u16,
+    /// Within the window the board is *periodic* in the field's position with this period (microsteps of
+    /// the current resolution; 0: it cannot say): the rotor follows the field's position, not its
+    /// history, and where the field stands `period` further on, every reading is what it is here, the
+    /// encoder counts moved on by exactly `period` × counts per revolution / microsteps per revolution
+    /// (a whole number). A closed loop turning at a steady speed repeats its ticks with such a period,
+    /// and the core takes whole periods at once (`module/periods.rs`).
+    pub period: u64,
 }
 
 /// The motor driver, fed by the step generator.

@@ -52,6 +52,8 @@ mod exec;
 mod host;
 mod params;
 mod pass;
+#[cfg(feature = "loop-periods")]
+mod periods;
 mod program;
 mod sac;
 mod seam;
@@ -193,6 +195,9 @@ pub struct Module<B: Board> {
     pub(crate) exact: bool,
     /// The spans computed last (see `module/spans.rs`).
     pub(crate) memos: spans::Memos,
+    /// A closed loop turning at a steady speed, looked at period by period (`module/periods.rs`).
+    #[cfg(feature = "loop-periods")]
+    pub(crate) periods: periods::Periods,
     /// Within a poll's advance: a jump back of the program is reported to the board's hook
     /// (`hal::Hook::jumped_back`); in a single step (command 130) it is not.
     pub(crate) advancing: bool,
@@ -224,6 +229,8 @@ impl<B: Board> Module<B> {
             program: Program::default(),
             exact: false,
             memos: Default::default(),
+            #[cfg(feature = "loop-periods")]
+            periods: Default::default(),
             advancing: false,
             inter_byte_timeout: Some(crate::iface::INTER_BYTE_TIMEOUT),
         }

@@ -865,6 +865,14 @@ impl SimBoard {
                 behind = 0;
             }
         }
+        // A rotor locked on the field at whole µsteps: periodic in the field's position where the encoder's
+        // counts are (the window then ends where that stops being exact).
+        let period = match steady.follow {
+            Follow::Exact => self.encoder_period(&mut ahead, &mut behind),
+            _ => 0,
+        };
+        // In µsteps of the resolution in force: the fewest whose physical move is a multiple of it.
+        let period = period / gcd(period, per_step as u64);
         let (forward, backward) = if sign > 0 { (ahead, behind) } else { (behind, ahead) };
         let (forward, backward) = (forward / per_step as u64, backward / per_step as u64);
         let (mut min_speed, mut max_speed, mut load) = (0u32, u32::MAX, self.driver.load());
@@ -909,7 +917,50 @@ impl SimBoard {
         // (`now`, the module's clock, not the board's: a standing motor's board hears of nothing for long.)
         let standstill = if dir == 0 { self.driver.standstill_at(now.max(self.now)) } else { None };
         let until = [self.timeline_event(), self.next_bounce(), standstill].into_iter().flatten().min();
-        Some(Quiet { until, forward, backward, min_speed, max_speed, load })
+        Some(Quiet { until, forward, backward, min_speed, max_speed, load, period })
+    }
+
+    /// The period (physical µsteps) in which a rotor locked on the field at whole µsteps reads the same
+    /// encoder counts, moved on by a whole number, per [`Quiet::period`]; 0 if the counts are not
+    /// provably periodic. Narrows `ahead`/`behind` (physical µsteps, physical directions) to where they
+    /// are.
+    ///
+    /// The counts are ⌊(x − zero) · cpr / upr⌋ computed as ((x − zero) / upr) · cpr in `f64` (`counts`).
+    /// With g = gcd(upr, cpr) and p = upr / g, the exact value is a whole number exactly when x − zero is
+    /// a multiple j·p; then the quotient is j / g, exact in `f64` when g is a power of two, and so is the
+    /// product. Elsewhere the exact value lies at least 1/p from a whole number, and the two roundings
+    /// (relative error below 2⁻⁵²) cannot cross one while |x − zero| · cpr < 2⁵⁰. So within that range the
+    /// floor is the exact one, and the counts move on by cpr/g whenever x moves on by p.
+    fn encoder_period(&self, ahead: &mut u64, behind: &mut u64) -> u64 {
+        let Some(model) = self.profile.encoder else { return 1 }; // no encoder: nothing to read
+        let (ssi, per_rev) = match self.spec.encoder {
+            Some(e) => (e.kind == EncoderType::Ssi, e.counts_per_rev),
+            None => (model.kind == EncoderKind::Ssi, model.counts_per_rev),
+        };
+        if ssi != self.driver.settings.ssi_encoder {
+            return 1; // it reads 0 everywhere
+        }
+        let (x, zero, upr) = (self.plan.mech.rotor(), self.plan.encoder_zero, self.plan.mech.usteps_per_rev());
+        if ssi || x.fract() != 0.0 || zero.fract() != 0.0 || upr.fract() != 0.0 {
+            return 0;
+        }
+        if !(1.0..4_294_967_296.0).contains(&upr) || per_rev == 0 {
+            return 0;
+        }
+        let (upr, cpr) = (upr as u64, u64::from(per_rev));
+        let g = gcd(upr, cpr);
+        if !g.is_power_of_two() {
+            return 0;
+        }
+        // |x − zero| below 2⁵⁰ / cpr all through the window.
+        let reach = ((1u64 << 50) / cpr) as f64;
+        let d = x - zero;
+        if d.abs() >= reach {
+            return 0;
+        }
+        *ahead = (*ahead).min((reach - d) as u64 - 1);
+        *behind = (*behind).min((reach + d) as u64 - 1);
+        upr / g
     }
 
     /// Encoder counts now (see [`Feedback::encoder_counts`]).
@@ -1124,6 +1175,14 @@ impl EncoderCounter for SimBoard {
         self.sync();
         self.counts()
     }
+}
+
+/// The greatest common divisor (0 with 0 gives 0).
+fn gcd(mut a: u64, mut b: u64) -> u64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
 }
 
 #[cfg(test)]

@@ -95,3 +95,152 @@ fn the_scenarios_draw_the_tmcm_6110_too() {
     assert_eq!(Scenario::decode(&[7, 2]).spec.name, "TMCM-3110");
     assert_eq!(Scenario::decode(&[7]).spec.name, "TMCM-3110");
 }
+
+/// Closed-loop settings drawn for a cruising loop: current scaling and its times, I²t, the controller.
+const CRUISING: &[(u8, i32, i32)] = &[
+    (116, 0, 300),
+    (117, 0, 300),
+    (120, 0, 50),
+    (121, 0, 50),
+    (122, 0, 1),
+    (124, 0, 200),
+    (126, 0, 100_000),
+    (136, 0, 1024),
+    (25, 1, 20_000),
+    (26, 0, 3_000_000),
+    (111, 0, 256),
+];
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(
+        std::env::var("EVENT_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(24)
+    ))]
+    /// A TMCM-1310 whose closed loop cruises for seconds (ROR, or an MVP to a far target) at speeds,
+    /// resolutions, encoder resolutions and controller settings drawn at random, with host commands now and
+    /// then (reads, a new speed, a parameter, a stop): event-driven, the loop's ticks are taken in whole
+    /// periods where they repeat (`module/periods.rs` in tmcl-core), and must do exactly what ticking does.
+    #[test]
+    fn closed_loops_cruising_event_driven_are_closed_loops_tick_by_tick(
+        full_steps in -1_800i32..1_800,
+        odd in proptest::option::of(0i32..100),
+        accel in 20_000i32..400_000,
+        resolution in 0i32..=8,
+        encoder in proptest::sample::select(vec![4096, 4096, 1024, 16_384, 2000, 4000]),
+        far in proptest::bool::ANY,
+        settings in proptest::collection::vec((0usize..CRUISING.len(), proptest::num::u32::ANY), 0..4),
+        host in proptest::collection::vec((0u64..20_000, 0u8..6, -100_000i32..100_000), 0..4),
+        polls in proptest::collection::vec(0u64..20_000, 0..4),
+        switch in proptest::option::of(-2_000_000i64..2_000_000),
+    ) {
+        use tmcl_core::{Duration, Instant};
+        use tmcl_sim::equivalence::Scenario;
+        use tmcl_wire::{Command, MoveTarget};
+        // Within the loop's reach (just under two full steps a tick), a whole number of full steps a
+        // second or not.
+        let speed = full_steps * (1 << resolution) + odd.unwrap_or(0) * full_steps.signum();
+        let mut first = vec![
+            Command::Sap { param: 140, motor: 0, value: resolution },
+            Command::Sap { param: 210, motor: 0, value: encoder },
+            Command::Sap { param: 5, motor: 0, value: accel },
+            Command::Sap { param: 4, motor: 0, value: speed.abs().max(1) },
+            Command::Sap { param: 132, motor: 0, value: 1 },
+            Command::Sap { param: 129, motor: 0, value: 1 },
+        ];
+        first.extend(settings.iter().map(|&(i, v)| {
+            let (param, lo, hi) = CRUISING[i];
+            Command::Sap { param, motor: 0, value: lo + (v % (hi - lo + 1) as u32) as i32 }
+        }));
+        let start = if far {
+            Command::Mvp { motor: 0, target: MoveTarget::Abs(speed.signum() * 2_000_000_000) }
+        } else if speed >= 0 {
+            Command::Ror { motor: 0, velocity: speed }
+        } else {
+            Command::Rol { motor: 0, velocity: -speed }
+        };
+        let mut host: Vec<(Instant, Command)> = host
+            .iter()
+            .map(|&(ms, kind, v)| {
+                let c = match kind {
+                    0 => Command::Gap { param: 1, motor: 0 },
+                    1 => Command::Gap { param: 131, motor: 0 },
+                    2 => Command::Ror { motor: 0, velocity: v },
+                    3 => Command::Sap { param: 124, motor: 0, value: v.rem_euclid(200) },
+                    4 => Command::Mst { motor: 0 },
+                    _ => Command::Sap { param: 209, motor: 0, value: v },
+                };
+                (Instant::from_millis(ms + 500), c)
+            })
+            .collect();
+        // The move starts once the loop is closed (the initialisation takes 300 ms).
+        host.push((Instant::from_millis(400), start));
+        host.sort_by_key(|(t, _)| *t);
+        let world = match switch {
+            Some(at) => format!("[switches.right]\nat = [\"{at} usteps\", \"{} usteps\"]\n", at + 5_000),
+            None => String::new(),
+        };
+        let mut polls: Vec<Instant> = polls.iter().map(|&ms| Instant::from_millis(ms) + Duration::from_micros(ms % 997)).collect();
+        polls.sort();
+        let scenario = Scenario {
+            spec: &tmcl_core::model::tmcm_1310::SPEC,
+            world,
+            settings: first,
+            program: Vec::new(),
+            host,
+            polls,
+            end: Instant::from_millis(21_000),
+        };
+        if let Err(e) = scenario.check() {
+            let same = match std::env::var_os("EVENT_DIAG") {
+                Some(_) => scenario.first_difference().unwrap_or_else(|| "none on the same polls".into()),
+                None => "(EVENT_DIAG=1 to look)".into(),
+            };
+            proptest::prop_assert!(false, "{e}\n{scenario:?}\nsame polls: {same}");
+        }
+    }
+}
+
+/// pytrinamic's closed-loop demo, then ROR at 51 200 pps: event-driven and tick by tick agree after a
+/// minute, with reads of AP 1 and AP 131 now and then; and polled only at its deadlines, the module
+/// needs a handful of polls for an hour of it (the loop's ticks repeat every 250 ticks and are taken in
+/// whole periods, `module/periods.rs` in tmcl-core), not one a millisecond.
+#[test]
+fn a_closed_loop_turning_steadily_sleeps_and_is_what_ticking_gives() {
+    use tmcl_core::{Instant, Module};
+    use tmcl_sim::equivalence::Scenario;
+    use tmcl_wire::Command;
+    let spec = &tmcl_core::model::tmcm_1310::SPEC;
+    let setup = vec![Command::Sap { param: 132, motor: 0, value: 1 }, Command::Sap { param: 129, motor: 0, value: 1 }];
+    let ror = Command::Ror { motor: 0, velocity: 51_200 };
+    let scenario = Scenario {
+        spec,
+        world: String::new(),
+        settings: setup.clone(),
+        program: Vec::new(),
+        host: vec![
+            (Instant::from_millis(400), ror),
+            (Instant::from_millis(7_777), Command::Gap { param: 1, motor: 0 }),
+            (Instant::from_millis(31_003), Command::Gap { param: 131, motor: 0 }),
+        ],
+        polls: vec![Instant::from_micros(12_345_678)],
+        end: Instant::from_millis(60_000),
+    };
+    scenario.check().unwrap();
+
+    let mut module = Module::new(tmcl_sim::SimBoard::in_memory_for(spec), spec, Instant::ZERO);
+    for c in setup {
+        module.execute(c, Instant::ZERO).unwrap();
+    }
+    module.poll(Instant::from_millis(400), &mut |_: &[u8]| {});
+    module.execute(ror, Instant::from_millis(400)).unwrap();
+    let (mut t, end, mut polls) = (Instant::from_millis(400), Instant::from_secs(3600), 0);
+    while t < end {
+        t = module.poll(t, &mut |_: &[u8]| {}).unwrap_or(end).clamp(t + tmcl_core::Duration::from_micros(1), end);
+        polls += 1;
+    }
+    module.poll(end, &mut |_: &[u8]| {});
+    assert_eq!(module.get_axis(133), Ok(1), "the loop stays closed");
+    assert_eq!(module.get_axis(3), Ok(51_200));
+    let measured = module.get_axis(131).unwrap();
+    assert!((measured - 51_200).abs() < 1_000, "the measured speed: {measured}");
+    assert!(polls < 5_000, "{polls} polls for an hour");
+}

@@ -388,23 +388,11 @@ impl ClosedLoop {
     /// ticking them would; stops before a tick at which the I²t monitor would start or stop limiting the
     /// current (that tick changes the current: it is ticked). Returns how many it took.
     pub fn rest(&mut self, p: &RestParams, ticks: u64) -> u64 {
-        // The I²t sum, tick by tick up to its fixed point (the sum at which the gain and the decay of a
-        // tick are equal: from there on every tick leaves it as it is).
-        let mut taken = 0;
-        while taken < ticks {
-            let next = i2t_sum(self.i2t, p.rms_ma, 1000, p.tau_ms);
-            if (p.i2t_limit > 0 && next > p.i2t_limit) != self.i2t_limiting {
-                break;
-            }
-            taken += 1;
-            if next == self.i2t {
-                taken = ticks;
-            }
-            self.i2t = next;
-        }
+        let (taken, sum) = self.i2t_ahead(p.rms_ma, p.tau_ms, p.i2t_limit, ticks);
         if taken == 0 {
             return 0;
         }
+        self.i2t = sum;
         self.record_still(taken);
         let s = &p.scale;
         let error = self.regulated(p);
@@ -419,6 +407,68 @@ impl ClosedLoop {
             self.down_ms = counter_after(self.down_ms, s.down_ms, taken);
         }
         taken
+    }
+}
+
+impl ClosedLoop {
+    /// The I²t sum after up to `ticks` whole ticks at a constant RMS current `rms_ma`, as ticking gives
+    /// it, and how many ticks that is: it stops before a tick at which the monitor would start or stop
+    /// limiting the current (that tick changes the current). Tick by tick up to the sum's fixed point
+    /// (where the gain and the decay of a tick are equal: from there on every tick leaves it as it is).
+    pub fn i2t_ahead(&self, rms_ma: i64, tau_ms: i64, limit: i64, ticks: u64) -> (u64, i64) {
+        let (mut taken, mut sum) = (0, self.i2t);
+        while taken < ticks {
+            let next = i2t_sum(sum, rms_ma, 1000, tau_ms);
+            if (limit > 0 && next > limit) != self.i2t_limiting {
+                break;
+            }
+            taken += 1;
+            if next == sum {
+                taken = ticks;
+            }
+            sum = next;
+        }
+        (taken, sum)
+    }
+
+    /// The rotor's moves in the velocity window, oldest first.
+    fn window(&self) -> impl Iterator<Item = i16> + '_ {
+        let at = usize::from(self.moves_at) % VELOCITY_WINDOW;
+        (0..VELOCITY_WINDOW).map(move |k| self.moves[(at + k) % VELOCITY_WINDOW])
+    }
+
+    /// Whether the loop is where `earlier` was, moved on by `shift` microsteps: the same state in every
+    /// respect but the I²t sum (which runs on towards its fixed point, [`ClosedLoop::i2t_ahead`]), the
+    /// rotor's position `shift` further, and the velocity window holding the same moves (the slot the
+    /// next one goes to may differ). Whole ticks only.
+    pub fn repeats(&self, earlier: &ClosedLoop, shift: i64) -> bool {
+        let same_but =
+            |cl: &ClosedLoop| ClosedLoop { i2t: 0, actual: 0, moves: [0; VELOCITY_WINDOW], moves_at: 0, ..*cl };
+        self.pending_us == 0
+            && earlier.pending_us == 0
+            && self.actual == earlier.actual.wrapping_add(shift)
+            && same_but(self) == same_but(earlier)
+            && self.window().eq(earlier.window())
+    }
+
+    /// Takes `periods` more periods of `ticks` ticks each of a loop that [repeats](ClosedLoop::repeats)
+    /// with a move of `shift` microsteps a period, exactly as ticking them would: the rotor `periods` ×
+    /// `shift` further on, the velocity window's next slot `periods` × `ticks` on with the same moves in
+    /// it, and the I²t sum `i2t` (from [`ClosedLoop::i2t_ahead`]).
+    pub fn repeat(&mut self, periods: u64, ticks: u64, shift: i64, i2t: i64) {
+        let moves: [i16; VELOCITY_WINDOW] = core::array::from_fn({
+            let window = self.moves;
+            let at = usize::from(self.moves_at) % VELOCITY_WINDOW;
+            move |k| window[(at + k) % VELOCITY_WINDOW]
+        });
+        let n = VELOCITY_WINDOW as u64;
+        let at = ((u64::from(self.moves_at) % n + periods % n * (ticks % n)) % n) as usize;
+        for (k, m) in moves.iter().enumerate() {
+            self.moves[(at + k) % VELOCITY_WINDOW] = *m;
+        }
+        self.moves_at = at as u8;
+        self.actual = self.actual.wrapping_add((periods as i64).wrapping_mul(shift));
+        self.i2t = i2t;
     }
 }
 

@@ -244,6 +244,14 @@ impl<B: Board> Module<B> {
         taken
     }
 
+    #[cfg(feature = "loop-periods")]
+    /// What the I²t monitor runs with now: the RMS coil current (mA) the loop drives, AP 25 (ms) and AP 26.
+    pub(super) fn loop_i2t(&self, m: usize) -> (i64, i64, i64) {
+        let rms = self.setting_to_rms_ma(m, self.closed_loop_current(m).unwrap_or(0));
+        let ap = |s| i64::from(self.ap(m, s).unwrap_or(0));
+        (rms, ap(Setting::I2tTimeConstant), ap(Setting::I2tLimit))
+    }
+
     /// Current scaling and I²t, once per tick while the loop is closed.
     fn regulate_current(&mut self, m: usize, e: i64) {
         let dt_us = 1000;

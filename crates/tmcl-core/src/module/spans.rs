@@ -130,6 +130,10 @@ impl<B: Board> Module<B> {
         if !cfg!(feature = "spans") {
             return false; // (the rest is left out of the build)
         }
+        #[cfg(feature = "loop-periods")]
+        if self.st.axes[0].cl.active {
+            return self.take_periods(now, params);
+        }
         let Some((limits, bounds)) = self.span_bounds(Some(now)) else { return false };
         let (mut to, mut span) = self.span(params, limits, &bounds);
         if self.has_closed_loop() {
@@ -170,6 +174,11 @@ impl<B: Board> Module<B> {
         if !cfg!(feature = "spans") {
             return 0;
         }
+        #[cfg(feature = "loop-periods")]
+        if self.st.axes[0].cl.active {
+            // Whole periods, ending on a period's boundary (the deadline is the tick after this many).
+            return self.periods_ahead(&self.ramp_params(0)).saturating_sub(1);
+        }
         let Some((limits, bounds)) = self.span_bounds(None) else { return 0 };
         // Braking computed only so far: a deadline before the event is only an extra poll, and a run polled
         // often (a trace) must not compute the rest of a braking phase at every poll.
@@ -194,8 +203,26 @@ impl<B: Board> Module<B> {
     /// Whether the ticks after `motion_time` may be taken as a span, and within which bounds; `horizon`:
     /// no tick after it (see the module docs).
     fn span_bounds(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds)> {
+        if self.st.axes[0].cl.engaged() {
+            return None;
+        }
+        self.bounds(horizon).map(|(limits, bounds, _)| (limits, bounds))
+    }
+
+    #[cfg(feature = "loop-periods")]
+    /// [`Module::span_bounds`] for a loop that is closed (`module/periods.rs`), with the board's period
+    /// ([`crate::hal::Quiet::period`], 0: none).
+    pub(super) fn span_bounds_periodic(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds, u64)> {
+        let cl = &self.st.axes[0].cl;
+        if !cl.active || cl.init != Init::Done {
+            return None;
+        }
+        self.bounds(horizon).filter(|(_, _, period)| *period > 0)
+    }
+
+    /// The bounds of both, and the board's period.
+    fn bounds(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds, u64)> {
         if self.exact
-            || self.st.axes[0].cl.engaged()
             || self.st.axes[0].reference.is_active()
             || self.st.axes[0].standstill_since.is_some()
             || self.st.axes[0].ramp.velocity() == 0
@@ -212,7 +239,7 @@ impl<B: Board> Module<B> {
         if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected(0) {
             return None;
         }
-        if self.has_closed_loop() {
+        if self.has_closed_loop() && !self.st.axes[0].cl.active {
             // Open loop: the loop about to close (AP 129 and a done initialisation: it closes at the next
             // tick), or an SSI encoder, whose turns the firmware counts from reading to reading.
             let closing = self.ap(0, Setting::ClosedLoop) == Some(1) && self.st.axes[0].cl.init == Init::Done;
@@ -262,6 +289,6 @@ impl<B: Board> Module<B> {
             ramping: self.st.axes[0].ramping,
             work: u64::MAX,
         };
-        Some((self.limits(0), bounds))
+        Some((self.limits(0), bounds, quiet.period))
     }
 }

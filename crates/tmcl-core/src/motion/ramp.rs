@@ -118,6 +118,14 @@ impl Ramp {
         (self.velocity / MICRO) as i32
     }
 
+    #[cfg(feature = "loop-periods")]
+    /// The present velocity in µpps (10⁻⁶ microsteps per second), signed: a tick of `dt` µs moves the
+    /// axis by this × `dt` 10⁻¹² microsteps.
+    #[inline]
+    pub(crate) fn velocity_micro(&self) -> i64 {
+        self.velocity
+    }
+
     /// Whether the axis stands still and will stay so without a new command.
     #[inline]
     pub fn is_idle(&self) -> bool {

@@ -163,6 +163,7 @@ impl StepDriver for TestBoard {
             min_speed: 0,
             max_speed: 0,
             load: 700,
+            period: 0,
         })
     }
 }
