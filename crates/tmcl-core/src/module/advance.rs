@@ -178,6 +178,9 @@ impl<B: Board> Module<B> {
     fn tick_axis(&mut self, m: usize, tick_at: Instant, params: &RampParams, closed_loop: bool) {
         // A reference search looks at its switch after every microstep (sub-ticks, §7.1).
         let parts = self.st.axes[m].tick_parts(TICK);
+        if parts > 1 && !self.exact && !closed_loop && self.search_tick_at_once(m, tick_at, params, parts) {
+            return;
+        }
         // (Most ticks are one part: no 64-bit division for them.)
         let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
         for k in 1..=parts {
@@ -195,6 +198,62 @@ impl<B: Board> Module<B> {
                 self.step_reference(m);
             }
         }
+    }
+
+    /// A reference search's tick in `parts` (one per microstep) taken at once when every look at the
+    /// switch in it would go on: the board is quiet for the whole tick (its window reaches past the tick
+    /// and the tick's travel), the search decides to go on with the switches as they are (so it does at
+    /// every part: they stay), and the parts, computed by the ramp alone, move one way at speeds within
+    /// the window's and all accelerate or none does (the boost current stays). The board hears of the
+    /// tick once, at its end, as within a span. Returns whether it took the tick.
+    fn search_tick_at_once(&mut self, m: usize, tick_at: Instant, params: &RampParams, parts: u64) -> bool {
+        let start = self.st.motion_time;
+        // (What the first part does first; a tick that falls back to its parts finds it done.)
+        self.sync_board(m, start);
+        let Some(state) = self.st.axes[m].last_drive else { return false };
+        let Some(quiet) = self.board.quiet(m, start, &state) else { return false };
+        if quiet.until.is_some_and(|u| u <= tick_at) {
+            return false;
+        }
+        let (left, right, home) = self.switches(m);
+        let (fast, slow) = self.reference_speeds(m);
+        let mut reference = self.st.axes[m].reference;
+        let decision = reference.step(SwitchLevels { left, right, home }, self.st.axes[m].ramp.position, fast, slow);
+        if decision != Action::Continue || reference != self.st.axes[m].reference {
+            return false;
+        }
+        let limits = self.limits(m);
+        let mut ramp = self.st.axes[m].ramp;
+        let step = TICK.micros() / parts;
+        let (mut total, mut last, mut ramping) = (0i64, 0i64, None);
+        for k in 1..=parts {
+            let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
+            let r = ramp.tick(Duration::from_micros(dt), params, limits);
+            let speed = ramp.velocity().unsigned_abs();
+            if r.arrived
+                || r.stopped_by_switch
+                || speed == 0
+                || speed < quiet.min_speed
+                || speed > quiet.max_speed
+                || total.signum() * r.steps.signum() < 0
+                || ramping.is_some_and(|x| x != r.ramping)
+            {
+                return false;
+            }
+            ramping = Some(r.ramping);
+            total += r.steps;
+            last = r.steps;
+        }
+        let room = if total >= 0 { quiet.forward } else { quiet.backward };
+        if (total != 0 && last == 0) || total.unsigned_abs() > room {
+            return false;
+        }
+        let axis = &mut self.st.axes[m];
+        axis.ramp = ramp;
+        axis.ramping = ramping.unwrap_or(false);
+        axis.moved(tick_at, total);
+        self.update_board(m, tick_at);
+        true
     }
 
     /// What follows every motion tick (and a span, at its last tick `t`), after the board has been

@@ -8,8 +8,10 @@
 //! A span needs every tick in it to be *silent*: nothing but the ramp may happen at those ticks. So the
 //! module takes none:
 //! - ticking one by one was asked for ([`Module::set_exact_ticks`]);
-//! - in a reference search (it samples its switch after every microstep), while a closed loop is closed
-//!   or initialising (it measures the encoder and corrects at every tick); in open loop a closed-loop
+//! - in a reference search (it samples its switch after every microstep) while the speed changes (a
+//!   tick in parts accelerates otherwise than a whole one) or on a closed-loop model; cruising, a search
+//!   takes spans within the board's window, where every look at the switch decides as the first did;
+//! - while a closed loop is closed or initialising (it measures the encoder and corrects at every tick); in open loop a closed-loop
 //!   model measures the velocity AP 131 over the last ticks, so its spans end that many ticks and one
 //!   before the event, and those ticks are ticked (`take_span`);
 //! - while coolStep regulates (every load measurement changes the current), while the encoder deviation
@@ -28,6 +30,7 @@ use crate::drive::encoder;
 use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
+use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Bounds, Limits, Ramp, RampParams, Span, TICK};
 use crate::time::{Duration, Instant};
 use crate::vm::RunState;
@@ -222,8 +225,9 @@ impl<B: Board> Module<B> {
 
     /// The bounds of both, and the board's period.
     fn bounds(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds, u64)> {
+        let searching = self.st.axes[0].reference.is_active();
         if self.exact
-            || self.st.axes[0].reference.is_active()
+            || (searching && (self.has_closed_loop() || self.st.axes[0].ramping))
             || self.st.axes[0].standstill_since.is_some()
             || self.st.axes[0].ramp.velocity() == 0
         {
@@ -251,6 +255,21 @@ impl<B: Board> Module<B> {
         self.sync_board(0, self.st.motion_time);
         let state = self.st.axes[0].last_drive?;
         let quiet = self.board.quiet(0, self.st.motion_time, &state)?;
+        if searching {
+            // A reference search looks at its switch after every microstep; within the board's window the
+            // switches stay as they are, so every look decides as this one: on, if this one does (the
+            // position matters only where the switch it waits for reads as it waits for).
+            let (left, right, home) = self.switches(0);
+            let levels = SwitchLevels { left, right, home };
+            let (fast, slow) = self.reference_speeds(0);
+            let mut reference = self.st.axes[0].reference;
+            let position = self.st.axes[0].ramp.position;
+            if reference.step(levels, position, fast, slow) != Action::Continue
+                || reference != self.st.axes[0].reference
+            {
+                return None;
+            }
+        }
         if quiet.load == 0 && self.units_to_pps(0, self.ap(0, Setting::StopOnStall).unwrap_or(0)) > 0 {
             return None; // a measurement would stop the motor
         }
