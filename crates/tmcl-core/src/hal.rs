@@ -171,13 +171,6 @@ pub struct Quiet {
     pub max_speed: u32,
     /// The load value (AP 206) every load measurement in the window reads.
     pub load: u16,
-    /// Within the window the board is *periodic* in the field's position with this period (microsteps of
-    /// the current resolution; 0: it cannot say): the rotor follows the field's position, not its
-    /// history, and where the field stands `period` further on, every reading is what it is here, the
-    /// encoder counts moved on by exactly `period` × counts per revolution / microsteps per revolution
-    /// (a whole number). A closed loop turning at a steady speed repeats its ticks with such a period,
-    /// and the core takes whole periods at once (`module/periods.rs`).
-    pub period: u64,
 }
 
 /// The motor driver, fed by the step generator.
@@ -213,6 +206,19 @@ pub trait StepDriver {
     fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet> {
         let _ = (motor, now, state);
         None
+    }
+
+    /// Whether, within the window `quiet` that [`StepDriver::quiet`] has just reported for `state`, the
+    /// board is *periodic* in the field's position, and with which period (microsteps of the current
+    /// resolution; 0, the default: it cannot say). Periodic: the rotor follows the field's position, not
+    /// its history, and where the field stands `period` further on, every reading is what it is here, the
+    /// encoder counts moved on by exactly `period` × counts per revolution / microsteps per revolution (a
+    /// whole number). The board narrows `quiet.forward`/`backward` to where that holds. A closed loop
+    /// turning at a steady speed repeats its ticks with such a period, and the core takes whole periods at
+    /// once (`module/periods.rs`); the core asks only then.
+    fn period(&mut self, motor: usize, state: &DriveState, quiet: &mut Quiet) -> u64 {
+        let _ = (motor, state, quiet);
+        0
     }
 }
 
@@ -272,6 +278,7 @@ forward! {
         fn update(&mut self, motor: usize, now: Instant, state: &DriveState);
         fn configure(&mut self, motor: usize, settings: &DriverSettings);
         fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet>;
+        fn period(&mut self, motor: usize, state: &DriveState, quiet: &mut Quiet) -> u64;
     }
     LoadSensor {
         fn load(&mut self, motor: usize) -> u16;

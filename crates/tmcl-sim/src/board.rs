@@ -324,6 +324,9 @@ pub struct SimBoard {
     /// Seizure points added at run time ([`Change::Seize`]), besides the world file's windows.
     held: Vec<f64>,
     encoder_slip: i64,
+    /// The encoder's period in µsteps and its reach for (µsteps, counts) a revolution, as last computed
+    /// (`SimBoard::encoder_period`).
+    encoder_period_of: Option<(u64, u64, u64, f64)>,
     /// Coil peak current now (A).
     coil: f64,
     /// Its square in (mA/32)², for the energy figure ([`driver::coil_square`]).
@@ -411,6 +414,7 @@ impl SimBoard {
             fault_flags: 0,
             held: Vec::new(),
             encoder_slip: 0,
+            encoder_period_of: None,
             coil: 0.0,
             coil_square: 0,
             outputs: 0,
@@ -865,14 +869,6 @@ impl SimBoard {
                 behind = 0;
             }
         }
-        // A rotor locked on the field at whole µsteps: periodic in the field's position where the encoder's
-        // counts are (the window then ends where that stops being exact).
-        let period = match steady.follow {
-            Follow::Exact => self.encoder_period(&mut ahead, &mut behind),
-            _ => 0,
-        };
-        // In µsteps of the resolution in force: the fewest whose physical move is a multiple of it.
-        let period = period / gcd(period, per_step as u64);
         let (forward, backward) = if sign > 0 { (ahead, behind) } else { (behind, ahead) };
         let (forward, backward) = (forward / per_step as u64, backward / per_step as u64);
         let (mut min_speed, mut max_speed, mut load) = (0u32, u32::MAX, self.driver.load());
@@ -917,11 +913,28 @@ impl SimBoard {
         // (`now`, the module's clock, not the board's: a standing motor's board hears of nothing for long.)
         let standstill = if dir == 0 { self.driver.standstill_at(now.max(self.now)) } else { None };
         let until = [self.timeline_event(), self.next_bounce(), standstill].into_iter().flatten().min();
-        Some(Quiet { until, forward, backward, min_speed, max_speed, load, period })
+        Some(Quiet { until, forward, backward, min_speed, max_speed, load })
+    }
+
+    /// [`StepDriver::period`]: a rotor locked on the field at whole µsteps is periodic in the field's
+    /// position where its encoder counts are exact (the window is narrowed to there).
+    fn period_window(&mut self, state: &DriveState, quiet: &mut Quiet) -> u64 {
+        let (per_step, sign) = (self.per_step(), self.sign());
+        let dir = i64::from(state.velocity.signum()) * sign;
+        if self.plan.mech.steady(dir).map(|s| s.follow) != Some(Follow::Exact) {
+            return 0;
+        }
+        let (mut ahead, mut behind) = (u64::MAX, u64::MAX);
+        let period = self.encoder_period(&mut ahead, &mut behind);
+        let (forward, backward) = if sign > 0 { (ahead, behind) } else { (behind, ahead) };
+        quiet.forward = quiet.forward.min(forward / per_step as u64);
+        quiet.backward = quiet.backward.min(backward / per_step as u64);
+        // In µsteps of the resolution in force: the fewest whose physical move is a multiple of it.
+        period / gcd(period, per_step as u64)
     }
 
     /// The period (physical µsteps) in which a rotor locked on the field at whole µsteps reads the same
-    /// encoder counts, moved on by a whole number, per [`Quiet::period`]; 0 if the counts are not
+    /// encoder counts, moved on by a whole number, per [`StepDriver::period`]; 0 if the counts are not
     /// provably periodic. Narrows `ahead`/`behind` (physical µsteps, physical directions) to where they
     /// are.
     ///
@@ -931,7 +944,7 @@ impl SimBoard {
     /// product. Elsewhere the exact value lies at least 1/p from a whole number, and the two roundings
     /// (relative error below 2⁻⁵²) cannot cross one while |x − zero| · cpr < 2⁵⁰. So within that range the
     /// floor is the exact one, and the counts move on by cpr/g whenever x moves on by p.
-    fn encoder_period(&self, ahead: &mut u64, behind: &mut u64) -> u64 {
+    fn encoder_period(&mut self, ahead: &mut u64, behind: &mut u64) -> u64 {
         let Some(model) = self.profile.encoder else { return 1 }; // no encoder: nothing to read
         let (ssi, per_rev) = match self.spec.encoder {
             Some(e) => (e.kind == EncoderType::Ssi, e.counts_per_rev),
@@ -941,26 +954,33 @@ impl SimBoard {
             return 1; // it reads 0 everywhere
         }
         let (x, zero, upr) = (self.plan.mech.rotor(), self.plan.encoder_zero, self.plan.mech.usteps_per_rev());
-        if ssi || x.fract() != 0.0 || zero.fract() != 0.0 || upr.fract() != 0.0 {
-            return 0;
-        }
-        if !(1.0..4_294_967_296.0).contains(&upr) || per_rev == 0 {
+        if ssi || !whole(x) || !whole(zero) || !whole(upr) || !(1.0..4_294_967_296.0).contains(&upr) || per_rev == 0 {
             return 0;
         }
         let (upr, cpr) = (upr as u64, u64::from(per_rev));
-        let g = gcd(upr, cpr);
-        if !g.is_power_of_two() {
+        // p for this upr and cpr (0: g is no power of two) and the reach below, computed once for both (a
+        // span asks often).
+        let (period, reach) = match self.encoder_period_of {
+            Some((u, c, p, r)) if u == upr && c == cpr => (p, r),
+            _ => {
+                let g = gcd(upr, cpr);
+                let p = if g.is_power_of_two() { upr / g } else { 0 };
+                // |x − zero| below 2⁵⁰ / cpr all through the window.
+                let r = ((1u64 << 50) / cpr) as f64;
+                self.encoder_period_of = Some((upr, cpr, p, r));
+                (p, r)
+            }
+        };
+        if period == 0 {
             return 0;
         }
-        // |x − zero| below 2⁵⁰ / cpr all through the window.
-        let reach = ((1u64 << 50) / cpr) as f64;
         let d = x - zero;
         if d.abs() >= reach {
             return 0;
         }
         *ahead = (*ahead).min((reach - d) as u64 - 1);
         *behind = (*behind).min((reach + d) as u64 - 1);
-        upr / g
+        period
     }
 
     /// Encoder counts now (see [`Feedback::encoder_counts`]).
@@ -1136,6 +1156,13 @@ impl StepDriver for SimBoard {
         self.sync();
         self.quiet_window(now, state)
     }
+
+    fn period(&mut self, motor: usize, state: &DriveState, quiet: &mut Quiet) -> u64 {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].period(0, state, quiet);
+        }
+        self.period_window(state, quiet)
+    }
 }
 
 /// The load measurement: stallGuard2 when the model's driver is a TMC262 (else no measurement is taken
@@ -1175,6 +1202,12 @@ impl EncoderCounter for SimBoard {
         self.sync();
         self.counts()
     }
+}
+
+/// Whether `x` is a whole number (of at most 63 bits), without a rounding library call.
+#[inline]
+fn whole(x: f64) -> bool {
+    x == (x as i64) as f64
 }
 
 /// The greatest common divisor (0 with 0 gives 0).

@@ -128,7 +128,7 @@ impl LoopSkip {
 
     /// The cheap part of a pass, at every jump back: whether its key came round and a look at the whole
     /// state is due ([`LoopSkip::look`]).
-    #[inline]
+    #[inline(always)]
     pub fn due<P: Pass>(&mut self, pass: &P) -> bool {
         let Some(key) = pass.key() else { return false };
         let executed = pass.executed();

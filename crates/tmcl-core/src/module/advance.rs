@@ -204,8 +204,10 @@ impl<B: Board> Module<B> {
     /// switch in it would go on: the board is quiet for the whole tick (its window reaches past the tick
     /// and the tick's travel), the search decides to go on with the switches as they are (so it does at
     /// every part: they stay), and the parts, computed by the ramp alone, move one way at speeds within
-    /// the window's and all accelerate or none does (the boost current stays). The board hears of the
-    /// tick once, at its end, as within a span. Returns whether it took the tick.
+    /// the window's, the motor moving already and every part accelerating as the tick before did, or none
+    /// (so the current stays what the board was told). The board hears of the tick once, at its end, as
+    /// within a span. Returns whether it took the tick.
+    #[inline(never)] // out of the plain tick's way
     fn search_tick_at_once(&mut self, m: usize, tick_at: Instant, params: &RampParams, parts: u64) -> bool {
         let start = self.st.motion_time;
         // (What the first part does first; a tick that falls back to its parts finds it done.)
@@ -222,10 +224,15 @@ impl<B: Board> Module<B> {
         if decision != Action::Continue || reference != self.st.axes[m].reference {
             return false;
         }
+        if self.st.axes[m].standstill_since.is_some() {
+            return false; // starting: the current changes with the first part (the board must hear of it)
+        }
         let limits = self.limits(m);
         let mut ramp = self.st.axes[m].ramp;
         let step = TICK.micros() / parts;
-        let (mut total, mut last, mut ramping) = (0i64, 0i64, None);
+        // Every part accelerates as the tick before did, or none does: the boost current (AP 200) stays
+        // what the board was last told, as within a span.
+        let (mut total, mut last, mut ramping) = (0i64, 0i64, Some(self.st.axes[m].ramping));
         for k in 1..=parts {
             let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
             let r = ramp.tick(Duration::from_micros(dt), params, limits);

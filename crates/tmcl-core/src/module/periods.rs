@@ -9,7 +9,7 @@
 //!
 //! 1. At the start of a cruising tick it keeps a *checkpoint*: the ramp, the loop, the parameters and
 //!    the encoder counts, and the period's length in ticks — the fewest after which the ramp's fraction is
-//!    back and its travel is a whole number of the board's period ([`crate::hal::Quiet::period`]: where
+//!    back and its travel is a whole number of the board's period ([`crate::hal::StepDriver::period`]: where
 //!    its readings repeat) and of the encoder conversion's (counts × AP 202 × microsteps / AP 210 comes
 //!    out whole).
 //! 2. It ticks the period, watching that nothing breaks it (the speed changing, the current changing).
@@ -90,6 +90,7 @@ struct Jump {
 impl<B: Board> Module<B> {
     /// At the start of a tick with motor 0's loop closed (one-motor models): keeps, checks and takes
     /// periods (see the module docs). Returns whether it took any tick.
+    #[inline(never)] // out of the open loop's way
     pub(super) fn take_periods(&mut self, now: Instant, params: &RampParams) -> bool {
         if !self.may_repeat() {
             self.periods.0 = None;

@@ -118,6 +118,10 @@ impl<B: StepDriver> StepDriver for Seam<B> {
     fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet> {
         self.board.quiet(motor, now, state)
     }
+    #[inline]
+    fn period(&mut self, motor: usize, state: &DriveState, quiet: &mut Quiet) -> u64 {
+        self.board.period(motor, state, quiet)
+    }
 }
 
 impl<B: Inputs> Inputs for Seam<B> {

@@ -209,22 +209,22 @@ impl<B: Board> Module<B> {
         if self.st.axes[0].cl.engaged() {
             return None;
         }
-        self.bounds(horizon).map(|(limits, bounds, _)| (limits, bounds))
+        self.bounds(horizon, false).map(|(limits, bounds, _)| (limits, bounds))
     }
 
     #[cfg(feature = "loop-periods")]
     /// [`Module::span_bounds`] for a loop that is closed (`module/periods.rs`), with the board's period
-    /// ([`crate::hal::Quiet::period`], 0: none).
+    /// ([`crate::hal::StepDriver::period`]; `None` without one).
     pub(super) fn span_bounds_periodic(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds, u64)> {
         let cl = &self.st.axes[0].cl;
         if !cl.active || cl.init != Init::Done {
             return None;
         }
-        self.bounds(horizon).filter(|(_, _, period)| *period > 0)
+        self.bounds(horizon, true).filter(|(_, _, period)| *period > 0)
     }
 
-    /// The bounds of both, and the board's period.
-    fn bounds(&mut self, horizon: Option<Instant>) -> Option<(Limits, Bounds, u64)> {
+    /// The bounds of both, and the board's period if `periodic` (else 0).
+    fn bounds(&mut self, horizon: Option<Instant>, periodic: bool) -> Option<(Limits, Bounds, u64)> {
         let searching = self.st.axes[0].reference.is_active();
         if self.exact
             || (searching && (self.has_closed_loop() || self.st.axes[0].ramping))
@@ -254,7 +254,8 @@ impl<B: Board> Module<B> {
         // The board at the span's start, as a first tick would read it.
         self.sync_board(0, self.st.motion_time);
         let state = self.st.axes[0].last_drive?;
-        let quiet = self.board.quiet(0, self.st.motion_time, &state)?;
+        let mut quiet = self.board.quiet(0, self.st.motion_time, &state)?;
+        let period = if periodic { self.board.period(0, &state, &mut quiet) } else { 0 };
         if searching {
             // A reference search looks at its switch after every microstep; within the board's window the
             // switches stay as they are, so every look decides as this one: on, if this one does (the
@@ -308,6 +309,6 @@ impl<B: Board> Module<B> {
             ramping: self.st.axes[0].ramping,
             work: u64::MAX,
         };
-        Some((self.limits(0), bounds, quiet.period))
+        Some((self.limits(0), bounds, period))
     }
 }

@@ -104,15 +104,7 @@ impl StepDriver for AxesBoard {
         // Quiet up to the switch (in the current resolution's microsteps), for good in time.
         let scale = 1i64 << (8 - state.resolution.min(8));
         let forward = m.right_from.map_or(u64::MAX / 2, |r| ((r - m.physical).max(1) / scale) as u64);
-        Some(Quiet {
-            until: None,
-            forward,
-            backward: u64::MAX / 2,
-            min_speed: 0,
-            max_speed: u32::MAX,
-            load: 1023,
-            period: 0,
-        })
+        Some(Quiet { until: None, forward, backward: u64::MAX / 2, min_speed: 0, max_speed: u32::MAX, load: 1023 })
     }
 }
 

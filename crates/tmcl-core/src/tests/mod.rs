@@ -163,7 +163,6 @@ impl StepDriver for TestBoard {
             min_speed: 0,
             max_speed: 0,
             load: 700,
-            period: 0,
         })
     }
 }
