@@ -438,10 +438,11 @@ impl<B: Board> Module<B> {
         if self.gp(Setting::AsciiMode).unwrap_or(0) & 1 == 1 {
             if let Some(port) = spec.interfaces.iter().position(|i| i.ascii) {
                 self.enter_ascii(port);
-                // The extra host links are the first interface again.
+                // The extra host links (the ports after the model's interfaces; none without the
+                // `host-links` feature) are the first interface again.
                 if port == 0 {
-                    for link in 1..crate::iface::HOST_LINKS {
-                        self.enter_ascii(MAX_INTERFACES + link - 1);
+                    for link in MAX_INTERFACES..self.st.ports.len() {
+                        self.enter_ascii(link);
                     }
                 }
             }
