@@ -30,7 +30,7 @@ use crate::drive::closed_loop::ClosedLoop;
 use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
-use crate::model::{Kinematics, ModelSpec, Setting};
+use crate::model::{ModelSpec, Setting};
 use crate::motion::{Limits, Ramp, RampParams};
 use crate::param::persist;
 use crate::time::{Duration, Instant};
@@ -349,22 +349,16 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// A velocity in the model's unit as microsteps per second (the ramp's unit).
+    /// A velocity in the model's unit as microsteps per second (the ramp's unit; [`Axis::units_to_pps`]).
     #[inline]
     pub(crate) fn units_to_pps(&self, m: usize, v: i32) -> i32 {
-        match self.spec.kinematics {
-            Kinematics::Pps => v,
-            k => k.velocity_to_pps(v, self.ap(m, Setting::PulseDivisor).unwrap_or(0)),
-        }
+        self.st.axes[m].units_to_pps(self.spec, v)
     }
 
-    /// A velocity in microsteps per second in the model's unit.
+    /// A velocity in microsteps per second in the model's unit ([`Axis::pps_to_units`]).
     #[inline]
     pub(crate) fn pps_to_units(&self, m: usize, pps: i32) -> i32 {
-        match self.spec.kinematics {
-            Kinematics::Pps => pps,
-            k => k.pps_to_velocity(pps, self.ap(m, Setting::PulseDivisor).unwrap_or(0)),
-        }
+        self.st.axes[m].pps_to_units(self.spec, pps)
     }
 
     /// Start-up, as after a power cycle (manual §3.7.38 command 255, chapter 8 "power-up restores").
@@ -449,36 +443,16 @@ impl<B: Board> Module<B> {
         }
     }
 
+    /// The ramp parameters motor `m` runs with ([`Axis::ramp_params`]).
+    #[inline]
     pub(crate) fn ramp_params(&self, m: usize) -> RampParams {
-        // An interpolated MVP COORD's scaled speed and acceleration, while this axis still heads for that
-        // move's target in position mode (`module/coordinated.rs`).
-        if let Some((target, p)) = self.st.axes[m].interpolation {
-            let ramp = &self.st.axes[m].ramp;
-            if ramp.mode == crate::motion::Mode::Position && ramp.target_position == target {
-                return p;
-            }
-        }
-        self.own_ramp_params(m)
+        self.st.axes[m].ramp_params(self.spec)
     }
 
-    /// The ramp parameters motor `m`'s own AP 4, 5 and 130 give.
+    /// The ramp parameters motor `m`'s own AP 4, 5 and 130 give ([`Axis::own_ramp_params`]).
+    #[inline]
     pub(crate) fn own_ramp_params(&self, m: usize) -> RampParams {
-        // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
-        let (v, a) =
-            (self.ap(m, Setting::MaxPositioningSpeed).unwrap_or(1), self.ap(m, Setting::MaxAcceleration).unwrap_or(1));
-        let v_min = self.ap(m, Setting::MinimumSpeed).unwrap_or(0);
-        match self.spec.kinematics {
-            Kinematics::Pps => RampParams { max_speed: v, max_accel: a, min_speed: v_min },
-            k => {
-                let pulse = self.ap(m, Setting::PulseDivisor).unwrap_or(0);
-                let ramp = self.ap(m, Setting::RampDivisor).unwrap_or(0);
-                RampParams {
-                    max_speed: k.velocity_to_pps(v, pulse).max(1),
-                    max_accel: k.acceleration_to_pps2(a, pulse, ramp).max(1),
-                    min_speed: k.velocity_to_pps(v_min, pulse),
-                }
-            }
-        }
+        self.st.axes[m].own_ramp_params(self.spec)
     }
 
     /// Logical switch states (AP 9, 10, 11): GP 79 reverses the polarity of the end switches.

@@ -17,7 +17,7 @@
 //!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.5) and work on the
 //!   module's registers.
 
-use super::{Module, Origin, Outcome};
+use super::{params, Module, Origin, Outcome};
 use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::{AppStatusReply, Driver, PortKind, Setting};
@@ -109,13 +109,17 @@ impl<B: Board> Module<B> {
                 let m = self.motor(motor)?;
                 value(self.read_axis(m, param, Some(now))?)
             }
-            // §3.7.7 STAP: E parameters only.
+            // §3.7.7 STAP: E parameters only; the motor's RAM value, the model's table and the EEPROM.
             C::Stap { param, motor } => {
-                self.motor(motor).and_then(|m| self.store_axis(m, param)).map(|()| Outcome::Value(0))
+                let m = self.motor(motor)?;
+                let Module { board, spec, st, .. } = self;
+                params::store_axis(board, spec, &st.axes[m], m, param, st.unlocked).map(|()| Outcome::Value(0))
             }
-            // §3.7.8 RSAP: E parameters only.
+            // §3.7.8 RSAP: E parameters only; the EEPROM into the motor's RAM value.
             C::Rsap { param, motor } => {
-                self.motor(motor).and_then(|m| self.restore_axis(m, param)).map(|()| Outcome::Value(0))
+                let m = self.motor(motor)?;
+                let Module { board, spec, st, .. } = self;
+                params::restore_axis(board, spec, &mut st.axes[m], m, param).map(|()| Outcome::Value(0))
             }
             // §3.7.9 SGP.
             C::Sgp { param, bank, value: v } => self.write_global(param, bank, v, now).map(|()| Outcome::Value(v)),
@@ -159,7 +163,7 @@ impl<B: Board> Module<B> {
             C::Gco { coord, motor: 255 } => self.copy_coordinates(coord, false).map(|()| Outcome::Value(0)),
             C::Gco { coord, motor } => {
                 let m = self.motor(motor)?;
-                value(self.st.axes[m].coords[self.coord_index(coord)?])
+                value(self.st.axes[m].coords[params::coord_index(self.spec, coord)?])
             }
             // §3.7.26 CCO: coordinate ← actual position; the reply carries it.
             C::Cco { coord, motor } => {
