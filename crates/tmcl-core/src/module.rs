@@ -32,10 +32,11 @@ use crate::hal::{Board, DriveState};
 use crate::iface::Port;
 use crate::model::{ModelSpec, Setting};
 use crate::motion::{Limits, Ramp, RampParams};
+use crate::param::banks::Banks;
 use crate::param::persist;
 use crate::time::{Duration, Instant};
 use crate::vm::{Program, Vm};
-use tmcl_model::capacity::{MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES};
+use tmcl_model::capacity::MAX_INTERFACES;
 use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
 pub use crate::axis::{Axis, EncoderBase};
@@ -77,9 +78,8 @@ pub(crate) struct EventRequest {
 pub struct State {
     /// The motors, one [`Axis`] each (`crate::axis`).
     pub(crate) axes: Axes,
-    pub(crate) global: [i32; MAX_GLOBAL_PARAMS],
-    pub(crate) interrupt: [i32; MAX_INTERRUPT_PARAMS],
-    pub(crate) user: [i32; MAX_USER_VARIABLES],
+    /// The global banks: bank 0 settings, user variables, interrupt configuration (`crate::param::banks`).
+    pub(crate) banks: Banks,
     /// The program's registers.
     pub(crate) regs: Registers,
     /// The host's registers (direct-mode CALC and friends), kept apart so that a host never disturbs a
@@ -94,9 +94,6 @@ pub struct State {
     pub(crate) motion_time: Instant,
     /// The latest time the module has been told.
     pub(crate) now: Instant,
-    /// GP 132's reference: (time, value at that time).
-    pub(crate) tick_base: (Instant, u32),
-    pub(crate) rng: u32,
     /// When the last command addressed to this module arrived (GP 68 heartbeat).
     pub(crate) last_command: Instant,
     pub(crate) heartbeat_tripped: bool,
@@ -104,8 +101,6 @@ pub struct State {
     pub(crate) outputs: u8,
     /// GP 65 as it was at the last start (a new baud rate needs a restart, manual §5.1).
     pub(crate) active_baud: u8,
-    /// Password-protected parameters may be written (see [`crate::model::Role::Password`]).
-    pub(crate) unlocked: bool,
     /// The TMC428 registers SAC reaches that no firmware state stands behind (TMC428-generation models).
     pub(crate) tmc428: crate::drive::tmc428::Tmc428Regs,
 }
@@ -114,9 +109,7 @@ impl State {
     fn new(motors: u8, now: Instant) -> State {
         State {
             axes: Axes::new(motors, now),
-            global: [0; MAX_GLOBAL_PARAMS],
-            interrupt: [0; MAX_INTERRUPT_PARAMS],
-            user: [0; MAX_USER_VARIABLES],
+            banks: Banks::new(now),
             regs: Registers::default(),
             host_regs: Registers::default(),
             event: EventRequest::default(),
@@ -124,13 +117,10 @@ impl State {
             asking_port: 0,
             motion_time: now,
             now,
-            tick_base: (now, 0),
-            rng: RNG_SEED,
             last_command: now,
             heartbeat_tripped: false,
             outputs: 0,
             active_baud: 0,
-            unlocked: false,
             tmc428: Default::default(),
         }
     }
@@ -150,9 +140,6 @@ impl State {
         self.ports.get(port)
     }
 }
-
-/// GP 133's generator starts from this seed at every start (a write to GP 133 reseeds it).
-pub(crate) const RNG_SEED: u32 = 0x2545_F491;
 
 /// Who sent a command: the host (direct mode) or the stored program (standalone mode, §3.6).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -333,7 +320,7 @@ impl<B: Board> Module<B> {
     /// The value of the bank 0 parameter with `setting`, if the model has one.
     #[inline]
     pub(crate) fn gp(&self, setting: Setting) -> Option<i32> {
-        self.spec.global.setting(setting).map(|i| self.st.global[i])
+        self.st.banks.gp(self.spec, setting)
     }
 
     /// Whether the bank 0 flag with `setting` is set (a model without it: not set).
@@ -387,21 +374,21 @@ impl<B: Board> Module<B> {
             }
         }
         for (i, d) in spec.global.params.iter().enumerate() {
-            self.st.global[i] = d.default;
+            self.st.banks.global[i] = d.default;
             if d.access.persistent() {
                 if let Ok(v) = persist::load_global(&mut self.board, spec, i) {
-                    self.st.global[i] = if d.range.contains(v) { v } else { d.default };
+                    self.st.banks.global[i] = if d.range.contains(v) { v } else { d.default };
                 }
             }
         }
         for (i, d) in spec.interrupt.params.iter().enumerate() {
-            self.st.interrupt[i] = d.default;
+            self.st.banks.interrupt[i] = d.default;
         }
         // §5.3 / §8.4: user variables are restored unless GP 85 = 1.
         if !self.gp_flag(Setting::DoNotRestoreUserVariables) {
             for n in 0..spec.stored_user_variables {
                 let n = n as u8; // stored_user_variables ≤ 256, checked by ModelSpec::new
-                self.st.user[usize::from(n)] = persist::load_user(&mut self.board, spec, n).unwrap_or(0);
+                self.st.banks.user[usize::from(n)] = persist::load_user(&mut self.board, spec, n).unwrap_or(0);
             }
         }
         // §3.7.24: with GP 84 = 1 the coordinates are copied back at start-up.

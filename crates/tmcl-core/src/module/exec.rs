@@ -113,7 +113,7 @@ impl<B: Board> Module<B> {
             C::Stap { param, motor } => {
                 let m = self.motor(motor)?;
                 let Module { board, spec, st, .. } = self;
-                params::store_axis(board, spec, &st.axes[m], m, param, st.unlocked).map(|()| Outcome::Value(0))
+                params::store_axis(board, spec, &st.axes[m], m, param, st.banks.unlocked).map(|()| Outcome::Value(0))
             }
             // §3.7.8 RSAP: E parameters only; the EEPROM into the motor's RAM value.
             C::Rsap { param, motor } => {
@@ -121,15 +121,27 @@ impl<B: Board> Module<B> {
                 let Module { board, spec, st, .. } = self;
                 params::restore_axis(board, spec, &mut st.axes[m], m, param).map(|()| Outcome::Value(0))
             }
-            // §3.7.9 SGP.
-            C::Sgp { param, bank, value: v } => self.write_global(param, bank, v, now).map(|()| Outcome::Value(v)),
-            // §3.7.10 GGP.
-            C::Ggp { param, bank } => value(self.read_global(param, bank, now)?),
+            // §3.7.9 SGP: the banks, and what a write reaches besides them (`params::Reach`).
+            C::Sgp { param, bank, value: v } => {
+                let (spec, banks, reach) = self.global_parts();
+                params::write_global(spec, banks, reach, param, bank, v, now).map(|()| Outcome::Value(v))
+            }
+            // §3.7.10 GGP: the banks; GP 128–130 the program machine.
+            C::Ggp { param, bank } => {
+                let Module { spec, st, vm, .. } = self;
+                value(params::read_global(spec, &mut st.banks, vm, param, bank, now)?)
+            }
             // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
             // and a STGP rewrites them (the manual does not say what STGP does on bank 0).
-            C::Stgp { param, bank } => self.store_global(param, bank).map(|()| Outcome::Value(0)),
+            C::Stgp { param, bank } => {
+                let Module { board, spec, st, .. } = self;
+                params::store_global(board, spec, &st.banks, param, bank).map(|()| Outcome::Value(0))
+            }
             // §3.7.12 RSGP.
-            C::Rsgp { param, bank } => self.restore_global(param, bank).map(|()| Outcome::Value(0)),
+            C::Rsgp { param, bank } => {
+                let Module { board, spec, st, .. } = self;
+                params::restore_global(board, spec, &mut st.banks, param, bank).map(|()| Outcome::Value(0))
+            }
             // §3.7.13 RFS START/STOP/STATUS.
             C::Rfs { action, motor } => {
                 let m = self.motor(motor)?;
@@ -153,7 +165,8 @@ impl<B: Board> Module<B> {
             // §3.7.30 AGP: global parameter ← A.
             C::Agp { param, bank } => {
                 let a = self.regs(origin).accumulator;
-                self.write_global(param, bank, a, now)?;
+                let (spec, banks, reach) = self.global_parts();
+                params::write_global(spec, banks, reach, param, bank, a, now)?;
                 value(a)
             }
             // §3.7.24 SCO; motor 255 copies RAM → EEPROM (coordinate 0 = all of 1..20).

@@ -3,12 +3,15 @@
 //! their EEPROM copies ([`crate::param::persist`]). Statuses as the dispatcher's docs (`module/exec.rs`)
 //! decide them.
 
-use super::{Axis, Module, RNG_SEED};
+use super::seam::Seam;
+use super::{program, Axis, Module};
 use crate::hal::prelude::*;
 use crate::hal::{Board, Nvm};
 use crate::model::{ModelSpec, Setting};
+use crate::param::banks::Banks;
 use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
+use crate::vm::{Program, Registers, Vm};
 use tmcl_wire::Status;
 
 /// A bank of SGP, GGP, STGP and RSGP (chapter 5) the model has.
@@ -73,40 +76,6 @@ pub(crate) fn restore_axis(
 }
 
 impl<B: Board> Module<B> {
-    /// STGP (§3.7.11): a bank 0 A parameter or a bank 2 user variable into the EEPROM; bank 3 is not stored.
-    pub(crate) fn store_global(&mut self, number: u8, bank: u8) -> Result<(), Status> {
-        match Bank::of(self.spec, bank)? {
-            Bank::Global => {
-                let (i, d) = permitted(&self.spec.global, number, |d| d.access.auto)?;
-                unlocked_for(self.st.unlocked, d)?;
-                persist::store_global(&mut self.board, self.spec, i, self.st.global[i])?;
-            }
-            Bank::User => {
-                let v = self.st.user[user_index(self.spec, number)?];
-                persist::store_user(&mut self.board, self.spec, number, v)?;
-            }
-            Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
-        }
-        Ok(())
-    }
-
-    /// RSGP (§3.7.12): a bank 0 A parameter or a bank 2 user variable back from the EEPROM.
-    pub(crate) fn restore_global(&mut self, number: u8, bank: u8) -> Result<(), Status> {
-        match Bank::of(self.spec, bank)? {
-            Bank::Global => {
-                let (i, d) = permitted(&self.spec.global, number, |d| d.access.auto)?;
-                let v = persist::load_global(&mut self.board, self.spec, i)?;
-                self.st.global[i] = if d.range.contains(v) { v } else { d.default };
-            }
-            Bank::User => {
-                let n = user_index(self.spec, number)?;
-                self.st.user[n] = persist::load_user(&mut self.board, self.spec, number)?;
-            }
-            Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
-        }
-        Ok(())
-    }
-
     /// GAP of motor 0: an axis parameter's value (chapter 4, Table 15). A library call from outside, as a
     /// host's GAP is: a read may change state (AP 207 clears on read), so it counts as an input
     /// (`module/seam.rs`).
@@ -138,14 +107,22 @@ impl<B: Board> Module<B> {
     /// a new number at every read).
     pub fn get_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
         self.board.input();
-        self.read_global(number, bank, now)
+        read_global(self.spec, &mut self.st.banks, &self.vm, number, bank, now)
     }
 
     /// SGP without the frame: writes a global parameter at `now`, as a library call from outside (an
     /// input, `module/seam.rs`).
     pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
         self.board.input();
-        self.write_global(number, bank, v, now)
+        let (spec, banks, reach) = self.global_parts();
+        write_global(spec, banks, reach, number, bank, v, now)
+    }
+
+    /// The parts a global parameter's write takes, borrowed apart: the model, the banks, and what the write
+    /// reaches besides them ([`Reach`]).
+    pub(crate) fn global_parts(&mut self) -> (&'static ModelSpec, &mut Banks, Reach<'_, Seam<B>>) {
+        let Module { board, spec, st, vm, program, .. } = self;
+        (spec, &mut st.banks, Reach { nvm: board, vm, program, regs: &mut st.regs })
     }
 
     /// GAP at `now` (`None`: whenever the board was last brought up to date). A parameter that reads
@@ -197,7 +174,7 @@ impl<B: Board> Module<B> {
         if !d.range.contains(v) {
             return Err(ParamError::OutOfRange.into());
         }
-        unlocked_for(self.st.unlocked, d)?;
+        unlocked_for(self.st.banks.unlocked, d)?;
         // The encoder's input or scale changes (AP 201, 202, 210, 140 on a closed-loop model): the
         // position before, read through the old one.
         let rescales =
@@ -262,86 +239,6 @@ impl<B: Board> Module<B> {
         Ok(())
     }
 
-    /// GGP: a global parameter (chapter 5).
-    pub(crate) fn read_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
-        match Bank::of(self.spec, bank)? {
-            Bank::Global => {
-                let (i, d) = permitted(&self.spec.global, number, |d| d.access.read)?;
-                Ok(match d.role {
-                    Role::ApplicationStatus => self.vm.state.code(),
-                    Role::DownloadMode => i32::from(self.vm.download.is_some()),
-                    Role::ProgramCounter => i32::from(self.vm.pc),
-                    // GP 132: "incremented every 1 ms" (§5.1).
-                    Role::TickTimer => {
-                        let (at, base) = self.st.tick_base;
-                        ((u64::from(base) + (now - at).millis()) & 0x7FFF_FFFF) as i32
-                    }
-                    // GP 133: a new random number 0..2^31−1 on every read (xorshift32).
-                    Role::RandomNumber => {
-                        let mut x = self.st.rng;
-                        x ^= x << 13;
-                        x ^= x >> 17;
-                        x ^= x << 5;
-                        self.st.rng = x;
-                        (x & 0x7FFF_FFFF) as i32
-                    }
-                    // The password is never read back: 1 = unlocked, 0 = locked.
-                    Role::Password => i32::from(self.st.unlocked),
-                    _ => self.st.global[i],
-                })
-            }
-            Bank::User => Ok(self.st.user[user_index(self.spec, number)?]),
-            Bank::Interrupt => {
-                let (i, _) = self.spec.interrupt.find(number)?;
-                Ok(self.st.interrupt[i])
-            }
-        }
-    }
-
-    /// SGP/AGP: writes a global parameter; bank 0 A parameters go to the EEPROM at once (§5.1).
-    pub(crate) fn write_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
-        match Bank::of(self.spec, bank)? {
-            Bank::Global => {
-                let (i, d) = permitted(&self.spec.global, number, |d| d.access.write)?;
-                if !d.range.contains(v) {
-                    return Err(ParamError::OutOfRange.into());
-                }
-                unlocked_for(self.st.unlocked, d)?;
-                if d.access.auto {
-                    // Stored first: if the EEPROM refuses, nothing changes.
-                    persist::store_global(&mut self.board, self.spec, i, v)?;
-                }
-                if d.setting == Some(Setting::CodeProtection) {
-                    self.protection_changed(self.st.global[i], v)?;
-                }
-                match d.role {
-                    Role::TickTimer => self.st.tick_base = (now, v as u32),
-                    // A written value seeds the generator (0 would stick; it becomes the start seed).
-                    Role::RandomNumber => self.st.rng = if v == 0 { RNG_SEED } else { v as u32 },
-                    // The password: the model's unlocks the protected parameters, anything else locks them.
-                    Role::Password => self.st.unlocked = self.spec.password == Some(v),
-                    _ => {}
-                }
-                self.st.global[i] = v;
-                Ok(())
-            }
-            Bank::User => {
-                let n = user_index(self.spec, number)?;
-                self.st.user[n] = v;
-                Ok(())
-            }
-            Bank::Interrupt => {
-                let (i, d) = self.spec.interrupt.find(number)?;
-                if !d.range.contains(v) {
-                    return Err(ParamError::OutOfRange.into());
-                }
-                self.st.interrupt[i] = v;
-                self.restart_timer(number, now);
-                Ok(())
-            }
-        }
-    }
-
     /// Sets a coordinate; with GP 84 = 1 coordinates 1..20 also go to the EEPROM (§3.7.24).
     pub(crate) fn write_coordinate(&mut self, m: usize, coord: u8, v: i32) -> Result<(), Status> {
         let n = coord_index(self.spec, coord)?;
@@ -401,6 +298,156 @@ impl<B: Board> Module<B> {
         let a = self.encoder_absolute(m);
         !(tolerance..=per_rev - tolerance).contains(&a)
     }
+}
+
+/// What a write of a global parameter reaches besides the banks: the EEPROM of `nvm` (bank 0's A
+/// parameters are stored at once, PD28-1021 manual §5.1) and the program machine (GP 81 erases the
+/// program, §5.1; a bank 3 write restarts a timer, §5.4).
+pub(crate) struct Reach<'a, N> {
+    /// The EEPROM (the board, behind the seam).
+    pub nvm: &'a mut N,
+    /// The program machine.
+    pub vm: &'a mut Vm,
+    /// The program memory.
+    pub program: &'a mut Program,
+    /// The program's registers.
+    pub regs: &'a mut Registers,
+}
+
+/// GGP (PD28-1021 manual §3.7.10, chapter 5): parameter `number` of bank `bank` at `now`, from `banks`;
+/// GP 128–130 report the program machine `vm` (its state, download mode, program counter).
+pub(crate) fn read_global(
+    spec: &ModelSpec,
+    banks: &mut Banks,
+    vm: &Vm,
+    number: u8,
+    bank: u8,
+    now: Instant,
+) -> Result<i32, Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.read)?;
+            Ok(match d.role {
+                Role::ApplicationStatus => vm.state.code(),
+                Role::DownloadMode => i32::from(vm.download.is_some()),
+                Role::ProgramCounter => i32::from(vm.pc),
+                // GP 132: "incremented every 1 ms" (§5.1).
+                Role::TickTimer => banks.tick_timer(now),
+                // GP 133: a new random number on every read.
+                Role::RandomNumber => banks.random(),
+                // The password is never read back: 1 = unlocked, 0 = locked.
+                Role::Password => i32::from(banks.unlocked),
+                _ => banks.global[i],
+            })
+        }
+        Bank::User => Ok(banks.user[user_index(spec, number)?]),
+        Bank::Interrupt => {
+            let (i, _) = spec.interrupt.find(number)?;
+            Ok(banks.interrupt[i])
+        }
+    }
+}
+
+/// SGP/AGP (§3.7.9, §3.7.30): parameter `number` of bank `bank` := `v` at `now`; bank 0 A parameters go
+/// to the EEPROM at once, before anything changes (§5.1), and GP 81 and bank 3 reach the program machine
+/// ([`Reach`]).
+pub(crate) fn write_global<N: Nvm>(
+    spec: &ModelSpec,
+    banks: &mut Banks,
+    reach: Reach<'_, N>,
+    number: u8,
+    bank: u8,
+    v: i32,
+    now: Instant,
+) -> Result<(), Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.write)?;
+            if !d.range.contains(v) {
+                return Err(ParamError::OutOfRange.into());
+            }
+            unlocked_for(banks.unlocked, d)?;
+            if d.access.auto {
+                // Stored first: if the EEPROM refuses, nothing changes.
+                persist::store_global(&mut *reach.nvm, spec, i, v)?;
+            }
+            if d.setting == Some(Setting::CodeProtection) {
+                let Reach { nvm, vm, program, regs } = reach;
+                program::protection_changed(nvm, spec, program, vm, regs, (banks.global[i], v))?;
+            }
+            match d.role {
+                Role::TickTimer => banks.tick_base = (now, v as u32),
+                Role::RandomNumber => banks.seed(v),
+                // The password: the model's unlocks the protected parameters, anything else locks them.
+                Role::Password => banks.unlocked = spec.password == Some(v),
+                _ => {}
+            }
+            banks.global[i] = v;
+            Ok(())
+        }
+        Bank::User => {
+            let n = user_index(spec, number)?;
+            banks.user[n] = v;
+            Ok(())
+        }
+        Bank::Interrupt => {
+            let (i, d) = spec.interrupt.find(number)?;
+            if !d.range.contains(v) {
+                return Err(ParamError::OutOfRange.into());
+            }
+            banks.interrupt[i] = v;
+            program::restart_timer(spec, banks, reach.vm, number, now);
+            Ok(())
+        }
+    }
+}
+
+/// STGP (§3.7.11): a bank 0 A parameter or a bank 2 user variable of `banks` into the EEPROM of `nvm`;
+/// bank 3 is not stored.
+pub(crate) fn store_global(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    banks: &Banks,
+    number: u8,
+    bank: u8,
+) -> Result<(), Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.auto)?;
+            unlocked_for(banks.unlocked, d)?;
+            persist::store_global(nvm, spec, i, banks.global[i])?;
+        }
+        Bank::User => {
+            let v = banks.user[user_index(spec, number)?];
+            persist::store_user(nvm, spec, number, v)?;
+        }
+        Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
+    }
+    Ok(())
+}
+
+/// RSGP (§3.7.12): a bank 0 A parameter (its default if the stored value is out of range) or a bank 2 user
+/// variable back from the EEPROM of `nvm` into `banks`.
+pub(crate) fn restore_global(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    banks: &mut Banks,
+    number: u8,
+    bank: u8,
+) -> Result<(), Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.auto)?;
+            let v = persist::load_global(nvm, spec, i)?;
+            banks.global[i] = if d.range.contains(v) { v } else { d.default };
+        }
+        Bank::User => {
+            let n = user_index(spec, number)?;
+            banks.user[n] = persist::load_user(nvm, spec, number)?;
+        }
+        Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
+    }
+    Ok(())
 }
 
 /// A bank 2 user variable's index (PD28-1021 manual §5.3): 0..`spec`'s user variables (else 3, wrong
