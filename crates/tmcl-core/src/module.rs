@@ -326,7 +326,7 @@ impl<B: Board> Module<B> {
     /// Whether the bank 0 flag with `setting` is set (a model without it: not set).
     #[inline]
     pub(crate) fn gp_flag(&self, setting: Setting) -> bool {
-        self.gp(setting) == Some(1)
+        self.st.banks.flag(self.spec, setting)
     }
 
     /// Sets the axis parameter with `setting` (results the firmware produces, e.g. AP 196/197).

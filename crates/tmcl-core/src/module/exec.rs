@@ -18,9 +18,8 @@
 //!   module's registers.
 
 use super::{params, Module, Origin, Outcome};
-use crate::hal::prelude::*;
-use crate::hal::Board;
-use crate::model::{AppStatusReply, Driver, PortKind, Setting};
+use crate::hal::{Analog, Board, Inputs, Outputs};
+use crate::model::{AppStatusReply, Driver, ModelSpec, PortKind, Setting};
 use crate::motion::reference::Action;
 use crate::motion::SearchMode;
 use crate::param::{persist, ParamError, Role};
@@ -148,7 +147,11 @@ impl<B: Board> Module<B> {
                 value(self.reference_search(m, action)?)
             }
             // §3.7.14 SIO: bank 2 outputs; port 255 sets all from a bit vector, −1 takes it from A.
-            C::Sio { port, bank, value: v } => self.sio(port, bank, v, origin),
+            C::Sio { port, bank, value: v } => {
+                let a = self.regs(origin).accumulator;
+                let Module { board, spec, st, .. } = self;
+                sio(board, spec, &mut st.outputs, a, port, bank, v)
+            }
             // §3.7.15 GIO: bank 0 digital inputs, bank 1 analog inputs, bank 2 outputs read back.
             C::Gio { port, bank } => self.gio(port, bank),
             // §3.7.16 CALC: A ← A op operand; the reply carries the operand (example reply §3.7.16).
@@ -170,10 +173,10 @@ impl<B: Board> Module<B> {
                 value(a)
             }
             // §3.7.24 SCO; motor 255 copies RAM → EEPROM (coordinate 0 = all of 1..20).
-            C::Sco { coord, motor: 255, .. } => self.copy_coordinates(coord, true).map(|()| Outcome::Value(0)),
+            C::Sco { coord, motor: 255, .. } => self.copy_coordinates(coord, true),
             C::Sco { coord, motor, position } => self.set_coordinate(coord, motor, position),
             // §3.7.25 GCO; motor 255 copies EEPROM → RAM.
-            C::Gco { coord, motor: 255 } => self.copy_coordinates(coord, false).map(|()| Outcome::Value(0)),
+            C::Gco { coord, motor: 255 } => self.copy_coordinates(coord, false),
             C::Gco { coord, motor } => {
                 let m = self.motor(motor)?;
                 value(self.st.axes[m].coords[params::coord_index(self.spec, coord)?])
@@ -279,8 +282,17 @@ impl<B: Board> Module<B> {
     /// SCO, CCO, ACO: coordinate `coord` ← `v` (through to the EEPROM with GP 84 = 1); the reply carries it.
     fn set_coordinate(&mut self, coord: u8, motor: u8, v: i32) -> Exec {
         let m = self.motor(motor)?;
-        self.write_coordinate(m, coord, v)?;
+        let Module { board, spec, st, .. } = self;
+        params::write_coordinate(board, spec, &st.banks, &mut st.axes[m], m, coord, v)?;
         value(v)
+    }
+
+    /// SCO/GCO with motor 255: every motor's coordinate `coord` (0 = all) into the EEPROM or back from it;
+    /// the reply carries 0.
+    fn copy_coordinates(&mut self, coord: u8, to_eeprom: bool) -> Exec {
+        let Module { board, spec, st, .. } = self;
+        params::copy_coordinates(board, spec, &mut st.axes, coord, to_eeprom)?;
+        value(0)
     }
 
     /// ROR, ROL: velocity mode towards `velocity` (AP 2's unit), checked against AP 2's range; the
@@ -323,42 +335,15 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// SIO: bank 2 (outputs) and, where the model has them, the switches' pull-ups of bank 0; another bank
-    /// is an invalid value of the bank byte.
-    fn sio(&mut self, port: u8, bank: u8, v: i32, origin: Origin) -> Exec {
-        if !self.spec.writes_bank(bank) {
-            return Err(Status::InvalidValue);
-        }
-        let desc = self.spec.output_port(bank, port).ok_or(Status::WrongType)?;
-        let bits = match desc.kind {
-            PortKind::PullUps => {
-                let bits = u8::try_from(v).ok().filter(|b| *b <= 3).ok_or(Status::InvalidValue)?;
-                self.board.set_pull_ups(bits);
-                return value(v);
-            }
-            PortKind::Output(bit) => match v {
-                0 => self.st.outputs & !(1 << bit),
-                1 => self.st.outputs | (1 << bit),
-                _ => return Err(Status::InvalidValue),
-            },
-            PortKind::AllOutputs => match v {
-                -1 => self.regs(origin).accumulator as u8,
-                0..=255 => v as u8,
-                _ => return Err(Status::InvalidValue),
-            },
-            _ => return Err(Status::WrongType),
-        };
-        let bits = bits & (((1u16 << self.spec.outputs) - 1) as u8); // outputs ≤ 8
-        self.st.outputs = bits;
-        self.board.set_outputs(self.st.outputs);
-        value(v)
-    }
-
     /// GIO: a port of bank 0, 1 or 2 the model has (another port 3, another bank 4).
     fn gio(&mut self, port: u8, bank: u8) -> Exec {
         let missing = if bank <= 2 { Status::WrongType } else { Status::InvalidValue };
         let desc = self.spec.port(bank, port).ok_or(missing)?;
-        value(self.read_port(desc.kind))
+        match read_port(&mut self.board, self.st.outputs, desc.kind) {
+            Some(v) => value(v),
+            // (The encoder of motor 0: the models with this port have one motor.)
+            None => value(i32::from(self.encoder_near_zero(0))),
+        }
     }
 
     /// CALC (§3.7.16) on the host's or the program's registers (`vm/alu.rs`); the reply carries the
@@ -466,23 +451,6 @@ impl<B: Board> Module<B> {
         }
     }
 
-    fn read_port(&mut self, kind: PortKind) -> i32 {
-        match kind {
-            PortKind::DigitalInput(bit) => i32::from((self.board.digital_inputs() >> bit) & 1),
-            PortKind::AllInputs => i32::from(self.board.digital_inputs()),
-            // (The encoder of motor 0: the models with this port have one motor.)
-            PortKind::EncoderNearZero => i32::from(self.encoder_near_zero(0)),
-            PortKind::Analog(ch) => i32::from(self.board.analog_input(ch).min(4095)),
-            PortKind::Analog10(ch) => i32::from(self.board.analog_input(ch).min(4095) >> 2),
-            PortKind::Temperature => self.board.temperature(),
-            PortKind::Output(bit) => i32::from((self.st.outputs >> bit) & 1),
-            PortKind::AllOutputs => i32::from(self.st.outputs),
-            PortKind::SupplyVoltage => i32::from(self.board.supply_voltage()),
-            // Written only (`ModelSpec::port` never gives it to GIO).
-            PortKind::PullUps => 0,
-        }
-    }
-
     /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions.
     fn reference_search(&mut self, m: usize, action: RfsAction) -> Result<i32, Status> {
         match action {
@@ -515,4 +483,55 @@ impl<B: Board> Module<B> {
             RfsAction::Status => Ok(self.st.axes[m].reference.status()),
         }
     }
+}
+
+/// SIO (PD28-1021 manual §3.7.14) of `port` in `bank` := `v`: bank 2's outputs (`outputs` as last set, bit
+/// n = OUTn; port 255 all of them from a bit vector, or from the accumulator `a` for −1) and, where the
+/// model has them, the switches' pull-ups of bank 0, on `board`; another bank is an invalid value of the
+/// bank byte.
+fn sio<O: Outputs>(board: &mut O, spec: &ModelSpec, outputs: &mut u8, a: i32, port: u8, bank: u8, v: i32) -> Exec {
+    if !spec.writes_bank(bank) {
+        return Err(Status::InvalidValue);
+    }
+    let desc = spec.output_port(bank, port).ok_or(Status::WrongType)?;
+    let bits = match desc.kind {
+        PortKind::PullUps => {
+            let bits = u8::try_from(v).ok().filter(|b| *b <= 3).ok_or(Status::InvalidValue)?;
+            board.set_pull_ups(bits);
+            return value(v);
+        }
+        PortKind::Output(bit) => match v {
+            0 => *outputs & !(1 << bit),
+            1 => *outputs | (1 << bit),
+            _ => return Err(Status::InvalidValue),
+        },
+        PortKind::AllOutputs => match v {
+            -1 => a as u8,
+            0..=255 => v as u8,
+            _ => return Err(Status::InvalidValue),
+        },
+        _ => return Err(Status::WrongType),
+    };
+    let bits = bits & (((1u16 << spec.outputs) - 1) as u8); // outputs ≤ 8
+    *outputs = bits;
+    board.set_outputs(bits);
+    value(v)
+}
+
+/// GIO (§3.7.15) of a port of `kind`: what `board` reads now, or the outputs as last set (`outputs`);
+/// `None` for the encoder's zero (GIO 11, 0), which the module reads (`Module::encoder_near_zero`).
+fn read_port<P: Inputs + Analog>(board: &mut P, outputs: u8, kind: PortKind) -> Option<i32> {
+    Some(match kind {
+        PortKind::DigitalInput(bit) => i32::from((board.digital_inputs() >> bit) & 1),
+        PortKind::AllInputs => i32::from(board.digital_inputs()),
+        PortKind::EncoderNearZero => return None,
+        PortKind::Analog(ch) => i32::from(board.analog_input(ch).min(4095)),
+        PortKind::Analog10(ch) => i32::from(board.analog_input(ch).min(4095) >> 2),
+        PortKind::Temperature => board.temperature(),
+        PortKind::Output(bit) => i32::from((outputs >> bit) & 1),
+        PortKind::AllOutputs => i32::from(outputs),
+        PortKind::SupplyVoltage => i32::from(board.supply_voltage()),
+        // Written only (`ModelSpec::port` never gives it to GIO).
+        PortKind::PullUps => 0,
+    })
 }

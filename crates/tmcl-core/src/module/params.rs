@@ -5,6 +5,7 @@
 
 use super::seam::Seam;
 use super::{program, Axis, Module};
+use crate::axis::Axes;
 use crate::hal::prelude::*;
 use crate::hal::{Board, Nvm};
 use crate::model::{ModelSpec, Setting};
@@ -239,35 +240,6 @@ impl<B: Board> Module<B> {
         Ok(())
     }
 
-    /// Sets a coordinate; with GP 84 = 1 coordinates 1..20 also go to the EEPROM (§3.7.24).
-    pub(crate) fn write_coordinate(&mut self, m: usize, coord: u8, v: i32) -> Result<(), Status> {
-        let n = coord_index(self.spec, coord)?;
-        if n > 0 && self.gp_flag(Setting::CoordinateStorage) {
-            persist::store_coordinate(&mut self.board, self.spec, m, coord, v)?;
-        }
-        self.st.axes[m].coords[n] = v;
-        Ok(())
-    }
-
-    /// SCO/GCO x, 255: coordinate 0 = all of 1..20, n = that one (§3.7.24, §3.7.25).
-    pub(crate) fn copy_coordinates(&mut self, coord: u8, to_eeprom: bool) -> Result<(), Status> {
-        let n = coord_index(self.spec, coord)? as u8;
-        let range = if n == 0 { 1..=self.spec.coordinates } else { n..=n };
-        // Motor 255: every motor's coordinates (§3.7.24 gives it for the one motor of the PD28-1021).
-        for m in 0..self.st.axes.count() {
-            for c in range.clone() {
-                if to_eeprom {
-                    let v = self.st.axes[m].coords[usize::from(c)];
-                    persist::store_coordinate(&mut self.board, self.spec, m, c, v)?;
-                } else {
-                    self.st.axes[m].coords[usize::from(c)] =
-                        persist::load_coordinate(&mut self.board, self.spec, m, c)?;
-                }
-            }
-        }
-        Ok(())
-    }
-
     /// AP 209 = value at the reference + counts since × p / 512 (§6.2).
     pub(crate) fn encoder_position(&mut self, m: usize) -> i32 {
         let counts = self.encoder_counts_now(m);
@@ -446,6 +418,50 @@ pub(crate) fn restore_global(
             banks.user[n] = persist::load_user(nvm, spec, number)?;
         }
         Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
+    }
+    Ok(())
+}
+
+/// SCO/CCO/ACO (PD28-1021 manual §3.7.24, §3.7.26, §3.7.27): motor `m`'s coordinate `coord` := `v` in
+/// `axis`; with GP 84 = 1 (in `banks`) coordinates 1.. go to the EEPROM of `nvm` too, first (§3.7.24).
+pub(crate) fn write_coordinate(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    banks: &Banks,
+    axis: &mut Axis,
+    m: usize,
+    coord: u8,
+    v: i32,
+) -> Result<(), Status> {
+    let n = coord_index(spec, coord)?;
+    if n > 0 && banks.flag(spec, Setting::CoordinateStorage) {
+        persist::store_coordinate(nvm, spec, m, coord, v)?;
+    }
+    axis.coords[n] = v;
+    Ok(())
+}
+
+/// SCO/GCO `coord`, 255 (§3.7.24, §3.7.25): coordinate 0 = all of 1..the model's last, n = that one, of
+/// every motor in `axes` (§3.7.24 gives it for the one motor of the PD28-1021), into the EEPROM of `nvm`
+/// (`to_eeprom`) or back from it.
+pub(crate) fn copy_coordinates(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    axes: &mut Axes,
+    coord: u8,
+    to_eeprom: bool,
+) -> Result<(), Status> {
+    let n = coord_index(spec, coord)? as u8;
+    let range = if n == 0 { 1..=spec.coordinates } else { n..=n };
+    for m in 0..axes.count() {
+        for c in range.clone() {
+            if to_eeprom {
+                let v = axes[m].coords[usize::from(c)];
+                persist::store_coordinate(nvm, spec, m, c, v)?;
+            } else {
+                axes[m].coords[usize::from(c)] = persist::load_coordinate(nvm, spec, m, c)?;
+            }
+        }
     }
     Ok(())
 }

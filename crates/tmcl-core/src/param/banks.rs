@@ -48,6 +48,12 @@ impl Banks {
         spec.global.setting(setting).map(|i| self.global[i])
     }
 
+    /// Whether the bank 0 flag with `setting` is set (a model without it: not set).
+    #[inline]
+    pub(crate) fn flag(&self, spec: &ModelSpec, setting: Setting) -> bool {
+        self.gp(spec, setting) == Some(1)
+    }
+
     /// GP 132 at `now`: "incremented every 1 ms" (§5.1) from the value last written, 31 bits.
     #[inline]
     pub(crate) fn tick_timer(&self, now: Instant) -> i32 {
