@@ -17,7 +17,7 @@
 //!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.5) and work on the
 //!   module's registers.
 
-use super::{params, Module, Origin, Outcome};
+use super::{params, Axis, EventRequest, Module, Origin, Outcome};
 use crate::hal::{Analog, Board, Inputs, Outputs};
 use crate::model::{AppStatusReply, Driver, ModelSpec, PortKind, Setting};
 use crate::motion::reference::Action;
@@ -89,7 +89,7 @@ impl<B: Board> Module<B> {
             // decelerating with AP 5.
             C::Mst { motor } => {
                 let m = self.motor(motor)?;
-                self.start_rotation(m, 0);
+                start_rotation(&mut self.st.axes[m], &mut self.st.event, 0);
                 value(0)
             }
             // MVP COORD with a motor mask (bit 6 or 7 set; TMCM-3110/6110 firmware manuals, MVP): several
@@ -300,7 +300,8 @@ impl<B: Board> Module<B> {
     fn rotate(&mut self, motor: u8, velocity: i32, reply: i32) -> Exec {
         let m = self.motor(motor)?;
         self.velocity_in_range(velocity)?;
-        self.start_rotation(m, self.units_to_pps(m, velocity));
+        let axis = &mut self.st.axes[m];
+        start_rotation(axis, &mut self.st.event, axis.units_to_pps(self.spec, velocity));
         value(reply)
     }
 
@@ -314,7 +315,7 @@ impl<B: Board> Module<B> {
             MoveTarget::Coord(n) => self.st.axes[m].coords[self.move_coordinate(n)?],
         };
         self.check_target(to)?;
-        self.start_move(m, to);
+        start_move(&mut self.st.axes[m], &mut self.st.event, to);
         value(match target {
             MoveTarget::Abs(v) | MoveTarget::Rel(v) | MoveTarget::Coord(v) => v,
         })
@@ -426,31 +427,6 @@ impl<B: Board> Module<B> {
         }
     }
 
-    fn start_rotation(&mut self, m: usize, velocity: i32) {
-        self.st.axes[m].interpolation = None;
-        self.leave_torque_mode(m);
-        self.st.axes[m].reference.stop();
-        self.st.axes[m].ramp.rotate(velocity);
-        self.st.axes[m].error_flags = 0; // AP 207: "cleared ... when a motion command runs"
-        self.st.event.pending = false;
-    }
-
-    pub(super) fn start_move(&mut self, m: usize, target: i32) {
-        self.st.axes[m].interpolation = None;
-        self.leave_torque_mode(m);
-        self.st.axes[m].reference.stop();
-        self.st.axes[m].ramp.move_to(target);
-        self.st.axes[m].error_flags = 0;
-        match self.st.event.mode {
-            Some(EventMode::Next) => {
-                self.st.event.mode = None;
-                self.st.event.pending = true;
-            }
-            Some(EventMode::Every) => self.st.event.pending = true,
-            None => {}
-        }
-    }
-
     /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions.
     fn reference_search(&mut self, m: usize, action: RfsAction) -> Result<i32, Status> {
         match action {
@@ -482,6 +458,38 @@ impl<B: Board> Module<B> {
             }
             RfsAction::Status => Ok(self.st.axes[m].reference.status()),
         }
+    }
+}
+
+/// ROR/ROL/MST (PD28-1021 manual §3.7.1–3.7.3): the motor's `axis` to velocity mode towards `velocity`
+/// (microsteps per second). The motion command takes the motor over: an interpolated MVP COORD's speeds,
+/// torque mode and a reference search end, AP 207's flags are "cleared ... when a motion command runs",
+/// and a pending 138 event (`event`) is void.
+pub(super) fn start_rotation(axis: &mut Axis, event: &mut EventRequest, velocity: i32) {
+    axis.interpolation = None;
+    axis.leave_torque_mode();
+    axis.reference.stop();
+    axis.ramp.rotate(velocity);
+    axis.error_flags = 0;
+    event.pending = false;
+}
+
+/// MVP (§3.7.4, and each motor of an MVP COORD with a motor mask): the motor's `axis` to `target` in
+/// position mode, taking the motor over as [`start_rotation`] does; a 138 request (§3.7.37) in `event`
+/// arms its event, once for type 0 (the request is used up), at every MVP for type 1.
+pub(super) fn start_move(axis: &mut Axis, event: &mut EventRequest, target: i32) {
+    axis.interpolation = None;
+    axis.leave_torque_mode();
+    axis.reference.stop();
+    axis.ramp.move_to(target);
+    axis.error_flags = 0;
+    match event.mode {
+        Some(EventMode::Next) => {
+            event.mode = None;
+            event.pending = true;
+        }
+        Some(EventMode::Every) => event.pending = true,
+        None => {}
     }
 }
 
