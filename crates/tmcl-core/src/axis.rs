@@ -341,11 +341,11 @@ impl Axis {
     }
 
     /// SAP/AAP (PD28-1021 manual §3.7.5, §3.7.29) of the axis parameter at index `i` of `spec`'s axis
-    /// table, whose role is `role`, to `v` (already checked against its range and protection), if the
-    /// motor's own state takes it; `false` for one that moves the encoder's reference or reaches the
-    /// closed loop (AP 1, 14, 132, 209, 210): the module writes those (`Module::write_axis`).
+    /// table, whose role is `role`, to `v` (already checked against its range and protection), for one
+    /// the motor's own state takes: every parameter but those that move the encoder's reference or reach
+    /// the closed loop (AP 1, 14, 132, 209, 210), which the module writes (`Module::write_axis`).
     #[inline]
-    pub(crate) fn write_param(&mut self, spec: &ModelSpec, i: usize, role: Role, v: i32) -> bool {
+    pub(crate) fn write_param(&mut self, spec: &ModelSpec, i: usize, role: Role, v: i32) {
         match role {
             // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
             // result to target position" relies on it).
@@ -366,14 +366,8 @@ impl Axis {
             }
             Role::ClearI2t => self.cl.i2t_exceeded = false,
             Role::I2tExceedCount => self.cl.i2t_count = v as u32,
-            Role::ActualPosition
-            | Role::EncoderPosition
-            | Role::TargetCurrent
-            | Role::EncoderInit
-            | Role::EncoderPrescaler => return false,
             _ => self.params[i] = v,
         }
-        true
     }
 }
 

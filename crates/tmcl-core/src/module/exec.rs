@@ -465,6 +465,7 @@ impl<B: Board> Module<B> {
 /// (microsteps per second). The motion command takes the motor over: an interpolated MVP COORD's speeds,
 /// torque mode and a reference search end, AP 207's flags are "cleared ... when a motion command runs",
 /// and a pending 138 event (`event`) is void.
+#[inline]
 pub(super) fn start_rotation(axis: &mut Axis, event: &mut EventRequest, velocity: i32) {
     axis.interpolation = None;
     axis.leave_torque_mode();
@@ -477,6 +478,7 @@ pub(super) fn start_rotation(axis: &mut Axis, event: &mut EventRequest, velocity
 /// MVP (§3.7.4, and each motor of an MVP COORD with a motor mask): the motor's `axis` to `target` in
 /// position mode, taking the motor over as [`start_rotation`] does; a 138 request (§3.7.37) in `event`
 /// arms its event, once for type 0 (the request is used up), at every MVP for type 1.
+#[inline]
 pub(super) fn start_move(axis: &mut Axis, event: &mut EventRequest, target: i32) {
     axis.interpolation = None;
     axis.leave_torque_mode();

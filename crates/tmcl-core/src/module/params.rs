@@ -30,6 +30,7 @@ impl Bank {
     /// The bank `bank` names in `spec`: one the model lacks, or one past 3, is status 4 (the bank byte
     /// being a value of the command; PD28-1021 manual chapter 5, PDx-113 manual §5.7.9); bank 1, which no
     /// source gives a parameter, is status 3 (an unknown parameter of it).
+    #[inline]
     pub(crate) fn of(spec: &ModelSpec, bank: u8) -> Result<Bank, Status> {
         if !spec.banks.has(bank) {
             return Err(ParamError::NoSuchMotor.into());
@@ -186,35 +187,32 @@ impl<B: Board> Module<B> {
         // The pulse divisor (AP 154) scales the TMC428's clock: the velocity registers keep their values
         // in units, so AP 2 and AP 3 read the same and the speed in microsteps per second follows.
         let velocities = (d.setting == Some(Setting::PulseDivisor)).then(|| self.velocity_units());
-        // What the motor's own state takes ([`Axis::write_param`]); the rest moves the encoder's
-        // reference or reaches the closed loop.
-        if !self.st.axes[m].write_param(self.spec, i, d.role, v) {
-            match d.role {
-                Role::ActualPosition => {
-                    self.relabel(m, v.wrapping_sub(self.st.axes[m].ramp.position));
-                    self.st.axes[m].ramp.set_position(v)
-                }
-                // In closed loop the step counter moves with the encoder, so that the loop sees no error.
-                Role::EncoderPosition if self.st.axes[m].cl.active => {
-                    let delta = v.wrapping_sub(self.encoder_position(m));
-                    let ramp = &mut self.st.axes[m].ramp;
-                    ramp.set_position(ramp.position.wrapping_add(delta));
-                    self.relabel(m, delta);
-                }
-                Role::EncoderPosition => self.set_encoder(m, v),
-                Role::TargetCurrent => {
-                    self.set_torque(m, v)?;
-                    self.st.axes[m].params[i] = v;
-                }
-                Role::EncoderInit => self.start_encoder_init(m, v)?,
-                Role::EncoderPrescaler => {
-                    let now_value = self.encoder_position(m);
-                    self.st.axes[m].params[i] = v;
-                    self.set_encoder(m, now_value);
-                }
-                // (None other: `Axis::write_param` takes the rest.)
-                _ => self.st.axes[m].params[i] = v,
+        // The parameters that move the encoder's reference or reach the closed loop; the rest is what the
+        // motor's own state takes ([`Axis::write_param`]).
+        match d.role {
+            Role::ActualPosition => {
+                self.relabel(m, v.wrapping_sub(self.st.axes[m].ramp.position));
+                self.st.axes[m].ramp.set_position(v)
             }
+            // In closed loop the step counter moves with the encoder, so that the loop sees no error.
+            Role::EncoderPosition if self.st.axes[m].cl.active => {
+                let delta = v.wrapping_sub(self.encoder_position(m));
+                let ramp = &mut self.st.axes[m].ramp;
+                ramp.set_position(ramp.position.wrapping_add(delta));
+                self.relabel(m, delta);
+            }
+            Role::EncoderPosition => self.set_encoder(m, v),
+            Role::TargetCurrent => {
+                self.set_torque(m, v)?;
+                self.st.axes[m].params[i] = v;
+            }
+            Role::EncoderInit => self.start_encoder_init(m, v)?,
+            Role::EncoderPrescaler => {
+                let now_value = self.encoder_position(m);
+                self.st.axes[m].params[i] = v;
+                self.set_encoder(m, now_value);
+            }
+            _ => self.st.axes[m].write_param(self.spec, i, d.role, v),
         }
         // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
         // range), the closed loop switched on or off, the encoder's input or scale. The driver's take
@@ -288,6 +286,7 @@ pub(crate) struct Reach<'a, N> {
 
 /// GGP (PD28-1021 manual §3.7.10, chapter 5): parameter `number` of bank `bank` at `now`, from `banks`;
 /// GP 128–130 report the program machine `vm` (its state, download mode, program counter).
+#[inline]
 pub(crate) fn read_global(
     spec: &ModelSpec,
     banks: &mut Banks,
@@ -468,6 +467,7 @@ pub(crate) fn copy_coordinates(
 
 /// A bank 2 user variable's index (PD28-1021 manual §5.3): 0..`spec`'s user variables (else 3, wrong
 /// type).
+#[inline]
 pub(crate) fn user_index(spec: &ModelSpec, number: u8) -> Result<usize, Status> {
     let n = usize::from(number);
     if n < usize::from(spec.user_variables) {
@@ -478,6 +478,7 @@ pub(crate) fn user_index(spec: &ModelSpec, number: u8) -> Result<usize, Status> 
 }
 
 /// A coordinate's index (§3.7.24–3.7.27): 0..`spec`'s coordinates (else 3, wrong type).
+#[inline]
 pub(crate) fn coord_index(spec: &ModelSpec, coord: u8) -> Result<usize, Status> {
     if coord <= spec.coordinates {
         Ok(usize::from(coord))
@@ -488,6 +489,7 @@ pub(crate) fn coord_index(spec: &ModelSpec, coord: u8) -> Result<usize, Status> 
 
 /// Refuses a write or store of a password-protected parameter while the module is locked (`unlocked`
 /// false): status 8 (TMCM-1310 manual §3.7).
+#[inline]
 pub(crate) fn unlocked_for(unlocked: bool, d: &ParamDesc) -> Result<(), Status> {
     if d.access.protected && !unlocked {
         Err(ParamError::Protected.into())
