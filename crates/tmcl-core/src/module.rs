@@ -73,6 +73,26 @@ pub(crate) struct EventRequest {
     pub port: u8,
 }
 
+impl EventRequest {
+    /// Command 138 (PD28-1021 manual §3.7.37) from the interface `port`, on a model with `motors` motors:
+    /// type 0 arms the next MVP's event, type 1 every MVP's, for the motors of `mask`. Mask 0 cancels (our
+    /// decision: the manual gives no way to turn type 1 off); a motor the model lacks is status 4. The
+    /// reply carries the mask.
+    pub(crate) fn request(&mut self, motors: u8, port: u8, mode: EventMode, mask: i32) -> Result<i32, Status> {
+        let all = (1i32 << motors) - 1;
+        if mask & !all != 0 {
+            return Err(Status::InvalidValue);
+        }
+        self.mode = (mask != 0).then_some(mode);
+        self.mask = mask;
+        self.port = port;
+        if mask == 0 {
+            self.pending = false;
+        }
+        Ok(mask)
+    }
+}
+
 /// Everything the firmware keeps in RAM, except program memory and the program machine: no heap.
 #[derive(Debug, Clone)]
 pub struct State {

@@ -24,7 +24,7 @@ use crate::motion::reference::Action;
 use crate::motion::SearchMode;
 use crate::param::{persist, ParamError, Role};
 use crate::time::Instant;
-use crate::vm::{alu, Registers};
+use crate::vm::{alu, Registers, Vm};
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
     CalcOp, CalcxOp, Command, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
@@ -251,7 +251,7 @@ impl<B: Board> Module<B> {
             // §3.7.38 134: read program memory (special reply).
             C::ReadMemory { address } => Ok(Outcome::Raw(self.read_memory(address)?)),
             // §3.7.38 135: application status.
-            C::GetStatus { kind } => value(self.get_status(kind)),
+            C::GetStatus { kind } => value(get_status(self.spec, &self.vm, &self.st.regs, kind)),
             // §3.4.1 command 139: ASCII mode. The reply (binary) goes out first, then the mode changes.
             C::EnterAscii => Ok(Outcome::EnterAscii),
             // §3.7.38 136: type 0 = host address + 8 characters, no checksum; type 1 = binary.
@@ -264,7 +264,9 @@ impl<B: Board> Module<B> {
                 Ok(Outcome::Silent)
             }
             // §3.7.37 138: type 0 = next MVP, type 1 = every MVP; value = motor mask.
-            C::RequestTargetReachedEvent { mode, mask } => self.request_event(mode, mask),
+            C::RequestTargetReachedEvent { mode, mask } => {
+                self.st.event.request(self.spec.motors, self.st.asking_port, mode, mask).and_then(value)
+            }
             // 242: pytrinamic's boot-loader request. The module has no boot loader on this link; it stays
             // silent so the host's reply stream stays aligned (pytrinamic expects no reply).
             C::Boot => Ok(Outcome::Silent),
@@ -360,42 +362,12 @@ impl<B: Board> Module<B> {
         value(0)
     }
 
-    /// Command 135's value (§3.7.38). PDx-113 manual §5.5: the state alone (0 stop, 1 run, 2 step,
-    /// 3 reset), type "don't care".
-    fn get_status(&self, kind: StatusKind) -> i32 {
-        if self.spec.app_status == AppStatusReply::Plain {
-            return self.vm.state().code();
-        }
-        match kind {
-            StatusKind::MemoryPointer => self.vm.status(false),
-            StatusKind::ProgramCounter => self.vm.status(true),
-            StatusKind::Accumulator => self.st.regs.accumulator,
-            StatusKind::XRegister => self.st.regs.x,
-        }
-    }
-
     /// Command 136 type 0 (§3.7.38): the host address and the model's 8 characters, no checksum.
     fn version_string(&self) -> [u8; FRAME_LEN] {
         let mut raw = [0u8; FRAME_LEN];
         raw[0] = self.host_address();
         raw[1..].copy_from_slice(&self.spec.version_string);
         raw
-    }
-
-    /// Command 138 (§3.7.37) on the interface that asked. Mask 0 cancels (our decision: the manual gives
-    /// no way to turn type 1 off); a motor the model lacks is status 4.
-    fn request_event(&mut self, mode: EventMode, mask: i32) -> Exec {
-        let all = (1i32 << self.spec.motors) - 1;
-        if mask & !all != 0 {
-            return Err(Status::InvalidValue);
-        }
-        self.st.event.mode = (mask != 0).then_some(mode);
-        self.st.event.mask = mask;
-        self.st.event.port = self.st.asking_port;
-        if mask == 0 {
-            self.st.event.pending = false;
-        }
-        value(mask)
     }
 
     /// A ROR/ROL velocity in the model's unit within AP 2's range (PDx-113 manual §5.7.1: 0…2047), else
@@ -492,6 +464,21 @@ pub(super) fn start_move(axis: &mut Axis, event: &mut EventRequest, target: i32)
         }
         Some(EventMode::Every) => event.pending = true,
         None => {}
+    }
+}
+
+/// Command 135's value (PD28-1021 manual §3.7.38) of the program machine `vm` and its registers `regs`.
+/// PDx-113 manual §5.5 (`spec`'s `AppStatusReply::Plain`): the state alone (0 stop, 1 run, 2 step,
+/// 3 reset), type "don't care".
+fn get_status(spec: &ModelSpec, vm: &Vm, regs: &Registers, kind: StatusKind) -> i32 {
+    if spec.app_status == AppStatusReply::Plain {
+        return vm.state().code();
+    }
+    match kind {
+        StatusKind::MemoryPointer => vm.status(false),
+        StatusKind::ProgramCounter => vm.status(true),
+        StatusKind::Accumulator => regs.accumulator,
+        StatusKind::XRegister => regs.x,
     }
 }
 
