@@ -15,8 +15,9 @@
 use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
 use crate::hal::{DriveState, SwitchInputs};
-use crate::model::{Setting, Table};
-use crate::motion::{Limits, Ramp, RampParams, Reference};
+use crate::model::{Kinematics, ModelSpec, Setting, Table};
+use crate::motion::{Limits, Mode, Ramp, RampParams, Reference};
+use crate::param::Role;
 use crate::time::{Duration, Instant};
 use tmcl_model::capacity::{MAX_AXIS_PARAMS, MAX_COORDINATES, MAX_MOTORS};
 
@@ -206,6 +207,167 @@ impl Axis {
     /// The axis parameter in RAM at table index `i` (the model's table order).
     pub fn param(&self, i: usize) -> Option<i32> {
         self.params.get(i).copied()
+    }
+
+    /// A velocity in the model's unit (`spec`'s kinematics, through the pulse divisor AP 154 where they
+    /// have one; PDx-113 manual §5.7) as microsteps per second, the ramp's unit.
+    #[inline]
+    pub(crate) fn units_to_pps(&self, spec: &ModelSpec, v: i32) -> i32 {
+        match spec.kinematics {
+            Kinematics::Pps => v,
+            k => k.velocity_to_pps(v, self.ap(&spec.axis, Setting::PulseDivisor).unwrap_or(0)),
+        }
+    }
+
+    /// A velocity in microsteps per second in the model's unit (the inverse of [`Axis::units_to_pps`]).
+    #[inline]
+    pub(crate) fn pps_to_units(&self, spec: &ModelSpec, pps: i32) -> i32 {
+        match spec.kinematics {
+            Kinematics::Pps => pps,
+            k => k.pps_to_velocity(pps, self.ap(&spec.axis, Setting::PulseDivisor).unwrap_or(0)),
+        }
+    }
+
+    /// The ramp parameters the motor runs with: an interpolated MVP COORD's scaled speed and acceleration
+    /// while it still heads for that move's target in position mode (`module/coordinated.rs`), else its
+    /// own ([`Axis::own_ramp_params`]).
+    #[inline]
+    pub(crate) fn ramp_params(&self, spec: &ModelSpec) -> RampParams {
+        if let Some((target, p)) = self.interpolation {
+            if self.ramp.mode == Mode::Position && self.ramp.target_position == target {
+                return p;
+            }
+        }
+        self.own_ramp_params(spec)
+    }
+
+    /// The ramp parameters the motor's own AP 4, 5 and 130 give (PD28-1021 manual chapter 4, Table 15),
+    /// in microsteps per second (and per second²) through `spec`'s kinematics.
+    #[inline]
+    pub(crate) fn own_ramp_params(&self, spec: &ModelSpec) -> RampParams {
+        let ap = |setting| self.ap(&spec.axis, setting);
+        // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
+        let (v, a) = (ap(Setting::MaxPositioningSpeed).unwrap_or(1), ap(Setting::MaxAcceleration).unwrap_or(1));
+        let v_min = ap(Setting::MinimumSpeed).unwrap_or(0);
+        match spec.kinematics {
+            Kinematics::Pps => RampParams { max_speed: v, max_accel: a, min_speed: v_min },
+            k => {
+                let pulse = ap(Setting::PulseDivisor).unwrap_or(0);
+                let ramp = ap(Setting::RampDivisor).unwrap_or(0);
+                RampParams {
+                    max_speed: k.velocity_to_pps(v, pulse).max(1),
+                    max_accel: k.acceleration_to_pps2(a, pulse, ramp).max(1),
+                    min_speed: k.velocity_to_pps(v_min, pulse),
+                }
+            }
+        }
+    }
+
+    /// AP 2 (the TMC428's v_target) in position mode: the ramp sets it itself, to ±v_max (AP 4) while it
+    /// accelerates or runs at its top speed and to 0 while it decelerates or stands (PDx-113 manual,
+    /// revision V1.10 p. 25, AP 2 "target (next) speed"; the manual V1.04 in hand lists AP 2 without
+    /// saying so). The sign is the direction of travel, as the register is signed (±2047). A velocity
+    /// written in position mode is kept for the next velocity mode (ROR/ROL) and read there again. The
+    /// TMC429 of the TMCM-1140/3110/6110 does the same (its datasheet's ramp generator; odemis' driver and
+    /// pytrinamic read AP 2 of those modules as the TMC429's register).
+    #[inline]
+    pub(crate) fn hardware_target_speed(&self, spec: &ModelSpec) -> i32 {
+        let p = self.ramp_params(spec);
+        let v_max = self.ap(&spec.axis, Setting::MaxPositioningSpeed).unwrap_or(0);
+        self.ramp.driving(&p) * v_max
+    }
+
+    /// Leaves torque mode (every motion command; TMCM-1310 manual §3.4, AP 14).
+    #[inline]
+    pub(crate) fn leave_torque_mode(&mut self) {
+        self.cl.torque = None;
+    }
+
+    /// GAP (PD28-1021 manual §3.7.6) of the axis parameter at index `i` of `spec`'s axis table, whose
+    /// role is `role`, if the motor's own state gives it (chapter 4, Table 15): its value in RAM, the
+    /// ramp's positions, speeds and mode, the error flags (AP 207, "cleared automatically when read"), the
+    /// closed loop's own registers. `None` for a parameter that reads the board (the switches, the
+    /// driver, the encoder) or what the closed loop measures: the module reads those
+    /// (`module/params.rs`, `Module::read_axis`).
+    #[inline]
+    pub(crate) fn read_param(&mut self, spec: &ModelSpec, i: usize, role: Role) -> Option<i32> {
+        let ramp = &self.ramp;
+        Some(match role {
+            Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.params[i],
+            Role::TargetPosition => ramp.target_position,
+            Role::ActualPosition if !self.cl.active => ramp.position,
+            // TMC428/TMC429 units (the PDx-113, the TMCM-1140/3110/6110): in position mode the motion
+            // controller sets v_target itself (see `hardware_target_speed`).
+            Role::TargetSpeed if ramp.mode == Mode::Position && spec.kinematics.is_tmc428() => {
+                self.hardware_target_speed(spec)
+            }
+            Role::TargetSpeed => self.pps_to_units(spec, ramp.target_velocity),
+            Role::ActualSpeed => self.pps_to_units(spec, ramp.velocity()),
+            Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
+            // TMC428: 2 velocity; in position mode what was written, 0 (ramp) or 1 (soft).
+            Role::RampModeTmc428 if ramp.mode == Mode::Velocity => 2,
+            Role::RampModeTmc428 => i32::from(self.params[i] == 1),
+            // AP 207: "cleared automatically when read".
+            Role::ErrorFlags => i32::from(core::mem::take(&mut self.error_flags)),
+            Role::TargetCurrent => self.cl.torque.map_or(self.params[i], |(t, _)| t),
+            Role::I2tSum => self.cl.i2t.clamp(0, i64::from(i32::MAX)) as i32,
+            Role::I2tExceedCount => self.cl.i2t_count as i32,
+            Role::CurrentScale => i32::from(self.cl.scaler),
+            Role::EncoderInit => self.cl.init.code(),
+            Role::ClosedLoopActive => i32::from(self.cl.active),
+            Role::Gamma => self.cl.gamma,
+            Role::VirtualPosition => ramp.position,
+            // Virtual minus actual position in closed loop (the module's); in open loop there is no such
+            // error.
+            Role::PositionError if !self.cl.active => 0,
+            // The board's or the closed loop's measurements.
+            Role::ActualPosition
+            | Role::PositionError
+            | Role::PositionReached
+            | Role::HomeSwitch
+            | Role::RightSwitch
+            | Role::LeftSwitch
+            | Role::ActualCurrent
+            | Role::LoadValue
+            | Role::DriverFlags
+            | Role::EncoderPosition
+            | Role::EncoderAbsolute
+            | Role::VelocityReached
+            | Role::StatusWord
+            | Role::ActualTorqueCurrent
+            | Role::MeasuredVelocity => return None,
+            _ => self.params[i],
+        })
+    }
+
+    /// SAP/AAP (PD28-1021 manual §3.7.5, §3.7.29) of the axis parameter at index `i` of `spec`'s axis
+    /// table, whose role is `role`, to `v` (already checked against its range and protection), for one
+    /// the motor's own state takes: every parameter but those that move the encoder's reference or reach
+    /// the closed loop (AP 1, 14, 132, 209, 210), which the module writes (`Module::write_axis`).
+    #[inline]
+    pub(crate) fn write_param(&mut self, spec: &ModelSpec, i: usize, role: Role, v: i32) {
+        match role {
+            // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
+            // result to target position" relies on it).
+            Role::TargetPosition => {
+                self.leave_torque_mode();
+                self.ramp.move_to(v)
+            }
+            // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
+            Role::TargetSpeed => self.ramp.target_velocity = self.units_to_pps(spec, v),
+            // Listed RW in Table 15: accepted, no effect: the ramp generator owns the actual speed.
+            Role::ActualSpeed => {}
+            Role::RampMode => self.ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position },
+            // TMC428: 2 velocity mode; 0 ramp and 1 soft are position mode (the soft approach is not
+            // simulated).
+            Role::RampModeTmc428 => {
+                self.ramp.mode = if v == 2 { Mode::Velocity } else { Mode::Position };
+                self.params[i] = v;
+            }
+            Role::ClearI2t => self.cl.i2t_exceeded = false,
+            Role::I2tExceedCount => self.cl.i2t_count = v as u32,
+            _ => self.params[i] = v,
+        }
     }
 }
 

@@ -30,12 +30,13 @@ use crate::drive::closed_loop::ClosedLoop;
 use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState};
 use crate::iface::Port;
-use crate::model::{Kinematics, ModelSpec, Setting};
+use crate::model::{ModelSpec, Setting};
 use crate::motion::{Limits, Ramp, RampParams};
+use crate::param::banks::Banks;
 use crate::param::persist;
 use crate::time::{Duration, Instant};
 use crate::vm::{Program, Vm};
-use tmcl_model::capacity::{MAX_GLOBAL_PARAMS, MAX_INTERFACES, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES};
+use tmcl_model::capacity::MAX_INTERFACES;
 use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
 pub use crate::axis::{Axis, EncoderBase};
@@ -74,14 +75,33 @@ pub(crate) struct EventRequest {
     pub port: u8,
 }
 
+impl EventRequest {
+    /// Command 138 (PD28-1021 manual §3.7.37) from the interface `port`, on a model with `motors` motors:
+    /// type 0 arms the next MVP's event, type 1 every MVP's, for the motors of `mask`. Mask 0 cancels (our
+    /// decision: the manual gives no way to turn type 1 off); a motor the model lacks is status 4. The
+    /// reply carries the mask.
+    pub(crate) fn request(&mut self, motors: u8, port: u8, mode: EventMode, mask: i32) -> Result<i32, Status> {
+        let all = (1i32 << motors) - 1;
+        if mask & !all != 0 {
+            return Err(Status::InvalidValue);
+        }
+        self.mode = (mask != 0).then_some(mode);
+        self.mask = mask;
+        self.port = port;
+        if mask == 0 {
+            self.pending = false;
+        }
+        Ok(mask)
+    }
+}
+
 /// Everything the firmware keeps in RAM, except program memory and the program machine: no heap.
 #[derive(Debug, Clone)]
 pub struct State {
     /// The motors, one [`Axis`] each (`crate::axis`).
     pub(crate) axes: Axes,
-    pub(crate) global: [i32; MAX_GLOBAL_PARAMS],
-    pub(crate) interrupt: [i32; MAX_INTERRUPT_PARAMS],
-    pub(crate) user: [i32; MAX_USER_VARIABLES],
+    /// The global banks: bank 0 settings, user variables, interrupt configuration (`crate::param::banks`).
+    pub(crate) banks: Banks,
     /// The program's registers.
     pub(crate) regs: Registers,
     /// The host's registers (direct-mode CALC and friends), kept apart so that a host never disturbs a
@@ -96,9 +116,6 @@ pub struct State {
     pub(crate) motion_time: Instant,
     /// The latest time the module has been told.
     pub(crate) now: Instant,
-    /// GP 132's reference: (time, value at that time).
-    pub(crate) tick_base: (Instant, u32),
-    pub(crate) rng: u32,
     /// When the last command addressed to this module arrived (GP 68 heartbeat).
     pub(crate) last_command: Instant,
     pub(crate) heartbeat_tripped: bool,
@@ -106,8 +123,6 @@ pub struct State {
     pub(crate) outputs: u8,
     /// GP 65 as it was at the last start (a new baud rate needs a restart, manual §5.1).
     pub(crate) active_baud: u8,
-    /// Password-protected parameters may be written (see [`crate::model::Role::Password`]).
-    pub(crate) unlocked: bool,
     /// The TMC428 registers SAC reaches that no firmware state stands behind (TMC428-generation models).
     pub(crate) tmc428: crate::drive::tmc428::Tmc428Regs,
 }
@@ -116,9 +131,7 @@ impl State {
     fn new(motors: u8, now: Instant) -> State {
         State {
             axes: Axes::new(motors, now),
-            global: [0; MAX_GLOBAL_PARAMS],
-            interrupt: [0; MAX_INTERRUPT_PARAMS],
-            user: [0; MAX_USER_VARIABLES],
+            banks: Banks::new(now),
             regs: Registers::default(),
             host_regs: Registers::default(),
             event: EventRequest::default(),
@@ -126,13 +139,10 @@ impl State {
             asking_port: 0,
             motion_time: now,
             now,
-            tick_base: (now, 0),
-            rng: RNG_SEED,
             last_command: now,
             heartbeat_tripped: false,
             outputs: 0,
             active_baud: 0,
-            unlocked: false,
             tmc428: Default::default(),
         }
     }
@@ -152,9 +162,6 @@ impl State {
         self.ports.get(port)
     }
 }
-
-/// GP 133's generator starts from this seed at every start (a write to GP 133 reseeds it).
-pub(crate) const RNG_SEED: u32 = 0x2545_F491;
 
 /// Who sent a command: the host (direct mode) or the stored program (standalone mode, §3.6).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -340,13 +347,13 @@ impl<B: Board> Module<B> {
     /// The value of the bank 0 parameter with `setting`, if the model has one.
     #[inline]
     pub(crate) fn gp(&self, setting: Setting) -> Option<i32> {
-        self.spec.global.setting(setting).map(|i| self.st.global[i])
+        self.st.banks.gp(self.spec, setting)
     }
 
     /// Whether the bank 0 flag with `setting` is set (a model without it: not set).
     #[inline]
     pub(crate) fn gp_flag(&self, setting: Setting) -> bool {
-        self.gp(setting) == Some(1)
+        self.st.banks.flag(self.spec, setting)
     }
 
     /// Sets the axis parameter with `setting` (results the firmware produces, e.g. AP 196/197).
@@ -356,22 +363,16 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// A velocity in the model's unit as microsteps per second (the ramp's unit).
+    /// A velocity in the model's unit as microsteps per second (the ramp's unit; [`Axis::units_to_pps`]).
     #[inline]
     pub(crate) fn units_to_pps(&self, m: usize, v: i32) -> i32 {
-        match self.spec.kinematics {
-            Kinematics::Pps => v,
-            k => k.velocity_to_pps(v, self.ap(m, Setting::PulseDivisor).unwrap_or(0)),
-        }
+        self.st.axes[m].units_to_pps(self.spec, v)
     }
 
-    /// A velocity in microsteps per second in the model's unit.
+    /// A velocity in microsteps per second in the model's unit ([`Axis::pps_to_units`]).
     #[inline]
     pub(crate) fn pps_to_units(&self, m: usize, pps: i32) -> i32 {
-        match self.spec.kinematics {
-            Kinematics::Pps => pps,
-            k => k.pps_to_velocity(pps, self.ap(m, Setting::PulseDivisor).unwrap_or(0)),
-        }
+        self.st.axes[m].pps_to_units(self.spec, pps)
     }
 
     /// Start-up, as after a power cycle (manual §3.7.38 command 255, chapter 8 "power-up restores").
@@ -400,21 +401,21 @@ impl<B: Board> Module<B> {
             }
         }
         for (i, d) in spec.global.params.iter().enumerate() {
-            self.st.global[i] = d.default;
+            self.st.banks.global[i] = d.default;
             if d.access.persistent() {
                 if let Ok(v) = persist::load_global(&mut self.board, spec, i) {
-                    self.st.global[i] = if d.range.contains(v) { v } else { d.default };
+                    self.st.banks.global[i] = if d.range.contains(v) { v } else { d.default };
                 }
             }
         }
         for (i, d) in spec.interrupt.params.iter().enumerate() {
-            self.st.interrupt[i] = d.default;
+            self.st.banks.interrupt[i] = d.default;
         }
         // §5.3 / §8.4: user variables are restored unless GP 85 = 1.
         if !self.gp_flag(Setting::DoNotRestoreUserVariables) {
             for n in 0..spec.stored_user_variables {
                 let n = n as u8; // stored_user_variables ≤ 256, checked by ModelSpec::new
-                self.st.user[usize::from(n)] = persist::load_user(&mut self.board, spec, n).unwrap_or(0);
+                self.st.banks.user[usize::from(n)] = persist::load_user(&mut self.board, spec, n).unwrap_or(0);
             }
         }
         // §3.7.24: with GP 84 = 1 the coordinates are copied back at start-up.
@@ -445,46 +446,27 @@ impl<B: Board> Module<B> {
         if self.gp(Setting::AsciiMode).unwrap_or(0) & 1 == 1 {
             if let Some(port) = spec.interfaces.iter().position(|i| i.ascii) {
                 self.enter_ascii(port);
-                // The extra host links are the first interface again.
+                // The extra host links (the ports after the model's interfaces; none without the
+                // `host-links` feature) are the first interface again.
                 if port == 0 {
-                    for link in 1..crate::iface::HOST_LINKS {
-                        self.enter_ascii(MAX_INTERFACES + link - 1);
+                    for link in MAX_INTERFACES..self.st.ports.len() {
+                        self.enter_ascii(link);
                     }
                 }
             }
         }
     }
 
+    /// The ramp parameters motor `m` runs with ([`Axis::ramp_params`]).
+    #[inline]
     pub(crate) fn ramp_params(&self, m: usize) -> RampParams {
-        // An interpolated MVP COORD's scaled speed and acceleration, while this axis still heads for that
-        // move's target in position mode (`module/coordinated.rs`).
-        if let Some((target, p)) = self.st.axes[m].interpolation {
-            let ramp = &self.st.axes[m].ramp;
-            if ramp.mode == crate::motion::Mode::Position && ramp.target_position == target {
-                return p;
-            }
-        }
-        self.own_ramp_params(m)
+        self.st.axes[m].ramp_params(self.spec)
     }
 
-    /// The ramp parameters motor `m`'s own AP 4, 5 and 130 give.
+    /// The ramp parameters motor `m`'s own AP 4, 5 and 130 give ([`Axis::own_ramp_params`]).
+    #[inline]
     pub(crate) fn own_ramp_params(&self, m: usize) -> RampParams {
-        // The maximum speed and acceleration exist in every model (checked by ModelSpec::new).
-        let (v, a) =
-            (self.ap(m, Setting::MaxPositioningSpeed).unwrap_or(1), self.ap(m, Setting::MaxAcceleration).unwrap_or(1));
-        let v_min = self.ap(m, Setting::MinimumSpeed).unwrap_or(0);
-        match self.spec.kinematics {
-            Kinematics::Pps => RampParams { max_speed: v, max_accel: a, min_speed: v_min },
-            k => {
-                let pulse = self.ap(m, Setting::PulseDivisor).unwrap_or(0);
-                let ramp = self.ap(m, Setting::RampDivisor).unwrap_or(0);
-                RampParams {
-                    max_speed: k.velocity_to_pps(v, pulse).max(1),
-                    max_accel: k.acceleration_to_pps2(a, pulse, ramp).max(1),
-                    min_speed: k.velocity_to_pps(v_min, pulse),
-                }
-            }
-        }
+        self.st.axes[m].own_ramp_params(self.spec)
     }
 
     /// Logical switch states (AP 9, 10, 11): GP 79 reverses the polarity of the end switches.

@@ -528,6 +528,6 @@ impl<B: Board> Module<B> {
 /// When the heartbeat runs out (GP 68) in `st`, if it is armed (see [`Module::check_heartbeat`]).
 #[inline]
 pub(super) fn heartbeat_expiry(spec: &ModelSpec, st: &State) -> Option<Instant> {
-    let limit = spec.global.setting(Setting::SerialHeartbeat).map_or(0, |i| st.global[i]);
+    let limit = spec.global.setting(Setting::SerialHeartbeat).map_or(0, |i| st.banks.global[i]);
     (limit > 0 && !st.heartbeat_tripped).then(|| st.last_command + Duration::from_millis(limit as u64))
 }

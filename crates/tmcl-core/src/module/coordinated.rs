@@ -61,7 +61,7 @@ impl<B: Board> Module<B> {
         let scaled = if interpolate { self.interpolation(&targets) } else { [None; MAX_MOTORS as usize] };
         for (m, target) in targets.iter().enumerate() {
             if let Some(to) = *target {
-                self.start_move(m, to);
+                super::exec::start_move(&mut self.st.axes[m], &mut self.st.event, to);
                 self.st.axes[m].interpolation = scaled[m].map(|p| (to, p));
             }
         }

@@ -17,15 +17,14 @@
 //!   CALC, CALCX, AAP, AGP, ACO, CLE, EI and DI "could be used in direct mode" (§3.6.5) and work on the
 //!   module's registers.
 
-use super::{Module, Origin, Outcome};
-use crate::hal::prelude::*;
-use crate::hal::Board;
-use crate::model::{AppStatusReply, Driver, PortKind, Setting};
+use super::{params, Axis, EventRequest, Module, Origin, Outcome};
+use crate::hal::{Analog, Board, Inputs, Outputs};
+use crate::model::{AppStatusReply, Driver, ModelSpec, PortKind, Setting};
 use crate::motion::reference::Action;
 use crate::motion::SearchMode;
 use crate::param::{persist, ParamError, Role};
 use crate::time::Instant;
-use crate::vm::{alu, Registers};
+use crate::vm::{alu, Registers, Vm};
 use tmcl_wire::command::MAGIC_KEY;
 use tmcl_wire::{
     CalcOp, CalcxOp, Command, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
@@ -90,7 +89,7 @@ impl<B: Board> Module<B> {
             // decelerating with AP 5.
             C::Mst { motor } => {
                 let m = self.motor(motor)?;
-                self.start_rotation(m, 0);
+                start_rotation(&mut self.st.axes[m], &mut self.st.event, 0);
                 value(0)
             }
             // MVP COORD with a motor mask (bit 6 or 7 set; TMCM-3110/6110 firmware manuals, MVP): several
@@ -109,30 +108,50 @@ impl<B: Board> Module<B> {
                 let m = self.motor(motor)?;
                 value(self.read_axis(m, param, Some(now))?)
             }
-            // §3.7.7 STAP: E parameters only.
+            // §3.7.7 STAP: E parameters only; the motor's RAM value, the model's table and the EEPROM.
             C::Stap { param, motor } => {
-                self.motor(motor).and_then(|m| self.store_axis(m, param)).map(|()| Outcome::Value(0))
+                let m = self.motor(motor)?;
+                let Module { board, spec, st, .. } = self;
+                params::store_axis(board, spec, &st.axes[m], m, param, st.banks.unlocked).map(|()| Outcome::Value(0))
             }
-            // §3.7.8 RSAP: E parameters only.
+            // §3.7.8 RSAP: E parameters only; the EEPROM into the motor's RAM value.
             C::Rsap { param, motor } => {
-                self.motor(motor).and_then(|m| self.restore_axis(m, param)).map(|()| Outcome::Value(0))
+                let m = self.motor(motor)?;
+                let Module { board, spec, st, .. } = self;
+                params::restore_axis(board, spec, &mut st.axes[m], m, param).map(|()| Outcome::Value(0))
             }
-            // §3.7.9 SGP.
-            C::Sgp { param, bank, value: v } => self.write_global(param, bank, v, now).map(|()| Outcome::Value(v)),
-            // §3.7.10 GGP.
-            C::Ggp { param, bank } => value(self.read_global(param, bank, now)?),
+            // §3.7.9 SGP: the banks, and what a write reaches besides them (`params::Reach`).
+            C::Sgp { param, bank, value: v } => {
+                let (spec, banks, reach) = self.global_parts();
+                params::write_global(spec, banks, reach, param, bank, v, now).map(|()| Outcome::Value(v))
+            }
+            // §3.7.10 GGP: the banks; GP 128–130 the program machine.
+            C::Ggp { param, bank } => {
+                let Module { spec, st, vm, .. } = self;
+                value(params::read_global(spec, &mut st.banks, vm, param, bank, now)?)
+            }
             // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
             // and a STGP rewrites them (the manual does not say what STGP does on bank 0).
-            C::Stgp { param, bank } => self.store_global(param, bank).map(|()| Outcome::Value(0)),
+            C::Stgp { param, bank } => {
+                let Module { board, spec, st, .. } = self;
+                params::store_global(board, spec, &st.banks, param, bank).map(|()| Outcome::Value(0))
+            }
             // §3.7.12 RSGP.
-            C::Rsgp { param, bank } => self.restore_global(param, bank).map(|()| Outcome::Value(0)),
+            C::Rsgp { param, bank } => {
+                let Module { board, spec, st, .. } = self;
+                params::restore_global(board, spec, &mut st.banks, param, bank).map(|()| Outcome::Value(0))
+            }
             // §3.7.13 RFS START/STOP/STATUS.
             C::Rfs { action, motor } => {
                 let m = self.motor(motor)?;
                 value(self.reference_search(m, action)?)
             }
             // §3.7.14 SIO: bank 2 outputs; port 255 sets all from a bit vector, −1 takes it from A.
-            C::Sio { port, bank, value: v } => self.sio(port, bank, v, origin),
+            C::Sio { port, bank, value: v } => {
+                let a = self.regs(origin).accumulator;
+                let Module { board, spec, st, .. } = self;
+                sio(board, spec, &mut st.outputs, a, port, bank, v)
+            }
             // §3.7.15 GIO: bank 0 digital inputs, bank 1 analog inputs, bank 2 outputs read back.
             C::Gio { port, bank } => self.gio(port, bank),
             // §3.7.16 CALC: A ← A op operand; the reply carries the operand (example reply §3.7.16).
@@ -149,17 +168,18 @@ impl<B: Board> Module<B> {
             // §3.7.30 AGP: global parameter ← A.
             C::Agp { param, bank } => {
                 let a = self.regs(origin).accumulator;
-                self.write_global(param, bank, a, now)?;
+                let (spec, banks, reach) = self.global_parts();
+                params::write_global(spec, banks, reach, param, bank, a, now)?;
                 value(a)
             }
             // §3.7.24 SCO; motor 255 copies RAM → EEPROM (coordinate 0 = all of 1..20).
-            C::Sco { coord, motor: 255, .. } => self.copy_coordinates(coord, true).map(|()| Outcome::Value(0)),
+            C::Sco { coord, motor: 255, .. } => self.copy_coordinates(coord, true),
             C::Sco { coord, motor, position } => self.set_coordinate(coord, motor, position),
             // §3.7.25 GCO; motor 255 copies EEPROM → RAM.
-            C::Gco { coord, motor: 255 } => self.copy_coordinates(coord, false).map(|()| Outcome::Value(0)),
+            C::Gco { coord, motor: 255 } => self.copy_coordinates(coord, false),
             C::Gco { coord, motor } => {
                 let m = self.motor(motor)?;
-                value(self.st.axes[m].coords[self.coord_index(coord)?])
+                value(self.st.axes[m].coords[params::coord_index(self.spec, coord)?])
             }
             // §3.7.26 CCO: coordinate ← actual position; the reply carries it.
             C::Cco { coord, motor } => {
@@ -231,7 +251,7 @@ impl<B: Board> Module<B> {
             // §3.7.38 134: read program memory (special reply).
             C::ReadMemory { address } => Ok(Outcome::Raw(self.read_memory(address)?)),
             // §3.7.38 135: application status.
-            C::GetStatus { kind } => value(self.get_status(kind)),
+            C::GetStatus { kind } => value(get_status(self.spec, &self.vm, &self.st.regs, kind)),
             // §3.4.1 command 139: ASCII mode. The reply (binary) goes out first, then the mode changes.
             C::EnterAscii => Ok(Outcome::EnterAscii),
             // §3.7.38 136: type 0 = host address + 8 characters, no checksum; type 1 = binary.
@@ -244,7 +264,9 @@ impl<B: Board> Module<B> {
                 Ok(Outcome::Silent)
             }
             // §3.7.37 138: type 0 = next MVP, type 1 = every MVP; value = motor mask.
-            C::RequestTargetReachedEvent { mode, mask } => self.request_event(mode, mask),
+            C::RequestTargetReachedEvent { mode, mask } => {
+                self.st.event.request(self.spec.motors, self.st.asking_port, mode, mask).and_then(value)
+            }
             // 242: pytrinamic's boot-loader request. The module has no boot loader on this link; it stays
             // silent so the host's reply stream stays aligned (pytrinamic expects no reply).
             C::Boot => Ok(Outcome::Silent),
@@ -262,8 +284,17 @@ impl<B: Board> Module<B> {
     /// SCO, CCO, ACO: coordinate `coord` ← `v` (through to the EEPROM with GP 84 = 1); the reply carries it.
     fn set_coordinate(&mut self, coord: u8, motor: u8, v: i32) -> Exec {
         let m = self.motor(motor)?;
-        self.write_coordinate(m, coord, v)?;
+        let Module { board, spec, st, .. } = self;
+        params::write_coordinate(board, spec, &st.banks, &mut st.axes[m], m, coord, v)?;
         value(v)
+    }
+
+    /// SCO/GCO with motor 255: every motor's coordinate `coord` (0 = all) into the EEPROM or back from it;
+    /// the reply carries 0.
+    fn copy_coordinates(&mut self, coord: u8, to_eeprom: bool) -> Exec {
+        let Module { board, spec, st, .. } = self;
+        params::copy_coordinates(board, spec, &mut st.axes, coord, to_eeprom)?;
+        value(0)
     }
 
     /// ROR, ROL: velocity mode towards `velocity` (AP 2's unit), checked against AP 2's range; the
@@ -271,7 +302,8 @@ impl<B: Board> Module<B> {
     fn rotate(&mut self, motor: u8, velocity: i32, reply: i32) -> Exec {
         let m = self.motor(motor)?;
         self.velocity_in_range(velocity)?;
-        self.start_rotation(m, self.units_to_pps(m, velocity));
+        let axis = &mut self.st.axes[m];
+        start_rotation(axis, &mut self.st.event, axis.units_to_pps(self.spec, velocity));
         value(reply)
     }
 
@@ -285,7 +317,7 @@ impl<B: Board> Module<B> {
             MoveTarget::Coord(n) => self.st.axes[m].coords[self.move_coordinate(n)?],
         };
         self.check_target(to)?;
-        self.start_move(m, to);
+        start_move(&mut self.st.axes[m], &mut self.st.event, to);
         value(match target {
             MoveTarget::Abs(v) | MoveTarget::Rel(v) | MoveTarget::Coord(v) => v,
         })
@@ -306,42 +338,15 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// SIO: bank 2 (outputs) and, where the model has them, the switches' pull-ups of bank 0; another bank
-    /// is an invalid value of the bank byte.
-    fn sio(&mut self, port: u8, bank: u8, v: i32, origin: Origin) -> Exec {
-        if !self.spec.writes_bank(bank) {
-            return Err(Status::InvalidValue);
-        }
-        let desc = self.spec.output_port(bank, port).ok_or(Status::WrongType)?;
-        let bits = match desc.kind {
-            PortKind::PullUps => {
-                let bits = u8::try_from(v).ok().filter(|b| *b <= 3).ok_or(Status::InvalidValue)?;
-                self.board.set_pull_ups(bits);
-                return value(v);
-            }
-            PortKind::Output(bit) => match v {
-                0 => self.st.outputs & !(1 << bit),
-                1 => self.st.outputs | (1 << bit),
-                _ => return Err(Status::InvalidValue),
-            },
-            PortKind::AllOutputs => match v {
-                -1 => self.regs(origin).accumulator as u8,
-                0..=255 => v as u8,
-                _ => return Err(Status::InvalidValue),
-            },
-            _ => return Err(Status::WrongType),
-        };
-        let bits = bits & (((1u16 << self.spec.outputs) - 1) as u8); // outputs ≤ 8
-        self.st.outputs = bits;
-        self.board.set_outputs(self.st.outputs);
-        value(v)
-    }
-
     /// GIO: a port of bank 0, 1 or 2 the model has (another port 3, another bank 4).
     fn gio(&mut self, port: u8, bank: u8) -> Exec {
         let missing = if bank <= 2 { Status::WrongType } else { Status::InvalidValue };
         let desc = self.spec.port(bank, port).ok_or(missing)?;
-        value(self.read_port(desc.kind))
+        match read_port(&mut self.board, self.st.outputs, desc.kind) {
+            Some(v) => value(v),
+            // (The encoder of motor 0: the models with this port have one motor.)
+            None => value(i32::from(self.encoder_near_zero(0))),
+        }
     }
 
     /// CALC (§3.7.16) on the host's or the program's registers (`vm/alu.rs`); the reply carries the
@@ -357,42 +362,12 @@ impl<B: Board> Module<B> {
         value(0)
     }
 
-    /// Command 135's value (§3.7.38). PDx-113 manual §5.5: the state alone (0 stop, 1 run, 2 step,
-    /// 3 reset), type "don't care".
-    fn get_status(&self, kind: StatusKind) -> i32 {
-        if self.spec.app_status == AppStatusReply::Plain {
-            return self.vm.state().code();
-        }
-        match kind {
-            StatusKind::MemoryPointer => self.vm.status(false),
-            StatusKind::ProgramCounter => self.vm.status(true),
-            StatusKind::Accumulator => self.st.regs.accumulator,
-            StatusKind::XRegister => self.st.regs.x,
-        }
-    }
-
     /// Command 136 type 0 (§3.7.38): the host address and the model's 8 characters, no checksum.
     fn version_string(&self) -> [u8; FRAME_LEN] {
         let mut raw = [0u8; FRAME_LEN];
         raw[0] = self.host_address();
         raw[1..].copy_from_slice(&self.spec.version_string);
         raw
-    }
-
-    /// Command 138 (§3.7.37) on the interface that asked. Mask 0 cancels (our decision: the manual gives
-    /// no way to turn type 1 off); a motor the model lacks is status 4.
-    fn request_event(&mut self, mode: EventMode, mask: i32) -> Exec {
-        let all = (1i32 << self.spec.motors) - 1;
-        if mask & !all != 0 {
-            return Err(Status::InvalidValue);
-        }
-        self.st.event.mode = (mask != 0).then_some(mode);
-        self.st.event.mask = mask;
-        self.st.event.port = self.st.asking_port;
-        if mask == 0 {
-            self.st.event.pending = false;
-        }
-        value(mask)
     }
 
     /// A ROR/ROL velocity in the model's unit within AP 2's range (PDx-113 manual §5.7.1: 0…2047), else
@@ -421,48 +396,6 @@ impl<B: Board> Module<B> {
             Ok(usize::from(motor))
         } else {
             Err(ParamError::NoSuchMotor.into())
-        }
-    }
-
-    fn start_rotation(&mut self, m: usize, velocity: i32) {
-        self.st.axes[m].interpolation = None;
-        self.leave_torque_mode(m);
-        self.st.axes[m].reference.stop();
-        self.st.axes[m].ramp.rotate(velocity);
-        self.st.axes[m].error_flags = 0; // AP 207: "cleared ... when a motion command runs"
-        self.st.event.pending = false;
-    }
-
-    pub(super) fn start_move(&mut self, m: usize, target: i32) {
-        self.st.axes[m].interpolation = None;
-        self.leave_torque_mode(m);
-        self.st.axes[m].reference.stop();
-        self.st.axes[m].ramp.move_to(target);
-        self.st.axes[m].error_flags = 0;
-        match self.st.event.mode {
-            Some(EventMode::Next) => {
-                self.st.event.mode = None;
-                self.st.event.pending = true;
-            }
-            Some(EventMode::Every) => self.st.event.pending = true,
-            None => {}
-        }
-    }
-
-    fn read_port(&mut self, kind: PortKind) -> i32 {
-        match kind {
-            PortKind::DigitalInput(bit) => i32::from((self.board.digital_inputs() >> bit) & 1),
-            PortKind::AllInputs => i32::from(self.board.digital_inputs()),
-            // (The encoder of motor 0: the models with this port have one motor.)
-            PortKind::EncoderNearZero => i32::from(self.encoder_near_zero(0)),
-            PortKind::Analog(ch) => i32::from(self.board.analog_input(ch).min(4095)),
-            PortKind::Analog10(ch) => i32::from(self.board.analog_input(ch).min(4095) >> 2),
-            PortKind::Temperature => self.board.temperature(),
-            PortKind::Output(bit) => i32::from((self.st.outputs >> bit) & 1),
-            PortKind::AllOutputs => i32::from(self.st.outputs),
-            PortKind::SupplyVoltage => i32::from(self.board.supply_voltage()),
-            // Written only (`ModelSpec::port` never gives it to GIO).
-            PortKind::PullUps => 0,
         }
     }
 
@@ -498,4 +431,104 @@ impl<B: Board> Module<B> {
             RfsAction::Status => Ok(self.st.axes[m].reference.status()),
         }
     }
+}
+
+/// ROR/ROL/MST (PD28-1021 manual §3.7.1–3.7.3): the motor's `axis` to velocity mode towards `velocity`
+/// (microsteps per second). The motion command takes the motor over: an interpolated MVP COORD's speeds,
+/// torque mode and a reference search end, AP 207's flags are "cleared ... when a motion command runs",
+/// and a pending 138 event (`event`) is void.
+#[inline]
+pub(super) fn start_rotation(axis: &mut Axis, event: &mut EventRequest, velocity: i32) {
+    axis.interpolation = None;
+    axis.leave_torque_mode();
+    axis.reference.stop();
+    axis.ramp.rotate(velocity);
+    axis.error_flags = 0;
+    event.pending = false;
+}
+
+/// MVP (§3.7.4, and each motor of an MVP COORD with a motor mask): the motor's `axis` to `target` in
+/// position mode, taking the motor over as [`start_rotation`] does; a 138 request (§3.7.37) in `event`
+/// arms its event, once for type 0 (the request is used up), at every MVP for type 1.
+#[inline]
+pub(super) fn start_move(axis: &mut Axis, event: &mut EventRequest, target: i32) {
+    axis.interpolation = None;
+    axis.leave_torque_mode();
+    axis.reference.stop();
+    axis.ramp.move_to(target);
+    axis.error_flags = 0;
+    match event.mode {
+        Some(EventMode::Next) => {
+            event.mode = None;
+            event.pending = true;
+        }
+        Some(EventMode::Every) => event.pending = true,
+        None => {}
+    }
+}
+
+/// Command 135's value (PD28-1021 manual §3.7.38) of the program machine `vm` and its registers `regs`.
+/// PDx-113 manual §5.5 (`spec`'s `AppStatusReply::Plain`): the state alone (0 stop, 1 run, 2 step,
+/// 3 reset), type "don't care".
+fn get_status(spec: &ModelSpec, vm: &Vm, regs: &Registers, kind: StatusKind) -> i32 {
+    if spec.app_status == AppStatusReply::Plain {
+        return vm.state().code();
+    }
+    match kind {
+        StatusKind::MemoryPointer => vm.status(false),
+        StatusKind::ProgramCounter => vm.status(true),
+        StatusKind::Accumulator => regs.accumulator,
+        StatusKind::XRegister => regs.x,
+    }
+}
+
+/// SIO (PD28-1021 manual §3.7.14) of `port` in `bank` := `v`: bank 2's outputs (`outputs` as last set, bit
+/// n = OUTn; port 255 all of them from a bit vector, or from the accumulator `a` for −1) and, where the
+/// model has them, the switches' pull-ups of bank 0, on `board`; another bank is an invalid value of the
+/// bank byte.
+fn sio<O: Outputs>(board: &mut O, spec: &ModelSpec, outputs: &mut u8, a: i32, port: u8, bank: u8, v: i32) -> Exec {
+    if !spec.writes_bank(bank) {
+        return Err(Status::InvalidValue);
+    }
+    let desc = spec.output_port(bank, port).ok_or(Status::WrongType)?;
+    let bits = match desc.kind {
+        PortKind::PullUps => {
+            let bits = u8::try_from(v).ok().filter(|b| *b <= 3).ok_or(Status::InvalidValue)?;
+            board.set_pull_ups(bits);
+            return value(v);
+        }
+        PortKind::Output(bit) => match v {
+            0 => *outputs & !(1 << bit),
+            1 => *outputs | (1 << bit),
+            _ => return Err(Status::InvalidValue),
+        },
+        PortKind::AllOutputs => match v {
+            -1 => a as u8,
+            0..=255 => v as u8,
+            _ => return Err(Status::InvalidValue),
+        },
+        _ => return Err(Status::WrongType),
+    };
+    let bits = bits & (((1u16 << spec.outputs) - 1) as u8); // outputs ≤ 8
+    *outputs = bits;
+    board.set_outputs(bits);
+    value(v)
+}
+
+/// GIO (§3.7.15) of a port of `kind`: what `board` reads now, or the outputs as last set (`outputs`);
+/// `None` for the encoder's zero (GIO 11, 0), which the module reads (`Module::encoder_near_zero`).
+fn read_port<P: Inputs + Analog>(board: &mut P, outputs: u8, kind: PortKind) -> Option<i32> {
+    Some(match kind {
+        PortKind::DigitalInput(bit) => i32::from((board.digital_inputs() >> bit) & 1),
+        PortKind::AllInputs => i32::from(board.digital_inputs()),
+        PortKind::EncoderNearZero => return None,
+        PortKind::Analog(ch) => i32::from(board.analog_input(ch).min(4095)),
+        PortKind::Analog10(ch) => i32::from(board.analog_input(ch).min(4095) >> 2),
+        PortKind::Temperature => board.temperature(),
+        PortKind::Output(bit) => i32::from((outputs >> bit) & 1),
+        PortKind::AllOutputs => i32::from(outputs),
+        PortKind::SupplyVoltage => i32::from(board.supply_voltage()),
+        // Written only (`ModelSpec::port` never gives it to GIO).
+        PortKind::PullUps => 0,
+    })
 }

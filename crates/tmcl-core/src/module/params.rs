@@ -3,13 +3,16 @@
 //! their EEPROM copies ([`crate::param::persist`]). Statuses as the dispatcher's docs (`module/exec.rs`)
 //! decide them.
 
-use super::{Module, RNG_SEED};
+use super::seam::Seam;
+use super::{program, Axis, Module};
+use crate::axis::Axes;
 use crate::hal::prelude::*;
-use crate::hal::Board;
-use crate::model::Setting;
-use crate::motion::Mode;
+use crate::hal::{Board, Nvm};
+use crate::model::{ModelSpec, Setting};
+use crate::param::banks::Banks;
 use crate::param::{persist, ParamDesc, ParamError, Role};
 use crate::time::Instant;
+use crate::vm::{Program, Registers, Vm};
 use tmcl_wire::Status;
 
 /// A bank of SGP, GGP, STGP and RSGP (chapter 5) the model has.
@@ -23,12 +26,13 @@ pub(crate) enum Bank {
     Interrupt,
 }
 
-impl<B: Board> Module<B> {
-    /// The bank `bank` names: one the model lacks, or one past 3, is status 4 (the bank byte being a
-    /// value of the command; PD28-1021 manual chapter 5, PDx-113 manual §5.7.9); bank 1, which no source
-    /// gives a parameter, is status 3 (an unknown parameter of it).
-    pub(crate) fn bank(&self, bank: u8) -> Result<Bank, Status> {
-        if !self.spec.banks.has(bank) {
+impl Bank {
+    /// The bank `bank` names in `spec`: one the model lacks, or one past 3, is status 4 (the bank byte
+    /// being a value of the command; PD28-1021 manual chapter 5, PDx-113 manual §5.7.9); bank 1, which no
+    /// source gives a parameter, is status 3 (an unknown parameter of it).
+    #[inline]
+    pub(crate) fn of(spec: &ModelSpec, bank: u8) -> Result<Bank, Status> {
+        if !spec.banks.has(bank) {
             return Err(ParamError::NoSuchMotor.into());
         }
         match bank {
@@ -39,73 +43,41 @@ impl<B: Board> Module<B> {
             _ => Err(ParamError::NoSuchMotor.into()),
         }
     }
+}
 
-    /// STAP (§3.7.7): an E parameter's RAM value into the EEPROM.
-    pub(crate) fn store_axis(&mut self, m: usize, number: u8) -> Result<(), Status> {
-        let (i, d) = self.axis_desc(number, |d| d.access.store)?;
-        self.unlocked_for(d)?;
-        persist::store_axis(&mut self.board, self.spec, m, i, self.st.axes[m].params[i])?;
-        Ok(())
-    }
+/// STAP (PD28-1021 manual §3.7.7): motor `m`'s E parameter `number` from its RAM value in `axis` into the
+/// EEPROM of `nvm` (the board, behind the seam); `unlocked` is whether password-protected parameters may be
+/// stored.
+pub(crate) fn store_axis(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    axis: &Axis,
+    m: usize,
+    number: u8,
+    unlocked: bool,
+) -> Result<(), Status> {
+    let (i, d) = permitted(&spec.axis, number, |d| d.access.store)?;
+    unlocked_for(unlocked, d)?;
+    persist::store_axis(nvm, spec, m, i, axis.params[i])?;
+    Ok(())
+}
 
-    /// RSAP (§3.7.8): an E parameter back from the EEPROM (its default if the stored value is out of range).
-    pub(crate) fn restore_axis(&mut self, m: usize, number: u8) -> Result<(), Status> {
-        let (i, d) = self.axis_desc(number, |d| d.access.store)?;
-        let v = persist::load_axis(&mut self.board, self.spec, m, i)?;
-        self.st.axes[m].params[i] = if d.range.contains(v) { v } else { d.default };
-        Ok(())
-    }
+/// RSAP (PD28-1021 manual §3.7.8): motor `m`'s E parameter `number` back from the EEPROM of `nvm` into
+/// `axis` (its default if the stored value is out of range).
+pub(crate) fn restore_axis(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    axis: &mut Axis,
+    m: usize,
+    number: u8,
+) -> Result<(), Status> {
+    let (i, d) = permitted(&spec.axis, number, |d| d.access.store)?;
+    let v = persist::load_axis(nvm, spec, m, i)?;
+    axis.params[i] = if d.range.contains(v) { v } else { d.default };
+    Ok(())
+}
 
-    /// STGP (§3.7.11): a bank 0 A parameter or a bank 2 user variable into the EEPROM; bank 3 is not stored.
-    pub(crate) fn store_global(&mut self, number: u8, bank: u8) -> Result<(), Status> {
-        match self.bank(bank)? {
-            Bank::Global => {
-                let (i, d) = self.global_desc(number, |d| d.access.auto)?;
-                self.unlocked_for(d)?;
-                persist::store_global(&mut self.board, self.spec, i, self.st.global[i])?;
-            }
-            Bank::User => {
-                let v = self.st.user[self.user_index(number)?];
-                persist::store_user(&mut self.board, self.spec, number, v)?;
-            }
-            Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
-        }
-        Ok(())
-    }
-
-    /// RSGP (§3.7.12): a bank 0 A parameter or a bank 2 user variable back from the EEPROM.
-    pub(crate) fn restore_global(&mut self, number: u8, bank: u8) -> Result<(), Status> {
-        match self.bank(bank)? {
-            Bank::Global => {
-                let (i, d) = self.global_desc(number, |d| d.access.auto)?;
-                let v = persist::load_global(&mut self.board, self.spec, i)?;
-                self.st.global[i] = if d.range.contains(v) { v } else { d.default };
-            }
-            Bank::User => {
-                let n = self.user_index(number)?;
-                self.st.user[n] = persist::load_user(&mut self.board, self.spec, number)?;
-            }
-            Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
-        }
-        Ok(())
-    }
-
-    pub(crate) fn axis_desc(
-        &self,
-        number: u8,
-        allowed: impl Fn(&ParamDesc) -> bool,
-    ) -> Result<(usize, &'static ParamDesc), Status> {
-        permitted(&self.spec.axis, number, allowed)
-    }
-
-    pub(crate) fn global_desc(
-        &self,
-        number: u8,
-        allowed: impl Fn(&ParamDesc) -> bool,
-    ) -> Result<(usize, &'static ParamDesc), Status> {
-        permitted(&self.spec.global, number, allowed)
-    }
-
+impl<B: Board> Module<B> {
     /// GAP of motor 0: an axis parameter's value (chapter 4, Table 15). A library call from outside, as a
     /// host's GAP is: a read may change state (AP 207 clears on read), so it counts as an input
     /// (`module/seam.rs`).
@@ -137,14 +109,22 @@ impl<B: Board> Module<B> {
     /// a new number at every read).
     pub fn get_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
         self.board.input();
-        self.read_global(number, bank, now)
+        read_global(self.spec, &mut self.st.banks, &self.vm, number, bank, now)
     }
 
     /// SGP without the frame: writes a global parameter at `now`, as a library call from outside (an
     /// input, `module/seam.rs`).
     pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
         self.board.input();
-        self.write_global(number, bank, v, now)
+        let (spec, banks, reach) = self.global_parts();
+        write_global(spec, banks, reach, number, bank, v, now)
+    }
+
+    /// The parts a global parameter's write takes, borrowed apart: the model, the banks, and what the write
+    /// reaches besides them ([`Reach`]).
+    pub(crate) fn global_parts(&mut self) -> (&'static ModelSpec, &mut Banks, Reach<'_, Seam<B>>) {
+        let Module { board, spec, st, vm, program, .. } = self;
+        (spec, &mut st.banks, Reach { nvm: board, vm, program, regs: &mut st.regs })
     }
 
     /// GAP at `now` (`None`: whenever the board was last brought up to date). A parameter that reads
@@ -153,7 +133,12 @@ impl<B: Board> Module<B> {
     /// read with the board brought to `now` first ([`Module::sync_board`]), so that it is the value at the
     /// instant of the read however often the module was polled before.
     pub(crate) fn read_axis(&mut self, m: usize, number: u8, now: Option<Instant>) -> Result<i32, Status> {
-        let (i, d) = self.axis_desc(number, |d| d.access.read)?;
+        let (i, d) = permitted(&self.spec.axis, number, |d| d.access.read)?;
+        // What the motor's own state gives ([`Axis::read_param`]); the rest reads the board or what the
+        // closed loop measures.
+        if let Some(v) = self.st.axes[m].read_param(self.spec, i, d.role) {
+            return Ok(v);
+        }
         if let Some(now) = now {
             if matches!(
                 d.role,
@@ -162,63 +147,36 @@ impl<B: Board> Module<B> {
                 self.sync_board(m, now);
             }
         }
-        let ramp = &self.st.axes[m].ramp;
         Ok(match d.role {
-            Role::Plain | Role::MicrostepResolution | Role::EncoderPrescaler => self.st.axes[m].params[i],
-            Role::TargetPosition => ramp.target_position,
-            Role::ActualPosition if self.st.axes[m].cl.active => self.encoder_position(m),
-            Role::ActualPosition => ramp.position,
-            // TMC428/TMC429 units (the PDx-113, the TMCM-1140/3110/6110): in position mode the motion
-            // controller sets v_target itself (see `hardware_target_speed`).
-            Role::TargetSpeed if ramp.mode == Mode::Position && self.spec.kinematics.is_tmc428() => {
-                self.hardware_target_speed(m)
-            }
-            Role::TargetSpeed => self.pps_to_units(m, ramp.target_velocity),
-            Role::ActualSpeed => self.pps_to_units(m, ramp.velocity()),
+            Role::ActualPosition => self.encoder_position(m),
             Role::PositionReached => i32::from(self.target_reached(m)),
-            Role::RampMode => i32::from(ramp.mode == Mode::Velocity),
-            // TMC428: 2 velocity; in position mode what was written, 0 (ramp) or 1 (soft).
-            Role::RampModeTmc428 if ramp.mode == Mode::Velocity => 2,
-            Role::RampModeTmc428 => i32::from(self.st.axes[m].params[i] == 1),
             Role::HomeSwitch => i32::from(self.switches(m).2),
             Role::RightSwitch => i32::from(self.switches(m).1),
             Role::LeftSwitch => i32::from(self.switches(m).0),
             // AP 180: the current scale 0..31 in use (current / 8, Table 22), after coolStep.
             Role::ActualCurrent => i32::from(self.current(m, self.st.now).0 >> 3),
             Role::LoadValue => i32::from(self.board.load(m).min(1023)),
-            // AP 207: "cleared automatically when read".
-            Role::ErrorFlags => i32::from(core::mem::take(&mut self.st.axes[m].error_flags)),
             Role::DriverFlags => i32::from(self.board.driver_flags(m)),
             Role::EncoderPosition => self.encoder_position(m),
             Role::EncoderAbsolute => self.encoder_absolute(m),
-            Role::TargetCurrent => self.st.axes[m].cl.torque.map_or(self.st.axes[m].params[i], |(t, _)| t),
             Role::VelocityReached => i32::from(self.velocity_reached(m)),
             Role::StatusWord => self.status_word(m),
             Role::ActualTorqueCurrent => self.actual_torque_current(m),
-            Role::I2tSum => self.st.axes[m].cl.i2t.clamp(0, i64::from(i32::MAX)) as i32,
-            Role::I2tExceedCount => self.st.axes[m].cl.i2t_count as i32,
-            Role::CurrentScale => i32::from(self.st.axes[m].cl.scaler),
             Role::MeasuredVelocity => self.measured_velocity(m),
-            Role::EncoderInit => self.st.axes[m].cl.init.code(),
-            Role::ClosedLoopActive => i32::from(self.st.axes[m].cl.active),
-            Role::Gamma => self.st.axes[m].cl.gamma,
-            Role::VirtualPosition => self.st.axes[m].ramp.position,
-            // Virtual minus actual position in closed loop; in open loop there is no such error.
-            Role::PositionError if self.st.axes[m].cl.active => {
-                self.st.axes[m].ramp.position.wrapping_sub(self.encoder_position(m))
-            }
-            Role::PositionError => 0,
+            // Virtual minus actual position in closed loop.
+            Role::PositionError => self.st.axes[m].ramp.position.wrapping_sub(self.encoder_position(m)),
+            // (None other: `Axis::read_param` reads the rest.)
             _ => self.st.axes[m].params[i],
         })
     }
 
     /// SAP/AAP: writes an axis parameter (RAM only).
     pub(crate) fn write_axis(&mut self, m: usize, number: u8, v: i32, now: Instant) -> Result<(), Status> {
-        let (i, d) = self.axis_desc(number, |d| d.access.write)?;
+        let (i, d) = permitted(&self.spec.axis, number, |d| d.access.write)?;
         if !d.range.contains(v) {
             return Err(ParamError::OutOfRange.into());
         }
-        self.unlocked_for(d)?;
+        unlocked_for(self.st.banks.unlocked, d)?;
         // The encoder's input or scale changes (AP 201, 202, 210, 140 on a closed-loop model): the
         // position before, read through the old one.
         let rescales =
@@ -229,29 +187,12 @@ impl<B: Board> Module<B> {
         // The pulse divisor (AP 154) scales the TMC428's clock: the velocity registers keep their values
         // in units, so AP 2 and AP 3 read the same and the speed in microsteps per second follows.
         let velocities = (d.setting == Some(Setting::PulseDivisor)).then(|| self.velocity_units());
+        // The parameters that move the encoder's reference or reach the closed loop; the rest is what the
+        // motor's own state takes ([`Axis::write_param`]).
         match d.role {
-            // Writing the target position starts a move in position mode (§3.7.29's AAP example "transfer
-            // result to target position" relies on it).
-            Role::TargetPosition => {
-                self.leave_torque_mode(m);
-                self.st.axes[m].ramp.move_to(v)
-            }
             Role::ActualPosition => {
                 self.relabel(m, v.wrapping_sub(self.st.axes[m].ramp.position));
                 self.st.axes[m].ramp.set_position(v)
-            }
-            // AP 2: the velocity-mode target; in position mode it is kept for the next velocity mode.
-            Role::TargetSpeed => self.st.axes[m].ramp.target_velocity = self.units_to_pps(m, v),
-            // Listed RW in Table 15: accepted, no effect: the ramp generator owns the actual speed.
-            Role::ActualSpeed => {}
-            Role::RampMode => {
-                self.st.axes[m].ramp.mode = if v == 1 { Mode::Velocity } else { Mode::Position };
-            }
-            // TMC428: 2 velocity mode; 0 ramp and 1 soft are position mode (the soft approach is not
-            // simulated).
-            Role::RampModeTmc428 => {
-                self.st.axes[m].ramp.mode = if v == 2 { Mode::Velocity } else { Mode::Position };
-                self.st.axes[m].params[i] = v;
             }
             // In closed loop the step counter moves with the encoder, so that the loop sees no error.
             Role::EncoderPosition if self.st.axes[m].cl.active => {
@@ -266,14 +207,12 @@ impl<B: Board> Module<B> {
                 self.st.axes[m].params[i] = v;
             }
             Role::EncoderInit => self.start_encoder_init(m, v)?,
-            Role::ClearI2t => self.st.axes[m].cl.i2t_exceeded = false,
-            Role::I2tExceedCount => self.st.axes[m].cl.i2t_count = v as u32,
             Role::EncoderPrescaler => {
                 let now_value = self.encoder_position(m);
                 self.st.axes[m].params[i] = v;
                 self.set_encoder(m, now_value);
             }
-            _ => self.st.axes[m].params[i] = v,
+            _ => self.st.axes[m].write_param(self.spec, i, d.role, v),
         }
         // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
         // range), the closed loop switched on or off, the encoder's input or scale. The driver's take
@@ -296,123 +235,6 @@ impl<B: Board> Module<B> {
             self.set_velocity_units(units);
         }
 
-        Ok(())
-    }
-
-    /// GGP: a global parameter (chapter 5).
-    pub(crate) fn read_global(&mut self, number: u8, bank: u8, now: Instant) -> Result<i32, Status> {
-        match self.bank(bank)? {
-            Bank::Global => {
-                let (i, d) = self.global_desc(number, |d| d.access.read)?;
-                Ok(match d.role {
-                    Role::ApplicationStatus => self.vm.state.code(),
-                    Role::DownloadMode => i32::from(self.vm.download.is_some()),
-                    Role::ProgramCounter => i32::from(self.vm.pc),
-                    // GP 132: "incremented every 1 ms" (§5.1).
-                    Role::TickTimer => {
-                        let (at, base) = self.st.tick_base;
-                        ((u64::from(base) + (now - at).millis()) & 0x7FFF_FFFF) as i32
-                    }
-                    // GP 133: a new random number 0..2^31−1 on every read (xorshift32).
-                    Role::RandomNumber => {
-                        let mut x = self.st.rng;
-                        x ^= x << 13;
-                        x ^= x >> 17;
-                        x ^= x << 5;
-                        self.st.rng = x;
-                        (x & 0x7FFF_FFFF) as i32
-                    }
-                    // The password is never read back: 1 = unlocked, 0 = locked.
-                    Role::Password => i32::from(self.st.unlocked),
-                    _ => self.st.global[i],
-                })
-            }
-            Bank::User => Ok(self.st.user[self.user_index(number)?]),
-            Bank::Interrupt => {
-                let (i, _) = self.spec.interrupt.find(number)?;
-                Ok(self.st.interrupt[i])
-            }
-        }
-    }
-
-    /// SGP/AGP: writes a global parameter; bank 0 A parameters go to the EEPROM at once (§5.1).
-    pub(crate) fn write_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
-        match self.bank(bank)? {
-            Bank::Global => {
-                let (i, d) = self.global_desc(number, |d| d.access.write)?;
-                if !d.range.contains(v) {
-                    return Err(ParamError::OutOfRange.into());
-                }
-                self.unlocked_for(d)?;
-                if d.access.auto {
-                    // Stored first: if the EEPROM refuses, nothing changes.
-                    persist::store_global(&mut self.board, self.spec, i, v)?;
-                }
-                if d.setting == Some(Setting::CodeProtection) {
-                    self.protection_changed(self.st.global[i], v)?;
-                }
-                match d.role {
-                    Role::TickTimer => self.st.tick_base = (now, v as u32),
-                    // A written value seeds the generator (0 would stick; it becomes the start seed).
-                    Role::RandomNumber => self.st.rng = if v == 0 { RNG_SEED } else { v as u32 },
-                    // The password: the model's unlocks the protected parameters, anything else locks them.
-                    Role::Password => self.st.unlocked = self.spec.password == Some(v),
-                    _ => {}
-                }
-                self.st.global[i] = v;
-                Ok(())
-            }
-            Bank::User => {
-                let n = self.user_index(number)?;
-                self.st.user[n] = v;
-                Ok(())
-            }
-            Bank::Interrupt => {
-                let (i, d) = self.spec.interrupt.find(number)?;
-                if !d.range.contains(v) {
-                    return Err(ParamError::OutOfRange.into());
-                }
-                self.st.interrupt[i] = v;
-                self.restart_timer(number, now);
-                Ok(())
-            }
-        }
-    }
-
-    pub(crate) fn coord_index(&self, coord: u8) -> Result<usize, Status> {
-        if coord <= self.spec.coordinates {
-            Ok(usize::from(coord))
-        } else {
-            Err(Status::WrongType)
-        }
-    }
-
-    /// Sets a coordinate; with GP 84 = 1 coordinates 1..20 also go to the EEPROM (§3.7.24).
-    pub(crate) fn write_coordinate(&mut self, m: usize, coord: u8, v: i32) -> Result<(), Status> {
-        let n = self.coord_index(coord)?;
-        if n > 0 && self.gp_flag(Setting::CoordinateStorage) {
-            persist::store_coordinate(&mut self.board, self.spec, m, coord, v)?;
-        }
-        self.st.axes[m].coords[n] = v;
-        Ok(())
-    }
-
-    /// SCO/GCO x, 255: coordinate 0 = all of 1..20, n = that one (§3.7.24, §3.7.25).
-    pub(crate) fn copy_coordinates(&mut self, coord: u8, to_eeprom: bool) -> Result<(), Status> {
-        let n = self.coord_index(coord)? as u8;
-        let range = if n == 0 { 1..=self.spec.coordinates } else { n..=n };
-        // Motor 255: every motor's coordinates (§3.7.24 gives it for the one motor of the PD28-1021).
-        for m in 0..self.st.axes.count() {
-            for c in range.clone() {
-                if to_eeprom {
-                    let v = self.st.axes[m].coords[usize::from(c)];
-                    persist::store_coordinate(&mut self.board, self.spec, m, c, v)?;
-                } else {
-                    self.st.axes[m].coords[usize::from(c)] =
-                        persist::load_coordinate(&mut self.board, self.spec, m, c)?;
-                }
-            }
-        }
         Ok(())
     }
 
@@ -446,30 +268,239 @@ impl<B: Board> Module<B> {
         let a = self.encoder_absolute(m);
         !(tolerance..=per_rev - tolerance).contains(&a)
     }
+}
 
-    /// A bank 2 user variable's index: 0..the model's user variables (else 3, wrong type).
-    pub(crate) fn user_index(&self, number: u8) -> Result<usize, Status> {
-        let n = usize::from(number);
-        if n < usize::from(self.spec.user_variables) {
-            Ok(n)
-        } else {
-            Err(ParamError::Unknown.into())
+/// What a write of a global parameter reaches besides the banks: the EEPROM of `nvm` (bank 0's A
+/// parameters are stored at once, PD28-1021 manual §5.1) and the program machine (GP 81 erases the
+/// program, §5.1; a bank 3 write restarts a timer, §5.4).
+pub(crate) struct Reach<'a, N> {
+    /// The EEPROM (the board, behind the seam).
+    pub nvm: &'a mut N,
+    /// The program machine.
+    pub vm: &'a mut Vm,
+    /// The program memory.
+    pub program: &'a mut Program,
+    /// The program's registers.
+    pub regs: &'a mut Registers,
+}
+
+/// GGP (PD28-1021 manual §3.7.10, chapter 5): parameter `number` of bank `bank` at `now`, from `banks`;
+/// GP 128–130 report the program machine `vm` (its state, download mode, program counter).
+#[inline]
+pub(crate) fn read_global(
+    spec: &ModelSpec,
+    banks: &mut Banks,
+    vm: &Vm,
+    number: u8,
+    bank: u8,
+    now: Instant,
+) -> Result<i32, Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.read)?;
+            Ok(match d.role {
+                Role::ApplicationStatus => vm.state.code(),
+                Role::DownloadMode => i32::from(vm.download.is_some()),
+                Role::ProgramCounter => i32::from(vm.pc),
+                // GP 132: "incremented every 1 ms" (§5.1).
+                Role::TickTimer => banks.tick_timer(now),
+                // GP 133: a new random number on every read.
+                Role::RandomNumber => banks.random(),
+                // The password is never read back: 1 = unlocked, 0 = locked.
+                Role::Password => i32::from(banks.unlocked),
+                _ => banks.global[i],
+            })
+        }
+        Bank::User => Ok(banks.user[user_index(spec, number)?]),
+        Bank::Interrupt => {
+            let (i, _) = spec.interrupt.find(number)?;
+            Ok(banks.interrupt[i])
         }
     }
+}
 
-    /// Refuses a write or store of a password-protected parameter while the module is locked (status 8).
-    pub(crate) fn unlocked_for(&self, d: &ParamDesc) -> Result<(), Status> {
-        if d.access.protected && !self.st.unlocked {
-            Err(ParamError::Protected.into())
-        } else {
+/// SGP/AGP (§3.7.9, §3.7.30): parameter `number` of bank `bank` := `v` at `now`; bank 0 A parameters go
+/// to the EEPROM at once, before anything changes (§5.1), and GP 81 and bank 3 reach the program machine
+/// ([`Reach`]).
+pub(crate) fn write_global<N: Nvm>(
+    spec: &ModelSpec,
+    banks: &mut Banks,
+    reach: Reach<'_, N>,
+    number: u8,
+    bank: u8,
+    v: i32,
+    now: Instant,
+) -> Result<(), Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.write)?;
+            if !d.range.contains(v) {
+                return Err(ParamError::OutOfRange.into());
+            }
+            unlocked_for(banks.unlocked, d)?;
+            if d.access.auto {
+                // Stored first: if the EEPROM refuses, nothing changes.
+                persist::store_global(&mut *reach.nvm, spec, i, v)?;
+            }
+            if d.setting == Some(Setting::CodeProtection) {
+                let Reach { nvm, vm, program, regs } = reach;
+                program::protection_changed(nvm, spec, program, vm, regs, (banks.global[i], v))?;
+            }
+            match d.role {
+                Role::TickTimer => banks.tick_base = (now, v as u32),
+                Role::RandomNumber => banks.seed(v),
+                // The password: the model's unlocks the protected parameters, anything else locks them.
+                Role::Password => banks.unlocked = spec.password == Some(v),
+                _ => {}
+            }
+            banks.global[i] = v;
+            Ok(())
+        }
+        Bank::User => {
+            let n = user_index(spec, number)?;
+            banks.user[n] = v;
+            Ok(())
+        }
+        Bank::Interrupt => {
+            let (i, d) = spec.interrupt.find(number)?;
+            if !d.range.contains(v) {
+                return Err(ParamError::OutOfRange.into());
+            }
+            banks.interrupt[i] = v;
+            program::restart_timer(spec, banks, reach.vm, number, now);
             Ok(())
         }
     }
 }
 
+/// STGP (§3.7.11): a bank 0 A parameter or a bank 2 user variable of `banks` into the EEPROM of `nvm`;
+/// bank 3 is not stored.
+pub(crate) fn store_global(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    banks: &Banks,
+    number: u8,
+    bank: u8,
+) -> Result<(), Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.auto)?;
+            unlocked_for(banks.unlocked, d)?;
+            persist::store_global(nvm, spec, i, banks.global[i])?;
+        }
+        Bank::User => {
+            let v = banks.user[user_index(spec, number)?];
+            persist::store_user(nvm, spec, number, v)?;
+        }
+        Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
+    }
+    Ok(())
+}
+
+/// RSGP (§3.7.12): a bank 0 A parameter (its default if the stored value is out of range) or a bank 2 user
+/// variable back from the EEPROM of `nvm` into `banks`.
+pub(crate) fn restore_global(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    banks: &mut Banks,
+    number: u8,
+    bank: u8,
+) -> Result<(), Status> {
+    match Bank::of(spec, bank)? {
+        Bank::Global => {
+            let (i, d) = permitted(&spec.global, number, |d| d.access.auto)?;
+            let v = persist::load_global(nvm, spec, i)?;
+            banks.global[i] = if d.range.contains(v) { v } else { d.default };
+        }
+        Bank::User => {
+            let n = user_index(spec, number)?;
+            banks.user[n] = persist::load_user(nvm, spec, number)?;
+        }
+        Bank::Interrupt => return Err(ParamError::NotPermitted.into()),
+    }
+    Ok(())
+}
+
+/// SCO/CCO/ACO (PD28-1021 manual §3.7.24, §3.7.26, §3.7.27): motor `m`'s coordinate `coord` := `v` in
+/// `axis`; with GP 84 = 1 (in `banks`) coordinates 1.. go to the EEPROM of `nvm` too, first (§3.7.24).
+pub(crate) fn write_coordinate(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    banks: &Banks,
+    axis: &mut Axis,
+    m: usize,
+    coord: u8,
+    v: i32,
+) -> Result<(), Status> {
+    let n = coord_index(spec, coord)?;
+    if n > 0 && banks.flag(spec, Setting::CoordinateStorage) {
+        persist::store_coordinate(nvm, spec, m, coord, v)?;
+    }
+    axis.coords[n] = v;
+    Ok(())
+}
+
+/// SCO/GCO `coord`, 255 (§3.7.24, §3.7.25): coordinate 0 = all of 1..the model's last, n = that one, of
+/// every motor in `axes` (§3.7.24 gives it for the one motor of the PD28-1021), into the EEPROM of `nvm`
+/// (`to_eeprom`) or back from it.
+pub(crate) fn copy_coordinates(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    axes: &mut Axes,
+    coord: u8,
+    to_eeprom: bool,
+) -> Result<(), Status> {
+    let n = coord_index(spec, coord)? as u8;
+    let range = if n == 0 { 1..=spec.coordinates } else { n..=n };
+    for m in 0..axes.count() {
+        for c in range.clone() {
+            if to_eeprom {
+                let v = axes[m].coords[usize::from(c)];
+                persist::store_coordinate(nvm, spec, m, c, v)?;
+            } else {
+                axes[m].coords[usize::from(c)] = persist::load_coordinate(nvm, spec, m, c)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A bank 2 user variable's index (PD28-1021 manual §5.3): 0..`spec`'s user variables (else 3, wrong
+/// type).
+#[inline]
+pub(crate) fn user_index(spec: &ModelSpec, number: u8) -> Result<usize, Status> {
+    let n = usize::from(number);
+    if n < usize::from(spec.user_variables) {
+        Ok(n)
+    } else {
+        Err(ParamError::Unknown.into())
+    }
+}
+
+/// A coordinate's index (§3.7.24–3.7.27): 0..`spec`'s coordinates (else 3, wrong type).
+#[inline]
+pub(crate) fn coord_index(spec: &ModelSpec, coord: u8) -> Result<usize, Status> {
+    if coord <= spec.coordinates {
+        Ok(usize::from(coord))
+    } else {
+        Err(Status::WrongType)
+    }
+}
+
+/// Refuses a write or store of a password-protected parameter while the module is locked (`unlocked`
+/// false): status 8 (TMCM-1310 manual §3.7).
+#[inline]
+pub(crate) fn unlocked_for(unlocked: bool, d: &ParamDesc) -> Result<(), Status> {
+    if d.access.protected && !unlocked {
+        Err(ParamError::Protected.into())
+    } else {
+        Ok(())
+    }
+}
+
 /// A parameter of `table` that allows what `allowed` asks (read, write, store, ...): unknown → 3, not
 /// permitted → 3 (see [`ParamError`]).
-fn permitted(
+pub(crate) fn permitted(
     table: &crate::param::Table,
     number: u8,
     allowed: impl Fn(&ParamDesc) -> bool,

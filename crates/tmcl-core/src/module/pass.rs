@@ -158,9 +158,7 @@ fn turned(a: &Saved, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
     }
     let State {
         axes,
-        global,
-        interrupt,
-        user,
+        banks,
         regs,
         host_regs,
         event,
@@ -170,33 +168,25 @@ fn turned(a: &Saved, st: &State, vm: &Vm) -> Option<(Duration, u64)> {
         motion_time,
         // The caller's time: the same within a poll, and not the module's state.
         now: _,
-        tick_base,
-        rng,
         last_command,
         heartbeat_tripped,
         outputs,
         active_baud,
-        unlocked,
         tmc428,
     } = &a.st;
     let same = *motion_time + shift == st.motion_time
         && axes.count() == st.axes.count()
         && axes.iter().zip(st.axes.iter()).all(|(a, b)| same_axis(a, b))
-        && *global == st.global
-        && *interrupt == st.interrupt
-        && *user == st.user
+        && *banks == st.banks
         && *regs == st.regs
         && *host_regs == st.host_regs
         && *event == st.event
         && *ports == st.ports
         && *asking_port == st.asking_port
-        && *tick_base == st.tick_base
-        && *rng == st.rng
         && *last_command == st.last_command
         && *heartbeat_tripped == st.heartbeat_tripped
         && *outputs == st.outputs
         && *active_baud == st.active_baud
-        && *unlocked == st.unlocked
         && *tmc428 == st.tmc428;
     same.then_some((shift, n))
 }

@@ -164,7 +164,7 @@ impl<B: Board> Module<B> {
         // Within a period after one that repeated, with the parameters it ran with: it repeats too, up to
         // its end, where the next jump is planned (unless a bound of a span comes first).
         let axis = &self.st.axes[0];
-        if self.st.motion_time > end || axis.params != c.params || self.st.global != c.global {
+        if self.st.motion_time > end || axis.params != c.params || self.st.banks.global != c.global {
             return 0;
         }
         let rest = (end - self.st.motion_time).micros() / TICK.micros();
@@ -227,7 +227,7 @@ impl<B: Board> Module<B> {
             counts,
             encoder: axis.encoder,
             params: axis.params,
-            global: self.st.global,
+            global: self.st.banks.global,
             stray: axis.cl.field_offset.abs(),
             steady: true,
             repeated: false,
@@ -279,7 +279,7 @@ impl<B: Board> Module<B> {
             || !axis.cl.repeats(&c.cl, shift)
             || axis.encoder != c.encoder
             || axis.params != c.params
-            || self.st.global != c.global
+            || self.st.banks.global != c.global
         {
             return None;
         }

@@ -5,11 +5,12 @@
 use super::pass::Turn;
 use super::{Module, Origin};
 use crate::hal::prelude::*;
-use crate::hal::Board;
-use crate::model::{Setting, Source};
+use crate::hal::{Board, Nvm};
+use crate::model::{ModelSpec, Setting, Source};
+use crate::param::banks::Banks;
 use crate::param::persist;
 use crate::time::{Duration, Instant};
-use crate::vm::{self, Bus, Parts, Program, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
+use crate::vm::{self, Bus, Parts, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
 use tmcl_model::capacity::MAX_MOTORS;
 use tmcl_wire::{Command, Instruction, Status, WaitCondition, FRAME_LEN};
 
@@ -154,20 +155,7 @@ impl<B: Board> Module<B> {
     /// The value of interrupt `n`'s bank 3 configuration parameter (a timer period, a trigger
     /// transition); 0 (off) if it has none.
     fn interrupt_config(&self, n: u8) -> i32 {
-        let config = self.spec.interrupts.find(n).and_then(|d| d.config);
-        config.and_then(|c| self.spec.interrupt.index(c)).map_or(0, |i| self.st.interrupt[i])
-    }
-
-    /// A bank 3 parameter was written: a timer whose period it is restarts from now.
-    pub(crate) fn restart_timer(&mut self, parameter: u8, now: Instant) {
-        let irqs = &self.spec.interrupts;
-        for i in 0..self.vm.timers.len() {
-            let Some(n) = irqs.timer(i) else { continue };
-            if irqs.find(n).and_then(|d| d.config) == Some(parameter) {
-                let period = self.interrupt_config(n) as u32;
-                self.vm.timers[i] = (period > 0).then(|| now + Duration::from_millis(u64::from(period)));
-            }
-        }
+        interrupt_config(self.spec, &self.st.banks, n)
     }
 
     /// When the program next needs to run, if it is running: its next instruction, the end of its WAIT,
@@ -302,18 +290,6 @@ impl<B: Board> Module<B> {
         Ok(raw)
     }
 
-    /// GP 81 written: leaving protection against disassembly (1 or 3 → 0 or 2) erases the program first
-    /// (§5.1).
-    pub(crate) fn protection_changed(&mut self, old: i32, new: i32) -> Result<(), Status> {
-        if old & 1 != 0 && new & 1 == 0 {
-            persist::erase_program(&mut self.board, self.spec)?;
-            self.program.clear();
-            self.vm.reset(&mut self.st.regs);
-            self.vm.set_state(RunState::Stopped);
-        }
-        Ok(())
-    }
-
     /// After a start: GP 77 = 1 runs the program from address 0 (§8.7).
     pub(crate) fn auto_start(&mut self, now: Instant) {
         if self.gp_flag(Setting::AutoStart) && !self.program.is_empty() {
@@ -322,6 +298,46 @@ impl<B: Board> Module<B> {
             self.vm.time = now;
         }
     }
+}
+
+/// The value of interrupt `n`'s bank 3 configuration parameter in `banks` (a timer period, a trigger
+/// transition; PD28-1021 manual §5.4); 0 (off) if it has none.
+fn interrupt_config(spec: &ModelSpec, banks: &Banks, n: u8) -> i32 {
+    let config = spec.interrupts.find(n).and_then(|d| d.config);
+    config.and_then(|c| spec.interrupt.index(c)).map_or(0, |i| banks.interrupt[i])
+}
+
+/// Bank 3 parameter `parameter` was written (§5.4): a timer of `vm` whose period it is restarts from
+/// `now`.
+pub(crate) fn restart_timer(spec: &ModelSpec, banks: &Banks, vm: &mut Vm, parameter: u8, now: Instant) {
+    let irqs = &spec.interrupts;
+    for i in 0..vm.timers.len() {
+        let Some(n) = irqs.timer(i) else { continue };
+        if irqs.find(n).and_then(|d| d.config) == Some(parameter) {
+            let period = interrupt_config(spec, banks, n) as u32;
+            vm.timers[i] = (period > 0).then(|| now + Duration::from_millis(u64::from(period)));
+        }
+    }
+}
+
+/// GP 81 written from `old` to `new`: leaving protection against disassembly (1 or 3 → 0 or 2) erases
+/// the program first, in the EEPROM of `nvm` and in `program`, and resets the machine `vm` with its
+/// registers `regs` (PD28-1021 manual §5.1).
+pub(crate) fn protection_changed(
+    nvm: &mut impl Nvm,
+    spec: &ModelSpec,
+    program: &mut Program,
+    vm: &mut Vm,
+    regs: &mut Registers,
+    (old, new): (i32, i32),
+) -> Result<(), Status> {
+    if old & 1 != 0 && new & 1 == 0 {
+        persist::erase_program(nvm, spec)?;
+        program.clear();
+        vm.reset(regs);
+        vm.set_state(RunState::Stopped);
+    }
+    Ok(())
 }
 
 /// The module is the program machine's bus: it lends the machine its parts and runs the commands a

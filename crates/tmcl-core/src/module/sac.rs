@@ -10,19 +10,6 @@ use tmcl_wire::tmc428::{sign_extend, status, Answer, Datagram, SMDA_COMMON};
 use tmcl_wire::Status;
 
 impl<B: Board> Module<B> {
-    /// AP 2 (the TMC428's v_target) in position mode: the ramp sets it itself, to ±v_max (AP 4) while it
-    /// accelerates or runs at its top speed and to 0 while it decelerates or stands (PDx-113 manual,
-    /// revision V1.10 p. 25, AP 2 "target (next) speed"; the manual V1.04 in hand lists AP 2 without
-    /// saying so). The sign is the direction of travel, as the register is signed (±2047). A velocity
-    /// written in position mode is kept for the next velocity mode (ROR/ROL) and read there again. The
-    /// TMC429 of the TMCM-1140/3110/6110 does the same (its datasheet's ramp generator; odemis' driver and
-    /// pytrinamic read AP 2 of those modules as the TMC429's register), for each motor `m`.
-    pub(crate) fn hardware_target_speed(&self, m: usize) -> i32 {
-        let p = self.ramp_params(m);
-        let v_max = self.ap(m, Setting::MaxPositioningSpeed).unwrap_or(0);
-        self.st.axes[m].ramp.driving(&p) * v_max
-    }
-
     /// The velocity registers in units (AP 2 as stored for velocity mode, AP 3), before the pulse divisor
     /// changes.
     pub(crate) fn velocity_units(&self) -> (i32, i32) {

@@ -1,5 +1,7 @@
-//! Parameter descriptors (the tables of `tmcl-model`, re-exported) and the EEPROM image ([`persist`]).
+//! Parameter descriptors (the tables of `tmcl-model`, re-exported), the global banks in RAM ([`banks`])
+//! and the EEPROM image ([`persist`]).
 
+pub mod banks;
 pub mod persist;
 
 pub use tmcl_model::param::*;
