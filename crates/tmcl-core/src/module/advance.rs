@@ -204,8 +204,8 @@ impl<B: Board> Module<B> {
     /// switch in it would go on: the board is quiet for the whole tick (its window reaches past the tick
     /// and the tick's travel), the search decides to go on with the switches as they are (so it does at
     /// every part: they stay), and the parts, computed by the ramp alone, move one way at speeds within
-    /// the window's, the motor moving already and every part accelerating as the tick before did, or none
-    /// (so the current stays what the board was told). The board hears of the tick once, at its end, as
+    /// the window's, the motor moving already and every part accelerating as the tick before did, or none,
+    /// and coolStep off with no slow-run threshold (so the current stays what the board was told). The board hears of the tick once, at its end, as
     /// within a span. Returns whether it took the tick.
     #[inline(never)] // out of the plain tick's way
     fn search_tick_at_once(&mut self, m: usize, tick_at: Instant, params: &RampParams, parts: u64) -> bool {
@@ -226,6 +226,9 @@ impl<B: Board> Module<B> {
         }
         if self.st.axes[m].standstill_since.is_some() {
             return false; // starting: the current changes with the first part (the board must hear of it)
+        }
+        if !self.coolstep_off(m) || self.ap(m, Setting::CoolStepThresholdSpeed).unwrap_or(0) != 0 {
+            return false; // coolStep's current depends on the speed, which changes from part to part
         }
         let limits = self.limits(m);
         let mut ramp = self.st.axes[m].ramp;

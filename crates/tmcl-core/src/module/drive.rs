@@ -100,7 +100,7 @@ impl<B: Board> Module<B> {
 
     /// Whether coolStep is off: AP 172 (SEMIN) = 0, or a model without coolStep.
     #[inline]
-    fn coolstep_off(&self, m: usize) -> bool {
+    pub(crate) fn coolstep_off(&self, m: usize) -> bool {
         self.ap(m, Setting::CoolStepHysteresisStart).unwrap_or(0) == 0
     }
 
