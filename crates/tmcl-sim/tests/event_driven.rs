@@ -4,6 +4,20 @@
 
 use tmcl_sim::equivalence::Scenario;
 
+/// The scenario run event-driven and tick by tick must agree; on a difference the failure names it and
+/// the scenario. EVENT_DIAG=1: also poll both on the same schedule, to tell a difference of the spans from
+/// one of the polls (slow: the whole state is compared at every tick).
+fn same_both_ways(scenario: &Scenario) -> Result<(), proptest::test_runner::TestCaseError> {
+    if let Err(e) = scenario.check() {
+        let same = match std::env::var_os("EVENT_DIAG") {
+            Some(_) => scenario.first_difference().unwrap_or_else(|| "none on the same polls".into()),
+            None => "(EVENT_DIAG=1 to look)".into(),
+        };
+        return Err(proptest::test_runner::TestCaseError::fail(format!("{e}\n{scenario:?}\nsame polls: {same}")));
+    }
+    Ok(())
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(
         std::env::var("EVENT_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(48)
@@ -11,15 +25,7 @@ proptest::proptest! {
     #[test]
     fn event_driven_runs_are_tick_by_tick_runs(data in proptest::collection::vec(proptest::num::u8::ANY, 0..400)) {
         let scenario = Scenario::decode(&data);
-        if let Err(e) = scenario.check() {
-            // EVENT_DIAG=1: also poll both on the same schedule, to tell a difference of the spans from one
-            // of the polls (slow: the whole state is compared at every tick).
-            let same = match std::env::var_os("EVENT_DIAG") {
-                Some(_) => scenario.first_difference().unwrap_or_else(|| "none on the same polls".into()),
-                None => "(EVENT_DIAG=1 to look)".into(),
-            };
-            proptest::prop_assert!(false, "{e}\n{scenario:?}\nsame polls: {same}");
-        }
+        same_both_ways(&scenario)?;
     }
 }
 
@@ -36,13 +42,7 @@ proptest::proptest! {
         data in proptest::collection::vec(proptest::num::u8::ANY, 0..400)
     ) {
         let scenario = Scenario::decode_closed_loop(&data);
-        if let Err(e) = scenario.check() {
-            let same = match std::env::var_os("EVENT_DIAG") {
-                Some(_) => scenario.first_difference().unwrap_or_else(|| "none on the same polls".into()),
-                None => "(EVENT_DIAG=1 to look)".into(),
-            };
-            proptest::prop_assert!(false, "{e}\n{scenario:?}\nsame polls: {same}");
-        }
+        same_both_ways(&scenario)?;
     }
 }
 
@@ -189,13 +189,7 @@ proptest::proptest! {
             polls,
             end: Instant::from_millis(21_000),
         };
-        if let Err(e) = scenario.check() {
-            let same = match std::env::var_os("EVENT_DIAG") {
-                Some(_) => scenario.first_difference().unwrap_or_else(|| "none on the same polls".into()),
-                None => "(EVENT_DIAG=1 to look)".into(),
-            };
-            proptest::prop_assert!(false, "{e}\n{scenario:?}\nsame polls: {same}");
-        }
+        same_both_ways(&scenario)?;
     }
 }
 
