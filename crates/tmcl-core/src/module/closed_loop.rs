@@ -413,12 +413,6 @@ impl<B: Board> Module<B> {
         Ok(())
     }
 
-    /// Leaves torque mode (every motion command).
-    #[inline]
-    pub(crate) fn leave_torque_mode(&mut self, m: usize) {
-        self.st.axes[m].cl.torque = None;
-    }
-
     /// Moves the counters' zero by `delta` (SAP 1, the end of a reference search): in closed loop the
     /// encoder position moves with the step counter, so that the loop sees no error.
     pub(crate) fn relabel(&mut self, m: usize, delta: i32) {

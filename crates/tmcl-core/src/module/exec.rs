@@ -413,7 +413,7 @@ impl<B: Board> Module<B> {
                 }
                 self.st.axes[m].error_flags = 0;
                 self.st.event.pending = false;
-                self.leave_torque_mode(m);
+                self.st.axes[m].leave_torque_mode();
                 self.st.axes[m].interpolation = None;
                 if let Action::Rotate(v) = self.st.axes[m].reference.start(mode, fast) {
                     self.st.axes[m].ramp.hard_stop();
