@@ -217,11 +217,7 @@ impl<B: Board> Module<B> {
         if quiet.until.is_some_and(|u| u <= tick_at) {
             return false;
         }
-        let (left, right, home) = self.switches(m);
-        let (fast, slow) = self.reference_speeds(m);
-        let mut reference = self.st.axes[m].reference;
-        let decision = reference.step(SwitchLevels { left, right, home }, self.st.axes[m].ramp.position, fast, slow);
-        if decision != Action::Continue || reference != self.st.axes[m].reference {
+        if !self.search_goes_on(m) {
             return false;
         }
         if self.st.axes[m].standstill_since.is_some() {
@@ -264,6 +260,17 @@ impl<B: Board> Module<B> {
         axis.moved(tick_at, total);
         self.update_board(m, tick_at);
         true
+    }
+
+    /// Whether motor `m`'s reference search, looking at its switches as they are now, goes on as it is
+    /// (the position matters only where the switch it waits for reads as it waits for): within a quiet
+    /// window of the board, where the switches stay, every look decides the same.
+    pub(super) fn search_goes_on(&mut self, m: usize) -> bool {
+        let (left, right, home) = self.switches(m);
+        let (fast, slow) = self.reference_speeds(m);
+        let mut reference = self.st.axes[m].reference;
+        let decision = reference.step(SwitchLevels { left, right, home }, self.st.axes[m].ramp.position, fast, slow);
+        decision == Action::Continue && reference == self.st.axes[m].reference
     }
 
     /// What follows every motion tick (and a span, at its last tick `t`), after the board has been

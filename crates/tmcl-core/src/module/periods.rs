@@ -34,7 +34,6 @@ use crate::hal::Board;
 use crate::model::Setting;
 use crate::motion::{Bounds, Ramp, RampParams, TICK};
 use crate::time::{Duration, Instant};
-use crate::vm::RunState;
 use tmcl_model::capacity::{MAX_AXIS_PARAMS, MAX_GLOBAL_PARAMS};
 
 /// The longest period looked for, in ticks (10 s): a slower repetition is ticked.
@@ -71,9 +70,18 @@ pub(crate) struct Checkpoint {
     repeated: bool,
 }
 
+/// After a look for a checkpoint found none (the board not periodic, an event too near, a period too
+/// long), the next look waits this many ticks: a loop that cannot repeat pays for the look (a quiet
+/// window of the board) once in so many ticks, not at every tick.
+const RETRY_TICKS: u64 = 64;
+
 /// The checkpoint of motor 0, if one is kept (a one-motor closed-loop model cruising).
 #[derive(Debug, Clone, Default)]
-pub(crate) struct Periods(Option<Checkpoint>);
+pub(crate) struct Periods {
+    checkpoint: Option<Checkpoint>,
+    /// No look for a new checkpoint before this motion time (after one that found none).
+    retry: Option<Instant>,
+}
 
 /// A jump of whole periods.
 struct Jump {
@@ -93,10 +101,10 @@ impl<B: Board> Module<B> {
     #[inline(never)] // out of the open loop's way
     pub(super) fn take_periods(&mut self, now: Instant, params: &RampParams) -> bool {
         if !self.may_repeat() {
-            self.periods.0 = None;
+            self.periods.checkpoint = None;
             return false;
         }
-        let Some(c) = &mut self.periods.0 else {
+        let Some(c) = &mut self.periods.checkpoint else {
             self.start_period();
             return false;
         };
@@ -121,16 +129,12 @@ impl<B: Board> Module<B> {
                 && axis.cl.scaler == c.cl.scaler
                 && axis.cl.i2t_limiting == c.cl.i2t_limiting;
             return false;
-        } else if self.st.motion_time == end && c.steady {
-            let shift = i64::from(self.st.axes[0].ramp.position.wrapping_sub(c.ramp.position));
-            if self.repeats_from(shift).is_some() {
-                self.move_checkpoint();
-                if let Some(jump) = self.plan_jump(Some(now), params) {
-                    self.take_jump(jump);
-                    return true;
-                }
-                return false; // nothing to take now: the period just ticked is the next checkpoint
+        } else if self.st.motion_time == end && c.steady && self.close_period() {
+            if let Some(jump) = self.plan_jump(Some(now), params) {
+                self.take_jump(jump);
+                return true;
             }
+            return false; // nothing to take now: the period just ticked is the next checkpoint
         }
         self.start_period();
         false
@@ -139,38 +143,35 @@ impl<B: Board> Module<B> {
     /// How many ticks from `motion_time` on the loop's periods would take now, without taking them (0:
     /// none): for the deadline.
     pub(super) fn periods_ahead(&mut self, params: &RampParams) -> u64 {
-        let Some(c) = &self.periods.0 else { return 0 };
+        let Some(c) = &self.periods.checkpoint else { return 0 };
         if !c.repeated || !c.steady || !self.may_repeat() {
             return 0;
         }
         let (at, ticks) = (c.at, c.ticks);
         let end = at + Duration::from_micros(ticks * TICK.micros());
-        if self.st.motion_time == end {
-            // At the end of a period (the poll that ticked it ended here): it is checked now, as the next
-            // tick would, so that the deadline can be the end of the jump that tick takes.
-            let shift = i64::from(self.st.axes[0].ramp.position.wrapping_sub(c.ramp.position));
-            if self.repeats_from(shift).is_none() {
-                return 0;
-            }
-            self.move_checkpoint();
+        // At the end of a period (the poll that ticked it ended here), it is checked now, as the next tick
+        // would, so that the deadline can be the end of the jump that tick takes; at a checkpoint that
+        // repeated, nothing may have changed since.
+        let here = if self.st.motion_time == end {
+            self.close_period()
+        } else {
+            self.st.motion_time == at && self.repeats_from(0).is_some()
+        };
+        if here {
             return self.plan_jump(None, params).map_or(0, |j| j.periods * ticks);
         }
         if self.st.motion_time == at {
-            if self.repeats_from(0).is_none() {
-                return 0;
-            }
-            return self.plan_jump(None, params).map_or(0, |j| j.periods * ticks);
+            return 0;
         }
         // Within a period after one that repeated, with the parameters it ran with: it repeats too, up to
         // its end, where the next jump is planned (unless a bound of a span comes first).
-        let axis = &self.st.axes[0];
-        if self.st.motion_time > end || axis.params != c.params || self.st.banks.global != c.global {
+        let Some(c) = &self.periods.checkpoint else { return 0 };
+        if self.st.motion_time > end || self.st.axes[0].params != c.params || self.st.banks.global != c.global {
             return 0;
         }
+        let travel = (2 * c.stray + 2 * travel(c.ramp.velocity_micro(), ticks) + 1) as u64;
         let rest = (end - self.st.motion_time).micros() / TICK.micros();
         let Some((_, bounds, _)) = self.span_bounds_periodic(None) else { return 0 };
-        let Some(c) = &self.periods.0 else { return 0 };
-        let travel = (2 * c.stray + 2 * travel(c.ramp.velocity_micro(), ticks) + 1) as u64;
         if bounds.ticks < rest || bounds.forward < travel || bounds.backward < travel {
             return 0;
         }
@@ -179,7 +180,7 @@ impl<B: Board> Module<B> {
 
     /// Takes a planned jump: the ticks of its periods in closed form, then what follows a tick, once.
     fn take_jump(&mut self, jump: Jump) {
-        let Some(c) = &self.periods.0 else { return };
+        let Some(c) = &self.periods.checkpoint else { return };
         let ticks = jump.periods * c.ticks;
         let t = self.st.motion_time + Duration::from_micros(ticks * TICK.micros());
         let axis = &mut self.st.axes[0];
@@ -187,13 +188,7 @@ impl<B: Board> Module<B> {
         axis.cl.repeat(jump.periods, c.ticks, jump.shift, jump.i2t);
         // The field's travel over whole periods is the ramp's: its offset from the ramp comes back.
         axis.unreported_steps += jump.shift * jump.periods as i64;
-        self.update_board(0, t);
-        self.st.motion_time = t;
-        self.tick_done(t);
-        if self.vm.state == RunState::Running && self.vm.wait.is_some() {
-            // A waiting program is looked at before every tick: it slept up to the last one.
-            self.vm.time = self.vm.time.max(t);
-        }
+        self.after_span(t);
         self.move_checkpoint();
     }
 
@@ -212,14 +207,21 @@ impl<B: Board> Module<B> {
             && !axis.reference.is_active()
     }
 
-    /// A checkpoint at the start of this tick, if the board is periodic here.
+    /// A checkpoint at the start of this tick, if the board is periodic here (looked at again only
+    /// [`RETRY_TICKS`] after a look that found none).
     fn start_period(&mut self) {
-        self.periods.0 = None;
-        let Some((_, _, period)) = self.span_bounds_periodic(None) else { return };
-        let Some(ticks) = self.period_ticks(period) else { return };
+        self.periods.checkpoint = None;
+        if self.periods.retry.is_some_and(|r| self.st.motion_time < r) {
+            return;
+        }
+        let found = self.span_bounds_periodic(None).and_then(|(_, _, period)| self.period_ticks(period));
+        let Some(ticks) = found else {
+            self.periods.retry = Some(self.st.motion_time + Duration::from_micros(RETRY_TICKS * TICK.micros()));
+            return;
+        };
         let counts = self.encoder_counts_now(0);
         let axis = &self.st.axes[0];
-        self.periods.0 = Some(Checkpoint {
+        self.periods.checkpoint = Some(Checkpoint {
             at: self.st.motion_time,
             ticks,
             ramp: axis.ramp,
@@ -271,7 +273,7 @@ impl<B: Board> Module<B> {
     fn repeats_from(&mut self, shift: i64) -> Option<i64> {
         let counts = self.encoder_counts_now(0);
         let (f, r) = self.conversion()?;
-        let c = self.periods.0.as_ref()?;
+        let c = self.periods.checkpoint.as_ref()?;
         let axis = &self.st.axes[0];
         let mut ramp = c.ramp;
         ramp.position = axis.ramp.position;
@@ -304,11 +306,23 @@ impl<B: Board> Module<B> {
         Some((stray + travel(velocity, ticks)) * r / f.max(1) + 2)
     }
 
+    /// At the end of a period: whether it repeated the checkpoint's, moved on by its travel; if so, the
+    /// checkpoint moves here.
+    fn close_period(&mut self) -> bool {
+        let Some(c) = &self.periods.checkpoint else { return false };
+        let shift = i64::from(self.st.axes[0].ramp.position.wrapping_sub(c.ramp.position));
+        if self.repeats_from(shift).is_none() {
+            return false;
+        }
+        self.move_checkpoint();
+        true
+    }
+
     /// The checkpoint repeated: it moves to the state now.
     fn move_checkpoint(&mut self) {
         let counts = self.encoder_counts_now(0);
         let axis = &self.st.axes[0];
-        let Some(c) = &mut self.periods.0 else { return };
+        let Some(c) = &mut self.periods.checkpoint else { return };
         c.at = self.st.motion_time;
         c.ramp = axis.ramp;
         c.cl = axis.cl;
@@ -324,7 +338,7 @@ impl<B: Board> Module<B> {
     fn plan_jump(&mut self, horizon: Option<Instant>, params: &RampParams) -> Option<Jump> {
         let (limits, bounds, _) = self.span_bounds_periodic(horizon)?;
         let (f, r) = self.conversion()?;
-        let c = self.periods.0.as_ref()?;
+        let c = self.periods.checkpoint.as_ref()?;
         let (ticks, stray) = (c.ticks, c.stray);
         let axis = &self.st.axes[0];
         // The travel of a period: the ramp's, at its constant speed (a whole number of microsteps).
@@ -388,11 +402,8 @@ fn travel(velocity: i64, ticks: u64) -> i64 {
 }
 
 /// The greatest common divisor (0 with 0 gives 0).
-fn gcd(mut a: u64, mut b: u64) -> u64 {
-    while b != 0 {
-        (a, b) = (b, a % b);
-    }
-    a
+fn gcd(a: u64, b: u64) -> u64 {
+    gcd128(a.into(), b.into()) as u64
 }
 
 /// [`gcd`] of 128-bit numbers.

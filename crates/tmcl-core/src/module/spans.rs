@@ -30,7 +30,6 @@ use crate::drive::encoder;
 use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
-use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Bounds, Limits, Ramp, RampParams, Span, TICK};
 use crate::time::{Duration, Instant};
 use crate::vm::RunState;
@@ -161,6 +160,13 @@ impl<B: Board> Module<B> {
         // standstill time and `ramping` are as they were; the board hears of the span's steps at its
         // last tick, which is the span's last step (or the span made none).
         self.st.axes[0].unreported_steps += span.steps;
+        self.after_span(t);
+        true
+    }
+
+    /// What follows a run of motor 0's ticks taken at once (a span, or a closed loop's periods) ending at
+    /// `t`: the board hears of the run at its last tick, and the module does once what follows a tick.
+    pub(super) fn after_span(&mut self, t: Instant) {
         self.update_board(0, t);
         self.st.motion_time = t;
         self.tick_done(t);
@@ -168,7 +174,6 @@ impl<B: Board> Module<B> {
             // A waiting program is looked at before every tick: it slept up to the last one.
             self.vm.time = self.vm.time.max(t);
         }
-        true
     }
 
     /// How many ticks from `motion_time` on a span would take now, without taking them (0: the next
@@ -256,20 +261,10 @@ impl<B: Board> Module<B> {
         let state = self.st.axes[0].last_drive?;
         let mut quiet = self.board.quiet(0, self.st.motion_time, &state)?;
         let period = if periodic { self.board.period(0, &state, &mut quiet) } else { 0 };
-        if searching {
+        if searching && !self.search_goes_on(0) {
             // A reference search looks at its switch after every microstep; within the board's window the
-            // switches stay as they are, so every look decides as this one: on, if this one does (the
-            // position matters only where the switch it waits for reads as it waits for).
-            let (left, right, home) = self.switches(0);
-            let levels = SwitchLevels { left, right, home };
-            let (fast, slow) = self.reference_speeds(0);
-            let mut reference = self.st.axes[0].reference;
-            let position = self.st.axes[0].ramp.position;
-            if reference.step(levels, position, fast, slow) != Action::Continue
-                || reference != self.st.axes[0].reference
-            {
-                return None;
-            }
+            // switches stay as they are, so every look decides as this one.
+            return None;
         }
         if quiet.load == 0 && self.units_to_pps(0, self.ap(0, Setting::StopOnStall).unwrap_or(0)) > 0 {
             return None; // a measurement would stop the motor
