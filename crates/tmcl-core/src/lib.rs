@@ -16,12 +16,15 @@
 //!   pure functions and state of their own.
 //! - [`iface`]: per host interface a framer, an outbox and an ASCII line.
 //! - [`axis`]: one motor's state ([`axis::Axis`]: parameters, ramp, reference search, coolStep, encoder,
-//!   closed loop), one per motor of the model ([`axis::Axes`]).
+//!   closed loop), one per motor of the model ([`axis::Axes`]), and what a motor does with the board it
+//!   drives: its motion tick, its drive, its closed loop and the parameters that read them (`Motor`,
+//!   `axis/motor.rs`), returning what it did beyond itself (`Faults`) to the module.
 //! - [`vm`]: the program machine's state: program memory, registers, run state, stack, interrupts.
 //! - [`module`]: [`Module`], the root that ties the components together and the only part that knows
 //!   all of them: bytes in and replies out (`module/host.rs`, `module/ascii.rs`), the dispatcher
-//!   (`module/exec.rs`), the program's steps (`module/program.rs`), time (`module/advance.rs`), and the
-//!   one seam that counts every change (`module/seam.rs`). Nothing below `module` imports it.
+//!   (`module/exec.rs`), the program's steps (`module/program.rs`) and time (`module/advance.rs`).
+//!   Nothing below `module` imports it.
+//! - the one seam between the firmware and the board, which counts every change (`seam.rs`).
 //!
 //! Specification: PD28-1021 TMCL firmware manual V1.05 (firmware V1.42). Where the manual is silent or
 //! contradicts itself, the code says so beside the decision, citing the manual's section, and
@@ -37,6 +40,7 @@ pub mod model;
 pub mod module;
 pub mod motion;
 pub mod param;
+mod seam;
 pub mod time;
 pub mod vm;
 

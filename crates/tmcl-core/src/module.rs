@@ -28,10 +28,10 @@
 use crate::axis::Axes;
 use crate::drive::closed_loop::ClosedLoop;
 use crate::hal::prelude::*;
-use crate::hal::{Board, DriveState};
+use crate::hal::Board;
 use crate::iface::Port;
 use crate::model::{ModelSpec, Setting};
-use crate::motion::{Limits, Ramp, RampParams};
+use crate::motion::{Ramp, RampParams};
 use crate::param::banks::Banks;
 use crate::param::persist;
 use crate::time::{Duration, Instant};
@@ -40,15 +40,14 @@ use tmcl_model::capacity::MAX_INTERFACES;
 use tmcl_wire::{EventMode, Status, FRAME_LEN};
 
 pub use crate::axis::{Axis, EncoderBase};
+use crate::axis::{Faults, Motor};
 pub use crate::drive::error_flags;
 pub use crate::iface::MAILBOX_LEN;
 pub use crate::vm::{flags, Registers};
 
 mod advance;
 mod ascii;
-mod closed_loop;
 mod coordinated;
-mod drive;
 mod exec;
 mod host;
 mod params;
@@ -57,10 +56,10 @@ mod pass;
 mod periods;
 mod program;
 mod sac;
-mod seam;
+
 mod spans;
 
-use seam::Seam;
+use crate::seam::Seam;
 
 /// Command 138's request (§3.7.37).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -192,7 +191,7 @@ pub(crate) type ReplyOf = Result<(Status, i32, u8), [u8; FRAME_LEN]>;
 
 /// A TMCL module: firmware state on a board.
 pub struct Module<B: Board> {
-    /// The board, behind the seam that counts every change (`module/seam.rs`).
+    /// The board, behind the seam that counts every change (`seam.rs`).
     pub(crate) board: Seam<B>,
     pub(crate) spec: &'static ModelSpec,
     pub(crate) st: State,
@@ -261,7 +260,7 @@ impl<B: Board> Module<B> {
 
     /// The board, mutably (the simulator changes its world, or its hook's breakpoints, through this).
     /// The module takes it that the board may have changed in any way: it counts as a change
-    /// (`module/seam.rs`); to move the board's world on along its own timeline, or to read it, use
+    /// (`seam.rs`); to move the board's world on along its own timeline, or to read it, use
     /// [`Module::board_timeline`].
     pub fn board_mut(&mut self) -> &mut B {
         self.board.changed()
@@ -356,23 +355,10 @@ impl<B: Board> Module<B> {
         self.st.banks.flag(self.spec, setting)
     }
 
-    /// Sets the axis parameter with `setting` (results the firmware produces, e.g. AP 196/197).
-    pub(crate) fn set_ap(&mut self, m: usize, setting: Setting, v: i32) {
-        if let Some(i) = self.spec.axis.setting(setting) {
-            self.st.axes[m].params[i] = v;
-        }
-    }
-
     /// A velocity in the model's unit as microsteps per second (the ramp's unit; [`Axis::units_to_pps`]).
     #[inline]
     pub(crate) fn units_to_pps(&self, m: usize, v: i32) -> i32 {
         self.st.axes[m].units_to_pps(self.spec, v)
-    }
-
-    /// A velocity in microsteps per second in the model's unit ([`Axis::pps_to_units`]).
-    #[inline]
-    pub(crate) fn pps_to_units(&self, m: usize, pps: i32) -> i32 {
-        self.st.axes[m].pps_to_units(self.spec, pps)
     }
 
     /// Start-up, as after a power cycle (manual §3.7.38 command 255, chapter 8 "power-up restores").
@@ -429,15 +415,14 @@ impl<B: Board> Module<B> {
         }
         self.st.active_baud = self.gp(Setting::BaudRate).unwrap_or(0) as u8;
         for m in 0..self.st.axes.count() {
-            self.configure_driver(m);
-            let counts = self.encoder_counts_now(m);
-            self.st.axes[m].encoder = EncoderBase { counts, value: 0 };
-            self.st.axes[m].last_counts = counts;
+            let mut motor = self.motor_at(m);
+            motor.configure_driver();
+            let counts = motor.encoder_counts_now();
+            motor.axis.encoder = EncoderBase { counts, value: 0 };
+            motor.axis.last_counts = counts;
         }
         self.board.set_outputs(0);
-        for m in 0..self.st.axes.count() {
-            self.update_board(m, now);
-        }
+        self.update_boards(now);
         self.vm = Vm::default();
         self.vm.time = now;
         self.read_program();
@@ -469,121 +454,40 @@ impl<B: Board> Module<B> {
         self.st.axes[m].own_ramp_params(self.spec)
     }
 
-    /// Logical switch states (AP 9, 10, 11): GP 79 reverses the polarity of the end switches.
-    pub(crate) fn switches(&mut self, m: usize) -> (bool, bool, bool) {
-        let invert = self.gp_flag(Setting::EndSwitchPolarity);
-        crate::axis::switches(m, &mut self.board, invert)
-    }
-
-    /// What motor `m`'s stop switches block now (see [`Axis::limits`]).
-    pub(crate) fn limits(&mut self, m: usize) -> Limits {
-        let invert = self.gp_flag(Setting::EndSwitchPolarity);
-        self.st.axes[m].limits(m, &self.spec.axis, &mut self.board, invert)
-    }
-
-    /// Encoder counts in the logical direction (GP 90 reverses motor and encoder, manual §5.1).
-    pub(crate) fn logical_counts(&self, physical: i64) -> i64 {
-        if self.gp_flag(Setting::ReverseShaft) {
-            -physical
-        } else {
-            physical
-        }
-    }
-
-    /// Time after the motor stopped given in `setting` (10 ms units), if the model has it and it is set.
-    #[inline]
-    fn delay(&self, m: usize, setting: Setting) -> Option<Duration> {
-        self.st.axes[m].delay(&self.spec.axis, setting)
-    }
-
-    /// The current setting now (AP 6, 7, 200, 204, 214, 167) and whether the driver is on.
-    #[inline]
-    pub(crate) fn current(&self, m: usize, now: Instant) -> (u8, bool) {
-        if self.ap(m, Setting::ChopperOffTime) == Some(0) {
-            return (0, false); // AP 167 = 0 "completely disables all driver transistors"
-        }
-        if let Some(current) = self.closed_loop_current(m) {
-            // The closed loop sets the current itself (scaling, torque mode): no standby, no freewheeling.
-            return (current, true);
-        }
-        match self.st.axes[m].standstill_since {
-            None => (self.regulated_current(m, self.run_current(m)), true),
-            Some(since) => {
-                let still = now - since;
-                let run = self.ap(m, Setting::RunCurrent).unwrap_or(255);
-                if self.delay(m, Setting::FreewheelingDelay).is_some_and(|d| still >= d) {
-                    (0, false)
-                } else if self.delay(m, Setting::PowerDownDelay).is_some_and(|d| still >= d) {
-                    (self.ap(m, Setting::StandbyCurrent).unwrap_or(run) as u8, true)
-                } else {
-                    (run as u8, true)
-                }
-            }
-        }
-    }
-
-    /// The current for a moving motor before coolStep: the boost current AP 200 while the speed changes
-    /// (if not 0), else the run current AP 6 (Table 22). AP 200 is not looked up while cruising.
-    #[inline]
-    pub(crate) fn run_current(&self, m: usize) -> i32 {
-        let boost = if self.st.axes[m].ramping { self.ap(m, Setting::BoostCurrent).unwrap_or(0) } else { 0 };
-        if boost != 0 {
-            boost
-        } else {
-            self.ap(m, Setting::RunCurrent).unwrap_or(255)
-        }
-    }
-
-    pub(crate) fn update_board(&mut self, m: usize, now: Instant) {
-        let (current, enabled) = self.current(m, now);
-        let state = DriveState {
-            moved: self.st.axes[m].unreported_steps,
-            position: self.st.axes[m].ramp.position,
-            velocity: self.st.axes[m].ramp.velocity(),
-            resolution: self.microstep_resolution(m),
-            current,
-            enabled,
-            reverse: self.gp_flag(Setting::ReverseShaft),
-        };
-        self.st.axes[m].drive_due = self.st.axes[m].next_event(&self.spec.axis, now);
-        let unchanged = DriveState { moved: 0, ..state };
-        if state.moved == 0 && self.st.axes[m].last_drive == Some(unchanged) {
-            return;
-        }
-        self.st.axes[m].unreported_steps = 0;
-        self.st.axes[m].last_drive = Some(unchanged);
-        self.st.axes[m].board_time = now;
-        self.board.update(m, now, &state);
-    }
-
     /// Tells the board every motor's drive state at `now` (after a command that may have changed any).
     pub(crate) fn update_boards(&mut self, now: Instant) {
         for m in 0..self.st.axes.count() {
-            self.update_board(m, now);
+            self.motor_at(m).update_board(now);
         }
     }
 
-    /// Brings the board to `now` before a read of something that changes with its own clock (a bouncing
-    /// switch, the driver's standstill flag): an update with what it was last told, if it has not heard
-    /// from the module since. Outside the motion ticks the board's clock would otherwise be wherever the
-    /// caller's polls left it.
-    pub(crate) fn sync_board(&mut self, m: usize, now: Instant) {
-        if now <= self.st.axes[m].board_time {
-            return;
-        }
-        self.update_board(m, now);
-        if self.st.axes[m].board_time < now {
-            if let Some(state) = self.st.axes[m].last_drive {
-                self.st.axes[m].board_time = now;
-                // The same state again, only to bring the board's clock on: no change (`module/seam.rs`).
-                self.board.timeline().update(m, now, &state);
-            }
+    /// Motor `m` with what it reaches, for one call ([`Motor`]: its tick, its board, the parameters that
+    /// read them).
+    #[inline(always)]
+    pub(crate) fn motor_at(&mut self, m: usize) -> Motor<'_, B> {
+        Motor { m, axis: &mut self.st.axes[m], spec: self.spec, banks: &self.st.banks, board: &mut self.board }
+    }
+
+    /// What a motor did beyond itself ([`Faults`]): the program's flags, the interrupts, the pending 138
+    /// event.
+    #[inline(always)]
+    pub(crate) fn apply(&mut self, faults: Faults) {
+        if faults.any() {
+            self.apply_faults(faults);
         }
     }
 
-    /// The microstep resolution as a power of two (AP 140); 8 (256 microsteps) for a model without it.
-    #[inline]
-    pub(crate) fn microstep_resolution(&self, m: usize) -> u8 {
-        self.spec.axis.role(crate::model::Role::MicrostepResolution).map_or(8, |i| self.st.axes[m].params[i] as u8)
+    #[inline(never)] // (rare: out of the tick's way)
+    fn apply_faults(&mut self, faults: Faults) {
+        self.st.regs.flags |= faults.flags;
+        if faults.drop_event {
+            self.st.event.pending = false;
+        }
+        let mut pending = faults.interrupts;
+        while pending != 0 {
+            let n = pending.trailing_zeros() as u8;
+            pending &= pending - 1;
+            self.raise_interrupt(n);
+        }
     }
 }

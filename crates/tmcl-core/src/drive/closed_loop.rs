@@ -1,6 +1,6 @@
 //! Closed-loop control of a stepper from its encoder (TMCM-1310 manual chapter 1 and §3.4; the TMCM-1311
 //! sibling's parameters AP 14–29, 111–138, 201, 202, 210, 230–237). Pure, integer-only pieces the module
-//! runs once per motion tick (the module calls them from `module/closed_loop.rs`).
+//! runs once per motion tick (a motor calls them from `axis/closed_loop.rs`).
 //!
 //! # The model
 //!

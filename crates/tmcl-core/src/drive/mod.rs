@@ -10,8 +10,8 @@
 //! - [`tmc428`]: SAC's SPI pass-through to an emulated TMC428/429 motion controller (PDx-113 manual
 //!   §5.4.3, the TMC428 datasheet).
 //!
-//! The AP 207 bits they lead to are [`error_flags`]; the module calls them from its
-//! motion tick (`module/drive.rs`, `module/closed_loop.rs`, `module/sac.rs`). Nothing here knows the module.
+//! The AP 207 bits they lead to are [`error_flags`]; a motor calls them from its
+//! motion tick (`axis/drive.rs`, `axis/closed_loop.rs`, `module/sac.rs`). Nothing here knows the module.
 
 pub mod closed_loop;
 pub mod coolstep;

@@ -40,7 +40,6 @@ use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::ModelSpec;
 use crate::model::Setting;
-use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Mode, RampParams, TICK};
 use crate::time::{Duration, Instant};
 use crate::vm::{RunState, BUDGET};
@@ -108,7 +107,7 @@ impl<B: Board> Module<B> {
             self.read_ramp_params(&mut params);
         }
         let mut budget = BUDGET;
-        let closed_loop = self.has_closed_loop();
+        let closed_loop = self.spec.axis.has(Setting::ClosedLoop);
         // The program's jumps back are reported to the board's hook within advances only.
         self.advancing = true;
         // Instructions up to and including `now`.
@@ -137,7 +136,7 @@ impl<B: Board> Module<B> {
                 }
             }
             if let Some((m, d)) = self.drive_due().filter(|(_, d)| *d < tick_at && *d <= now) {
-                self.update_board(m, d); // the next delay, if any, lies after `d`
+                self.motor_at(m).update_board(d); // the next delay, if any, lies after `d`
                 continue;
             }
             if tick_at > now {
@@ -172,8 +171,8 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// Motor `m`'s motion tick ending at `tick_at`: the ramp, the closed loop, the standstill, the board,
-    /// the reference search.
+    /// Motor `m`'s motion tick ending at `tick_at` ([`crate::axis::Motor::tick`]), or a reference
+    /// search's tick taken at once.
     #[inline]
     fn tick_axis(&mut self, m: usize, tick_at: Instant, params: &RampParams, closed_loop: bool) {
         // A reference search looks at its switch after every microstep (sub-ticks, §7.1).
@@ -181,23 +180,9 @@ impl<B: Board> Module<B> {
         if parts > 1 && !self.exact && !closed_loop && self.search_tick_at_once(m, tick_at, params, parts) {
             return;
         }
-        // (Most ticks are one part: no 64-bit division for them.)
-        let step = if parts == 1 { TICK.micros() } else { TICK.micros() / parts };
-        for k in 1..=parts {
-            let t = if k == parts { tick_at } else { self.st.motion_time + Duration::from_micros(step * k) };
-            let dt = if k == parts { TICK.micros() - step * (parts - 1) } else { step };
-            // The switches as they are at the start of this (part of a) tick, a bouncing one too: the
-            // board's clock there, not where the last update or the caller's poll left it.
-            self.sync_board(m, t - Duration::from_micros(dt));
-            let limits = self.limits(m);
-            let steps = self.st.axes[m].advance(Duration::from_micros(dt), params, limits);
-            let steps = if closed_loop { self.closed_loop_tick(m, steps, dt as i64) } else { steps };
-            self.st.axes[m].moved(t, steps);
-            self.update_board(m, t);
-            if self.st.axes[m].reference.is_active() {
-                self.step_reference(m);
-            }
-        }
+        let from = self.st.motion_time;
+        let faults = self.motor_at(m).tick(from, tick_at, parts, params, closed_loop);
+        self.apply(faults);
     }
 
     /// A reference search's tick in `parts` (one per microstep) taken at once when every look at the
@@ -211,22 +196,22 @@ impl<B: Board> Module<B> {
     fn search_tick_at_once(&mut self, m: usize, tick_at: Instant, params: &RampParams, parts: u64) -> bool {
         let start = self.st.motion_time;
         // (What the first part does first; a tick that falls back to its parts finds it done.)
-        self.sync_board(m, start);
+        self.motor_at(m).sync_board(start);
         let Some(state) = self.st.axes[m].last_drive else { return false };
         let Some(quiet) = self.board.quiet(m, start, &state) else { return false };
         if quiet.until.is_some_and(|u| u <= tick_at) {
             return false;
         }
-        if !self.search_goes_on(m) {
+        if !self.motor_at(m).search_goes_on() {
             return false;
         }
         if self.st.axes[m].standstill_since.is_some() {
             return false; // starting: the current changes with the first part (the board must hear of it)
         }
-        if !self.coolstep_off(m) || self.ap(m, Setting::CoolStepThresholdSpeed).unwrap_or(0) != 0 {
+        if !self.motor_at(m).coolstep_off() || self.ap(m, Setting::CoolStepThresholdSpeed).unwrap_or(0) != 0 {
             return false; // coolStep's current depends on the speed, which changes from part to part
         }
-        let limits = self.limits(m);
+        let limits = self.motor_at(m).limits();
         let mut ramp = self.st.axes[m].ramp;
         let step = TICK.micros() / parts;
         // Every part accelerates as the tick before did, or none does: the boost current (AP 200) stays
@@ -258,19 +243,8 @@ impl<B: Board> Module<B> {
         axis.ramp = ramp;
         axis.ramping = ramping.unwrap_or(false);
         axis.moved(tick_at, total);
-        self.update_board(m, tick_at);
+        self.motor_at(m).update_board(tick_at);
         true
-    }
-
-    /// Whether motor `m`'s reference search, looking at its switches as they are now, goes on as it is
-    /// (the position matters only where the switch it waits for reads as it waits for): within a quiet
-    /// window of the board, where the switches stay, every look decides the same.
-    pub(super) fn search_goes_on(&mut self, m: usize) -> bool {
-        let (left, right, home) = self.switches(m);
-        let (fast, slow) = self.reference_speeds(m);
-        let mut reference = self.st.axes[m].reference;
-        let decision = reference.step(SwitchLevels { left, right, home }, self.st.axes[m].ramp.position, fast, slow);
-        decision == Action::Continue && reference == self.st.axes[m].reference
     }
 
     /// What follows every motion tick (and a span, at its last tick `t`), after the board has been
@@ -278,7 +252,8 @@ impl<B: Board> Module<B> {
     #[inline(always)]
     pub(super) fn tick_done(&mut self, t: Instant) {
         for m in 0..self.st.axes.count() {
-            self.drive_tick(m);
+            let faults = self.motor_at(m).drive_tick();
+            self.apply(faults);
         }
         self.check_event(t);
         if self.vm.enabled != 0 {
@@ -318,7 +293,8 @@ impl<B: Board> Module<B> {
             if self.st.axes[m].standstill_since.is_none() {
                 self.st.axes[m].standstill_since = Some(self.st.motion_time);
                 // The board hears of it (not before it last heard from the module), and of the standby timer.
-                self.update_board(m, self.st.motion_time.max(self.st.axes[m].board_time));
+                let t = self.st.motion_time.max(self.st.axes[m].board_time);
+                self.motor_at(m).update_board(t);
             }
         }
         let until = [self.program_deadline(), self.timer_deadline(), self.drive_due().map(|(_, d)| d), quiet_until]
@@ -330,18 +306,18 @@ impl<B: Board> Module<B> {
             return false;
         }
         let mut ticks = (until - self.st.motion_time).micros() / TICK.micros();
-        if watching && self.has_closed_loop() {
+        if watching && self.spec.axis.has(Setting::ClosedLoop) {
             // A closed-loop model's loop measures (and, closed, corrects) at every tick: it sleeps through
-            // the ticks only while the rotor stands and the loop is at rest (`module/closed_loop.rs`), as
+            // the ticks only while the rotor stands and the loop is at rest (`axis/closed_loop.rs`), as
             // many as every motor's allows.
             for m in 0..motors {
-                ticks = ticks.min(self.closed_loop_rest(m, ticks, false));
+                ticks = ticks.min(self.motor_at(m).closed_loop_rest(ticks, false));
             }
             if ticks == 0 {
                 return false;
             }
             for m in 0..motors {
-                self.closed_loop_rest(m, ticks, true);
+                self.motor_at(m).closed_loop_rest(ticks, true);
             }
         }
         self.st.motion_time += Duration::from_micros(ticks * TICK.micros());
@@ -370,7 +346,7 @@ impl<B: Board> Module<B> {
     #[inline]
     fn apply_drive_due(&mut self, now: Instant) {
         while let Some((m, d)) = self.drive_due().filter(|(_, d)| *d <= now) {
-            self.update_board(m, d);
+            self.motor_at(m).update_board(d);
         }
     }
 
@@ -379,40 +355,6 @@ impl<B: Board> Module<B> {
     #[inline]
     fn needs_every_tick(&self) -> bool {
         self.vm.enabled & self.spec.interrupts.levels_mask != 0 || self.st.axes.iter().any(|a| a.cl.engaged())
-    }
-
-    /// One step of the reference search after a motion tick (§7.1).
-    fn step_reference(&mut self, m: usize) {
-        let (left, right, home) = self.switches(m);
-        let levels = SwitchLevels { left, right, home };
-        let (fast, slow) = self.reference_speeds(m);
-        let position = self.st.axes[m].ramp.position;
-        match self.st.axes[m].reference.step(levels, position, fast, slow) {
-            Action::Continue => {}
-            Action::Rotate(v) => {
-                self.st.axes[m].ramp.hard_stop();
-                self.st.axes[m].ramp.rotate(v);
-            }
-            Action::Done { zero, far_distance } => {
-                self.st.axes[m].ramp.hard_stop();
-                // AP 197: "position value just before the counter is zeroed"; AP 196: end switch distance.
-                self.set_ap(m, Setting::LastReferencePosition, position);
-                if let Some(d) = far_distance {
-                    self.set_ap(m, Setting::EndSwitchDistance, d);
-                }
-                self.st.axes[m].ramp.mode = Mode::Position;
-                self.st.axes[m].ramp.set_position(position.wrapping_sub(zero));
-                self.st.axes[m].ramp.target_position = self.st.axes[m].ramp.position;
-                self.relabel(m, zero.wrapping_neg());
-            }
-            Action::Failed => self.st.axes[m].ramp.hard_stop(),
-        }
-    }
-
-    /// The search and switch speeds of the reference search in microsteps per second (AP 194, 195).
-    pub(crate) fn reference_speeds(&self, m: usize) -> (i32, i32) {
-        let speed = |s| self.units_to_pps(m, self.ap(m, s).unwrap_or(0));
-        (speed(Setting::ReferenceSearchSpeed), speed(Setting::ReferenceSwitchSpeed))
     }
 
     /// §3.7.37: the second reply of command 138 when an MVP's target is reached, on the interface that
@@ -437,7 +379,7 @@ impl<B: Board> Module<B> {
                 continue;
             }
             let ramp = &self.st.axes[m].ramp;
-            if !(ramp.mode == Mode::Position && ramp.is_idle() && self.target_reached(m)) {
+            if !(ramp.mode == Mode::Position && ramp.is_idle() && self.motor_at(m).target_reached()) {
                 return false;
             }
         }
@@ -518,12 +460,12 @@ impl<B: Board> Module<B> {
                 until = Some(until.map_or(u, |t| t.min(u)));
             }
         }
-        if self.has_closed_loop() {
+        if self.spec.axis.has(Setting::ClosedLoop) {
             // A loop at rest sleeps as long as its I²t sum neither settles nor crosses its limit: looked at
             // over a bounded stretch (a deadline at its end is only an extra poll).
             const LOOK: u64 = 1 << 16;
             for m in 0..self.st.axes.count() {
-                let n = self.closed_loop_rest(m, LOOK, false);
+                let n = self.motor_at(m).closed_loop_rest(LOOK, false);
                 if n == 0 {
                     return None;
                 }

@@ -56,7 +56,7 @@ impl<B: Board> Module<B> {
     pub(crate) fn exec(&mut self, command: Command, now: Instant, origin: Origin) -> Exec {
         use Command as C;
         if origin == Origin::Host {
-            // A host input: a change (`module/seam.rs`); what the board's hook concluded while nothing
+            // A host input: a change (`seam.rs`); what the board's hook concluded while nothing
             // changed (a program spinning in a fixed point) is void.
             self.board.input();
         }
@@ -345,7 +345,7 @@ impl<B: Board> Module<B> {
         match read_port(&mut self.board, self.st.outputs, desc.kind) {
             Some(v) => value(v),
             // (The encoder of motor 0: the models with this port have one motor.)
-            None => value(i32::from(self.encoder_near_zero(0))),
+            None => value(i32::from(self.motor_at(0).encoder_near_zero())),
         }
     }
 
@@ -384,7 +384,7 @@ impl<B: Board> Module<B> {
     fn relative_base(&mut self, m: usize) -> i32 {
         match self.ap(m, Setting::RelativePositioning) {
             Some(0) => self.st.axes[m].ramp.target_position,
-            Some(2) => self.encoder_position(m),
+            Some(2) => self.motor_at(m).encoder_position(),
             _ => self.st.axes[m].ramp.position,
         }
     }
@@ -406,7 +406,7 @@ impl<B: Board> Module<B> {
                 // AP 193 is range-checked on write, so it always decodes.
                 let value = self.ap(m, Setting::ReferenceSearchMode).ok_or(Status::NotAvailable)?;
                 let mode = SearchMode::decode(value, self.spec.reference_modes).ok_or(Status::InvalidValue)?;
-                let (fast, slow) = self.reference_speeds(m);
+                let (fast, slow) = self.motor_at(m).reference_speeds();
                 if fast == 0 || slow == 0 {
                     // A search at speed 0 would never end: refused (our decision).
                     return Err(Status::InvalidValue);
@@ -516,7 +516,7 @@ fn sio<O: Outputs>(board: &mut O, spec: &ModelSpec, outputs: &mut u8, a: i32, po
 }
 
 /// GIO (§3.7.15) of a port of `kind`: what `board` reads now, or the outputs as last set (`outputs`);
-/// `None` for the encoder's zero (GIO 11, 0), which the module reads (`Module::encoder_near_zero`).
+/// `None` for the encoder's zero (GIO 11, 0), which the motor reads (`Motor::encoder_near_zero`, `axis/drive.rs`).
 fn read_port<P: Inputs + Analog>(board: &mut P, outputs: u8, kind: PortKind) -> Option<i32> {
     Some(match kind {
         PortKind::DigitalInput(bit) => i32::from((board.digital_inputs() >> bit) & 1),

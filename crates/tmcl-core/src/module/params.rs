@@ -3,14 +3,13 @@
 //! their EEPROM copies ([`crate::param::persist`]). Statuses as the dispatcher's docs (`module/exec.rs`)
 //! decide them.
 
-use super::seam::Seam;
 use super::{program, Axis, Module};
 use crate::axis::Axes;
-use crate::hal::prelude::*;
 use crate::hal::{Board, Nvm};
 use crate::model::{ModelSpec, Setting};
 use crate::param::banks::Banks;
-use crate::param::{persist, ParamDesc, ParamError, Role};
+use crate::param::{permitted, persist, unlocked_for, ParamError, Role};
+use crate::seam::Seam;
 use crate::time::Instant;
 use crate::vm::{Program, Registers, Vm};
 use tmcl_wire::Status;
@@ -80,7 +79,7 @@ pub(crate) fn restore_axis(
 impl<B: Board> Module<B> {
     /// GAP of motor 0: an axis parameter's value (chapter 4, Table 15). A library call from outside, as a
     /// host's GAP is: a read may change state (AP 207 clears on read), so it counts as an input
-    /// (`module/seam.rs`).
+    /// (`seam.rs`).
     pub fn get_axis(&mut self, number: u8) -> Result<i32, Status> {
         self.get_axis_of(0, number)
     }
@@ -93,7 +92,7 @@ impl<B: Board> Module<B> {
     }
 
     /// SAP of motor 0 without the frame: writes an axis parameter (RAM only) at `now`, as a library call
-    /// from outside (an input, `module/seam.rs`).
+    /// from outside (an input, `seam.rs`).
     pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
         self.set_axis_of(0, number, v, now)
     }
@@ -113,7 +112,7 @@ impl<B: Board> Module<B> {
     }
 
     /// SGP without the frame: writes a global parameter at `now`, as a library call from outside (an
-    /// input, `module/seam.rs`).
+    /// input, `seam.rs`).
     pub fn set_global(&mut self, number: u8, bank: u8, v: i32, now: Instant) -> Result<(), Status> {
         self.board.input();
         let (spec, banks, reach) = self.global_parts();
@@ -127,146 +126,20 @@ impl<B: Board> Module<B> {
         (spec, &mut st.banks, Reach { nvm: board, vm, program, regs: &mut st.regs })
     }
 
-    /// GAP at `now` (`None`: whenever the board was last brought up to date). A parameter that reads
-    /// something of the board that changes with the board's own clock — a switch (it may bounce), the
-    /// driver's flags (standstill after 2²⁰ clocks without a step) or the status word made of them — is
-    /// read with the board brought to `now` first ([`Module::sync_board`]), so that it is the value at the
-    /// instant of the read however often the module was polled before.
-    pub(crate) fn read_axis(&mut self, m: usize, number: u8, now: Option<Instant>) -> Result<i32, Status> {
-        let (i, d) = permitted(&self.spec.axis, number, |d| d.access.read)?;
-        // What the motor's own state gives ([`Axis::read_param`]); the rest reads the board or what the
-        // closed loop measures.
-        if let Some(v) = self.st.axes[m].read_param(self.spec, i, d.role) {
-            return Ok(v);
-        }
-        if let Some(now) = now {
-            if matches!(
-                d.role,
-                Role::HomeSwitch | Role::RightSwitch | Role::LeftSwitch | Role::DriverFlags | Role::StatusWord
-            ) {
-                self.sync_board(m, now);
-            }
-        }
-        Ok(match d.role {
-            Role::ActualPosition => self.encoder_position(m),
-            Role::PositionReached => i32::from(self.target_reached(m)),
-            Role::HomeSwitch => i32::from(self.switches(m).2),
-            Role::RightSwitch => i32::from(self.switches(m).1),
-            Role::LeftSwitch => i32::from(self.switches(m).0),
-            // AP 180: the current scale 0..31 in use (current / 8, Table 22), after coolStep.
-            Role::ActualCurrent => i32::from(self.current(m, self.st.now).0 >> 3),
-            Role::LoadValue => i32::from(self.board.load(m).min(1023)),
-            Role::DriverFlags => i32::from(self.board.driver_flags(m)),
-            Role::EncoderPosition => self.encoder_position(m),
-            Role::EncoderAbsolute => self.encoder_absolute(m),
-            Role::VelocityReached => i32::from(self.velocity_reached(m)),
-            Role::StatusWord => self.status_word(m),
-            Role::ActualTorqueCurrent => self.actual_torque_current(m),
-            Role::MeasuredVelocity => self.measured_velocity(m),
-            // Virtual minus actual position in closed loop.
-            Role::PositionError => self.st.axes[m].ramp.position.wrapping_sub(self.encoder_position(m)),
-            // (None other: `Axis::read_param` reads the rest.)
-            _ => self.st.axes[m].params[i],
-        })
+    /// GAP of motor `m` at `at` (`None`: whenever the board was last brought up to date;
+    /// [`crate::axis::Motor::read`]).
+    #[inline]
+    pub(crate) fn read_axis(&mut self, m: usize, number: u8, at: Option<Instant>) -> Result<i32, Status> {
+        let now = self.st.now;
+        self.motor_at(m).read(number, at, now)
     }
 
-    /// SAP/AAP: writes an axis parameter (RAM only).
+    /// SAP/AAP of motor `m` (RAM only; [`crate::axis::Motor::write`]).
+    #[inline]
     pub(crate) fn write_axis(&mut self, m: usize, number: u8, v: i32, now: Instant) -> Result<(), Status> {
-        let (i, d) = permitted(&self.spec.axis, number, |d| d.access.write)?;
-        if !d.range.contains(v) {
-            return Err(ParamError::OutOfRange.into());
-        }
-        unlocked_for(self.st.banks.unlocked, d)?;
-        // The encoder's input or scale changes (AP 201, 202, 210, 140 on a closed-loop model): the
-        // position before, read through the old one.
-        let rescales =
-            (matches!(d.setting, Some(Setting::EncoderMode | Setting::EncoderResolution | Setting::MotorFullSteps))
-                || d.role == Role::MicrostepResolution)
-                && self.has_closed_loop();
-        let encoder_before = if rescales { self.encoder_position(m) } else { 0 };
-        // The pulse divisor (AP 154) scales the TMC428's clock: the velocity registers keep their values
-        // in units, so AP 2 and AP 3 read the same and the speed in microsteps per second follows.
-        let velocities = (d.setting == Some(Setting::PulseDivisor)).then(|| self.velocity_units());
-        // The parameters that move the encoder's reference or reach the closed loop; the rest is what the
-        // motor's own state takes ([`Axis::write_param`]).
-        match d.role {
-            Role::ActualPosition => {
-                self.relabel(m, v.wrapping_sub(self.st.axes[m].ramp.position));
-                self.st.axes[m].ramp.set_position(v)
-            }
-            // In closed loop the step counter moves with the encoder, so that the loop sees no error.
-            Role::EncoderPosition if self.st.axes[m].cl.active => {
-                let delta = v.wrapping_sub(self.encoder_position(m));
-                let ramp = &mut self.st.axes[m].ramp;
-                ramp.set_position(ramp.position.wrapping_add(delta));
-                self.relabel(m, delta);
-            }
-            Role::EncoderPosition => self.set_encoder(m, v),
-            Role::TargetCurrent => {
-                self.set_torque(m, v)?;
-                self.st.axes[m].params[i] = v;
-            }
-            Role::EncoderInit => self.start_encoder_init(m, v)?,
-            Role::EncoderPrescaler => {
-                let now_value = self.encoder_position(m);
-                self.st.axes[m].params[i] = v;
-                self.set_encoder(m, now_value);
-            }
-            _ => self.st.axes[m].write_param(self.spec, i, d.role, v),
-        }
-        // Settings that act when written: the driver's own (stallGuard2 filter and threshold, current
-        // range), the closed loop switched on or off, the encoder's input or scale. The driver's take
-        // effect at this instant: the board is brought to it first (its clock may lag the module's).
-        if matches!(
-            d.setting,
-            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange | Setting::EncoderMode)
-        ) {
-            self.sync_board(m, now);
-        }
-        match d.setting {
-            Some(Setting::StallFilter | Setting::StallThreshold | Setting::CurrentRange) => self.configure_driver(m),
-            Some(Setting::ClosedLoop) => self.closed_loop_switched(m),
-            _ => {}
-        }
-        if rescales {
-            self.encoder_rescaled(m, encoder_before, d.setting == Some(Setting::EncoderMode));
-        }
-        if let Some(units) = velocities {
-            self.set_velocity_units(units);
-        }
-
+        let faults = self.motor_at(m).write(number, v, now)?;
+        self.apply(faults);
         Ok(())
-    }
-
-    /// AP 209 = value at the reference + counts since × p / 512 (§6.2).
-    pub(crate) fn encoder_position(&mut self, m: usize) -> i32 {
-        let counts = self.encoder_counts_now(m);
-        self.encoder_value(m, counts)
-    }
-
-    /// Sets AP 209 to `v` at the counts the encoder reads now.
-    pub(crate) fn set_encoder(&mut self, m: usize, v: i32) {
-        let counts = self.encoder_counts_now(m);
-        self.st.axes[m].encoder = crate::module::EncoderBase { counts, value: v };
-        // Clear-on-null (AP 210 + 4) looks for zero crossings from here on: not between a reading from
-        // before (taken when it was last on, perhaps long ago) and the next one, which would depend on
-        // when that next one is taken.
-        self.st.axes[m].last_counts = counts;
-    }
-
-    /// AP 215: the absolute single-turn value 0..counts per revolution − 1 (0..1023 on the PD28-1021),
-    /// independent of the prescaler (§6.2).
-    pub(crate) fn encoder_absolute(&mut self, m: usize) -> i32 {
-        self.encoder_counts_now(m).rem_euclid(i64::from(self.counts_per_rev())) as i32
-    }
-
-    /// GIO 11, 0: the encoder is within 1/256 of a revolution (±4 counts, ±1.4° on the PD28-1021) of its
-    /// absolute zero (our tolerance; §6.2 gives none).
-    pub(crate) fn encoder_near_zero(&mut self, m: usize) -> bool {
-        let per_rev = self.counts_per_rev() as i32;
-        let tolerance = (per_rev / 256).max(1);
-        let a = self.encoder_absolute(m);
-        !(tolerance..=per_rev - tolerance).contains(&a)
     }
 }
 
@@ -484,31 +357,5 @@ pub(crate) fn coord_index(spec: &ModelSpec, coord: u8) -> Result<usize, Status> 
         Ok(usize::from(coord))
     } else {
         Err(Status::WrongType)
-    }
-}
-
-/// Refuses a write or store of a password-protected parameter while the module is locked (`unlocked`
-/// false): status 8 (TMCM-1310 manual §3.7).
-#[inline]
-pub(crate) fn unlocked_for(unlocked: bool, d: &ParamDesc) -> Result<(), Status> {
-    if d.access.protected && !unlocked {
-        Err(ParamError::Protected.into())
-    } else {
-        Ok(())
-    }
-}
-
-/// A parameter of `table` that allows what `allowed` asks (read, write, store, ...): unknown → 3, not
-/// permitted → 3 (see [`ParamError`]).
-pub(crate) fn permitted(
-    table: &crate::param::Table,
-    number: u8,
-    allowed: impl Fn(&ParamDesc) -> bool,
-) -> Result<(usize, &'static ParamDesc), Status> {
-    let (i, d) = table.find(number)?;
-    if allowed(d) {
-        Ok((i, d))
-    } else {
-        Err(ParamError::NotPermitted.into())
     }
 }

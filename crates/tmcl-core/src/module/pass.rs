@@ -20,7 +20,7 @@ pub(crate) struct Turn<'a> {
     pub spec: &'static ModelSpec,
     pub st: &'a mut State,
     pub vm: &'a mut Vm,
-    /// The count of changes at the pass (`module/seam.rs`).
+    /// The count of changes at the pass (`seam.rs`).
     pub changes: u32,
 }
 

@@ -219,7 +219,7 @@ impl<B: Board> Module<B> {
             self.periods.retry = Some(self.st.motion_time + Duration::from_micros(RETRY_TICKS * TICK.micros()));
             return;
         };
-        let counts = self.encoder_counts_now(0);
+        let counts = self.motor_at(0).encoder_counts_now();
         let axis = &self.st.axes[0];
         self.periods.checkpoint = Some(Checkpoint {
             at: self.st.motion_time,
@@ -241,7 +241,7 @@ impl<B: Board> Module<B> {
     fn conversion(&self) -> Option<(i64, i64)> {
         let per_rev = i64::from(self.ap(0, Setting::EncoderResolution)?.max(1));
         let full_steps = i64::from(self.ap(0, Setting::MotorFullSteps).unwrap_or(200).max(1));
-        Some((full_steps << self.microstep_resolution(0).min(8), per_rev))
+        Some((full_steps << self.st.axes[0].microstep_resolution(&self.spec.axis).min(8), per_rev))
     }
 
     /// The ticks of a period (see the module docs) for a board period of `board` microsteps, if it is at
@@ -271,7 +271,7 @@ impl<B: Board> Module<B> {
     /// period (R / gcd(F, R) counts), the checkpoint and now on one side of the encoder's reference with
     /// room for a period's strays: the counts moved by, if so.
     fn repeats_from(&mut self, shift: i64) -> Option<i64> {
-        let counts = self.encoder_counts_now(0);
+        let counts = self.motor_at(0).encoder_counts_now();
         let (f, r) = self.conversion()?;
         let c = self.periods.checkpoint.as_ref()?;
         let axis = &self.st.axes[0];
@@ -320,7 +320,7 @@ impl<B: Board> Module<B> {
 
     /// The checkpoint repeated: it moves to the state now.
     fn move_checkpoint(&mut self) {
-        let counts = self.encoder_counts_now(0);
+        let counts = self.motor_at(0).encoder_counts_now();
         let axis = &self.st.axes[0];
         let Some(c) = &mut self.periods.checkpoint else { return };
         c.at = self.st.motion_time;
@@ -367,7 +367,7 @@ impl<B: Board> Module<B> {
         }
         // The I²t sum at the period's constant current, up to the monitor's next change.
         let cl = axis.cl;
-        let (rms, tau, limit) = self.loop_i2t(0);
+        let (rms, tau, limit) = self.motor_at(0).loop_i2t();
         let (taken, _) = cl.i2t_ahead(rms, tau, limit, periods * ticks);
         periods = periods.min(taken / ticks);
         if periods == 0 {

@@ -48,11 +48,11 @@ impl<B: Board> Module<B> {
         let m = usize::from(wait.motor);
         let met = match wait.condition {
             WaitCondition::Ticks => return wait.until.is_some_and(|u| now >= u).then_some(false),
-            WaitCondition::Pos => self.target_reached(m) && self.st.axes[m].ramp.velocity() == 0,
+            WaitCondition::Pos => self.motor_at(m).target_reached() && self.st.axes[m].ramp.velocity() == 0,
             // WAIT REFSW: the reference (home) switch; WAIT LIMSW: a limit (stop) switch (§3.7.22).
-            WaitCondition::RefSw => self.switches(m).2,
+            WaitCondition::RefSw => self.motor_at(m).switches().2,
             WaitCondition::LimSw => {
-                let (l, r, _) = self.switches(m);
+                let (l, r, _) = self.motor_at(m).switches();
                 l || r
             }
             WaitCondition::Rfs => !self.st.axes[m].reference.is_active(),
@@ -97,7 +97,8 @@ impl<B: Board> Module<B> {
         let mut reached_now = 0u8;
         for m in 0..self.st.axes.count() {
             let ramp = &self.st.axes[m].ramp;
-            let reached = ramp.mode == crate::motion::Mode::Position && ramp.is_idle() && self.target_reached(m);
+            let reached =
+                ramp.mode == crate::motion::Mode::Position && ramp.is_idle() && self.motor_at(m).target_reached();
             if reached {
                 reached_now |= 1 << m;
                 if self.vm.was_reached & (1 << m) == 0 {
@@ -115,7 +116,7 @@ impl<B: Board> Module<B> {
         }
         let mut stops = [(false, false); MAX_MOTORS as usize];
         for (m, stop) in stops.iter_mut().enumerate().take(self.st.axes.count()) {
-            let (left, right, _) = self.switches(m);
+            let (left, right, _) = self.motor_at(m).switches();
             *stop = (left, right);
         }
         let inputs = self.board.digital_inputs();
@@ -194,7 +195,7 @@ impl<B: Board> Module<B> {
     /// download of it would (for tools: `tmcl run`, the debugger). Refused like command 132 when the
     /// program is protected against overwriting.
     pub fn load_program(&mut self, instructions: &[Instruction]) -> Result<(), Status> {
-        self.board.input(); // a library call from outside (`module/seam.rs`)
+        self.board.input(); // a library call from outside (`seam.rs`)
         if self.protection() & 2 != 0 {
             return Err(Status::EepromLocked);
         }
@@ -216,7 +217,7 @@ impl<B: Board> Module<B> {
 
     /// Mutable access to the program machine (a debugger's registers and PC; a change from outside).
     pub fn vm_mut(&mut self) -> &mut Vm {
-        self.board.input(); // a change from outside (`module/seam.rs`)
+        self.board.input(); // a change from outside (`seam.rs`)
         &mut self.vm
     }
 

@@ -10,24 +10,6 @@ use tmcl_wire::tmc428::{sign_extend, status, Answer, Datagram, SMDA_COMMON};
 use tmcl_wire::Status;
 
 impl<B: Board> Module<B> {
-    /// The velocity registers in units (AP 2 as stored for velocity mode, AP 3), before the pulse divisor
-    /// changes.
-    pub(crate) fn velocity_units(&self) -> (i32, i32) {
-        (
-            self.pps_to_units(0, self.st.axes[0].ramp.target_velocity),
-            self.pps_to_units(0, self.st.axes[0].ramp.velocity()),
-        )
-    }
-
-    /// After the pulse divisor changed: the velocity registers keep `units`, so the speed in microsteps
-    /// per second follows the new divisor (TMC428 datasheet: µstep rate = f_CLK · v / (2^pulse_div ·
-    /// 2048 · 32); the divisor scales the clock the velocity counts in).
-    pub(crate) fn set_velocity_units(&mut self, (target, actual): (i32, i32)) {
-        self.st.axes[0].ramp.target_velocity = self.units_to_pps(0, target);
-        let actual = self.units_to_pps(0, actual);
-        self.st.axes[0].ramp.set_velocity(actual);
-    }
-
     /// SAC `bus`, `bytes`, `data`: one datagram to the motion controller; the 32-bit answer.
     pub(crate) fn sac(&mut self, bus: u8, bytes: u8, data: i32) -> Result<i32, Status> {
         if bus != 0 {
@@ -60,7 +42,7 @@ impl<B: Board> Module<B> {
         if self.st.axes[0].ramp.position == self.st.axes[0].ramp.target_position {
             s |= status::XEQT1;
         }
-        if self.switches(0).0 {
+        if self.motor_at(0).switches().0 {
             s |= status::RS1;
         }
         s
@@ -87,7 +69,7 @@ impl<B: Board> Module<B> {
             }
             9 => TYPE_VERSION,
             14 => {
-                let (left, right, _) = self.switches(0);
+                let (left, right, _) = self.motor_at(0).switches();
                 u32::from(left) | (u32::from(right) << 1)
             }
             _ => 0,

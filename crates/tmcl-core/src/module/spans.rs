@@ -138,7 +138,7 @@ impl<B: Board> Module<B> {
         }
         let Some((limits, bounds)) = self.span_bounds(Some(now)) else { return false };
         let (mut to, mut span) = self.span(params, limits, &bounds);
-        if self.has_closed_loop() {
+        if self.spec.axis.has(Setting::ClosedLoop) {
             // Open loop, a closed-loop model measures AP 131 from its encoder over the last
             // VELOCITY_WINDOW ticks, each tick the rotor's move since the one before: the span leaves
             // that many ticks and one more before its end to ticking (the first of them measures the
@@ -167,7 +167,7 @@ impl<B: Board> Module<B> {
     /// What follows a run of motor 0's ticks taken at once (a span, or a closed loop's periods) ending at
     /// `t`: the board hears of the run at its last tick, and the module does once what follows a tick.
     pub(super) fn after_span(&mut self, t: Instant) {
-        self.update_board(0, t);
+        self.motor_at(0).update_board(t);
         self.st.motion_time = t;
         self.tick_done(t);
         if self.vm.state == RunState::Running && self.vm.wait.is_some() {
@@ -232,7 +232,7 @@ impl<B: Board> Module<B> {
     fn bounds(&mut self, horizon: Option<Instant>, periodic: bool) -> Option<(Limits, Bounds, u64)> {
         let searching = self.st.axes[0].reference.is_active();
         if self.exact
-            || (searching && (self.has_closed_loop() || self.st.axes[0].ramping))
+            || (searching && (self.spec.axis.has(Setting::ClosedLoop) || self.st.axes[0].ramping))
             || self.st.axes[0].standstill_since.is_some()
             || self.st.axes[0].ramp.velocity() == 0
         {
@@ -245,23 +245,24 @@ impl<B: Board> Module<B> {
         }
         let prescaler =
             self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axes[0].params[i]);
-        if encoder::clear_on_null_enabled(prescaler) && self.ssi_selected(0) {
+        if encoder::clear_on_null_enabled(prescaler) && self.motor_at(0).ssi_selected() {
             return None;
         }
-        if self.has_closed_loop() && !self.st.axes[0].cl.active {
+        if self.spec.axis.has(Setting::ClosedLoop) && !self.st.axes[0].cl.active {
             // Open loop: the loop about to close (AP 129 and a done initialisation: it closes at the next
             // tick), or an SSI encoder, whose turns the firmware counts from reading to reading.
             let closing = self.ap(0, Setting::ClosedLoop) == Some(1) && self.st.axes[0].cl.init == Init::Done;
-            if closing || self.ssi_selected(0) {
+            if closing || self.motor_at(0).ssi_selected() {
                 return None;
             }
         }
         // The board at the span's start, as a first tick would read it.
-        self.sync_board(0, self.st.motion_time);
+        let t = self.st.motion_time;
+        self.motor_at(0).sync_board(t);
         let state = self.st.axes[0].last_drive?;
         let mut quiet = self.board.quiet(0, self.st.motion_time, &state)?;
         let period = if periodic { self.board.period(0, &state, &mut quiet) } else { 0 };
-        if searching && !self.search_goes_on(0) {
+        if searching && !self.motor_at(0).search_goes_on() {
             // A reference search looks at its switch after every microstep; within the board's window the
             // switches stay as they are, so every look decides as this one.
             return None;
@@ -304,6 +305,6 @@ impl<B: Board> Module<B> {
             ramping: self.st.axes[0].ramping,
             work: u64::MAX,
         };
-        Some((self.limits(0), bounds, period))
+        Some((self.motor_at(0).limits(), bounds, period))
     }
 }

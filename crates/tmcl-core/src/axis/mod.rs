@@ -6,11 +6,20 @@
 //! it. A model says how many motors it has ([`tmcl_model::ModelDesc::motors`], 1 to
 //! [`MAX_MOTORS`]); the module runs an [`Axis`] for each, and the host and program address one by the
 //! motor byte of a command (PD28-1021 manual §3.5: "motor or bank number"). Nothing here knows the
-//! module; the module's per-axis glue (`module/drive.rs`, `module/closed_loop.rs`, `module/advance.rs`)
-//! takes the motor's index.
+//! module: what a motor does with the board it drives — its motion tick, coolStep and the encoder
+//! (`drive.rs`), the closed loop (`closed_loop.rs`), the parameters that read them (`params.rs`) — is
+//! [`Motor`]'s (`motor.rs`), a view of one axis with the board and the settings it reads, which returns
+//! what it did beyond the motor ([`Faults`]) for the module to apply.
 //!
 //! The storage is a fixed array of [`MAX_MOTORS`] axes (no heap); a model with fewer motors leaves the
 //! rest unused.
+
+mod closed_loop;
+mod drive;
+mod motor;
+mod params;
+
+pub(crate) use motor::{Faults, Motor};
 
 use crate::drive::closed_loop::ClosedLoop;
 use crate::drive::coolstep::CoolStep;
@@ -129,6 +138,13 @@ impl Axis {
     #[inline]
     pub(crate) fn ap(&self, table: &Table, setting: Setting) -> Option<i32> {
         table.setting(setting).map(|i| self.params[i])
+    }
+
+    /// The microstep resolution as a power of two (AP 140) in the model's axis table `table`; 8 (256
+    /// microsteps) for a model without it.
+    #[inline]
+    pub(crate) fn microstep_resolution(&self, table: &Table) -> u8 {
+        table.role(Role::MicrostepResolution).map_or(8, |i| self.params[i] as u8)
     }
 
     /// Time after the motor stopped given in `setting` (10 ms units), if the model has it and it is set.
@@ -287,8 +303,7 @@ impl Axis {
     /// role is `role`, if the motor's own state gives it (chapter 4, Table 15): its value in RAM, the
     /// ramp's positions, speeds and mode, the error flags (AP 207, "cleared automatically when read"), the
     /// closed loop's own registers. `None` for a parameter that reads the board (the switches, the
-    /// driver, the encoder) or what the closed loop measures: the module reads those
-    /// (`module/params.rs`, `Module::read_axis`).
+    /// driver, the encoder) or what the closed loop measures: [`Motor::read`] reads those.
     #[inline]
     pub(crate) fn read_param(&mut self, spec: &ModelSpec, i: usize, role: Role) -> Option<i32> {
         let ramp = &self.ramp;
@@ -343,7 +358,7 @@ impl Axis {
     /// SAP/AAP (PD28-1021 manual §3.7.5, §3.7.29) of the axis parameter at index `i` of `spec`'s axis
     /// table, whose role is `role`, to `v` (already checked against its range and protection), for one
     /// the motor's own state takes: every parameter but those that move the encoder's reference or reach
-    /// the closed loop (AP 1, 14, 132, 209, 210), which the module writes (`Module::write_axis`).
+    /// the closed loop (AP 1, 14, 132, 209, 210), which [`Motor::write`] writes.
     #[inline]
     pub(crate) fn write_param(&mut self, spec: &ModelSpec, i: usize, role: Role, v: i32) {
         match role {
