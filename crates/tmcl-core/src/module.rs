@@ -468,26 +468,30 @@ impl<B: Board> Module<B> {
         Motor { m, axis: &mut self.st.axes[m], spec: self.spec, banks: &self.st.banks, board: &mut self.board }
     }
 
-    /// What a motor did beyond itself ([`Faults`]): the program's flags, the interrupts, the pending 138
-    /// event.
+    /// What motor `m` did beyond itself ([`Faults`]): the program's deviation flag, the stall and
+    /// deviation interrupts, the pending 138 event.
     #[inline(always)]
-    pub(crate) fn apply(&mut self, faults: Faults) {
+    pub(crate) fn apply(&mut self, m: usize, faults: Faults) {
         if faults.any() {
-            self.apply_faults(faults);
+            self.apply_faults(m, faults);
         }
     }
 
     #[inline(never)] // (rare: out of the tick's way)
-    fn apply_faults(&mut self, faults: Faults) {
-        self.st.regs.flags |= faults.flags;
+    fn apply_faults(&mut self, m: usize, faults: Faults) {
         if faults.drop_event {
             self.st.event.pending = false;
         }
-        let mut pending = faults.interrupts;
-        while pending != 0 {
-            let n = pending.trailing_zeros() as u8;
-            pending &= pending - 1;
-            self.raise_interrupt(n);
+        if faults.stops & error_flags::STALL != 0 {
+            if let Some(n) = self.spec.interrupts.stall(m) {
+                self.raise_interrupt(n);
+            }
+        }
+        if faults.stops & error_flags::DEVIATION != 0 {
+            self.st.regs.flags |= flags::DEVIATION;
+            if let Some(n) = self.spec.interrupts.deviation(m) {
+                self.raise_interrupt(n);
+            }
         }
     }
 }

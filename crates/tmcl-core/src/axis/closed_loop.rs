@@ -10,7 +10,6 @@ use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::Setting;
 use crate::motion::Mode;
-use crate::vm::flags;
 use tmcl_wire::Status;
 
 /// √2 · 10000, for RMS ↔ peak.
@@ -154,8 +153,7 @@ impl<B: Board> Motor<'_, B> {
         let max = i64::from(self.ap(Setting::MaxFollowingError).unwrap_or(0));
         let mut faults = Faults::NONE;
         if max > 0 && e.abs() > max {
-            let stop = self.fault_stop(error_flags::DEVIATION, self.spec.interrupts.deviation(self.m));
-            faults = Faults { flags: flags::DEVIATION, ..stop };
+            faults = self.fault_stop(error_flags::DEVIATION);
             self.axis.ramp.set_position(actual as i32);
             self.axis.cl.field_offset = command.field;
             self.axis.cl.hold = 0;

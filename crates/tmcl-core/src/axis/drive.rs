@@ -9,7 +9,6 @@ use crate::drive::{encoder, error_flags, stall};
 use crate::hal::prelude::*;
 use crate::hal::Board;
 use crate::model::{Role, Setting};
-use crate::vm::flags;
 
 impl<B: Board> Motor<'_, B> {
     /// The coolStep parameters for a run-current setting `run` (AP 6, or AP 200 while boosting).
@@ -63,7 +62,7 @@ impl<B: Board> Motor<'_, B> {
             // §7.2 / AP 181: stop when the load value reaches 0 above the stop-on-stall speed.
             let stop_speed = self.units_to_pps(self.ap(Setting::StopOnStall).unwrap_or(0));
             if stall::stall_stop(load, self.axis.ramp.velocity(), stop_speed) {
-                faults = faults.and(self.fault_stop(error_flags::STALL, self.spec.interrupts.stall(m)));
+                faults = faults.and(self.fault_stop(error_flags::STALL));
             }
         }
         let prescaler = self.prescaler();
@@ -83,8 +82,7 @@ impl<B: Board> Motor<'_, B> {
         if deviation > 0 && !self.axis.ramp.is_idle() {
             let e = self.encoder_value(counts);
             if encoder::deviation_exceeded(self.axis.ramp.position, e, deviation) {
-                let stop = self.fault_stop(error_flags::DEVIATION, self.spec.interrupts.deviation(m));
-                faults = faults.and(Faults { flags: flags::DEVIATION, ..stop });
+                faults = faults.and(self.fault_stop(error_flags::DEVIATION));
             }
         }
         faults

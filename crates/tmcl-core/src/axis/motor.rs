@@ -14,6 +14,7 @@
 //! length of one call; the module makes one with `Module::motor_at`.
 
 use super::Axis;
+
 use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState, DriverSettings};
 use crate::model::{ModelSpec, Setting};
@@ -23,37 +24,34 @@ use crate::param::banks::Banks;
 use crate::seam::Seam;
 use crate::time::{Duration, Instant};
 
-/// What a motor's tick or command did beyond the motor, for the module to apply: program flags to set,
-/// interrupts to raise, the pending 138 event to drop (a stop for a fault ends the move it waited for).
+/// What a motor's tick or command did that reaches beyond the motor, for the module to apply: the stops
+/// for a fault it made (AP 207 bits, [`error_flags`](crate::drive::error_flags): a stall raises the stall interrupt; a deviation or
+/// following error sets the program's deviation flag and raises the deviation interrupt, PD28-1021
+/// manual §6.2, §7.2, §3.6.6.1), and whether the pending 138 event is dropped (a stop for a fault, or
+/// torque mode, ends the move it waited for).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[must_use]
 pub(crate) struct Faults {
-    /// Program flags to set ([`crate::vm::flags`]).
-    pub(crate) flags: u16,
-    /// Interrupts to raise: bit n = interrupt n of the model's table.
-    pub(crate) interrupts: u64,
+    /// The AP 207 bits of the stops made ([`error_flags`](crate::drive::error_flags)).
+    pub(crate) stops: u8,
     /// The pending 138 event is dropped.
     pub(crate) drop_event: bool,
 }
 
 impl Faults {
     /// Nothing beyond the motor.
-    pub(crate) const NONE: Faults = Faults { flags: 0, interrupts: 0, drop_event: false };
+    pub(crate) const NONE: Faults = Faults { stops: 0, drop_event: false };
 
     /// Both.
     #[inline(always)]
     pub(crate) fn and(self, other: Faults) -> Faults {
-        Faults {
-            flags: self.flags | other.flags,
-            interrupts: self.interrupts | other.interrupts,
-            drop_event: self.drop_event || other.drop_event,
-        }
+        Faults { stops: self.stops | other.stops, drop_event: self.drop_event || other.drop_event }
     }
 
     /// Whether there is anything to apply.
     #[inline(always)]
     pub(crate) fn any(&self) -> bool {
-        *self != Faults::NONE
+        self.stops != 0 || self.drop_event
     }
 }
 
@@ -309,12 +307,13 @@ impl<B: Board> Motor<'_, B> {
         decision == Action::Continue && reference == self.axis.reference
     }
 
-    /// Stops the motor at once for a stall, a deviation or a following error: AP 207 bit `flag`, the
-    /// interrupt (if the model has it), and the pending 138 event dropped.
-    pub(crate) fn fault_stop(&mut self, flag: u8, interrupt: Option<u8>) -> Faults {
+    /// Stops the motor at once for a stall, a deviation or a following error: AP 207 bit `flag` (one of
+    /// [`error_flags`](crate::drive::error_flags)); the interrupt, the program's flag and the pending 138 event are the module's
+    /// ([`Faults`]).
+    pub(crate) fn fault_stop(&mut self, flag: u8) -> Faults {
         self.axis.ramp.hard_stop();
         self.axis.reference.stop();
         self.axis.error_flags |= flag;
-        Faults { flags: 0, interrupts: interrupt.filter(|n| *n < 64).map_or(0, |n| 1u64 << n), drop_event: true }
+        Faults { stops: flag, drop_event: true }
     }
 }

@@ -18,22 +18,30 @@ impl<B: Board> Motor<'_, B> {
     /// bounce), the driver's flags (standstill after 2²⁰ clocks without a step) or the status word made
     /// of them — is read with the board brought to `at` first ([`Motor::sync_board`]), so that it is the
     /// value at the instant of the read however often the module was polled before.
+    #[inline(always)]
     pub(crate) fn read(&mut self, number: u8, at: Option<Instant>, now: Instant) -> Result<i32, Status> {
         let (i, d) = permitted(&self.spec.axis, number, |d| d.access.read)?;
         // What the motor's own state gives ([`super::Axis::read_param`]); the rest reads the board or what the
         // closed loop measures.
-        if let Some(v) = self.axis.read_param(self.spec, i, d.role) {
-            return Ok(v);
+        match self.axis.read_param(self.spec, i, d.role) {
+            Some(v) => Ok(v),
+            None => Ok(self.read_measured(i, d.role, at, now)),
         }
+    }
+
+    /// GAP of the parameter at index `i` of the model's axis table, whose role is `role`, for one that reads
+    /// the board or what the closed loop measures ([`Motor::read`]).
+    #[inline(never)] // (out of the way of the parameters the motor's own state gives)
+    fn read_measured(&mut self, i: usize, role: Role, at: Option<Instant>, now: Instant) -> i32 {
         if let Some(at) = at {
             if matches!(
-                d.role,
+                role,
                 Role::HomeSwitch | Role::RightSwitch | Role::LeftSwitch | Role::DriverFlags | Role::StatusWord
             ) {
                 self.sync_board(at);
             }
         }
-        Ok(match d.role {
+        match role {
             Role::ActualPosition => self.encoder_position(),
             Role::PositionReached => i32::from(self.target_reached()),
             Role::HomeSwitch => i32::from(self.switches().2),
@@ -53,12 +61,13 @@ impl<B: Board> Motor<'_, B> {
             Role::PositionError => self.axis.ramp.position.wrapping_sub(self.encoder_position()),
             // (None other: `Axis::read_param` reads the rest.)
             _ => self.axis.params[i],
-        })
+        }
     }
 
     /// SAP/AAP of parameter `number` to `v` at `now` (RAM only): checked against the model's table, the
     /// parameter's range and its protection (a protected parameter needs the banks unlocked), then
     /// written; what the write does beyond the motor (AP 14 drops a pending 138 event) is returned.
+    #[inline]
     pub(crate) fn write(&mut self, number: u8, v: i32, now: Instant) -> Result<Faults, Status> {
         let (i, d) = permitted(&self.spec.axis, number, |d| d.access.write)?;
         if !d.range.contains(v) {

@@ -182,7 +182,7 @@ impl<B: Board> Module<B> {
         }
         let from = self.st.motion_time;
         let faults = self.motor_at(m).tick(from, tick_at, parts, params, closed_loop);
-        self.apply(faults);
+        self.apply(m, faults);
     }
 
     /// A reference search's tick in `parts` (one per microstep) taken at once when every look at the
@@ -253,7 +253,7 @@ impl<B: Board> Module<B> {
     pub(super) fn tick_done(&mut self, t: Instant) {
         for m in 0..self.st.axes.count() {
             let faults = self.motor_at(m).drive_tick();
-            self.apply(faults);
+            self.apply(m, faults);
         }
         self.check_event(t);
         if self.vm.enabled != 0 {

@@ -101,7 +101,9 @@ impl<B: Board> Module<B> {
             C::Mvp { motor, target } => self.mvp(motor, target),
             // §3.7.5 SAP: RAM only.
             C::Sap { param, motor, value: v } => {
-                self.motor(motor).and_then(|m| self.write_axis(m, param, v, now)).map(|()| Outcome::Value(v))
+                let m = self.motor(motor)?;
+                self.write_axis(m, param, v, now)?;
+                value(v)
             }
             // §3.7.6 GAP.
             C::Gap { param, motor } => {

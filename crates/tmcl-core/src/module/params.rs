@@ -138,7 +138,7 @@ impl<B: Board> Module<B> {
     #[inline]
     pub(crate) fn write_axis(&mut self, m: usize, number: u8, v: i32, now: Instant) -> Result<(), Status> {
         let faults = self.motor_at(m).write(number, v, now)?;
-        self.apply(faults);
+        self.apply(m, faults);
         Ok(())
     }
 }
