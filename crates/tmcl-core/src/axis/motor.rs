@@ -19,10 +19,11 @@ use crate::hal::prelude::*;
 use crate::hal::{Board, DriveState, DriverSettings};
 use crate::model::{ModelSpec, Setting};
 use crate::motion::reference::{Action, SwitchLevels};
-use crate::motion::{Limits, Mode, RampParams, TICK};
+use crate::motion::{Limits, Mode, RampParams, SearchMode, TICK};
 use crate::param::banks::Banks;
 use crate::seam::Seam;
 use crate::time::{Duration, Instant};
+use tmcl_wire::{RfsAction, Status};
 
 /// What a motor's tick or command did that reaches beyond the motor, for the module to apply: the stops
 /// for a fault it made (AP 207 bits, [`error_flags`](crate::drive::error_flags): a stall raises the stall interrupt; a deviation or
@@ -258,6 +259,51 @@ impl<B: Board> Motor<'_, B> {
             }
         }
         faults
+    }
+
+    /// What MVP REL counts from: AP 127 (TMCM-1316's options: 0 the last target, 1 the ramp's position,
+    /// 2 the encoder), or the actual position for a model without it (PD28-1021 §3.7.4).
+    pub(crate) fn relative_base(&mut self) -> i32 {
+        match self.ap(Setting::RelativePositioning) {
+            Some(0) => self.axis.ramp.target_position,
+            Some(2) => self.encoder_position(),
+            _ => self.axis.ramp.position,
+        }
+    }
+
+    /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions. The
+    /// value the reply carries, and (START) the pending 138 event dropped: the search takes the motor over.
+    pub(crate) fn reference_search(&mut self, action: RfsAction) -> Result<(i32, Faults), Status> {
+        match action {
+            RfsAction::Start => {
+                // AP 193 is range-checked on write, so it always decodes.
+                let value = self.ap(Setting::ReferenceSearchMode).ok_or(Status::NotAvailable)?;
+                let mode = SearchMode::decode(value, self.spec.reference_modes).ok_or(Status::InvalidValue)?;
+                let (fast, slow) = self.reference_speeds();
+                if fast == 0 || slow == 0 {
+                    // A search at speed 0 would never end: refused (our decision).
+                    return Err(Status::InvalidValue);
+                }
+                let axis = &mut *self.axis;
+                axis.error_flags = 0;
+                axis.leave_torque_mode();
+                axis.interpolation = None;
+                if let Action::Rotate(v) = axis.reference.start(mode, fast) {
+                    axis.ramp.hard_stop();
+                    axis.ramp.rotate(v);
+                }
+                Ok((0, Faults { stops: 0, drop_event: true }))
+            }
+            RfsAction::Stop => {
+                let axis = &mut *self.axis;
+                if axis.reference.is_active() {
+                    axis.reference.stop();
+                    axis.ramp.rotate(0);
+                }
+                Ok((0, Faults::NONE))
+            }
+            RfsAction::Status => Ok((self.axis.reference.status(), Faults::NONE)),
+        }
     }
 
     /// The search and switch speeds of the reference search in microsteps per second (AP 194, 195).

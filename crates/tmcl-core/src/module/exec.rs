@@ -19,16 +19,12 @@
 
 use super::{params, Axis, EventRequest, Module, Origin, Outcome};
 use crate::hal::{Analog, Board, Inputs, Outputs};
-use crate::model::{AppStatusReply, Driver, ModelSpec, PortKind, Setting};
-use crate::motion::reference::Action;
-use crate::motion::SearchMode;
+use crate::model::{AppStatusReply, Driver, ModelSpec, PortKind};
 use crate::param::{persist, ParamError, Role};
 use crate::time::Instant;
 use crate::vm::{alu, Registers, Vm};
 use tmcl_wire::command::MAGIC_KEY;
-use tmcl_wire::{
-    CalcOp, CalcxOp, Command, EventMode, MoveTarget, RfsAction, Status, StatusKind, VersionFormat, FRAME_LEN,
-};
+use tmcl_wire::{CalcOp, CalcxOp, Command, EventMode, MoveTarget, Status, StatusKind, VersionFormat, FRAME_LEN};
 
 type Exec = Result<Outcome, Status>;
 
@@ -146,7 +142,9 @@ impl<B: Board> Module<B> {
             // §3.7.13 RFS START/STOP/STATUS.
             C::Rfs { action, motor } => {
                 let m = self.motor(motor)?;
-                value(self.reference_search(m, action)?)
+                let (v, faults) = self.motor_at(m).reference_search(action)?;
+                self.apply(m, faults);
+                value(v)
             }
             // §3.7.14 SIO: bank 2 outputs; port 255 sets all from a bit vector, −1 takes it from A.
             C::Sio { port, bank, value: v } => {
@@ -315,7 +313,7 @@ impl<B: Board> Module<B> {
         let to = match target {
             MoveTarget::Abs(p) => p,
             // "an offset to the actual position ... must not exceed the above mentioned limits".
-            MoveTarget::Rel(d) => self.relative_base(m).checked_add(d).ok_or(Status::InvalidValue)?,
+            MoveTarget::Rel(d) => self.motor_at(m).relative_base().checked_add(d).ok_or(Status::InvalidValue)?,
             MoveTarget::Coord(n) => self.st.axes[m].coords[self.move_coordinate(n)?],
         };
         self.check_target(to)?;
@@ -381,16 +379,6 @@ impl<B: Board> Module<B> {
         }
     }
 
-    /// What MVP REL counts from: AP 127 (TMCM-1316's options: 0 the last target, 1 the ramp's position,
-    /// 2 the encoder), or the actual position for a model without it (PD28-1021 §3.7.4).
-    fn relative_base(&mut self, m: usize) -> i32 {
-        match self.ap(m, Setting::RelativePositioning) {
-            Some(0) => self.st.axes[m].ramp.target_position,
-            Some(2) => self.motor_at(m).encoder_position(),
-            _ => self.st.axes[m].ramp.position,
-        }
-    }
-
     /// The motor byte of a command: a motor of the model, else status 4 (PD28-1021 manual §3.5: the
     /// motor/bank byte; chapter 3's status table: 4 = invalid value).
     pub(crate) fn motor(&self, motor: u8) -> Result<usize, Status> {
@@ -398,39 +386,6 @@ impl<B: Board> Module<B> {
             Ok(usize::from(motor))
         } else {
             Err(ParamError::NoSuchMotor.into())
-        }
-    }
-
-    /// RFS START/STOP/STATUS (§3.7.13, §7.1); see [`crate::motion::reference`] for the decisions.
-    fn reference_search(&mut self, m: usize, action: RfsAction) -> Result<i32, Status> {
-        match action {
-            RfsAction::Start => {
-                // AP 193 is range-checked on write, so it always decodes.
-                let value = self.ap(m, Setting::ReferenceSearchMode).ok_or(Status::NotAvailable)?;
-                let mode = SearchMode::decode(value, self.spec.reference_modes).ok_or(Status::InvalidValue)?;
-                let (fast, slow) = self.motor_at(m).reference_speeds();
-                if fast == 0 || slow == 0 {
-                    // A search at speed 0 would never end: refused (our decision).
-                    return Err(Status::InvalidValue);
-                }
-                self.st.axes[m].error_flags = 0;
-                self.st.event.pending = false;
-                self.st.axes[m].leave_torque_mode();
-                self.st.axes[m].interpolation = None;
-                if let Action::Rotate(v) = self.st.axes[m].reference.start(mode, fast) {
-                    self.st.axes[m].ramp.hard_stop();
-                    self.st.axes[m].ramp.rotate(v);
-                }
-                Ok(0)
-            }
-            RfsAction::Stop => {
-                if self.st.axes[m].reference.is_active() {
-                    self.st.axes[m].reference.stop();
-                    self.st.axes[m].ramp.rotate(0);
-                }
-                Ok(0)
-            }
-            RfsAction::Status => Ok(self.st.axes[m].reference.status()),
         }
     }
 }
