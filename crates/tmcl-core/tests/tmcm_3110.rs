@@ -361,3 +361,26 @@ fn interpolation_ends_with_a_new_target() {
     r.run(Duration::from_millis(500));
     assert_eq!((r.gap(3, 0), r.gap(3, 2)), (1000, 1000), "motor 2's own AP 4 for its new target");
 }
+
+/// The pulse divisor (AP 154) of one axis scales that axis's TMC429 clock: its velocity registers keep
+/// their values in units (AP 2 and AP 3 read the same after the write, the speed in microsteps per second
+/// follows), and the other axes are not touched. (Before the motor became a component of its own, a
+/// divisor written on motor 1 kept motor 1's speed in microsteps per second, so its AP 3 jumped.)
+#[test]
+fn pulse_divisor_keeps_each_axis_velocity_in_units() {
+    let mut r = Rig::of(&tmcm_3110::SPEC);
+    r.ok(Opcode::Ror, 0, 0, 300);
+    r.ok(Opcode::Ror, 0, 1, 300);
+    r.run(Duration::from_millis(500));
+    assert_eq!((r.gap(3, 0), r.gap(3, 1)), (300, 300), "both turning at 300");
+    let divisor = r.gap(154, 1);
+    let position = r.gap(1, 1);
+    r.ok(Opcode::Sap, 154, 1, divisor + 1);
+    assert_eq!((r.gap(2, 1), r.gap(3, 1)), (300, 300), "motor 1's registers keep their units");
+    assert_eq!((r.gap(2, 0), r.gap(3, 0), r.gap(154, 0)), (300, 300, divisor), "motor 0 untouched");
+    // Half the clock: motor 1 now covers half the distance motor 0 does in the same time.
+    let (p0, p1) = (r.gap(1, 0), r.gap(1, 1));
+    r.run(Duration::from_millis(1000));
+    let (d0, d1) = (r.gap(1, 0) - p0, r.gap(1, 1) - p1);
+    assert!(d1 > 0 && (2 * d1 - d0).abs() <= 2, "motor 0 moved {d0}, motor 1 {d1} (from {position})");
+}
