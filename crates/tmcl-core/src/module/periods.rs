@@ -290,8 +290,8 @@ impl<B: Board> Module<B> {
         if moved % whole != 0 || i128::from(moved) * i128::from(f) != i128::from(shift) * i128::from(r) {
             return None;
         }
-        // The conversion truncates towards the encoder's reference (`Motor::encoder_value`, `axis/drive.rs`): the period
-        // and its repetitions lie on one side of it.
+        // The conversion truncates towards the encoder's reference (`Motor::encoder_value`, `axis/drive.rs`):
+        // the period and its repetitions lie on one side of it.
         let margin = self.count_margin(c.stray, c.ramp.velocity_micro(), c.ticks)?;
         let (before, after) = (c.counts - axis.encoder.counts, counts - axis.encoder.counts);
         if before.signum() != after.signum() || before.abs() < margin || after.abs() < margin {
