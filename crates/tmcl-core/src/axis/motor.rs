@@ -28,8 +28,8 @@ use tmcl_wire::{RfsAction, Status};
 /// What a motor's tick or command did that reaches beyond the motor, for the module to apply: the stops
 /// for a fault it made (AP 207 bits, [`error_flags`](crate::drive::error_flags): a stall raises the stall
 /// interrupt; a deviation or following error sets the program's deviation flag and raises the deviation
-/// interrupt, PD28-1021 manual §6.2, §7.2, §3.6.6.1), and whether the pending 138 event is dropped (a stop for a fault, or
-/// torque mode, ends the move it waited for).
+/// interrupt, PD28-1021 manual §6.2, §7.2, §3.6.6.1), and whether the pending 138 event is dropped (a
+/// stop for a fault, or torque mode, ends the move it waited for).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[must_use]
 pub(crate) struct Faults {
