@@ -5,7 +5,8 @@
 #
 # Usage: scripts/pty-bench.sh [ROUNDS] [REQUESTS]      (default 5 rounds of 20 000 requests)
 #   BEFORE_BENCH=PATH: also the `throughput` bench of another build (its client, `--only pty`: 20 000
-#   requests to a `tmcl serve` it starts itself, this checkout's), in the same rounds.
+#   requests to a `tmcl serve` it starts itself, this checkout's), in the same rounds, and its system calls
+#   per request against this checkout's `tmcl serve`.
 #   Each round runs, one after the other: the C echo (blocking read/write), the C echo waiting in poll()
 #   before each read (as a server with deadlines must), and `tmcl serve --pty` with the Rust client
 #   (`throughput --only pty`, GAP 1); each prints its median, p90, p99 round trip. Then once each under
@@ -32,7 +33,7 @@ start() { # start NAME: a server on $tmp/NAME, its PID in $server
     case "$1" in
         c) "$tmp/pty-echo" serve "$tmp/c" & ;;
         cpoll) "$tmp/pty-echo" serve "$tmp/cpoll" poll & ;;
-        rust) "$tmcl" serve --pty "$tmp/rust" >/dev/null & ;;
+        rust | before) "$tmcl" serve --pty "$tmp/$1" >/dev/null & ;;
     esac
     server=$!
     wait_link "$tmp/$1"
@@ -44,7 +45,7 @@ client() { # client NAME: N round trips on $tmp/NAME
         rust) PTY_LINK="$tmp/rust" PTY_N="$n" "$bench" --only pty | sed 's/^pty round trip (GAP 1, Rust client) *//' ;;
     esac
 }
-label() { case "$1" in c) echo "C echo      " ;; cpoll) echo "C echo, poll" ;; rust) echo "tmcl serve  " ;; esac; }
+label() { case "$1" in c) echo "C echo      " ;; cpoll) echo "C echo, poll" ;; rust) echo "tmcl serve  " ;; before) echo "tmcl serve, client before" ;; esac; }
 
 for r in $(seq "$rounds"); do
     for s in c cpoll rust; do
@@ -61,7 +62,9 @@ per_request() { # the strace -c table in $1: calls per request
     awk -v n="$n" '$0 ~ /^ *[0-9.]+ +[0-9.]+ +[0-9]+ +[0-9]+/ {
         calls = $4; name = $NF; if (name != "total" && calls >= n / 2) printf " %s %.2f", name, calls / n }' "$1"
 }
-for s in c cpoll rust; do
+traced="c cpoll rust"
+[[ -n "${BEFORE_BENCH:-}" ]] && traced="$traced before"
+for s in $traced; do
     start "$s"
     strace -c -f -o "$tmp/server.txt" -p "$server" 2>/dev/null &
     tracer=$!
@@ -69,6 +72,7 @@ for s in c cpoll rust; do
     case "$s" in
         c | cpoll) strace -c -f -o "$tmp/client.txt" "$tmp/pty-echo" client "$tmp/$s" "$n" >/dev/null ;;
         rust) PTY_LINK="$tmp/rust" PTY_N="$n" strace -c -f -o "$tmp/client.txt" "$bench" --only pty >/dev/null ;;
+        before) PTY_LINK="$tmp/before" PTY_N="$n" strace -c -f -o "$tmp/client.txt" "$BEFORE_BENCH" --only pty >/dev/null ;;
     esac
     kill -INT "$tracer"
     wait "$tracer" 2>/dev/null || true

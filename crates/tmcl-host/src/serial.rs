@@ -1,10 +1,23 @@
 //! Serial ports (RS485 or RS232 adapters) and ptys, such as the link that `tmcl serve --pty LINK` creates.
+//!
+//! On Linux the port is the transport's own (`linux.rs`): a request costs one `write` and one `read`, as
+//! the least a client can do (docs/benchmarks.md, "The pty path"). Elsewhere it is the `serialport`
+//! crate's (`portable.rs`), which polls before each read and write.
 
 use crate::error::HostError;
 use crate::transport::{recv_until_deadline, Transport};
-use serialport::{ClearBuffer, SerialPort};
-use std::io::{self, Read, Write};
+use std::io;
 use std::time::Duration;
+
+#[cfg(target_os = "linux")]
+mod linux;
+#[cfg(target_os = "linux")]
+use linux::Port;
+// Compiled on Linux too for its tests, which keep it building and behaving as the Linux port does.
+#[cfg(any(not(target_os = "linux"), test))]
+mod portable;
+#[cfg(not(target_os = "linux"))]
+use portable::Port;
 
 /// How long one `write` may block: a 9-byte frame at 9600 baud takes under 10 ms.
 const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
@@ -13,6 +26,15 @@ const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
 /// lock of its own pty for a moment now and then, to clear the exclusive flag a killed host left behind.
 const OPEN_TRIES: u32 = 3;
 const OPEN_RETRY: Duration = Duration::from_millis(15);
+
+/// Why a port did not open.
+#[derive(Debug)]
+enum OpenError {
+    /// Another program holds it: `EBUSY` from its `TIOCEXCL`, or its `flock`.
+    Busy,
+    /// Anything else, as the operating system said it.
+    Other(io::Error),
+}
 
 /// A serial port opened 8N1, raw, without flow control, in the way pyserial opens one, but exclusively.
 ///
@@ -26,13 +48,20 @@ const OPEN_RETRY: Duration = Duration::from_millis(15);
 ///
 /// The modem lines are left alone, so ptys, which ignore the baud rate and reject modem-line ioctls, open
 /// like real ports. Input pending at open time is discarded.
+///
+/// **Timeouts.** A reply is waited for as long as [`Transport::recv_exact`] is told, a `write` for room
+/// 2 s at most. A line that hangs up (on a pty: the module side closed it) is an I/O error at once, not a
+/// timeout. On Linux a request costs one `write` and one `read` system call (the wait is the terminal's
+/// `VTIME`; see `serial/linux.rs`).
 pub struct SerialTransport {
-    port: Box<dyn SerialPort>,
+    port: Port,
+    /// The path as given to [`SerialTransport::open`].
+    name: String,
 }
 
 impl std::fmt::Debug for SerialTransport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SerialTransport").field("port", &self.port.name()).finish()
+        f.debug_struct("SerialTransport").field("port", &self.name).finish()
     }
 }
 
@@ -46,20 +75,12 @@ impl SerialTransport {
     /// for anything else.
     pub fn open(path: &str, baud: u32) -> Result<SerialTransport, HostError> {
         check_link(std::path::Path::new(path))?;
-        let builder = serialport::new(path, baud)
-            .data_bits(serialport::DataBits::Eight)
-            .parity(serialport::Parity::None)
-            .stop_bits(serialport::StopBits::One)
-            .flow_control(serialport::FlowControl::None)
-            .exclusive(true)
-            .timeout(WRITE_TIMEOUT);
         let mut tries = 0;
         let port = loop {
             tries += 1;
-            match builder.clone().open() {
+            match Port::open(path, baud) {
                 Ok(port) => break port,
-                // EBUSY from TIOCEXCL or EWOULDBLOCK from flock: another program has the port.
-                Err(e) if e.kind() == serialport::ErrorKind::NoDevice => {
+                Err(OpenError::Busy) => {
                     if tries < OPEN_TRIES {
                         std::thread::sleep(OPEN_RETRY);
                         continue;
@@ -71,10 +92,10 @@ impl SerialTransport {
                             .to_owned(),
                     });
                 }
-                Err(e) => return Err(HostError::Open { target: path.to_owned(), source: e.into() }),
+                Err(OpenError::Other(source)) => return Err(HostError::Open { target: path.to_owned(), source }),
             }
         };
-        let mut transport = SerialTransport { port };
+        let mut transport = SerialTransport { port, name: path.to_owned() };
         transport.clear_input();
         Ok(transport)
     }
@@ -108,7 +129,7 @@ impl SerialTransport {
 
     /// The port's name as given to [`SerialTransport::open`].
     pub fn name(&self) -> Option<String> {
-        self.port.name()
+        Some(self.name.clone())
     }
 }
 
@@ -176,7 +197,6 @@ pub fn check_link(path: &std::path::Path) -> Result<(), HostError> {
 
 impl Transport for SerialTransport {
     fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.port.set_timeout(WRITE_TIMEOUT).map_err(io::Error::from)?;
         // Not flushed (`tcdrain`): the reply is waited for anyway, and on a pty the flush is a system call
         // per request that waits for nothing (docs/benchmarks.md, "The pty path").
         self.port.write_all(bytes).map_err(hung_up)
@@ -184,20 +204,18 @@ impl Transport for SerialTransport {
 
     fn recv_exact(&mut self, buf: &mut [u8], timeout: Duration) -> Result<(), HostError> {
         let port = &mut self.port;
-        recv_until_deadline(buf, timeout, |chunk, left| {
-            port.set_timeout(left).map_err(io::Error::from)?;
-            port.read(chunk).map_err(hung_up)
-        })
+        recv_until_deadline(buf, timeout, |chunk, left| port.read(chunk, left).map_err(hung_up))
     }
 
     fn clear_input(&mut self) {
         // A port that cannot flush will fail the next read too, with a better message.
-        let _ = self.port.clear(ClearBuffer::Input);
+        let _ = self.port.clear_input();
     }
 }
 
-/// Words for the `BrokenPipe` that `serialport` reports on `POLLHUP`: on a pty it means the module process
-/// closed its side (pyserial says "device reports readiness to read but returned no data").
+/// Words for the `BrokenPipe` the ports report when the line hangs up (`POLLHUP`, or `EIO` from a pty whose
+/// other side closed): on a pty it means the module process closed its side (pyserial says "device reports
+/// readiness to read but returned no data").
 fn hung_up(e: io::Error) -> io::Error {
     if e.kind() == io::ErrorKind::BrokenPipe {
         io::Error::new(io::ErrorKind::BrokenPipe, "the port hung up (on a pty: the module side closed it)")

@@ -67,6 +67,105 @@ fn serial_transport_on_a_pty_symlink() {
     assert!(started.elapsed() < Duration::from_secs(2));
 }
 
+/// A pty pair: the master as a file (the module's side) and the slave's path (the host's).
+fn pty() -> (File, std::path::PathBuf, std::os::fd::OwnedFd) {
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let slave_path = nix::unistd::ttyname(&pty.slave).unwrap();
+    (File::from(pty.master), slave_path, pty.slave)
+}
+
+/// A wait for a reply ends when asked, not sooner and not much later: one measured in the terminal's tenths
+/// of a second (`VTIME`), one shorter than a tenth, one longer than the longest `VTIME`'s first tenths.
+/// Stale input is cleared. A reply that arrives in two pieces is put together, and the next request reads
+/// as the first did.
+#[test]
+fn serial_timeouts_end_when_asked_and_replies_in_pieces_arrive_whole() {
+    use tmcl_host::Transport;
+    let (master, path, _slave) = pty();
+    let mut transport = SerialTransport::open(path.to_str().unwrap(), 9600).unwrap();
+    let mut buf = [0u8; FRAME_LEN];
+    for ms in [40, 250, 1_230] {
+        let timeout = Duration::from_millis(ms);
+        let started = std::time::Instant::now();
+        let err = transport.recv_exact(&mut buf, timeout).unwrap_err();
+        let waited = started.elapsed();
+        assert!(matches!(err, HostError::Timeout { received: 0, .. }), "{err:?}");
+        // Loose bounds: the machine may be busy.
+        assert!(waited >= timeout && waited < timeout + Duration::from_millis(400), "{ms} ms: waited {waited:?}");
+    }
+
+    // Input from before is dropped: the next wait gets nothing.
+    (&master).write_all(b"stale").unwrap();
+    thread::sleep(Duration::from_millis(20));
+    transport.clear_input();
+    let err = transport.recv_exact(&mut buf, Duration::from_millis(150)).unwrap_err();
+    assert!(matches!(err, HostError::Timeout { received: 0, .. }), "{err:?}");
+
+    let module = thread::spawn(move || {
+        let mut frame = [0u8; FRAME_LEN];
+        for _ in 0..2 {
+            (&master).read_exact(&mut frame).unwrap();
+            let reply = answer(&frame);
+            (&master).write_all(&reply[..4]).unwrap();
+            thread::sleep(Duration::from_millis(150));
+            (&master).write_all(&reply[4..]).unwrap();
+        }
+        master
+    });
+    let mut client = Client::new(transport).with_timeout(Duration::from_secs(5));
+    assert_eq!(client.get_axis_parameter(3, 0).unwrap(), -300);
+    assert_eq!(client.get_axis_parameter(2, 0).unwrap(), -200);
+    drop(module.join().unwrap());
+}
+
+/// The module side closing the pty is reported at once as a hang-up, in words: while the host waits for a
+/// reply (not after its 10 s timeout), and when it sends the next request.
+#[test]
+fn serial_hang_up_is_reported_at_once() {
+    use tmcl_host::Transport;
+    let (master, path, slave) = pty();
+    let mut transport = SerialTransport::open(path.to_str().unwrap(), 9600).unwrap();
+    drop(slave);
+    let module = thread::spawn(move || {
+        thread::sleep(Duration::from_millis(300));
+        drop(master);
+    });
+    let mut buf = [0u8; FRAME_LEN];
+    let started = std::time::Instant::now();
+    let err = transport.recv_exact(&mut buf, Duration::from_secs(10)).unwrap_err();
+    assert!(started.elapsed() < Duration::from_secs(3), "waited {:?}", started.elapsed());
+    assert!(matches!(err, HostError::Io(_)), "{err:?}");
+    assert!(err.to_string().contains("hung up"), "{err}");
+    module.join().unwrap();
+
+    let started = std::time::Instant::now();
+    let err = transport.recv_exact(&mut buf, Duration::from_secs(10)).unwrap_err();
+    assert!(err.to_string().contains("hung up") && started.elapsed() < Duration::from_secs(1), "{err}");
+    let err = transport.send(&[1; FRAME_LEN]).unwrap_err();
+    assert!(err.to_string().contains("hung up"), "{err}");
+}
+
+/// A module that reads nothing: once the pty is full, a request fails after the write timeout (2 s)
+/// instead of blocking the host for good.
+#[test]
+fn serial_write_times_out_when_the_module_reads_nothing() {
+    use tmcl_host::Transport;
+    let (_master, path, _slave) = pty();
+    let mut transport = SerialTransport::open(path.to_str().unwrap(), 9600).unwrap();
+    let started = std::time::Instant::now();
+    let mut sent = 0usize;
+    let err = loop {
+        match transport.send(&[1; FRAME_LEN]) {
+            Ok(()) => sent += FRAME_LEN,
+            Err(e) => break e,
+        }
+        assert!(sent < 1 << 24, "the pty never filled");
+    };
+    let waited = started.elapsed();
+    assert_eq!(err.kind(), std::io::ErrorKind::TimedOut, "{err}");
+    assert!(waited >= Duration::from_secs(2) && waited < Duration::from_secs(4), "after {sent} bytes, {waited:?}");
+}
+
 #[test]
 fn serial_transport_open_error_names_the_path() {
     let err = SerialTransport::open("/nonexistent/tmcl-port", 9600).unwrap_err();
