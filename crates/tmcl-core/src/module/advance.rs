@@ -38,7 +38,6 @@
 use super::{Module, State};
 use crate::hal::prelude::*;
 use crate::hal::Board;
-use crate::model::ModelSpec;
 use crate::model::Setting;
 use crate::motion::reference::{Action, SwitchLevels};
 use crate::motion::{Mode, RampParams, TICK};
@@ -447,7 +446,7 @@ impl<B: Board> Module<B> {
     /// When the heartbeat runs out (GP 68), if it is armed: the first time more than its milliseconds
     /// after the last command.
     pub(super) fn heartbeat_expiry(&self) -> Option<Instant> {
-        heartbeat_expiry(self.spec, &self.st)
+        heartbeat_expiry(&self.st)
     }
 
     /// §5.1 GP 68: stop the motor when no command arrived within the heartbeat time (milliseconds; the
@@ -537,7 +536,7 @@ impl<B: Board> Module<B> {
 
 /// When the heartbeat runs out (GP 68) in `st`, if it is armed (see [`Module::check_heartbeat`]).
 #[inline]
-pub(super) fn heartbeat_expiry(spec: &ModelSpec, st: &State) -> Option<Instant> {
-    let limit = spec.global.setting(Setting::SerialHeartbeat).map_or(0, |i| st.banks.global[i]);
+pub(super) fn heartbeat_expiry(st: &State) -> Option<Instant> {
+    let limit = st.banks.ready().heartbeat;
     (limit > 0 && !st.heartbeat_tripped).then(|| st.last_command + Duration::from_millis(limit as u64))
 }

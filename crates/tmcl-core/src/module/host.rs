@@ -8,7 +8,7 @@
 use super::{Module, Origin, Outcome, ReplyOf};
 use crate::hal::Board;
 use crate::iface::{Sink, MAILBOX_LEN};
-use crate::model::{AppStatusReply, Framing, InterfaceDesc, Setting};
+use crate::model::{AppStatusReply, Framing, InterfaceDesc};
 use crate::time::{Duration, Instant};
 use tmcl_model::capacity::MAX_INTERFACES;
 use tmcl_wire::{Command, CommandSet, Frame, Instruction, Opcode, Reply, Request, Status, StatusKind, FRAME_LEN};
@@ -237,8 +237,8 @@ impl<B: Board> Module<B> {
         let address = frame.address();
         // §3.1 / §5.1 GP 66, GP 87: on a bus, frames for other addresses get no reply at all.
         if iface.address_filter {
-            let secondary = self.gp(Setting::SecondaryAddress).unwrap_or(0) as u8;
-            if address != self.address() && (secondary == 0 || address != secondary) {
+            let ready = self.st.banks.ready();
+            if address != ready.address && (ready.secondary == 0 || address != ready.secondary) {
                 return;
             }
         }
@@ -301,7 +301,7 @@ impl<B: Board> Module<B> {
     /// always reply).
     #[inline]
     pub(crate) fn suppressed(&self, iface: &InterfaceDesc, opcode: u8) -> bool {
-        iface.suppressible && self.gp_flag(Setting::SuppressReply) && !CommandSet::ALWAYS_REPLY.contains_code(opcode)
+        iface.suppressible && self.st.banks.ready().suppress && !CommandSet::ALWAYS_REPLY.contains_code(opcode)
     }
 
     /// When a reply on `iface` to a command at `now` is due (§5.1 GP 75: the telegram pause, in ms).
@@ -310,7 +310,7 @@ impl<B: Board> Module<B> {
         if !iface.telegram_pause {
             return now;
         }
-        now + Duration::from_millis(self.gp(Setting::TelegramPause).unwrap_or(0).max(0) as u64)
+        now + Duration::from_millis(u64::from(self.st.banks.ready().pause_ms))
     }
 
     #[inline]
