@@ -246,7 +246,7 @@ impl<B: Board> Module<B> {
         self.st.heartbeat_tripped = false;
         match Request::parse(&frame) {
             // §3.2.1 status 1; the reply carries opcode 0 and value 0, as Trinamic's TMCL code does.
-            Err(_) => self.queue_reply(port, iface, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
+            Err(_) => self.queue_reply_aside(port, iface, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
             Ok(request) => self.handle_instruction(port, iface, request.instruction, bytes[1], now),
         }
     }
@@ -262,7 +262,7 @@ impl<B: Board> Module<B> {
                 Ok(()) => Status::Loaded,
                 Err(status) => status,
             };
-            self.queue_reply(port, iface, op, Ok((status, i.value, op)), now);
+            self.queue_reply_aside(port, iface, op, Ok((status, i.value, op)), now);
             return;
         }
         self.st.asking_port = port as u8;
@@ -274,7 +274,7 @@ impl<B: Board> Module<B> {
             self.exec(c, now, Origin::Host)
         });
         let reply = match result {
-            Ok(Outcome::Value(v)) => Ok((Status::Ok, v, op)),
+            Ok(Outcome::Value(v) | Outcome::Restart(v)) => Ok((Status::Ok, v, op)),
             Ok(Outcome::Raw(raw)) => Err(raw),
             Ok(Outcome::Silent) => {
                 if i.opcode == Opcode::FactoryDefault {
@@ -282,19 +282,17 @@ impl<B: Board> Module<B> {
                 }
                 return;
             }
-            Ok(Outcome::Restart(v)) => {
-                self.queue_reply(port, iface, op, Ok((Status::Ok, v, op)), now);
-                self.start(now);
-                return;
-            }
-            Ok(Outcome::EnterAscii) => {
-                self.queue_reply(port, iface, op, Ok((Status::Ok, 0, op)), now);
-                self.enter_ascii(port);
-                return;
-            }
+            Ok(Outcome::EnterAscii) => Ok((Status::Ok, 0, op)),
             Err(status) => Ok((status, i.value, op)),
         };
+        // One place queues the reply (so that its code, inlined, is there once); a restart and the switch
+        // to ASCII mode come after it.
         self.queue_reply(port, iface, op, reply, now);
+        match result {
+            Ok(Outcome::Restart(_)) => self.start(now),
+            Ok(Outcome::EnterAscii) => self.enter_ascii(port),
+            _ => {}
+        }
     }
 
     /// Whether replies on `iface` are suppressed for command `opcode` (§5.1 GP 255; GAP, GGP and GIO
@@ -313,13 +311,30 @@ impl<B: Board> Module<B> {
         now + Duration::from_millis(u64::from(self.st.banks.ready().pause_ms))
     }
 
-    #[inline]
+    /// Queues `reply` to command `opcode` on `port` unless suppressed, due after the telegram pause.
+    #[inline(always)]
     fn queue_reply(&mut self, port: usize, iface: &InterfaceDesc, opcode: u8, reply: ReplyOf, now: Instant) {
         if self.suppressed(iface, opcode) {
             return;
         }
         let due = self.reply_due(iface, now);
-        self.push_reply(port, iface.framing, opcode, reply, due);
+        match reply {
+            // The common case, built straight into the outbox.
+            Ok((status, value, op)) if iface.framing == Framing::Binary => {
+                let bytes = self.reply_bytes(status, op, value);
+                if let Some(p) = self.st.ports.get_mut(port) {
+                    p.outbox.push_frame(bytes, due);
+                }
+            }
+            _ => self.push_reply(port, iface.framing, opcode, reply, due),
+        }
+    }
+
+    /// [`Module::queue_reply`] for the replies off the usual way (a wrong checksum, download mode), not
+    /// inlined there.
+    #[inline(never)]
+    fn queue_reply_aside(&mut self, port: usize, iface: &InterfaceDesc, opcode: u8, reply: ReplyOf, now: Instant) {
+        self.queue_reply(port, iface, opcode, reply, now);
     }
 
     /// Queues a reply to command `opcode` on `port` in the interface's framing: 9 bytes, or 8 in a mailbox
@@ -339,6 +354,7 @@ impl<B: Board> Module<B> {
         }
     }
 
+    #[inline(always)]
     pub(crate) fn reply_bytes(&self, status: Status, opcode: u8, value: i32) -> [u8; FRAME_LEN] {
         Reply { host: self.host_address(), module: self.address(), status, opcode, value }.to_bytes()
     }
