@@ -63,7 +63,7 @@ impl<B: Board> Module<B> {
     }
 
     /// Runs the motion controller and timers up to `now`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn advance(&mut self, now: Instant) {
         if now < self.st.now {
             // Time never runs backwards for the module; a caller's late timestamp is taken as "now".
@@ -94,6 +94,7 @@ impl<B: Board> Module<B> {
     }
 
     /// [`Module::advance`] when a tick is due or a program runs.
+    #[inline(never)]
     fn advance_ticks(&mut self, now: Instant) {
         self.st.now = now;
         let motors = self.st.axes.count();
@@ -416,6 +417,7 @@ impl<B: Board> Module<B> {
 
     /// §3.7.37: the second reply of command 138 when an MVP's target is reached, on the interface that
     /// asked for it.
+    #[inline(always)]
     fn check_event(&mut self, now: Instant) {
         if self.st.event.pending && self.event_reached() {
             self.st.event.pending = false;
