@@ -49,6 +49,7 @@ impl Framer {
     }
 
     /// As [`Framer::push`], with the gap after which a partial frame is dropped (`None`: it never is).
+    #[inline(never)]
     pub fn push_within(&mut self, byte: u8, now: Instant, timeout: Option<Duration>) -> Option<[u8; FRAME_LEN]> {
         if self.len > 0 && timeout.is_some_and(|t| now - self.last > t) {
             self.len = 0;

@@ -70,6 +70,7 @@ impl<B: Board> Module<B> {
         self.inter_byte_timeout = timeout;
     }
 
+    #[inline(never)]
     fn take_bytes(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink, in_turn: bool) -> usize {
         let Some(iface) = self.open_port(port, Framing::Binary, now, sink) else { return bytes.len() };
         let mut rest = bytes;
@@ -334,7 +335,10 @@ impl<B: Board> Module<B> {
     /// inlined there.
     #[inline(never)]
     fn queue_reply_aside(&mut self, port: usize, iface: &InterfaceDesc, opcode: u8, reply: ReplyOf, now: Instant) {
-        self.queue_reply(port, iface, opcode, reply, now);
+        if !self.suppressed(iface, opcode) {
+            let due = self.reply_due(iface, now);
+            self.push_reply(port, iface.framing, opcode, reply, due);
+        }
     }
 
     /// Queues a reply to command `opcode` on `port` in the interface's framing: 9 bytes, or 8 in a mailbox
