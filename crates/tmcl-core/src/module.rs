@@ -127,10 +127,10 @@ pub struct State {
 }
 
 impl State {
-    fn new(motors: u8, now: Instant) -> State {
+    fn new(spec: &ModelSpec, now: Instant) -> State {
         State {
-            axes: Axes::new(motors, now),
-            banks: Banks::new(now),
+            axes: Axes::new(spec.motors, now),
+            banks: Banks::new(spec, now),
             regs: Registers::default(),
             host_regs: Registers::default(),
             event: EventRequest::default(),
@@ -230,7 +230,7 @@ impl<B: Board> Module<B> {
         Module {
             board: Seam::new(board),
             spec,
-            st: State::new(spec.motors, now),
+            st: State::new(spec, now),
             vm: Vm::default(),
             program: Program::default(),
             exact: false,
@@ -311,8 +311,9 @@ impl<B: Board> Module<B> {
     }
 
     /// The module (primary) address: GP 66, or 1 for a model without one.
+    #[inline]
     pub fn address(&self) -> u8 {
-        self.gp(Setting::SerialAddress).map_or(1, |a| a as u8)
+        self.st.banks.ready().address
     }
 
     /// Sets the module (primary) address by its meaning, the model's serial address setting (GP 66 on the
@@ -328,8 +329,9 @@ impl<B: Board> Module<B> {
     }
 
     /// The host address replies go to: GP 76, or 2 for a model without one (manual §3.2's examples).
+    #[inline]
     pub(crate) fn host_address(&self) -> u8 {
-        self.gp(Setting::HostAddress).map_or(2, |a| a as u8)
+        self.st.banks.ready().host
     }
 
     /// The baud-rate index (GP 65) in force since the last start (0 for a model without one).
@@ -370,7 +372,7 @@ impl<B: Board> Module<B> {
         }
         // Replies already queued (the reply of 255 itself) still go out.
         let outboxes = self.st.ports.each_mut().map(|p| core::mem::take(&mut p.outbox));
-        self.st = State::new(spec.motors, now);
+        self.st = State::new(spec, now);
         for (port, outbox) in self.st.ports.iter_mut().zip(outboxes) {
             port.outbox = outbox;
         }
@@ -387,12 +389,13 @@ impl<B: Board> Module<B> {
             }
         }
         for (i, d) in spec.global.params.iter().enumerate() {
-            self.st.banks.global[i] = d.default;
+            let mut v = d.default;
             if d.access.persistent() {
-                if let Ok(v) = persist::load_global(&mut self.board, spec, i) {
-                    self.st.banks.global[i] = if d.range.contains(v) { v } else { d.default };
+                if let Ok(stored) = persist::load_global(&mut self.board, spec, i) {
+                    v = if d.range.contains(stored) { stored } else { d.default };
                 }
             }
+            self.st.banks.set_global(spec, i, v);
         }
         for (i, d) in spec.interrupt.params.iter().enumerate() {
             self.st.banks.interrupt[i] = d.default;

@@ -219,7 +219,7 @@ pub struct Request {
 
 impl Request {
     /// Parses a frame whose length has been checked, verifying the checksum.
-    #[inline]
+    #[inline(always)]
     pub fn parse<T: AsRef<[u8]>>(frame: &Frame<T>) -> Result<Request, WireError> {
         frame.check_len()?;
         if !frame.verify_checksum() {

@@ -144,7 +144,7 @@ macro_rules! opcodes {
 
         impl Opcode {
             /// The opcode of a command number: `Opcode::from(code)`, usable in constants.
-            #[inline]
+            #[inline(always)]
             pub const fn from_code(code: u8) -> Opcode {
                 match code {
                     $( $code => Opcode::$variant, )*

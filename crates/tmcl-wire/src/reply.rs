@@ -161,11 +161,13 @@ impl Reply {
         frame.fill_checksum();
     }
 
-    /// The reply as nine bytes.
-    #[inline]
+    /// The reply as nine bytes (what [`Reply::emit`] writes, formed as an array: no view, no bounds to
+    /// check).
+    #[inline(always)]
     pub fn to_bytes(&self) -> [u8; FRAME_LEN] {
-        let mut bytes = [0u8; FRAME_LEN];
-        self.emit(&mut ReplyFrame::new_unchecked(&mut bytes[..]));
+        let [v0, v1, v2, v3] = self.value.to_be_bytes();
+        let mut bytes = [self.host, self.module, self.status.into(), self.opcode, v0, v1, v2, v3, 0];
+        bytes[field::CHECKSUM] = checksum(&bytes[..field::CHECKSUM]);
         bytes
     }
 }
@@ -220,6 +222,17 @@ mod tests {
         let event = Reply { host: 2, module: 1, status: Status::TargetReached, opcode: 138, value: 1 };
         assert_eq!(event.to_bytes(), EVENT_REPLY);
         assert_eq!(Response::Normal(event).to_bytes(), EVENT_REPLY);
+    }
+
+    proptest::proptest! {
+        /// `to_bytes` forms the array that `emit` writes through the view, for every field.
+        #[test]
+        fn to_bytes_is_emit(host: u8, module: u8, status: u8, opcode: u8, value: i32) {
+            let reply = Reply { host, module, status: status.into(), opcode, value };
+            let mut emitted = [0u8; FRAME_LEN];
+            reply.emit(&mut ReplyFrame::new_unchecked(&mut emitted[..]));
+            proptest::prop_assert_eq!(reply.to_bytes(), emitted);
+        }
     }
 
     #[test]

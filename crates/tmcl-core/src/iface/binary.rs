@@ -49,6 +49,7 @@ impl Framer {
     }
 
     /// As [`Framer::push`], with the gap after which a partial frame is dropped (`None`: it never is).
+    #[inline(never)]
     pub fn push_within(&mut self, byte: u8, now: Instant, timeout: Option<Duration>) -> Option<[u8; FRAME_LEN]> {
         if self.len > 0 && timeout.is_some_and(|t| now - self.last > t) {
             self.len = 0;
@@ -163,6 +164,22 @@ impl Outbox {
         }
     }
 
+    /// Queues a 9-byte frame to be sent at or after `due`, as [`Outbox::push`] does. The common case, a
+    /// reply to a request with nothing waiting, is the frame stored at the start of the ring in place.
+    #[inline(always)]
+    pub fn push_frame(&mut self, frame: [u8; FRAME_LEN], due: Instant) {
+        if self.count != 0 {
+            return self.push(&frame, due);
+        }
+        self.start = 0;
+        self.first = 0;
+        let (head, _) = self.bytes.split_first_chunk_mut::<FRAME_LEN>().expect("the outbox holds a frame");
+        *head = frame;
+        self.used = FRAME_LEN;
+        self.marks[0] = (FRAME_LEN as u16, due);
+        self.count = 1;
+    }
+
     fn drop_first(&mut self) {
         let n = usize::from(self.marks[self.first].0);
         self.start = (self.start + n) % OUTBOX_BYTES;
@@ -172,22 +189,23 @@ impl Outbox {
     }
 
     /// Sends every message due at `now`.
-    #[inline]
+    #[inline(always)]
     pub fn flush(&mut self, now: Instant, sink: &mut impl Sink) {
-        if self.count > 0 {
-            self.flush_due(now, sink);
+        if self.count == 0 {
+            return;
         }
+        let (n, due) = self.marks[self.first % OUTBOX_MESSAGES];
+        if self.count == 1 && self.start == 0 && due <= now {
+            // One message at the start of the ring (what `push` makes of a reply to a request).
+            self.count = 0;
+            self.used = 0;
+            sink.send(&self.bytes[..usize::from(n).min(OUTBOX_BYTES)]);
+            return;
+        }
+        self.flush_due(now, sink);
     }
 
     fn flush_due(&mut self, now: Instant, sink: &mut impl Sink) {
-        if self.count == 1 && self.start == 0 && self.marks[self.first].1 <= now {
-            // One message at the start of the ring (what `push` makes of a reply to a request).
-            let n = usize::from(self.marks[self.first].0);
-            self.count = 0;
-            self.used = 0;
-            sink.send(&self.bytes[..n]);
-            return;
-        }
         while self.count > 0 && self.marks[self.first].1 <= now {
             let n = usize::from(self.marks[self.first].0);
             let end = self.start + n;

@@ -38,7 +38,6 @@
 use super::{Module, State};
 use crate::hal::prelude::*;
 use crate::hal::Board;
-use crate::model::ModelSpec;
 use crate::model::Setting;
 use crate::motion::{Mode, RampParams, TICK};
 use crate::time::{Duration, Instant};
@@ -63,7 +62,7 @@ impl<B: Board> Module<B> {
     }
 
     /// Runs the motion controller and timers up to `now`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn advance(&mut self, now: Instant) {
         if now < self.st.now {
             // Time never runs backwards for the module; a caller's late timestamp is taken as "now".
@@ -94,6 +93,7 @@ impl<B: Board> Module<B> {
     }
 
     /// [`Module::advance`] when a tick is due or a program runs.
+    #[inline(never)]
     fn advance_ticks(&mut self, now: Instant) {
         self.st.now = now;
         let motors = self.st.axes.count();
@@ -359,6 +359,7 @@ impl<B: Board> Module<B> {
 
     /// §3.7.37: the second reply of command 138 when an MVP's target is reached, on the interface that
     /// asked for it.
+    #[inline(always)]
     fn check_event(&mut self, now: Instant) {
         if self.st.event.pending && self.event_reached() {
             self.st.event.pending = false;
@@ -389,7 +390,7 @@ impl<B: Board> Module<B> {
     /// When the heartbeat runs out (GP 68), if it is armed: the first time more than its milliseconds
     /// after the last command.
     pub(super) fn heartbeat_expiry(&self) -> Option<Instant> {
-        heartbeat_expiry(self.spec, &self.st)
+        heartbeat_expiry(&self.st)
     }
 
     /// §5.1 GP 68: stop the motor when no command arrived within the heartbeat time (milliseconds; the
@@ -479,7 +480,7 @@ impl<B: Board> Module<B> {
 
 /// When the heartbeat runs out (GP 68) in `st`, if it is armed (see [`Module::check_heartbeat`]).
 #[inline]
-pub(super) fn heartbeat_expiry(spec: &ModelSpec, st: &State) -> Option<Instant> {
-    let limit = spec.global.setting(Setting::SerialHeartbeat).map_or(0, |i| st.banks.global[i]);
+pub(super) fn heartbeat_expiry(st: &State) -> Option<Instant> {
+    let limit = st.banks.ready().heartbeat;
     (limit > 0 && !st.heartbeat_tripped).then(|| st.last_command + Duration::from_millis(limit as u64))
 }

@@ -56,8 +56,8 @@ impl<B: Board> Module<B> {
     /// Whether `c` is this module's address character (primary or secondary, GP 66/87).
     fn is_my_address(&self, c: u8) -> bool {
         let Some(a) = char_address(c.to_ascii_uppercase()) else { return false };
-        let secondary = self.gp(Setting::SecondaryAddress).unwrap_or(0) as u8;
-        a == self.address() || (secondary != 0 && a == secondary)
+        let ready = self.st.banks.ready();
+        a == ready.address || (ready.secondary != 0 && a == ready.secondary)
     }
 
     /// One byte of input in ASCII mode on interface `port` (which exists: the caller checked).

@@ -8,7 +8,7 @@
 use super::{Module, Origin, Outcome, ReplyOf};
 use crate::hal::Board;
 use crate::iface::{Sink, MAILBOX_LEN};
-use crate::model::{AppStatusReply, Framing, InterfaceDesc, Setting};
+use crate::model::{AppStatusReply, Framing, InterfaceDesc};
 use crate::time::{Duration, Instant};
 use tmcl_model::capacity::MAX_INTERFACES;
 use tmcl_wire::{Command, CommandSet, Frame, Instruction, Opcode, Reply, Request, Status, StatusKind, FRAME_LEN};
@@ -70,6 +70,7 @@ impl<B: Board> Module<B> {
         self.inter_byte_timeout = timeout;
     }
 
+    #[inline(never)]
     fn take_bytes(&mut self, port: usize, now: Instant, bytes: &[u8], sink: &mut impl Sink, in_turn: bool) -> usize {
         let Some(iface) = self.open_port(port, Framing::Binary, now, sink) else { return bytes.len() };
         let mut rest = bytes;
@@ -237,8 +238,8 @@ impl<B: Board> Module<B> {
         let address = frame.address();
         // §3.1 / §5.1 GP 66, GP 87: on a bus, frames for other addresses get no reply at all.
         if iface.address_filter {
-            let secondary = self.gp(Setting::SecondaryAddress).unwrap_or(0) as u8;
-            if address != self.address() && (secondary == 0 || address != secondary) {
+            let ready = self.st.banks.ready();
+            if address != ready.address && (ready.secondary == 0 || address != ready.secondary) {
                 return;
             }
         }
@@ -246,7 +247,7 @@ impl<B: Board> Module<B> {
         self.st.heartbeat_tripped = false;
         match Request::parse(&frame) {
             // §3.2.1 status 1; the reply carries opcode 0 and value 0, as Trinamic's TMCL code does.
-            Err(_) => self.queue_reply(port, iface, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
+            Err(_) => self.queue_reply_aside(port, iface, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
             Ok(request) => self.handle_instruction(port, iface, request.instruction, bytes[1], now),
         }
     }
@@ -262,7 +263,7 @@ impl<B: Board> Module<B> {
                 Ok(()) => Status::Loaded,
                 Err(status) => status,
             };
-            self.queue_reply(port, iface, op, Ok((status, i.value, op)), now);
+            self.queue_reply_aside(port, iface, op, Ok((status, i.value, op)), now);
             return;
         }
         self.st.asking_port = port as u8;
@@ -274,7 +275,7 @@ impl<B: Board> Module<B> {
             self.exec(c, now, Origin::Host)
         });
         let reply = match result {
-            Ok(Outcome::Value(v)) => Ok((Status::Ok, v, op)),
+            Ok(Outcome::Value(v) | Outcome::Restart(v)) => Ok((Status::Ok, v, op)),
             Ok(Outcome::Raw(raw)) => Err(raw),
             Ok(Outcome::Silent) => {
                 if i.opcode == Opcode::FactoryDefault {
@@ -282,26 +283,24 @@ impl<B: Board> Module<B> {
                 }
                 return;
             }
-            Ok(Outcome::Restart(v)) => {
-                self.queue_reply(port, iface, op, Ok((Status::Ok, v, op)), now);
-                self.start(now);
-                return;
-            }
-            Ok(Outcome::EnterAscii) => {
-                self.queue_reply(port, iface, op, Ok((Status::Ok, 0, op)), now);
-                self.enter_ascii(port);
-                return;
-            }
+            Ok(Outcome::EnterAscii) => Ok((Status::Ok, 0, op)),
             Err(status) => Ok((status, i.value, op)),
         };
+        // One place queues the reply (so that its code, inlined, is there once); a restart and the switch
+        // to ASCII mode come after it.
         self.queue_reply(port, iface, op, reply, now);
+        match result {
+            Ok(Outcome::Restart(_)) => self.start(now),
+            Ok(Outcome::EnterAscii) => self.enter_ascii(port),
+            _ => {}
+        }
     }
 
     /// Whether replies on `iface` are suppressed for command `opcode` (§5.1 GP 255; GAP, GGP and GIO
     /// always reply).
     #[inline]
     pub(crate) fn suppressed(&self, iface: &InterfaceDesc, opcode: u8) -> bool {
-        iface.suppressible && self.gp_flag(Setting::SuppressReply) && !CommandSet::ALWAYS_REPLY.contains_code(opcode)
+        iface.suppressible && self.st.banks.ready().suppress && !CommandSet::ALWAYS_REPLY.contains_code(opcode)
     }
 
     /// When a reply on `iface` to a command at `now` is due (§5.1 GP 75: the telegram pause, in ms).
@@ -310,16 +309,36 @@ impl<B: Board> Module<B> {
         if !iface.telegram_pause {
             return now;
         }
-        now + Duration::from_millis(self.gp(Setting::TelegramPause).unwrap_or(0).max(0) as u64)
+        now + Duration::from_millis(u64::from(self.st.banks.ready().pause_ms))
     }
 
-    #[inline]
+    /// Queues `reply` to command `opcode` on `port` unless suppressed, due after the telegram pause.
+    #[inline(always)]
     fn queue_reply(&mut self, port: usize, iface: &InterfaceDesc, opcode: u8, reply: ReplyOf, now: Instant) {
         if self.suppressed(iface, opcode) {
             return;
         }
         let due = self.reply_due(iface, now);
-        self.push_reply(port, iface.framing, opcode, reply, due);
+        match reply {
+            // The common case, built straight into the outbox.
+            Ok((status, value, op)) if iface.framing == Framing::Binary => {
+                let bytes = self.reply_bytes(status, op, value);
+                if let Some(p) = self.st.ports.get_mut(port) {
+                    p.outbox.push_frame(bytes, due);
+                }
+            }
+            _ => self.push_reply(port, iface.framing, opcode, reply, due),
+        }
+    }
+
+    /// [`Module::queue_reply`] for the replies off the usual way (a wrong checksum, download mode), not
+    /// inlined there.
+    #[inline(never)]
+    fn queue_reply_aside(&mut self, port: usize, iface: &InterfaceDesc, opcode: u8, reply: ReplyOf, now: Instant) {
+        if !self.suppressed(iface, opcode) {
+            let due = self.reply_due(iface, now);
+            self.push_reply(port, iface.framing, opcode, reply, due);
+        }
     }
 
     /// Queues a reply to command `opcode` on `port` in the interface's framing: 9 bytes, or 8 in a mailbox
@@ -339,6 +358,7 @@ impl<B: Board> Module<B> {
         }
     }
 
+    #[inline(always)]
     pub(crate) fn reply_bytes(&self, status: Status, opcode: u8, value: i32) -> [u8; FRAME_LEN] {
         Reply { host: self.host_address(), module: self.address(), status, opcode, value }.to_bytes()
     }

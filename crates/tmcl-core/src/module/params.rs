@@ -181,7 +181,7 @@ pub(crate) fn read_global(
                 Role::RandomNumber => banks.random(),
                 // The password is never read back: 1 = unlocked, 0 = locked.
                 Role::Password => i32::from(banks.unlocked),
-                _ => banks.global[i],
+                _ => banks.global(i),
             })
         }
         Bank::User => Ok(banks.user[user_index(spec, number)?]),
@@ -217,7 +217,7 @@ pub(crate) fn write_global<N: Nvm>(
             }
             if d.setting == Some(Setting::CodeProtection) {
                 let Reach { nvm, vm, program, regs } = reach;
-                program::protection_changed(nvm, spec, program, vm, regs, (banks.global[i], v))?;
+                program::protection_changed(nvm, spec, program, vm, regs, (banks.global(i), v))?;
             }
             match d.role {
                 Role::TickTimer => banks.tick_base = (now, v as u32),
@@ -226,7 +226,7 @@ pub(crate) fn write_global<N: Nvm>(
                 Role::Password => banks.unlocked = spec.password == Some(v),
                 _ => {}
             }
-            banks.global[i] = v;
+            banks.set_global(spec, i, v);
             Ok(())
         }
         Bank::User => {
@@ -259,7 +259,7 @@ pub(crate) fn store_global(
         Bank::Global => {
             let (i, d) = permitted(&spec.global, number, |d| d.access.auto)?;
             unlocked_for(banks.unlocked, d)?;
-            persist::store_global(nvm, spec, i, banks.global[i])?;
+            persist::store_global(nvm, spec, i, banks.global(i))?;
         }
         Bank::User => {
             let v = banks.user[user_index(spec, number)?];
@@ -283,7 +283,7 @@ pub(crate) fn restore_global(
         Bank::Global => {
             let (i, d) = permitted(&spec.global, number, |d| d.access.auto)?;
             let v = persist::load_global(nvm, spec, i)?;
-            banks.global[i] = if d.range.contains(v) { v } else { d.default };
+            banks.set_global(spec, i, if d.range.contains(v) { v } else { d.default });
         }
         Bank::User => {
             let n = user_index(spec, number)?;

@@ -87,11 +87,7 @@ impl Pass for Turn<'_> {
     fn next_event(&self) -> Option<Instant> {
         // Timers fire only while interrupts are enabled (they are sampled at the ticks).
         let timers = self.vm.timers.iter().flatten().filter(|_| self.vm.enabled != 0).copied();
-        [self.st.axes.drive_due().map(|(_, d)| d), heartbeat_expiry(self.spec, self.st)]
-            .into_iter()
-            .flatten()
-            .chain(timers)
-            .min()
+        [self.st.axes.drive_due().map(|(_, d)| d), heartbeat_expiry(self.st)].into_iter().flatten().chain(timers).min()
     }
 
     fn save(&self) -> Saved {

@@ -166,7 +166,7 @@ impl<B: Board> Module<B> {
         // Within a period after one that repeated, with the parameters it ran with: it repeats too, up to
         // its end, where the next jump is planned (unless a bound of a span comes first).
         let Some(c) = &self.periods.checkpoint else { return 0 };
-        if self.st.motion_time > end || self.st.axes[0].params != c.params || self.st.banks.global != c.global {
+        if self.st.motion_time > end || self.st.axes[0].params != c.params || *self.st.banks.globals() != c.global {
             return 0;
         }
         let travel = (2 * c.stray + 2 * travel(c.ramp.velocity_micro(), ticks) + 1) as u64;
@@ -229,7 +229,7 @@ impl<B: Board> Module<B> {
             counts,
             encoder: axis.encoder,
             params: axis.params,
-            global: self.st.banks.global,
+            global: *self.st.banks.globals(),
             stray: axis.cl.field_offset.abs(),
             steady: true,
             repeated: false,
@@ -281,7 +281,7 @@ impl<B: Board> Module<B> {
             || !axis.cl.repeats(&c.cl, shift)
             || axis.encoder != c.encoder
             || axis.params != c.params
-            || self.st.banks.global != c.global
+            || *self.st.banks.globals() != c.global
         {
             return None;
         }

@@ -233,6 +233,12 @@ impl Bench {
         self.to(1, op, t, m, v).expect("a reply")
     }
 
+    /// Sends a command to `address`; the reply, if any.
+    pub fn cmd_to(&mut self, address: u8, c: Command) -> Option<Reply> {
+        let i = c.encode();
+        self.to(address, i.opcode, i.kind, i.motor, i.value)
+    }
+
     /// Sends a command and returns (status, value).
     pub fn cmd(&mut self, c: Command) -> (Status, i32) {
         let i = c.encode();

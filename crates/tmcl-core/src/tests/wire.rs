@@ -74,6 +74,118 @@ fn module_and_host_address() {
     assert_eq!((r.host, r.module), (9, 3));
 }
 
+/// The settings as the model's table gives them now, each looked up by its meaning (as the way of a
+/// frame did before they were kept ready, `param::banks::FrameSettings`): they must be what is kept, and
+/// the next frames must follow them (§3.1 and §5.1 GP 66, 68, 75, 76, 87, 255).
+fn frame_settings_seen(b: &mut Bench) {
+    use crate::model::Setting;
+    let gp = |s| b.module.gp(s);
+    let expected = crate::param::banks::FrameSettings {
+        address: gp(Setting::SerialAddress).map_or(1, |a| a as u8),
+        secondary: gp(Setting::SecondaryAddress).unwrap_or(0) as u8,
+        host: gp(Setting::HostAddress).map_or(2, |a| a as u8),
+        suppress: gp(Setting::SuppressReply) == Some(1),
+        pause_ms: gp(Setting::TelegramPause).unwrap_or(0).max(0) as u32,
+        heartbeat: gp(Setting::SerialHeartbeat).unwrap_or(0),
+    };
+    assert_eq!(*b.module.st.banks.ready(), expected);
+    let address = expected.address;
+    // Addresses: the primary one answers with the host and module address; the secondary one answers too;
+    // another one does not.
+    let r = b.to(address, Opcode::Gap, 1, 0, 0).expect("a reply on the primary address");
+    assert_eq!((r.host, r.module), (expected.host, address));
+    if expected.secondary != 0 {
+        assert_eq!(b.to(expected.secondary, Opcode::Gap, 1, 0, 0).map(|r| r.module), Some(address));
+    }
+    let other = (1..=255).find(|a| *a != address && *a != expected.secondary).unwrap();
+    assert_eq!(b.to(other, Opcode::Gap, 1, 0, 0), None);
+    // GP 255: a command that is not GAP, GGP or GIO (a user variable set) is answered or not.
+    assert_eq!(b.to(address, Opcode::Sgp, 0, 2, 0).is_some(), !expected.suppress);
+    // GP 75: the reply waits for the telegram pause.
+    let frame = Request { address, instruction: Instruction::new(Opcode::Gap, 1, 0, 0) }.to_bytes();
+    let mut out = Vec::new();
+    b.module.receive(b.now, &frame, &mut |x: &[u8]| out.extend_from_slice(x));
+    if expected.pause_ms == 0 {
+        assert_eq!(out.len(), 9);
+    } else {
+        assert!(out.is_empty());
+        let due = b.module.state().port(0).and_then(|p| p.outbox.next_due());
+        assert_eq!(due, Some(b.now + Duration::from_millis(u64::from(expected.pause_ms))));
+        b.now = due.unwrap();
+        b.module.poll(b.now, &mut |x: &[u8]| out.extend_from_slice(x));
+        assert_eq!(out.len(), 9);
+    }
+    // GP 68: without a command for longer than the heartbeat the motor stops; without a heartbeat it turns.
+    b.to(address, Opcode::Ror, 0, 0, 5000);
+    b.run(Duration::from_millis(expected.heartbeat.max(0) as u64 + 400));
+    let turning = b.to(address, Opcode::Gap, 3, 0, 0).unwrap().value != 0;
+    assert_eq!(turning, expected.heartbeat <= 0);
+    b.to(address, Opcode::Mst, 0, 0, 0);
+    b.run(Duration::from_millis(400));
+    assert_eq!(b.to(address, Opcode::Gap, 3, 0, 0).unwrap().value, 0);
+}
+
+/// The bank 0 settings every frame reads are kept ready behind the banks' one write function: every way
+/// of changing them (SGP, AGP, `Module::set_address`, RSGP, a program's SGP, the EEPROM's values at a
+/// restart and a power cycle, the factory defaults) is seen by the next frame.
+#[test]
+fn frame_settings_follow_every_way_of_changing_them() {
+    use tmcl_wire::CalcOp;
+    let mut b = Bench::new();
+    let index = |n: u8| SPEC.global.index(n).unwrap();
+    let in_eeprom = |b: &mut Bench, n: u8, v: i32| {
+        persist::store_global(b.module.board_mut(), &SPEC, index(n), v).unwrap();
+    };
+    frame_settings_seen(&mut b);
+    // SGP of each, from the host (§3.7.9); each reply already follows the setting.
+    let mut address = 1;
+    for (n, v) in [(66, 3), (87, 7), (76, 9), (75, 5), (68, 50), (255, 1)] {
+        b.to(address, Opcode::Sgp, n, 0, v);
+        address = b.module.address();
+        frame_settings_seen(&mut b);
+    }
+    assert_eq!(address, 3);
+    // AGP: the host's accumulator into GP 66 (§3.7.30).
+    b.cmd_to(address, Command::Calc { op: CalcOp::Load, operand: 4 });
+    b.cmd_to(address, Command::Agp { param: 66, bank: 0 });
+    assert_eq!(b.module.address(), 4);
+    frame_settings_seen(&mut b);
+    // By meaning, from the caller.
+    let now = b.now;
+    b.module.set_address(6, now).unwrap();
+    frame_settings_seen(&mut b);
+    // RSGP: the EEPROM's value back into RAM (§3.7.12).
+    in_eeprom(&mut b, 76, 11);
+    b.cmd_to(6, Command::Rsgp { param: 76, bank: 0 });
+    assert_eq!(b.module.gp(crate::model::Setting::HostAddress), Some(11));
+    frame_settings_seen(&mut b);
+    // A program's SGP (GP 255 off first, so that the download's replies come).
+    b.cmd_to(6, Command::Sgp { param: 255, bank: 0, value: 0 });
+    frame_settings_seen(&mut b);
+    b.cmd_to(6, Command::StartDownload { address: 0 });
+    b.cmd_to(6, Command::Sgp { param: 75, bank: 0, value: 0 });
+    b.cmd_to(6, Command::Stop);
+    b.cmd_to(6, Command::QuitDownload);
+    b.cmd_to(6, Command::RunApplication { from: Some(0) });
+    b.run(Duration::from_millis(10));
+    assert_eq!(b.module.gp(crate::model::Setting::TelegramPause), Some(0));
+    frame_settings_seen(&mut b);
+    // A restart (255) loads the EEPROM's values.
+    in_eeprom(&mut b, 87, 0);
+    in_eeprom(&mut b, 68, 0);
+    b.cmd_to(6, Command::SoftwareReset);
+    frame_settings_seen(&mut b);
+    // So does a power cycle.
+    in_eeprom(&mut b, 66, 12);
+    b.power_cycle();
+    assert_eq!(b.module.address(), 12);
+    frame_settings_seen(&mut b);
+    // Factory defaults (137): no reply, then a restart on the defaults.
+    b.cmd_to(12, Command::FactoryDefault);
+    assert_eq!(b.module.address(), 1);
+    frame_settings_seen(&mut b);
+}
+
 #[test]
 fn secondary_address() {
     let mut b = Bench::new();
