@@ -8,8 +8,8 @@
 //! motor byte of a command (PD28-1021 manual §3.5: "motor or bank number"). Nothing here knows the
 //! module: what a motor does with the board it drives — its motion tick, coolStep and the encoder
 //! (`drive.rs`), the closed loop (`closed_loop.rs`), the parameters that read them (`params.rs`) — is
-//! [`Motor`]'s (`motor.rs`), a view of one axis with the board and the settings it reads, which returns
-//! what it did beyond the motor ([`Faults`]) for the module to apply.
+//! `Motor`'s (`motor.rs`), a view of one axis with the board and the settings it reads, which returns
+//! what it did beyond the motor (`Faults`) for the module to apply.
 //!
 //! The storage is a fixed array of [`MAX_MOTORS`] axes (no heap); a model with fewer motors leaves the
 //! rest unused.

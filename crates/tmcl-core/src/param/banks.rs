@@ -4,8 +4,8 @@
 //! model's tables it is given, never the module; the module's glue (`module/params.rs`) adds the EEPROM
 //! and the program machine.
 //!
-//! Bank 0 changes through one function, [`Banks::set_global`], which also keeps the settings every frame
-//! reads ([`FrameSettings`]) ready: no other code can write the bank, so they are never stale.
+//! Bank 0 changes through one function, `Banks::set_global`, which also keeps the settings every frame
+//! reads (`FrameSettings`) ready: no other code can write the bank, so they are never stale.
 
 use crate::model::{ModelSpec, Setting};
 use crate::time::Instant;
