@@ -126,6 +126,9 @@ pub(crate) struct Steady {
     /// Sliding: how far the rotor lags the field (µsteps, signed). Held: where the field's pull overcomes
     /// the friction (µsteps): the field stays short of it.
     pub lag: f64,
+    /// Sliding: the whole electrical periods the rotor sits behind (negative) or ahead of the field less
+    /// the lag, after lost steps; 0 otherwise.
+    pub periods: f64,
 }
 
 /// Narrows the window `lo..=hi` around `x` so that it does not cross the edges of the zone
@@ -505,10 +508,11 @@ impl Mechanics {
     #[inline(never)]
     fn drive_loaded(&mut self, field: i64) -> bool {
         let delta = field - self.field;
-        if let Some(Steady { follow: Follow::Sliding, lo, hi, lag }) = self.steady(delta.signum()) {
+        if let Some(Steady { follow: Follow::Sliding, lo, hi, lag, periods }) = self.steady(delta.signum()) {
             // Sliding on: every sub-step below settles where `solve` puts it, at `field − lag` with the same
-            // lag, so the last one is all there is to compute (the window keeps jams and stops away).
-            let y = field as f64 - lag;
+            // lag (and the same whole periods off it), so the last one is all there is to compute (the
+            // window keeps jams and stops away).
+            let y = if periods == 0.0 { field as f64 - lag } else { field as f64 - lag + periods * PERIOD };
             if y - 1.0 >= lo && y + 1.0 <= hi {
                 self.field = field;
                 self.rotor = y;
@@ -667,7 +671,8 @@ impl Mechanics {
     /// positions within which that holds (see [`Steady`]). `None`: it does not (a spring or detent
     /// torque, the rotor not yet at its lag, a load the motor cannot move, a coasting rotor).
     pub(crate) fn steady(&self, s: i64) -> Option<Steady> {
-        let everywhere = |follow| Some(Steady { follow, lo: f64::NEG_INFINITY, hi: f64::INFINITY, lag: 0.0 });
+        let everywhere =
+            |follow| Some(Steady { follow, lo: f64::NEG_INFINITY, hi: f64::INFINITY, lag: 0.0, periods: 0.0 });
         if self.available <= 0.0 {
             // The field moves alone. A trivial world's rotor stays; a loaded one stays while friction holds
             // it (then `coast` changes nothing until the loads do, at a timeline entry).
@@ -682,7 +687,13 @@ impl Mechanics {
         }
         if self.trivial {
             // Exactly on a stable point, it moves by exactly the field's moves while positions are exact.
-            return self.locked().then_some(Steady { follow: Follow::Exact, lo: -EXACT, hi: EXACT, lag: 0.0 });
+            return self.locked().then_some(Steady {
+                follow: Follow::Exact,
+                lo: -EXACT,
+                hi: EXACT,
+                lag: 0.0,
+                periods: 0.0,
+            });
         }
         let sf = s as f64;
         let x = self.rotor;
@@ -691,14 +702,19 @@ impl Mechanics {
             return None; // beyond `solve`'s reach: the march decides
         }
         let lag = need.asin() * PERIOD / TAU;
-        let sliding = self.field as f64 - lag == x;
+        // The stable point the rotor slides at is the field less the lag, or whole periods behind or ahead
+        // of it after lost steps (a seizure, a slip, the bridges off while the field ran on): `solve`
+        // puts it at the same `field − lag + k·P` after every move, computed the same way.
+        let at_lag = self.field as f64 - lag;
+        let periods = ((x - at_lag) / PERIOD).round();
+        let sliding = at_lag == x || (periods != 0.0 && at_lag + periods * PERIOD == x);
         let ahead = self.field as f64 - x;
         if !sliding && self.settled() && sf * (ahead - lag) < -1.0 && ahead.abs() < PERIOD / 4.0 - 1.0 {
             // Held by friction (after a reversal, say): the field moves on alone until its pull, at the lag
             // ahead of the rotor, overcomes the friction; until then every settle leaves the rotor. Within
             // a quarter period of the rotor the pull grows steadily with the field's move all the way there
             // (beyond, after lost steps, it need not).
-            return Some(Steady { follow: Follow::Held, lo: x, hi: x, lag: x + lag });
+            return Some(Steady { follow: Follow::Held, lo: x, hi: x, lag: x + lag, periods: 0.0 });
         }
         // Sliding: after each move of the field, `settle` puts the rotor where `solve` finds the lag for
         // the friction and the constant torques, `field − asin(need)·P/2π`, the same number after every
@@ -718,7 +734,7 @@ impl Mechanics {
         } else {
             lo = lo.max(limit);
         }
-        Some(Steady { follow: Follow::Sliding, lo, hi, lag })
+        Some(Steady { follow: Follow::Sliding, lo, hi, lag, periods: if at_lag == x { 0.0 } else { periods } })
     }
 
     /// Freewheeling for `dt` seconds: the load back-drives the rotor against inertia, friction, damping.
@@ -806,5 +822,33 @@ mod tests {
         // The rotor slides back under the constant load: a whole number of periods lost.
         assert_eq!(m.lost_full_steps() % 4, 0);
         assert!(m.lost_full_steps() > 0);
+    }
+
+    /// A rotor that lost whole periods (the load beyond the torque for a while) slides on whole periods
+    /// behind the field: `steady` says so, and one move of many µsteps puts it where the moves one by one
+    /// do (the quiet window of a board after a fault under a load).
+    #[test]
+    fn a_rotor_periods_behind_slides_as_steadily() {
+        let mut m = world("[load]\nfriction = 0.002\nconstant = -0.05");
+        m.set_available(0.03, 0.0);
+        assert!(m.drive_to(5_000), "the load beyond the torque stalls the rotor");
+        assert!(m.lost_full_steps() > 0);
+        // Enough torque again: the rotor locks on whole periods behind and slides on with the field.
+        m.set_available(0.2, 0.0);
+        let mut f = 5_000;
+        for _ in 0..50 {
+            f += 17;
+            m.drive_to(f);
+        }
+        let steady = m.steady(1).expect("sliding");
+        assert_eq!(steady.follow, Follow::Sliding);
+        assert!(steady.periods < 0.0, "whole periods behind: {steady:?}");
+        let mut one_by_one = m.clone();
+        for _ in 0..100 {
+            f += 17;
+            one_by_one.drive_to(f);
+        }
+        m.drive_to(f);
+        assert_eq!(m.rotor(), one_by_one.rotor());
     }
 }
