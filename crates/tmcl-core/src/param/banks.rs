@@ -16,7 +16,7 @@ pub(crate) const RNG_SEED: u32 = 0x2545_F491;
 
 /// The bank 0 settings the way of a frame reads (§5.1), kept ready by [`Banks::set_global`] instead of
 /// looked up through the model's table at every frame: each is the value of its setting in bank 0, or what
-/// a model without the setting does (see the module docs of `crate::module`).
+/// a model without the setting does (the list of settings a model may lack, in `module.rs`'s docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct FrameSettings {
     /// The module (primary) address: GP 66, or 1.
