@@ -95,15 +95,42 @@ struct Switch {
     /// Pressed (`true`) or released (`false`) at run time whatever the position ([`Change::Switch`]);
     /// `None`: pressed within `lo..=hi`.
     forced: Option<bool>,
+    /// For a switch met every turn of a rotary axis (`every_turn`), one revolution of the shaft (µsteps,
+    /// more than `hi - lo`): the switch is pressed within `lo..=hi` plus any whole number of revolutions, as
+    /// a rotary table's switch passes once a turn. `None`: pressed only within `lo..=hi`.
+    period: Option<f64>,
 }
 
 impl Switch {
     /// Tracks the ideal contact at rotor position `x` and time `now`.
     fn track(&mut self, x: f64, now: Instant) {
-        let pressed = self.forced.unwrap_or_else(|| (self.lo..=self.hi).contains(&x));
+        let pressed = self.forced.unwrap_or_else(|| self.contains(x));
         if pressed != self.pressed {
             self.edge = Some((now, self.pressed));
             self.pressed = pressed;
+        }
+    }
+
+    /// Whether rotor position `x` lies in the switch's zone (on a rotary axis, in one of its images a whole
+    /// number of revolutions away).
+    fn contains(&self, x: f64) -> bool {
+        match self.period {
+            Some(p) => (x - self.lo).rem_euclid(p) <= self.hi - self.lo,
+            None => (self.lo..=self.hi).contains(&x),
+        }
+    }
+
+    /// Narrows the window `lo..=hi` around `x` so that it crosses no edge of the switch's zone (on a
+    /// rotary axis, of its images on either side of `x`).
+    fn zone(&self, x: f64, lo: &mut f64, hi: &mut f64) {
+        match self.period {
+            Some(p) => {
+                let k = ((x - self.lo) / p).floor();
+                for image in [k - 1.0, k, k + 1.0] {
+                    motor::zone(x, self.lo + image * p, self.hi + image * p, lo, hi);
+                }
+            }
+            None => motor::zone(x, self.lo, self.hi, lo, hi),
         }
     }
 
@@ -161,6 +188,26 @@ pub(crate) struct Plan {
     supply: f64,
 }
 
+/// The period of a switch's zone (µsteps): one revolution where it is met every turn (`every_turn`, a
+/// rotary axis only, a zone narrower than a turn), `None` where it is met only at its place.
+fn every_turn(
+    world: &World,
+    spec: &crate::world::SwitchSpec,
+    (lo, hi): (f64, f64),
+    rev: f64,
+    key: &'static str,
+) -> Result<Option<f64>, Invalid> {
+    if !spec.every_turn {
+        Ok(None)
+    } else if world.axis.kind != crate::world::AxisKind::Rotary {
+        Err(Invalid::new(spec.at.span(), key, "`every_turn` needs a rotary axis (`[axis] kind = \"rotary\"`)"))
+    } else if hi - lo >= rev {
+        Err(Invalid::new(spec.at.span(), key, "a switch met every turn must be narrower than a turn"))
+    } else {
+        Ok(Some(rev))
+    }
+}
+
 impl Plan {
     /// Checks and compiles a world.
     pub(crate) fn compile(world: &World) -> Result<Plan, Invalid> {
@@ -176,6 +223,7 @@ impl Plan {
                 pressed: false,
                 edge: None,
                 forced: None,
+                period: every_turn(world, s, (lo, hi), mech.usteps_per_rev(), key)?,
             }))
         };
         let sw = &world.switches;
@@ -849,7 +897,7 @@ impl SimBoard {
         let x = self.plan.mech.rotor();
         let (mut lo, mut hi) = (steady.lo, steady.hi);
         for sw in self.plan.switches.iter().flatten() {
-            motor::zone(x, sw.lo, sw.hi, &mut lo, &mut hi);
+            sw.zone(x, &mut lo, &mut hi);
         }
         // The field's moves (physical µsteps) that keep the rotor within `lo..hi`, one µstep clear of the
         // edges (the sliding rotor's position is rounded).

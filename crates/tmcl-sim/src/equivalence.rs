@@ -500,6 +500,12 @@ fn world(b: &mut Bytes) -> String {
                     let at = pos(b);
                     let to = at + span(b);
                     text += &format!("[switches.{name}]\nat = [\"{at} usteps\", \"{to} usteps\"]\n");
+                    // A quarter of the switches narrower than a turn (51 200 µsteps on the default rotary axis)
+                    // are a rotary table's, met every turn. Decided from where the switch is rather than from
+                    // a byte of its own, so that stored cases decode as they did before this choice existed.
+                    if to - at < 51_200 && at.rem_euclid(4) == 0 {
+                        text += "every_turn = true\n";
+                    }
                     if b.one_in(3) {
                         text += "active = \"low\"\n";
                     }

@@ -242,6 +242,11 @@ pub struct SwitchSpec {
     /// Optional contact bounce.
     #[serde(default)]
     pub bounce: Option<Bounce>,
+    /// Rotary axes only: `true` where the switch is met again every turn of the shaft (a rotary table's
+    /// switch: pressed at `at` plus any whole number of revolutions). Default `false`: pressed only at
+    /// `at`, positions counted on from power-up (a limit of a shaft that turns many times).
+    #[serde(default)]
+    pub every_turn: bool,
 }
 
 /// The three reference switches (`[switches]`).

@@ -155,3 +155,25 @@ fn a_switch_that_is_never_found() {
     assert!(s.run(5, 60).is_some());
     assert_eq!(s.gap(197), 0);
 }
+
+/// A rotary table's home switch passes once a revolution: mode 7 ("home switch in positive direction,
+/// ignore end switches", §7.1), the mode made for rotary tables, starting a quarter turn past it, finds it
+/// after three quarters of a turn, at the same angle. The world is the shipped example
+/// (`examples/worlds/rotary-home.toml`: normally closed, so mode 7 + 128, and `every_turn = true`).
+#[test]
+fn a_rotary_home_switch_is_found_after_a_turn() {
+    let mut s = Search::on(include_str!("../../../examples/worlds/rotary-home.toml"));
+    let zero = s.run(135, 5).expect("found within a turn");
+    // One revolution is 51 200 µsteps; the switch's middle is a whole turn (less the start) away.
+    let middle = 51_200 - 12_800;
+    assert!((zero - middle).abs() <= 2, "zero at {zero}, the switch's middle at {middle}");
+}
+
+/// Without `every_turn` a switch on a rotary axis is met only at its place (the shaft's position counted on
+/// from power-up): the same search turns on past 360° and does not find it.
+#[test]
+fn a_rotary_switch_not_met_every_turn_is_not_found_again() {
+    let world = include_str!("../../../examples/worlds/rotary-home.toml").replace("every_turn = true", "");
+    let mut s = Search::on(&world);
+    assert_eq!(s.run(135, 5), None, "found a switch that is behind the start");
+}

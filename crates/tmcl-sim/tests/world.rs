@@ -149,6 +149,13 @@ fn out_of_range_values() {
     assert_err("[motor]\nholding_torque = -1.0\n", "motor.holding_torque", 2, "above 0");
     assert_err("[axis]\nkind = \"linear\"\nlead = 0\n", "axis.lead", 3, "above 0");
     assert_err("[switches.left]\nat = [5, 1]\n", "switches.left.at", 2, "[low, high]");
+    assert_err(
+        "[axis]\nkind = \"linear\"\n[switches.home]\nat = [0, 1]\nevery_turn = true\n",
+        "switches.home.at",
+        4,
+        "rotary axis",
+    );
+    assert_err("[switches.home]\nat = [-200, 200]\nevery_turn = true\n", "switches.home.at", 2, "narrower than a turn");
     assert_err("[inputs]\nanalog = 5000\n", "inputs.analog", 2, "0..=4095");
     assert_err("[axis]\ntravel = [0, 10]\nstart = 20\n", "axis.start", 3, "within axis.travel");
     assert_err("[[faults.supply_drop]]\nfrom = 1\nvoltage = -3\n", "faults.supply_drop.voltage", 3, "at least 0");

@@ -166,6 +166,7 @@ impl SimBoard {
                     pressed: false,
                     edge: None,
                     forced: None,
+                    period: None, // (no zone: pressed only as forced)
                 });
                 switch.forced = forced;
             }
