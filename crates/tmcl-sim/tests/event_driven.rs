@@ -241,3 +241,55 @@ fn a_closed_loop_turning_steadily_sleeps_and_is_what_ticking_gives() {
     assert!((measured - 51_200).abs() < 1_000, "the measured speed: {measured}");
     assert!(polls < 5_000, "{polls} polls for an hour");
 }
+
+/// A closed loop cruising slower than a microstep a tick (ROR 200 at 4 microsteps a full step: 0.2
+/// microsteps a tick, a step every fifth tick), the case the property test above found: a period of 500
+/// ticks ends four ticks after its last step, and the jump over whole periods once took the ramp's state
+/// from a span, which ends on its last step, so each jump lost those four ticks' 0.8 microsteps of
+/// fraction (AP 1 one microstep behind ticking from 1.9 s on). Event-driven and tick by tick agree over
+/// 21 s, and polled only at its deadlines the module still sleeps through whole periods.
+#[test]
+fn a_slow_closed_loop_cruise_keeps_the_ramps_fraction_over_whole_periods() {
+    use tmcl_core::{Instant, Module};
+    use tmcl_sim::equivalence::Scenario;
+    use tmcl_wire::Command;
+    let spec = &tmcl_core::model::tmcm_1310::SPEC;
+    let setup = vec![
+        Command::Sap { param: 140, motor: 0, value: 2 },
+        Command::Sap { param: 210, motor: 0, value: 4096 },
+        Command::Sap { param: 5, motor: 0, value: 33_334 },
+        Command::Sap { param: 4, motor: 0, value: 200 },
+        Command::Sap { param: 132, motor: 0, value: 1 },
+        Command::Sap { param: 129, motor: 0, value: 1 },
+    ];
+    let ror = Command::Ror { motor: 0, velocity: 200 };
+    let scenario = Scenario {
+        spec,
+        world: String::new(),
+        settings: setup.clone(),
+        program: Vec::new(),
+        host: vec![(Instant::from_millis(400), ror)],
+        polls: Vec::new(),
+        end: Instant::from_millis(21_000),
+    };
+    scenario.check().unwrap();
+
+    let mut module = Module::new(tmcl_sim::SimBoard::in_memory_for(spec), spec, Instant::ZERO);
+    for c in setup {
+        module.execute(c, Instant::ZERO).unwrap();
+    }
+    module.poll(Instant::from_millis(400), &mut |_: &[u8]| {});
+    module.execute(ror, Instant::from_millis(400)).unwrap();
+    let (mut t, end, mut polls) = (Instant::from_millis(400), Instant::from_secs(600), 0);
+    while t < end {
+        t = module.poll(t, &mut |_: &[u8]| {}).unwrap_or(end).clamp(t + tmcl_core::Duration::from_micros(1), end);
+        polls += 1;
+    }
+    module.poll(end, &mut |_: &[u8]| {});
+    assert_eq!(module.get_axis(133), Ok(1), "the loop stays closed");
+    // 200 microsteps a second from 0.4 s on (the ramp reaches its speed within 6 ms, AP 5 = 33 334); with
+    // the loop closed AP 1 is the rotor's, a few microsteps behind the ramp.
+    let position = module.get_axis(1).unwrap();
+    assert!((position - 119_919).abs() <= 5, "AP 1 after 600 s: {position}");
+    assert!(polls < 2_000, "{polls} polls for 10 minutes (600 000 ticks)");
+}

@@ -373,23 +373,27 @@ impl<B: Board> Module<B> {
         if periods == 0 {
             return None;
         }
-        // The ramp cruises all through (a span that ends early ends before an event: fewer periods).
+        // The ramp cruises all through: a span of the periods' ticks runs them all (it is capped at their
+        // count, not stopped before an event, nor out of work) at the period's speed. A span that stops
+        // early stops before an event: fewer periods, up to the span's last step.
         let from = self.st.axes[0].ramp;
-        let mut ramp = from;
-        let span = ramp.span(params, limits, &Bounds { ticks: periods * ticks, ..bounds });
-        if span.ticks < periods * ticks {
-            periods = span.ticks / ticks;
-            if periods == 0 {
+        let cruises = |n: u64| {
+            let mut probe = from;
+            let span = probe.span(params, limits, &Bounds { ticks: n * ticks, ..bounds });
+            let all = span.capped && span.work < bounds.work && probe.velocity_micro() == from.velocity_micro();
+            (all, span.ticks)
+        };
+        let (all, ran) = cruises(periods);
+        if !all {
+            periods = ran / ticks;
+            if periods == 0 || !cruises(periods).0 {
                 return None;
             }
-            ramp = from;
-            ramp.span(params, limits, &Bounds { ticks: periods * ticks, ..bounds });
         }
-        let travel = shift.wrapping_mul(periods as i64);
-        if ramp.position != from.position.wrapping_add(travel as i32) || ramp.velocity_micro() != from.velocity_micro()
-        {
-            return None; // (a cruising ramp moves its speed × time)
-        }
+        // Whole periods' ticks move the ramp by their travel and leave its fraction where it was: that state,
+        // not the span's (which ends on its last step, with the cruising ticks after it given back).
+        let mut ramp = from;
+        ramp.cruise_whole(shift.wrapping_mul(periods as i64));
         let (_, i2t) = cl.i2t_ahead(rms, tau, limit, periods * ticks);
         Some(Jump { periods, ramp, shift, i2t })
     }

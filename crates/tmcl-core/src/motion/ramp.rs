@@ -126,6 +126,15 @@ impl Ramp {
         self.velocity
     }
 
+    /// A cruising ramp moved on by ticks whose travel is exactly `steps` whole microsteps (a closed
+    /// loop's periods, `module/periods.rs`): the velocity stays and the fraction comes back to where it
+    /// was, so those ticks leave only the position moved, wrapped at the counter's width. (A span cannot
+    /// give this state: it ends on its last step, before the ticks after it that move none.)
+    #[inline]
+    pub(crate) fn cruise_whole(&mut self, steps: i64) {
+        self.position = self.wrap(self.position.wrapping_add(steps as i32));
+    }
+
     /// Whether the axis stands still and will stay so without a new command.
     #[inline]
     pub fn is_idle(&self) -> bool {
