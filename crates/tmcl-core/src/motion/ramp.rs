@@ -130,6 +130,7 @@ impl Ramp {
     /// loop's periods, `module/periods.rs`): the velocity stays and the fraction comes back to where it
     /// was, so those ticks leave only the position moved, wrapped at the counter's width. (A span cannot
     /// give this state: it ends on its last step, before the ticks after it that move none.)
+    #[cfg(feature = "loop-periods")]
     #[inline]
     pub(crate) fn cruise_whole(&mut self, steps: i64) {
         self.position = self.wrap(self.position.wrapping_add(steps as i32));
