@@ -202,7 +202,7 @@ proptest::proptest! {
 /// whole periods, `module/periods.rs` in tmcl-core), not one a millisecond.
 #[test]
 fn a_closed_loop_turning_steadily_sleeps_and_is_what_ticking_gives() {
-    use tmcl_core::{Instant, Module};
+    use tmcl_core::Instant;
     use tmcl_sim::equivalence::Scenario;
     use tmcl_wire::Command;
     let spec = &tmcl_core::model::tmcm_1310::SPEC;
@@ -223,18 +223,7 @@ fn a_closed_loop_turning_steadily_sleeps_and_is_what_ticking_gives() {
     };
     scenario.check().unwrap();
 
-    let mut module = Module::new(tmcl_sim::SimBoard::in_memory_for(spec), spec, Instant::ZERO);
-    for c in setup {
-        module.execute(c, Instant::ZERO).unwrap();
-    }
-    module.poll(Instant::from_millis(400), &mut |_: &[u8]| {});
-    module.execute(ror, Instant::from_millis(400)).unwrap();
-    let (mut t, end, mut polls) = (Instant::from_millis(400), Instant::from_secs(3600), 0);
-    while t < end {
-        t = module.poll(t, &mut |_: &[u8]| {}).unwrap_or(end).clamp(t + tmcl_core::Duration::from_micros(1), end);
-        polls += 1;
-    }
-    module.poll(end, &mut |_: &[u8]| {});
+    let (mut module, polls) = turned_at_deadlines(spec, &setup, ror, Instant::from_secs(3600));
     assert_eq!(module.get_axis(133), Ok(1), "the loop stays closed");
     assert_eq!(module.get_axis(3), Ok(51_200));
     let measured = module.get_axis(131).unwrap();
@@ -250,7 +239,7 @@ fn a_closed_loop_turning_steadily_sleeps_and_is_what_ticking_gives() {
 /// 21 s, and polled only at its deadlines the module still sleeps through whole periods.
 #[test]
 fn a_slow_closed_loop_cruise_keeps_the_ramps_fraction_over_whole_periods() {
-    use tmcl_core::{Instant, Module};
+    use tmcl_core::Instant;
     use tmcl_sim::equivalence::Scenario;
     use tmcl_wire::Command;
     let spec = &tmcl_core::model::tmcm_1310::SPEC;
@@ -274,22 +263,35 @@ fn a_slow_closed_loop_cruise_keeps_the_ramps_fraction_over_whole_periods() {
     };
     scenario.check().unwrap();
 
-    let mut module = Module::new(tmcl_sim::SimBoard::in_memory_for(spec), spec, Instant::ZERO);
-    for c in setup {
-        module.execute(c, Instant::ZERO).unwrap();
-    }
-    module.poll(Instant::from_millis(400), &mut |_: &[u8]| {});
-    module.execute(ror, Instant::from_millis(400)).unwrap();
-    let (mut t, end, mut polls) = (Instant::from_millis(400), Instant::from_secs(600), 0);
-    while t < end {
-        t = module.poll(t, &mut |_: &[u8]| {}).unwrap_or(end).clamp(t + tmcl_core::Duration::from_micros(1), end);
-        polls += 1;
-    }
-    module.poll(end, &mut |_: &[u8]| {});
+    let (mut module, polls) = turned_at_deadlines(spec, &setup, ror, Instant::from_secs(600));
     assert_eq!(module.get_axis(133), Ok(1), "the loop stays closed");
     // 200 microsteps a second from 0.4 s on (the ramp reaches its speed within 6 ms, AP 5 = 33 334); with
     // the loop closed AP 1 is the rotor's, a few microsteps behind the ramp.
     let position = module.get_axis(1).unwrap();
     assert!((position - 119_919).abs() <= 5, "AP 1 after 600 s: {position}");
     assert!(polls < 2_000, "{polls} polls for 10 minutes (600 000 ticks)");
+}
+
+/// A module of `spec` set up with `setup` at 0 and sent `ror` at 0.4 s, then polled only at its deadlines
+/// up to `end`: the module and how many polls it took.
+fn turned_at_deadlines(
+    spec: &'static tmcl_core::model::ModelSpec,
+    setup: &[tmcl_wire::Command],
+    ror: tmcl_wire::Command,
+    end: tmcl_core::Instant,
+) -> (tmcl_core::Module<tmcl_sim::SimBoard>, usize) {
+    use tmcl_core::{Instant, Module};
+    let mut module = Module::new(tmcl_sim::SimBoard::in_memory_for(spec), spec, Instant::ZERO);
+    for &c in setup {
+        module.execute(c, Instant::ZERO).unwrap();
+    }
+    module.poll(Instant::from_millis(400), &mut |_: &[u8]| {});
+    module.execute(ror, Instant::from_millis(400)).unwrap();
+    let (mut t, mut polls) = (Instant::from_millis(400), 0);
+    while t < end {
+        t = module.poll(t, &mut |_: &[u8]| {}).unwrap_or(end).clamp(t + tmcl_core::Duration::from_micros(1), end);
+        polls += 1;
+    }
+    module.poll(end, &mut |_: &[u8]| {});
+    (module, polls)
 }
