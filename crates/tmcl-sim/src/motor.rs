@@ -707,7 +707,7 @@ impl Mechanics {
         // puts it at the same `field − lag + k·P` after every move, computed the same way.
         let at_lag = self.field as f64 - lag;
         let periods = ((x - at_lag) / PERIOD).round();
-        let sliding = at_lag == x || (periods != 0.0 && at_lag + periods * PERIOD == x);
+        let sliding = at_lag + periods * PERIOD == x; // (periods 0: exactly at the lag)
         let ahead = self.field as f64 - x;
         if !sliding && self.settled() && sf * (ahead - lag) < -1.0 && ahead.abs() < PERIOD / 4.0 - 1.0 {
             // Held by friction (after a reversal, say): the field moves on alone until its pull, at the lag
@@ -734,7 +734,7 @@ impl Mechanics {
         } else {
             lo = lo.max(limit);
         }
-        Some(Steady { follow: Follow::Sliding, lo, hi, lag, periods: if at_lag == x { 0.0 } else { periods } })
+        Some(Steady { follow: Follow::Sliding, lo, hi, lag, periods })
     }
 
     /// Freewheeling for `dt` seconds: the load back-drives the rotor against inertia, friction, damping.
