@@ -384,6 +384,12 @@ pub struct SimBoard {
     pull_ups: u8,
     drive: DriveState,
     updated: Instant,
+    /// The field's own speed (µsteps per second, axis frame) over the last update, when the field did
+    /// not move with the step counter: a closed loop commands the field from the encoder, and it falls
+    /// short of the ramp where the rotor cannot follow (or runs ahead of it to catch up). `None` while it
+    /// moves with the counter, which is always in open loop: the ramp's velocity is then the field's.
+    /// What [`SimBoard::power`] hands a rotor the driver stages let go of.
+    field_speed: Option<f64>,
     /// Motors 1.. of a model with several: each an axis of its own in a world of its own (the same world
     /// as motor 0's by default, [`SimBoard::set_world`]; one of them alone: [`SimBoard::set_world_of`]).
     /// Only their motor, switches, driver and encoder are used: the EEPROM, inputs, outputs and analog
@@ -469,6 +475,7 @@ impl SimBoard {
             pull_ups: 0,
             drive: DriveState::default(),
             updated: Instant::ZERO,
+            field_speed: None,
             spec: world,
             plan,
             axes: Vec::new(),
@@ -832,7 +839,9 @@ impl SimBoard {
         // at speed; only the torque is scaled.
         let supply = self.supply_factor;
         let torque = self.plan.mech.torque_per_amp() * self.coil * std::f64::consts::FRAC_1_SQRT_2 * supply;
-        let speed = f64::from(self.drive.velocity) * self.per_step() as f64 * self.sign() as f64;
+        let speed = self
+            .field_speed
+            .unwrap_or_else(|| f64::from(self.drive.velocity) * self.per_step() as f64 * self.sign() as f64);
         self.plan.mech.set_available(torque, speed);
         self.plan.mech.settle();
     }
@@ -1145,9 +1154,19 @@ impl StepDriver for SimBoard {
             return self.axes[motor - 1].update(0, now, state);
         }
         self.advance(now);
+        // Whether the field moved with the step counter (see `field_speed`); a counter set without a move
+        // (SAP 1, a reset) or a new resolution says nothing about the field's speed.
+        let counted = i64::from(state.position.wrapping_sub(self.drive.position));
+        let own_speed = state.moved != counted && state.moved != 0 && state.resolution == self.drive.resolution;
+        let dt = now.saturating_duration_since(self.updated).micros();
         self.drive = *state;
         self.power();
         let moved = state.moved.saturating_mul(self.per_step()).saturating_mul(self.sign());
+        if !own_speed {
+            self.field_speed = None;
+        } else if dt > 0 {
+            self.field_speed = Some(moved as f64 * 1e6 / dt as f64);
+        }
         if moved != 0 {
             self.driver.stepped(self.now);
             let old = self.plan.mech.field();

@@ -389,6 +389,20 @@ mod tests {
         ]);
     }
 
+    /// The second campaign's find: AP 130 (minimum speed) = 39 855 360 and `ROR 989 922 397`, both within
+    /// what the model accepts, start the ramp at 39.9 M pps; the loop holds the field within half a
+    /// period of the rotor, which turns at the loop's limit (just under two full steps per millisecond).
+    /// `AAP 167` with the accumulator at 0 (chopper off time 0: the driver stages off) then freed the
+    /// rotor at the ramp's speed instead of the field's, and the freewheeling rotor ran whole electrical
+    /// periods ahead of the field.
+    #[test]
+    fn the_driver_off_frees_the_rotor_at_the_fields_speed() {
+        closed_loop(&[
+            0, 5, 130, 0, 2, 96, 37, 0, 5, 0, 1, 0, 0, 59, 1, 4, 93, 20, 0, 34, 167, 0, 0, 0, 0, 0, 20, 0, 6, 1, 0, 0,
+            0, 0, 0, 30,
+        ]);
+    }
+
     proptest::proptest! {
         #[test]
         fn module_stream_never_panics(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {
