@@ -266,6 +266,35 @@ impl Scenario {
         Scenario { spec, world, settings, program, host, polls, end }
     }
 
+    /// The scenario with its time line compressed so that the tick-by-tick run ticks at most
+    /// `motor_ticks` motion ticks of all its motors together: the end, the host's commands and the extra
+    /// polls move closer to time 0 in proportion (each keeps its place in the run; commands that land on
+    /// the same microsecond keep their order), so a long scenario keeps everything that happens in it,
+    /// only closer together. The world's own times and the program's (WAIT, timers) are left as they are.
+    /// A scenario within the budget is returned unchanged.
+    ///
+    /// The fuzz target `event_driven` runs its scenarios so: the tick-by-tick reference costs about a
+    /// microsecond per motor and tick, and a scenario decodes to up to 12 s of six motors, so without a
+    /// bound a few inputs (the slowest 1 % took 78 % of the time) set the campaign's pace. The property
+    /// tests (`tests/event_driven.rs`) run scenarios at their full length.
+    pub fn compressed(mut self, motor_ticks: u64) -> Scenario {
+        let ticks = self.end.millis().max(1) * u64::from(self.spec.motors);
+        if ticks <= motor_ticks {
+            return self;
+        }
+        let (from, to) =
+            (u128::from(self.end.micros()), u128::from(motor_ticks / u64::from(self.spec.motors)).max(1) * 1000);
+        let scale = |t: Instant| Instant::from_micros((u128::from(t.micros()) * to / from) as u64);
+        for (t, _) in &mut self.host {
+            *t = scale(*t);
+        }
+        for t in &mut self.polls {
+            *t = scale(*t);
+        }
+        self.end = scale(self.end);
+        self
+    }
+
     /// Runs the scenario event-driven and tick by tick, and compares; `Err` describes the first
     /// difference.
     pub fn check(&self) -> Result<(), String> {
@@ -352,7 +381,9 @@ impl Scenario {
 
 /// Debugging aid (`EVENT_TRACE=1`): the board's rotor, field and load at each of a run's polls.
 fn trace(module: &mut Module<SimBoard>, now: Instant) {
-    if std::env::var_os("EVENT_TRACE").is_some() {
+    // (Looked up once: a run polls thousands of times.)
+    static TRACING: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    if *TRACING.get_or_init(|| std::env::var_os("EVENT_TRACE").is_some()) {
         let exact = module.exact_ticks();
         let st = format!("{:?}", module.state());
         let enc = st.split("encoder: ").nth(1).unwrap_or("").split(", error_flags").next().unwrap_or("").to_string();

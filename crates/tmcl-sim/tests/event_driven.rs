@@ -2,7 +2,9 @@
 //! settings, programs and host commands run both ways must show the same state, parameters, program
 //! machine, board and replies at every host command and at the end.
 
+use tmcl_core::Instant;
 use tmcl_sim::equivalence::Scenario;
+use tmcl_wire::Command;
 
 /// The scenario run event-driven and tick by tick must agree; on a difference the failure names it and
 /// the scenario. EVENT_DIAG=1: also poll both on the same schedule, to tell a difference of the spans from
@@ -94,6 +96,35 @@ fn the_scenarios_draw_the_tmcm_6110_too() {
     assert_eq!(Scenario::decode(&[7, 1]).spec.name, "TMCM-6110");
     assert_eq!(Scenario::decode(&[7, 2]).spec.name, "TMCM-3110");
     assert_eq!(Scenario::decode(&[7]).spec.name, "TMCM-3110");
+}
+
+/// The fuzz target's bound ([`Scenario::compressed`]): a scenario over the budget keeps every host
+/// command and extra poll, in order and at the same fraction of the run; one within it is unchanged.
+#[test]
+fn a_compressed_scenario_keeps_its_events_closer_together() {
+    let mut scenario = Scenario::decode(&[7, 1]);
+    scenario.end = Instant::from_millis(12_000);
+    scenario.host = vec![
+        (Instant::from_millis(3_000), Command::Mst { motor: 0 }),
+        (Instant::from_millis(3_000), Command::Mst { motor: 1 }),
+        (Instant::from_micros(11_999_999), Command::Mst { motor: 2 }),
+    ];
+    scenario.polls = vec![Instant::from_millis(6_000)];
+    // Six motors, 3 000 motor ticks: 500 ms.
+    let short = scenario.clone().compressed(3_000);
+    assert_eq!(short.end, Instant::from_millis(500));
+    let times: Vec<_> = short.host.iter().map(|(t, _)| t.micros()).collect();
+    assert_eq!(times, [125_000, 125_000, 499_999]);
+    assert_eq!(
+        short.host.iter().map(|(_, c)| *c).collect::<Vec<_>>(),
+        scenario.host.iter().map(|(_, c)| *c).collect::<Vec<_>>()
+    );
+    assert_eq!(short.polls, [Instant::from_millis(250)]);
+    assert!(short.check().is_ok());
+    // Within the budget: as it was.
+    let same = scenario.clone().compressed(72_000);
+    assert_eq!((same.end, same.host.len(), same.polls.clone()), (scenario.end, 3, scenario.polls.clone()));
+    assert_eq!(same.host[2].0, Instant::from_micros(11_999_999));
 }
 
 /// Closed-loop settings drawn for a cruising loop: current scaling and its times, I²t, the controller.

@@ -408,24 +408,7 @@ impl<B: Board> Module<B> {
     /// When the module next needs to run (see the module docs).
     pub(crate) fn next_deadline(&mut self) -> Option<Instant> {
         let mut next: Option<Instant> = self.st.ports.iter().filter_map(|p| p.outbox.next_due()).min();
-        let mut consider = |t: Instant| next = Some(next.map_or(t, |n| n.min(t)));
-        if !self.all_standing() {
-            // Moving: the tick after the span the ramp can take from here (none: the next tick; several
-            // motors take no spans).
-            let ticks = if self.st.axes.count() == 1 { self.span_ahead() + 1 } else { 1 };
-            consider(self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
-        } else if self.st.event.pending || self.needs_every_tick() {
-            match self.idle_quiet_until() {
-                // Levels watched in a quiet window: the first tick at or after its end.
-                Some(until) => {
-                    if let Some(u) = until {
-                        let ticks = (u - self.st.motion_time).micros().div_ceil(TICK.micros()).max(1);
-                        consider(self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
-                    }
-                }
-                None => consider(self.st.motion_time + TICK),
-            }
-        }
+        let consider = |next: &mut Option<Instant>, t: Instant| *next = Some(next.map_or(t, |n| n.min(t)));
         // The board's hook may know better when a running program needs its next poll (a simulator that
         // found it spinning in a fixed point: not before the next event, `hal::Hook::program_rest`).
         let rest = if self.vm.state == RunState::Running && !self.exact {
@@ -435,22 +418,41 @@ impl<B: Board> Module<B> {
         };
         let program = rest.unwrap_or_else(|| self.program_deadline());
         for t in [program, self.timer_deadline()].into_iter().flatten() {
-            consider(t.max(self.st.now));
+            consider(&mut next, t.max(self.st.now));
         }
         for axis in self.st.axes.iter() {
             if let Some(t) = axis.next_event(&self.spec.axis, self.st.now) {
-                consider(t);
+                consider(&mut next, t);
             }
         }
         if let Some(expiry) = self.heartbeat_expiry() {
-            consider(expiry + Duration::from_millis(1));
+            consider(&mut next, expiry + Duration::from_millis(1));
+        }
+        if !self.all_standing() {
+            // Moving: the tick after the span the ramp can take from here (none: the next tick; several
+            // motors take no spans).
+            let ticks = if self.st.axes.count() == 1 { self.span_ahead() + 1 } else { 1 };
+            consider(&mut next, self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
+        } else if self.st.event.pending || self.needs_every_tick() {
+            // (After the other deadlines: a look past the earliest of them would find nothing that counts.)
+            match self.idle_quiet_until(next) {
+                // Levels watched in a quiet window: the first tick at or after its end.
+                Some(until) => {
+                    if let Some(u) = until {
+                        let ticks = (u - self.st.motion_time).micros().div_ceil(TICK.micros()).max(1);
+                        consider(&mut next, self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
+                    }
+                }
+                None => consider(&mut next, self.st.motion_time + TICK),
+            }
         }
         next
     }
 
     /// Standing, with level interrupts watched and no 138 event pending: the end of the board's quiet
-    /// window, if it has one (`Some(None)`: quiet for good); `None`: every tick must be sampled.
-    fn idle_quiet_until(&mut self) -> Option<Option<Instant>> {
+    /// window, if it has one (`Some(None)`: quiet for good); `None`: every tick must be sampled. `before`:
+    /// the module's earliest other deadline, past which nothing needs looking at.
+    fn idle_quiet_until(&mut self, before: Option<Instant>) -> Option<Option<Instant>> {
         if self.st.event.pending || self.exact {
             return None;
         }
@@ -463,10 +465,15 @@ impl<B: Board> Module<B> {
         }
         if self.spec.axis.has(Setting::ClosedLoop) {
             // A loop at rest sleeps as long as its I²t sum neither settles nor crosses its limit: looked at
-            // over a bounded stretch (a deadline at its end is only an extra poll).
+            // over a bounded stretch (a deadline at its end is only an extra poll), and not past the tick
+            // of the earliest other deadline — the I²t sum is followed tick by tick until it settles, and a
+            // program polled at each of its instructions must not pay for a long look at every one.
             const LOOK: u64 = 1 << 16;
+            let look = before.map_or(LOOK, |t| {
+                (t.saturating_duration_since(self.st.motion_time).micros().div_ceil(TICK.micros())).clamp(1, LOOK)
+            });
             for m in 0..self.st.axes.count() {
-                let n = self.motor_at(m).closed_loop_rest(LOOK, false);
+                let n = self.motor_at(m).closed_loop_rest(look, false);
                 if n == 0 {
                     return None;
                 }
