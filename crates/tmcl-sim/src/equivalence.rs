@@ -359,8 +359,9 @@ impl Scenario {
         None
     }
 
-    /// A module with the world, settings and program, started at 0; `None` if the world does not load.
-    fn module(&self, exact: bool) -> Option<Module<SimBoard>> {
+    /// A module with the world, settings and program, started at 0, event-driven or (`exact`) ticking
+    /// one by one; `None` if the world does not load. (For a closer look at a scenario that fails.)
+    pub fn module(&self, exact: bool) -> Option<Module<SimBoard>> {
         let mut board = SimBoard::in_memory_for(self.spec);
         if !self.world.is_empty() {
             board = board.with_world(World::from_toml_str(&self.world).ok()?).ok()?;

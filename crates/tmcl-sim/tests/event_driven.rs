@@ -89,6 +89,80 @@ fn a_three_axis_module_at_rest_is_the_same_both_ways() {
     scenario.check().unwrap();
 }
 
+/// Several motors take their ticks at once (`several_spans` in tmcl-core's `module/spans.rs`) while one
+/// of them stands, reaches its standby current by itself and then slips under a load its standby current
+/// cannot hold: the standby's instant ends the run of ticks (the board hears of the new current at its
+/// instant, as ticking has it), and the slipping motor's board, no longer quiet, makes the others tick.
+#[test]
+fn several_motors_one_standing_and_slipping_under_a_load() {
+    let world = "[load]\nfriction = 0.002\n[[load.script]]\nat = \"700 ms\"\ntorque = 0.03\n\
+        [[load.script]]\nat = \"1900 ms\"\ntorque = 0.0\n";
+    for spec in [Scenario::decode(&[7, 1]).spec, Scenario::decode(&[7]).spec] {
+        let scenario = Scenario {
+            spec,
+            world: world.into(),
+            settings: vec![
+                Command::Sap { param: 7, motor: 1, value: 4 },
+                Command::Sap { param: 214, motor: 1, value: 30 },
+                Command::Sap { param: 4, motor: 0, value: 1200 },
+                Command::Sap { param: 4, motor: 2, value: 700 },
+            ],
+            program: vec![],
+            host: vec![
+                (Instant::from_millis(1), Command::Ror { motor: 0, velocity: 1000 }),
+                (Instant::from_millis(2), Command::Mvp { motor: 1, target: tmcl_wire::MoveTarget::Rel(3000) }),
+                (Instant::from_millis(3), Command::Ror { motor: 2, velocity: 500 }),
+                (Instant::from_millis(2_500), Command::Gap { param: 1, motor: 1 }),
+            ],
+            polls: vec![Instant::from_millis(800), Instant::from_millis(1_234)],
+            end: Instant::from_millis(3_000),
+        };
+        if let Err(e) = scenario.check() {
+            panic!("{}: {e}\nsame polls: {:?}", spec.id, scenario.first_difference());
+        }
+    }
+}
+
+/// The multi-axis property test's first find (shrunk): a TMCM-6110 whose motors the heartbeat stops;
+/// a motor that stopped in the tick before is still "ramping" (the boost current, AP 200, holds until
+/// its next tick ends the speed change), and a run of ticks of the others skipped that tick.
+#[test]
+fn a_motor_stopped_in_the_tick_before_ticks_once_more() {
+    let mut bytes = vec![7, 1];
+    bytes.extend_from_slice(&[
+        103, 28, 10, 193, 254, 143, 254, 169, 143, 11, 101, 228, 23, 162, 118, 250, 65, 71, 121, 174, 78, 125, 242, 95,
+        236, 14, 164, 125, 191, 242, 52, 143, 74, 40, 143, 12, 237, 174, 103, 198, 86, 34, 166, 180, 185, 154, 0, 68,
+        19, 209, 34, 39, 211, 188, 172, 139, 84, 159, 245, 154, 224, 199, 107, 158, 166, 208, 143, 72, 14, 157, 71,
+        222, 6, 236, 62, 120, 107, 118, 161, 132, 230, 232, 165, 151, 218, 95, 145, 74, 160, 153, 28, 137, 229, 162,
+        242, 174, 170, 75, 71, 109, 239, 21, 224, 173, 139, 37, 164, 183, 184, 71, 169, 124, 85, 12, 52, 216, 145, 222,
+        253, 100, 121, 21, 227, 66, 31, 139, 68, 71, 164, 191, 228, 182, 103, 62, 3, 228, 140, 25, 157, 221, 79, 193,
+        101, 9, 170, 9, 44, 84, 78, 73, 176, 168, 32, 113, 22, 121, 213, 127, 155, 160, 157, 17,
+    ]);
+    let scenario = Scenario::decode(&bytes);
+    assert_eq!(scenario.spec.motors, 6);
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(
+        std::env::var("EVENT_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(16)
+    ))]
+    /// The same for the models of several motors only (a scenario of `decode` is one of them one time in
+    /// eight): their motors take runs of ticks together while others stand.
+    #[test]
+    fn several_motors_event_driven_are_several_motors_tick_by_tick(
+        six in proptest::bool::ANY,
+        data in proptest::collection::vec(proptest::num::u8::ANY, 0..400)
+    ) {
+        let mut bytes = vec![7, u8::from(six)];
+        bytes.extend_from_slice(&data);
+        let scenario = Scenario::decode(&bytes);
+        same_both_ways(&scenario)?;
+    }
+}
+
 /// The scenarios draw both multi-axis models: a first byte of 7, then an odd byte, the TMCM-6110; an even
 /// one (or none), the TMCM-3110.
 #[test]

@@ -149,8 +149,9 @@ impl<B: Board> Module<B> {
                 if self.idle_jump(now) {
                     continue;
                 }
-            } else if !self.exact && motors == 1 && self.take_span(now, &params[0]) {
-                // (Spans are taken for a one-motor model; several motors tick, with the same result.)
+            } else if !self.exact
+                && if motors == 1 { self.take_span(now, &params[0]) } else { self.take_spans(now, &params[..motors]) }
+            {
                 continue;
             }
             for (m, params) in params.iter().enumerate().take(motors) {
@@ -429,9 +430,8 @@ impl<B: Board> Module<B> {
             consider(&mut next, expiry + Duration::from_millis(1));
         }
         if !self.all_standing() {
-            // Moving: the tick after the span the ramp can take from here (none: the next tick; several
-            // motors take no spans).
-            let ticks = if self.st.axes.count() == 1 { self.span_ahead() + 1 } else { 1 };
+            // Moving: the tick after the span the ramps can take from here (none: the next tick).
+            let ticks = if self.st.axes.count() == 1 { self.span_ahead() } else { self.spans_ahead() } + 1;
             consider(&mut next, self.st.motion_time + Duration::from_micros(ticks * TICK.micros()));
         } else if self.st.event.pending || self.needs_every_tick() {
             // (After the other deadlines: a look past the earliest of them would find nothing that counts.)

@@ -2,8 +2,10 @@
 //! ([`Bounds`]), and what the module does after a span — exactly what it does after a tick, once, at the
 //! span's last tick (see `advance.rs`).
 //!
-//! Spans are taken for a one-motor model only (motor 0 below); a model with several motors ticks
-//! every motor one tick at a time, with the same result.
+//! A one-motor model takes its spans as below (motor 0); a model with several motors (TMCM-3110,
+//! TMCM-6110) takes a run of ticks for all at once, each moving motor's span within its own bounds and as
+//! long as the shortest, while every standing motor's board stays quiet and no motor's current changes
+//! by itself ([`Module::several_spans`]).
 //!
 //! A span needs every tick in it to be *silent*: nothing but the ramp may happen at those ticks. So the
 //! module takes none:
@@ -33,6 +35,7 @@ use crate::model::Setting;
 use crate::motion::{Bounds, Limits, Ramp, RampParams, Span, TICK};
 use crate::time::{Duration, Instant};
 use crate::vm::RunState;
+use tmcl_model::capacity::MAX_MOTORS;
 
 /// The longest span, in ticks (about 50 days): keeps every sum of a span far inside 64 bits.
 const MAX_SPAN: u64 = 1 << 32;
@@ -49,6 +52,9 @@ const COSTLY: usize = 4;
 const COSTLY_WORK: u64 = 64;
 /// How many ticks a deadline's look-ahead computes one by one at most.
 const LOOKAHEAD_WORK: u64 = 64;
+
+/// Every motor's span over a run of ticks several motors take together (`None`: the motor stands).
+type Spans = [Option<(Ramp, Span)>; MAX_MOTORS as usize];
 
 /// A span the module computed: [`crate::motion::Ramp::span`] is a function of the ramp's state, its
 /// parameters, the limits and the bounds alone, so the same inputs give the same span.
@@ -176,6 +182,145 @@ impl<B: Board> Module<B> {
         }
     }
 
+    /// [`Module::take_span`] for a model of several motors (TMCM-3110, TMCM-6110): the ticks after
+    /// `motion_time`, up to `now` at most, taken at once by every motor (see [`Module::several_spans`]),
+    /// then what follows a tick, once, at the last. Returns whether it took any tick.
+    pub(super) fn take_spans(&mut self, now: Instant, params: &[RampParams]) -> bool {
+        if !cfg!(feature = "spans") {
+            return false;
+        }
+        let Some((ticks, spans)) = self.several_spans(Some(now), params, u64::MAX) else { return false };
+        let t = self.st.motion_time + Duration::from_micros(ticks * TICK.micros());
+        for (m, span) in spans.iter().enumerate() {
+            if let Some((to, span)) = span {
+                // As in `take_span`: every tick moved, the speed changing as before the span.
+                self.st.axes[m].ramp = *to;
+                self.st.axes[m].unreported_steps += span.steps;
+            }
+        }
+        for (m, span) in spans.iter().enumerate() {
+            if span.is_some() {
+                self.motor_at(m).update_board(t);
+            }
+        }
+        self.st.motion_time = t;
+        self.tick_done(t);
+        if self.vm.state == RunState::Running && self.vm.wait.is_some() {
+            self.vm.time = self.vm.time.max(t);
+        }
+        true
+    }
+
+    /// The ticks after `motion_time` that every motor of a model with several can take at once, and each
+    /// moving motor's span over them (`None`: standing), if there are any (`horizon`: no tick after it;
+    /// `work`: [`Bounds::work`]). Each moving motor's span within its own bounds (as one motor's, see the
+    /// module docs); the motors tick together, so the run is as long as the shortest, and the others' spans
+    /// are taken again for that many ticks (a span ends at its last step, so one may come out shorter
+    /// still: it is looked at until all agree). A standing motor's tick only reads its board (its
+    /// switches, the driver's flags, the load): the run ends before its board's quiet window does, and
+    /// one that has just stopped (its next tick starts its standstill or ends its speed change),
+    /// searches for its reference or regulates its current with coolStep takes no span. Nor does any motor's next change of current by
+    /// itself (a standby or freewheeling delay running out: the board hears of it at its instant).
+    pub(super) fn several_spans(
+        &mut self,
+        horizon: Option<Instant>,
+        params: &[RampParams],
+        work: u64,
+    ) -> Option<(u64, Spans)> {
+        if self.spec.axis.has(Setting::ClosedLoop) || self.exact {
+            return None;
+        }
+        let start = self.st.motion_time;
+        let mut ticks = self.standing_bound(horizon)?;
+        let mut spans = [None; MAX_MOTORS as usize];
+        let mut bounds_of = [None; MAX_MOTORS as usize];
+        for (m, params) in params.iter().enumerate() {
+            if self.st.axes[m].is_standing() {
+                continue;
+            }
+            let (limits, bounds, _) = self.bounds_of(m, horizon, false)?;
+            bounds_of[m] = Some((limits, bounds));
+            let bounds = Bounds { ticks: bounds.ticks.min(ticks), work, ..bounds };
+            let (to, span) = self.span_of(m, params, limits, &bounds);
+            ticks = ticks.min(span.ticks);
+            if ticks == 0 {
+                return None;
+            }
+            spans[m] = Some((to, span));
+        }
+        // Every span as long as the shortest.
+        loop {
+            let mut agreed = true;
+            for (m, params) in params.iter().enumerate() {
+                let (Some((limits, bounds)), Some((_, span))) = (bounds_of[m], spans[m]) else { continue };
+                if span.ticks == ticks {
+                    continue;
+                }
+                let (to, span) = self.span_of(m, params, limits, &Bounds { ticks, work, ..bounds });
+                if span.ticks == 0 {
+                    return None;
+                }
+                agreed &= span.ticks == ticks;
+                ticks = ticks.min(span.ticks);
+                spans[m] = Some((to, span));
+            }
+            if agreed {
+                break;
+            }
+        }
+        debug_assert!(self.st.motion_time == start);
+        (ticks > 0).then_some((ticks, spans))
+    }
+
+    /// How many ticks from `motion_time` on the standing motors of a model with several let a run of
+    /// ticks go, and no motor's current changes by itself (see [`Module::several_spans`]); `None`: none.
+    fn standing_bound(&mut self, horizon: Option<Instant>) -> Option<u64> {
+        let start = self.st.motion_time;
+        let mut last = [horizon, self.drive_due().map(|(_, d)| d)].into_iter().flatten().min();
+        for m in 0..self.st.axes.count() {
+            if !self.st.axes[m].is_standing() {
+                continue;
+            }
+            let axis = &self.st.axes[m];
+            if axis.standstill_since.is_none() || axis.ramping || axis.reference.is_active() {
+                // Just stopped: its next tick starts the standstill, or ends the speed change (the boost
+                // current, AP 200, gives way), which the board hears of.
+                return None;
+            }
+            if self.ap(m, Setting::CoolStepHysteresisStart).unwrap_or(0) != 0 {
+                return None;
+            }
+            // Asked as it is, not brought to `start` first: a look for the deadline must leave every board
+            // as it was, and a standing motor's board hears from the module only at its ticks (the first
+            // thing the next one does). The window runs from where the board is: an event before `start`
+            // makes the run empty, and the module ticks.
+            let state = self.st.axes[m].last_drive.unwrap_or_default();
+            let quiet = self.board.quiet(m, start, &state)?;
+            if let Some(u) = quiet.until {
+                let u = u - Duration::from_micros(1);
+                last = Some(last.map_or(u, |l| l.min(u)));
+            }
+        }
+        let ticks = match last {
+            Some(t) => (t.saturating_duration_since(start).micros() / TICK.micros()).min(MAX_SPAN),
+            None => MAX_SPAN,
+        };
+        (ticks > 0).then_some(ticks)
+    }
+
+    /// [`Module::span_ahead`] for a model of several motors.
+    pub(super) fn spans_ahead(&mut self) -> u64 {
+        if !cfg!(feature = "spans") {
+            return 0;
+        }
+        let mut params = [RampParams { max_speed: 0, max_accel: 0, min_speed: 0 }; MAX_MOTORS as usize];
+        let motors = self.st.axes.count();
+        for (m, p) in params.iter_mut().enumerate().take(motors) {
+            *p = self.ramp_params(m);
+        }
+        self.several_spans(None, &params[..motors], LOOKAHEAD_WORK).map_or(0, |(ticks, _)| ticks)
+    }
+
     /// How many ticks from `motion_time` on a span would take now, without taking them (0: the next
     /// tick is an event, or no span may be taken): for the deadline.
     pub(super) fn span_ahead(&mut self) -> u64 {
@@ -196,7 +341,13 @@ impl<B: Board> Module<B> {
 
     /// The span from the ramp's state within `bounds`: remembered, or computed (and remembered).
     fn span(&mut self, params: &RampParams, limits: Limits, bounds: &Bounds) -> (Ramp, Span) {
-        let from = self.st.axes[0].ramp;
+        self.span_of(0, params, limits, bounds)
+    }
+
+    /// [`Module::span`] of motor `m`'s ramp (a span is a function of a ramp's state, parameters, limits and
+    /// bounds alone, so the motors share what is remembered).
+    fn span_of(&mut self, m: usize, params: &RampParams, limits: Limits, bounds: &Bounds) -> (Ramp, Span) {
+        let from = self.st.axes[m].ramp;
         if let Some(found) = self.memos.find(&from, params, limits, bounds) {
             return found;
         }
@@ -230,44 +381,49 @@ impl<B: Board> Module<B> {
 
     /// The bounds of both, and the board's period if `periodic` (else 0).
     fn bounds(&mut self, horizon: Option<Instant>, periodic: bool) -> Option<(Limits, Bounds, u64)> {
-        let searching = self.st.axes[0].reference.is_active();
+        self.bounds_of(0, horizon, periodic)
+    }
+
+    /// [`Module::bounds`] of motor `m`'s span.
+    fn bounds_of(&mut self, m: usize, horizon: Option<Instant>, periodic: bool) -> Option<(Limits, Bounds, u64)> {
+        let searching = self.st.axes[m].reference.is_active();
         if self.exact
-            || (searching && (self.spec.axis.has(Setting::ClosedLoop) || self.st.axes[0].ramping))
-            || self.st.axes[0].standstill_since.is_some()
-            || self.st.axes[0].ramp.velocity() == 0
+            || (searching && (self.spec.axis.has(Setting::ClosedLoop) || self.st.axes[m].ramping))
+            || self.st.axes[m].standstill_since.is_some()
+            || self.st.axes[m].ramp.velocity() == 0
         {
             return None;
         }
-        if self.ap(0, Setting::CoolStepHysteresisStart).unwrap_or(0) != 0
-            || self.ap(0, Setting::MaxEncoderDeviation).unwrap_or(0) > 0
+        if self.ap(m, Setting::CoolStepHysteresisStart).unwrap_or(0) != 0
+            || self.ap(m, Setting::MaxEncoderDeviation).unwrap_or(0) > 0
         {
             return None; // coolStep regulates; the deviation check is armed (open loop: no closed loop here)
         }
         let prescaler =
-            self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axes[0].params[i]);
-        if encoder::clear_on_null_enabled(prescaler) && self.motor_at(0).ssi_selected() {
+            self.spec.axis.role(crate::model::Role::EncoderPrescaler).map_or(512, |i| self.st.axes[m].params[i]);
+        if encoder::clear_on_null_enabled(prescaler) && self.motor_at(m).ssi_selected() {
             return None;
         }
-        if self.spec.axis.has(Setting::ClosedLoop) && !self.st.axes[0].cl.active {
+        if self.spec.axis.has(Setting::ClosedLoop) && !self.st.axes[m].cl.active {
             // Open loop: the loop about to close (AP 129 and a done initialisation: it closes at the next
             // tick), or an SSI encoder, whose turns the firmware counts from reading to reading.
-            let closing = self.ap(0, Setting::ClosedLoop) == Some(1) && self.st.axes[0].cl.init == Init::Done;
-            if closing || self.motor_at(0).ssi_selected() {
+            let closing = self.ap(m, Setting::ClosedLoop) == Some(1) && self.st.axes[m].cl.init == Init::Done;
+            if closing || self.motor_at(m).ssi_selected() {
                 return None;
             }
         }
         // The board at the span's start, as a first tick would read it.
         let t = self.st.motion_time;
-        self.motor_at(0).sync_board(t);
-        let state = self.st.axes[0].last_drive?;
-        let mut quiet = self.board.quiet(0, self.st.motion_time, &state)?;
-        let period = if periodic { self.board.period(0, &state, &mut quiet) } else { 0 };
-        if searching && !self.motor_at(0).search_goes_on() {
+        self.motor_at(m).sync_board(t);
+        let state = self.st.axes[m].last_drive?;
+        let mut quiet = self.board.quiet(m, self.st.motion_time, &state)?;
+        let period = if periodic { self.board.period(m, &state, &mut quiet) } else { 0 };
+        if searching && !self.motor_at(m).search_goes_on() {
             // A reference search looks at its switch after every microstep; within the board's window the
             // switches stay as they are, so every look decides as this one.
             return None;
         }
-        if quiet.load == 0 && self.units_to_pps(0, self.ap(0, Setting::StopOnStall).unwrap_or(0)) > 0 {
+        if quiet.load == 0 && self.units_to_pps(m, self.ap(m, Setting::StopOnStall).unwrap_or(0)) > 0 {
             return None; // a measurement would stop the motor
         }
         // The last tick of the span: not after the horizon, the next instruction or end of a WAIT, the
@@ -287,10 +443,10 @@ impl<B: Board> Module<B> {
         }
         let (mut min_speed, mut max_speed) = (quiet.min_speed.max(1), quiet.max_speed);
         // The slow-run current (AP 183) applies at or below AP 182: the side the speed is on stays.
-        let threshold = self.units_to_pps(0, self.ap(0, Setting::CoolStepThresholdSpeed).unwrap_or(0));
+        let threshold = self.units_to_pps(m, self.ap(m, Setting::CoolStepThresholdSpeed).unwrap_or(0));
         if threshold > 0 {
             let threshold = threshold.unsigned_abs();
-            if self.st.axes[0].ramp.velocity().unsigned_abs() <= threshold {
+            if self.st.axes[m].ramp.velocity().unsigned_abs() <= threshold {
                 max_speed = max_speed.min(threshold);
             } else {
                 min_speed = min_speed.max(threshold.saturating_add(1));
@@ -302,9 +458,9 @@ impl<B: Board> Module<B> {
             backward: quiet.backward,
             min_speed,
             max_speed,
-            ramping: self.st.axes[0].ramping,
+            ramping: self.st.axes[m].ramping,
             work: u64::MAX,
         };
-        Some((self.motor_at(0).limits(), bounds, period))
+        Some((self.motor_at(m).limits(), bounds, period))
     }
 }
