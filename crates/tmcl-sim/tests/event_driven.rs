@@ -145,6 +145,23 @@ fn a_motor_stopped_in_the_tick_before_ticks_once_more() {
     }
 }
 
+/// The `event_driven` fuzz target's find (a slow unit, 76 s): a TMCM-3110 whose three motors move slower
+/// than a step a tick, each at its own rate (the TMC428's pulse divisors 9 to 11). A span ends on its last
+/// step, so the three rarely ended on the same tick, and the first cut looked for one tick by tick; the
+/// ticks after a motor's last step, which move none, are now taken as a second span.
+#[test]
+fn several_slow_motors_take_the_ticks_after_their_last_steps() {
+    let scenario = Scenario::decode(&[
+        255, 120, 0, 0, 33, 0, 0, 32, 0, 94, 0, 0, 0, 53, 37, 96, 247, 112, 152, 93, 159, 159, 159, 159, 159, 159, 159,
+        205, 1, 35, 0, 0, 0, 10, 1, 102, 116, 108, 43, 101, 152, 93, 159, 159, 159, 159, 159, 159, 159, 205, 1, 35, 20,
+    ])
+    .compressed(3_000);
+    assert_eq!(scenario.spec.motors, 3);
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(
         std::env::var("EVENT_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(16)

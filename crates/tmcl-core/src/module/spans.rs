@@ -53,8 +53,18 @@ const COSTLY_WORK: u64 = 64;
 /// How many ticks a deadline's look-ahead computes one by one at most.
 const LOOKAHEAD_WORK: u64 = 64;
 
-/// Every motor's span over a run of ticks several motors take together (`None`: the motor stands).
-type Spans = [Option<(Ramp, Span)>; MAX_MOTORS as usize];
+/// A moving motor's part in a run of ticks several motors take together ([`Module::several_spans`]): its
+/// span up to its last step, and its ramp at the run's end (the same, or the ticks after that step, which
+/// move none, taken too).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Run {
+    at_last: Ramp,
+    last: Span,
+    at_end: Ramp,
+}
+
+/// Every motor's run (`None`: the motor stands).
+type Runs = [Option<Run>; MAX_MOTORS as usize];
 
 /// A span the module computed: [`crate::motion::Ramp::span`] is a function of the ramp's state, its
 /// parameters, the limits and the bounds alone, so the same inputs give the same span.
@@ -189,18 +199,29 @@ impl<B: Board> Module<B> {
         if !cfg!(feature = "spans") {
             return false;
         }
-        let Some((ticks, spans)) = self.several_spans(Some(now), params, u64::MAX) else { return false };
-        let t = self.st.motion_time + Duration::from_micros(ticks * TICK.micros());
-        for (m, span) in spans.iter().enumerate() {
-            if let Some((to, span)) = span {
-                // As in `take_span`: every tick moved, the speed changing as before the span.
-                self.st.axes[m].ramp = *to;
-                self.st.axes[m].unreported_steps += span.steps;
+        let Some((ticks, runs)) = self.several_spans(Some(now), params, u64::MAX) else { return false };
+        let start = self.st.motion_time;
+        let at = |ticks: u64| start + Duration::from_micros(ticks * TICK.micros());
+        // Each motor's board hears of its steps at its last step, in the order of time (a board may bring
+        // the others' clocks on with its own), then of the ticks after it, which move none, at the end.
+        let mut order: [usize; MAX_MOTORS as usize] = core::array::from_fn(|m| m);
+        let motors = params.len();
+        order[..motors].sort_by_key(|&m| runs[m].map_or(u64::MAX, |r| r.last.ticks));
+        for &m in &order[..motors] {
+            if let Some(run) = runs[m] {
+                // As in `take_span`: every tick moved or the speed changed as before the span.
+                self.st.axes[m].ramp = run.at_last;
+                self.st.axes[m].unreported_steps += run.last.steps;
+                self.motor_at(m).update_board(at(run.last.ticks));
             }
         }
-        for (m, span) in spans.iter().enumerate() {
-            if span.is_some() {
-                self.motor_at(m).update_board(t);
+        let t = at(ticks);
+        for (m, run) in runs.iter().enumerate().take(motors) {
+            if let Some(run) = run {
+                if run.last.ticks < ticks {
+                    self.st.axes[m].ramp = run.at_end;
+                    self.motor_at(m).update_board(t);
+                }
             }
         }
         self.st.motion_time = t;
@@ -212,64 +233,72 @@ impl<B: Board> Module<B> {
     }
 
     /// The ticks after `motion_time` that every motor of a model with several can take at once, and each
-    /// moving motor's span over them (`None`: standing), if there are any (`horizon`: no tick after it;
+    /// moving motor's run over them (`None`: standing), if there are any (`horizon`: no tick after it;
     /// `work`: [`Bounds::work`]). Each moving motor's span within its own bounds (as one motor's, see the
-    /// module docs); the motors tick together, so the run is as long as the shortest, and the others' spans
-    /// are taken again for that many ticks (a span ends at its last step, so one may come out shorter
-    /// still: it is looked at until all agree). A standing motor's tick only reads its board (its
+    /// module docs); the motors tick together, so the run is as long as the shortest. A motor's span ends
+    /// on its last step: where it reached the run's tick count all the same (no event before it), the ticks
+    /// after that step, which move none, are taken as a second span (`Run`); where an event ended it, the
+    /// run ends there and every motor is looked at again. A standing motor's tick only reads its board (its
     /// switches, the driver's flags, the load): the run ends before its board's quiet window does, and
     /// one that has just stopped (its next tick starts its standstill or ends its speed change),
-    /// searches for its reference or regulates its current with coolStep takes no span. Nor does any motor's next change of current by
-    /// itself (a standby or freewheeling delay running out: the board hears of it at its instant).
+    /// searches for its reference or regulates its current with coolStep takes no span. Nor does any
+    /// motor's next change of current by itself (a standby or freewheeling delay running out: the board
+    /// hears of it at its instant).
     pub(super) fn several_spans(
         &mut self,
         horizon: Option<Instant>,
         params: &[RampParams],
         work: u64,
-    ) -> Option<(u64, Spans)> {
+    ) -> Option<(u64, Runs)> {
         if self.spec.axis.has(Setting::ClosedLoop) || self.exact {
             return None;
         }
-        let start = self.st.motion_time;
         let mut ticks = self.standing_bound(horizon)?;
-        let mut spans = [None; MAX_MOTORS as usize];
         let mut bounds_of = [None; MAX_MOTORS as usize];
-        for (m, params) in params.iter().enumerate() {
-            if self.st.axes[m].is_standing() {
-                continue;
+        for (m, slot) in bounds_of.iter_mut().enumerate().take(params.len()) {
+            if !self.st.axes[m].is_standing() {
+                let (limits, bounds, _) = self.bounds_of(m, horizon, false)?;
+                ticks = ticks.min(bounds.ticks);
+                *slot = Some((limits, bounds));
             }
-            let (limits, bounds, _) = self.bounds_of(m, horizon, false)?;
-            bounds_of[m] = Some((limits, bounds));
-            let bounds = Bounds { ticks: bounds.ticks.min(ticks), work, ..bounds };
-            let (to, span) = self.span_of(m, params, limits, &bounds);
-            ticks = ticks.min(span.ticks);
-            if ticks == 0 {
-                return None;
-            }
-            spans[m] = Some((to, span));
         }
-        // Every span as long as the shortest.
-        loop {
-            let mut agreed = true;
+        // Each pass either finds every motor's run as long as `ticks`, or shortens it to where a motor's
+        // event (or its last step before one) is — at once, so that the motors after it in the pass are
+        // computed no further — and the next pass looks at the ones before again; a motor's event shortens
+        // it once, so a few passes do.
+        for _ in 0..=2 * params.len() {
+            let mut runs: Runs = [None; MAX_MOTORS as usize];
+            let mut shortened = false;
             for (m, params) in params.iter().enumerate() {
-                let (Some((limits, bounds)), Some((_, span))) = (bounds_of[m], spans[m]) else { continue };
-                if span.ticks == ticks {
-                    continue;
+                let Some((limits, bounds)) = bounds_of[m] else { continue };
+                let bounds = Bounds { ticks, work, ..bounds };
+                let (at_last, last) = self.span_of(m, params, limits, &bounds);
+                // (It stopped at the tick count, not at an event or for want of work.)
+                let reached = last.capped && last.work < work;
+                let at_end = if last.ticks == ticks {
+                    Some(at_last)
+                } else if reached {
+                    // The ticks after its last step move none: they are taken from there.
+                    let mut at = at_last;
+                    let rest = at.span(params, limits, &Bounds { ticks: ticks - last.ticks, ..bounds });
+                    (rest.ticks == ticks - last.ticks && rest.steps == 0).then_some(at)
+                } else {
+                    None
+                };
+                match at_end {
+                    Some(at_end) => runs[m] = Some(Run { at_last, last, at_end }),
+                    None if last.ticks == 0 => return None,
+                    None => {
+                        ticks = last.ticks;
+                        shortened = true;
+                    }
                 }
-                let (to, span) = self.span_of(m, params, limits, &Bounds { ticks, work, ..bounds });
-                if span.ticks == 0 {
-                    return None;
-                }
-                agreed &= span.ticks == ticks;
-                ticks = ticks.min(span.ticks);
-                spans[m] = Some((to, span));
             }
-            if agreed {
-                break;
+            if !shortened {
+                return Some((ticks, runs));
             }
         }
-        debug_assert!(self.st.motion_time == start);
-        (ticks > 0).then_some((ticks, spans))
+        None
     }
 
     /// How many ticks from `motion_time` on the standing motors of a model with several let a run of
