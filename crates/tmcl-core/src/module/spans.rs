@@ -206,7 +206,7 @@ impl<B: Board> Module<B> {
         // the others' clocks on with its own), then of the ticks after it, which move none, at the end.
         let mut order: [usize; MAX_MOTORS as usize] = core::array::from_fn(|m| m);
         let motors = params.len();
-        order[..motors].sort_by_key(|&m| runs[m].map_or(u64::MAX, |r| r.last.ticks));
+        order[..motors].sort_unstable_by_key(|&m| (runs[m].map_or(u64::MAX, |r| r.last.ticks), m));
         for &m in &order[..motors] {
             if let Some(run) = runs[m] {
                 // As in `take_span`: every tick moved or the speed changed as before the span.
