@@ -220,6 +220,16 @@ pub trait StepDriver {
         let _ = (motor, state, quiet);
         0
     }
+
+    /// After [`StepDriver::period`] reported `period` (non-zero) for `state`: how far the encoder counts
+    /// move while the field moves `period` microsteps up (a whole number; negative where they count
+    /// down), or `None` (the default) if the board cannot say. The core compares it with what the
+    /// encoder's settings make of that move, to know whether the encoder reads the field's own travel
+    /// (`module/loop_span.rs`).
+    fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64> {
+        let _ = (motor, state, period);
+        None
+    }
 }
 
 /// The driver's load measurement (stallGuard2 on the TMC262) and its error flags.
@@ -279,6 +289,7 @@ forward! {
         fn configure(&mut self, motor: usize, settings: &DriverSettings);
         fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet>;
         fn period(&mut self, motor: usize, state: &DriveState, quiet: &mut Quiet) -> u64;
+        fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64>;
     }
     LoadSensor {
         fn load(&mut self, motor: usize) -> u16;

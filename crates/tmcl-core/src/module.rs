@@ -50,6 +50,8 @@ mod ascii;
 mod coordinated;
 mod exec;
 mod host;
+#[cfg(feature = "loop-periods")]
+mod loop_span;
 mod params;
 mod pass;
 #[cfg(feature = "loop-periods")]

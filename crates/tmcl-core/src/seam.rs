@@ -122,6 +122,10 @@ impl<B: StepDriver> StepDriver for Seam<B> {
     fn period(&mut self, motor: usize, state: &DriveState, quiet: &mut Quiet) -> u64 {
         self.board.period(motor, state, quiet)
     }
+    #[inline]
+    fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64> {
+        self.board.period_counts(motor, state, period)
+    }
 }
 
 impl<B: Inputs> Inputs for Seam<B> {

@@ -1230,6 +1230,28 @@ impl StepDriver for SimBoard {
         }
         self.period_window(state, quiet)
     }
+
+    fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64> {
+        if motor > 0 && motor <= self.axes.len() {
+            return self.axes[motor - 1].period_counts(0, state, period);
+        }
+        // The counts are ⌊(x − zero) · cpr / upr⌋ (`counts`): a move of the field by `period` µsteps of
+        // the resolution in force moves them by its physical µsteps · cpr / upr, when that is whole.
+        let model = self.profile.encoder?;
+        let (ssi, per_rev) = match self.spec.encoder {
+            Some(e) => (e.kind == EncoderType::Ssi, e.counts_per_rev),
+            None => (model.kind == EncoderKind::Ssi, model.counts_per_rev),
+        };
+        let upr = self.plan.mech.usteps_per_rev();
+        if ssi || ssi != self.driver.settings.ssi_encoder || !whole(upr) || upr < 1.0 {
+            return None;
+        }
+        let per_step = 1i128 << (8 - state.resolution.min(8));
+        let sign = if state.reverse { -1 } else { 1 };
+        let moved = i128::from(period) * per_step * sign * i128::from(per_rev);
+        let upr = upr as i128;
+        (moved % upr == 0).then(|| i64::try_from(moved / upr).ok()).flatten()
+    }
 }
 
 /// The load measurement: stallGuard2 when the model's driver is a TMC262 (else no measurement is taken

@@ -12,6 +12,31 @@ use crate::model::Setting;
 use crate::motion::Mode;
 use tmcl_wire::Status;
 
+/// What the ticks of a closed loop whose rotor stands on the field depend on besides its state
+/// ([`Motor::locked_loop`]).
+#[cfg(feature = "loop-periods")]
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LockedLoop {
+    /// β in microsteps (AP 111).
+    pub beta: i64,
+    /// Half an electrical period less one microstep: the field's lead never reaches it.
+    pub max_lead: i64,
+    /// One full step in microsteps (gamma's unit).
+    pub full_step: i64,
+    /// The current scaling (AP 113–122).
+    pub scale: ScaleParams,
+    /// The current scaling regulates |e| (AP 115 = 1), not |gamma|.
+    pub scale_on_error: bool,
+    /// AP 125 (0: no following-error check).
+    pub max_error: i64,
+    /// The RMS coil current the loop drives now (mA), AP 25 (ms) and AP 26: the I²t monitor's inputs.
+    pub rms_ma: i64,
+    /// See `rms_ma`.
+    pub tau_ms: i64,
+    /// See `rms_ma`.
+    pub i2t_limit: i64,
+}
+
 /// √2 · 10000, for RMS ↔ peak.
 const SQRT2_E4: i64 = 14142;
 
@@ -236,6 +261,28 @@ impl<B: Board> Motor<'_, B> {
             self.axis.cl = cl;
         }
         taken
+    }
+
+    #[cfg(feature = "loop-periods")]
+    /// What a run of ticks of this motor's loop with the rotor standing on the field depends on besides
+    /// the loop's state (`module/loop_span.rs`).
+    pub(crate) fn locked_loop(&self) -> LockedLoop {
+        let ap = |s| i64::from(self.ap(s).unwrap_or(0));
+        let (rms_ma, tau_ms, i2t_limit) = self.loop_i2t();
+        LockedLoop {
+            beta: closed_loop::beta_usteps(
+                self.ap(Setting::CommutationLimit).unwrap_or(255),
+                self.microstep_resolution(),
+            ),
+            max_lead: 2 * self.full_step() - 1,
+            full_step: self.full_step(),
+            scale: self.scale_params(),
+            scale_on_error: ap(Setting::CurrentScaleInput) == 1,
+            max_error: ap(Setting::MaxFollowingError),
+            rms_ma,
+            tau_ms,
+            i2t_limit,
+        }
     }
 
     #[cfg(feature = "loop-periods")]

@@ -472,6 +472,77 @@ impl ClosedLoop {
     }
 }
 
+impl ClosedLoop {
+    /// Whether the current scaling leaves the scaler where it is at every millisecond of a run in which
+    /// the error it regulates (|gamma| or |e|, step 5 of the module docs) stays within `error` (lowest,
+    /// highest, both ≥ 0): every millisecond takes the same branch, and that branch cannot move the
+    /// scaler (it stands at the limit the branch pushes it to, or the scaling is off). So the current the
+    /// loop drives stays as it is.
+    pub fn scaler_stays(&self, s: &ScaleParams, error: (i64, i64)) -> bool {
+        let (lo, hi) = (s.min.min(s.max), s.max);
+        if !s.enabled {
+            return self.scaler == hi;
+        }
+        // Along a rising error the branches follow each other down, between, up: a range of errors takes
+        // one branch if its ends do.
+        let branch = Branch::of(s, error.0);
+        if branch != Branch::of(s, error.1) {
+            return false;
+        }
+        let next = match branch {
+            Branch::Up => self.scaler.saturating_add(s.increment),
+            Branch::Down => self.scaler.saturating_sub(s.decrement),
+            Branch::Between => self.scaler,
+        };
+        next.clamp(lo, hi) == self.scaler
+    }
+
+    /// Takes `ticks` whole ticks of a loop whose rotor stands on the field and whose controller leaves
+    /// the field on the ramp (`module/loop_span.rs` checks both), the error the current scaling regulates
+    /// within `error` all through, where [`ClosedLoop::scaler_stays`]: the scaling's millisecond counters
+    /// as ticking leaves them, the I²t sum `i2t` (from [`ClosedLoop::i2t_ahead`] at the loop's constant
+    /// current), and the velocity window's next slot moved on (the moves themselves are left to the
+    /// [`VELOCITY_WINDOW`] + 1 ticks after the run, which are ticked and overwrite every slot, as after an
+    /// open-loop span: [`ClosedLoop::skip_ticks`]). The field's offset from the ramp, the hold integrator
+    /// and the scaler stay; the rotor's position, error and gamma are the next tick's to measure.
+    pub fn run_locked(&mut self, s: &ScaleParams, error: (i64, i64), ticks: u64, i2t: i64) {
+        if ticks == 0 {
+            return;
+        }
+        match Branch::of(s, error.0) {
+            _ if !s.enabled => (self.up_ms, self.down_ms) = (0, 0),
+            Branch::Between => (self.up_ms, self.down_ms) = (0, 0),
+            Branch::Up => (self.up_ms, self.down_ms) = (counter_after(self.up_ms, s.up_ms, ticks), 0),
+            Branch::Down => (self.up_ms, self.down_ms) = (0, counter_after(self.down_ms, s.down_ms, ticks)),
+        }
+        self.i2t = i2t;
+        self.skip_ticks(ticks);
+    }
+}
+
+/// Which way one millisecond of current scaling goes for a regulated error ([`scale`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Branch {
+    /// Above the upper limit: the up counter runs.
+    Up,
+    /// Below the lower limit (and not above the upper): the down counter runs.
+    Down,
+    /// Within the limits: both counters are reset.
+    Between,
+}
+
+impl Branch {
+    fn of(s: &ScaleParams, error: i64) -> Self {
+        if error > s.upper {
+            Branch::Up
+        } else if error < s.lower {
+            Branch::Down
+        } else {
+            Branch::Between
+        }
+    }
+}
+
 /// Current-scaling parameters (AP 113–122).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ScaleParams {
@@ -504,23 +575,27 @@ pub fn scale(cl: &mut ClosedLoop, p: &ScaleParams, error: i64) {
         cl.down_ms = 0;
         return;
     }
-    if error > p.upper {
-        cl.down_ms = 0;
-        cl.up_ms += 1;
-        if cl.up_ms >= p.up_ms.max(1) {
-            cl.up_ms = 0;
-            cl.scaler = cl.scaler.saturating_add(p.increment);
-        }
-    } else if error < p.lower {
-        cl.up_ms = 0;
-        cl.down_ms += 1;
-        if cl.down_ms >= p.down_ms.max(1) {
+    match Branch::of(p, error) {
+        Branch::Up => {
             cl.down_ms = 0;
-            cl.scaler = cl.scaler.saturating_sub(p.decrement);
+            cl.up_ms += 1;
+            if cl.up_ms >= p.up_ms.max(1) {
+                cl.up_ms = 0;
+                cl.scaler = cl.scaler.saturating_add(p.increment);
+            }
         }
-    } else {
-        cl.up_ms = 0;
-        cl.down_ms = 0;
+        Branch::Down => {
+            cl.up_ms = 0;
+            cl.down_ms += 1;
+            if cl.down_ms >= p.down_ms.max(1) {
+                cl.down_ms = 0;
+                cl.scaler = cl.scaler.saturating_sub(p.decrement);
+            }
+        }
+        Branch::Between => {
+            cl.up_ms = 0;
+            cl.down_ms = 0;
+        }
     }
     cl.scaler = cl.scaler.clamp(lo, hi);
 }

@@ -81,6 +81,9 @@ pub(crate) struct Periods {
     checkpoint: Option<Checkpoint>,
     /// No look for a new checkpoint before this motion time (after one that found none).
     retry: Option<Instant>,
+    /// No run of the locked loop planned before this motion time (`loop_span.rs`): the ticks after the
+    /// last run, which are ticked, or a while after a look that found none.
+    pub(super) locked_until: Option<Instant>,
 }
 
 /// A jump of whole periods.
@@ -238,7 +241,7 @@ impl<B: Board> Module<B> {
 
     /// The encoder conversion's constants: F = AP 202 × microsteps a full step, R = AP 210 (encoder
     /// counts × F / R are microsteps, `Module::counts_to_usteps`).
-    fn conversion(&self) -> Option<(i64, i64)> {
+    pub(super) fn conversion(&self) -> Option<(i64, i64)> {
         let per_rev = i64::from(self.ap(0, Setting::EncoderResolution)?.max(1));
         let full_steps = i64::from(self.ap(0, Setting::MotorFullSteps).unwrap_or(200).max(1));
         Some((full_steps << self.st.axes[0].microstep_resolution(&self.spec.axis).min(8), per_rev))

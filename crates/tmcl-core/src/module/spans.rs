@@ -51,7 +51,7 @@ const COSTLY: usize = 4;
 #[cfg(feature = "span-memo")]
 const COSTLY_WORK: u64 = 64;
 /// How many ticks a deadline's look-ahead computes one by one at most.
-const LOOKAHEAD_WORK: u64 = 64;
+pub(super) const LOOKAHEAD_WORK: u64 = 64;
 
 /// A moving motor's part in a run of ticks several motors take together ([`Module::several_spans`]): its
 /// span up to its last step, and its ramp at the run's end (the same, or the ticks after that step, which
@@ -150,7 +150,9 @@ impl<B: Board> Module<B> {
         }
         #[cfg(feature = "loop-periods")]
         if self.st.axes[0].cl.active {
-            return self.take_periods(now, params);
+            // The rotor on the field: in closed form (`loop_span.rs`); else the loop's periods if it
+            // cruises (`periods.rs`).
+            return self.take_locked(now, params) || self.take_periods(now, params);
         }
         let Some((limits, bounds)) = self.span_bounds(Some(now)) else { return false };
         let (mut to, mut span) = self.span(params, limits, &bounds);
@@ -358,8 +360,10 @@ impl<B: Board> Module<B> {
         }
         #[cfg(feature = "loop-periods")]
         if self.st.axes[0].cl.active {
-            // Whole periods, ending on a period's boundary (the deadline is the tick after this many).
-            return self.periods_ahead(&self.ramp_params(0)).saturating_sub(1);
+            // A run of the locked loop, or whole periods, ending on a period's boundary (the deadline is
+            // the tick after this many).
+            let params = self.ramp_params(0);
+            return self.locked_ahead(&params).max(self.periods_ahead(&params).saturating_sub(1));
         }
         let Some((limits, bounds)) = self.span_bounds(None) else { return 0 };
         // Braking computed only so far: a deadline before the event is only an extra poll, and a run polled
@@ -369,7 +373,7 @@ impl<B: Board> Module<B> {
     }
 
     /// The span from the ramp's state within `bounds`: remembered, or computed (and remembered).
-    fn span(&mut self, params: &RampParams, limits: Limits, bounds: &Bounds) -> (Ramp, Span) {
+    pub(super) fn span(&mut self, params: &RampParams, limits: Limits, bounds: &Bounds) -> (Ramp, Span) {
         self.span_of(0, params, limits, bounds)
     }
 

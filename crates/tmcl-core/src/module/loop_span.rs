@@ -1,0 +1,206 @@
+//! A closed loop whose rotor stands on the field, taken in closed form while it accelerates, brakes or
+//! cruises (TMCM-1310; docs/decisions.md, "A closed loop that accelerates in closed form").
+//!
+//! A closed loop measures and corrects at every tick, so it takes no plain spans (`spans.rs`), and the
+//! loop's periods (`periods.rs`) need a steady speed. But while the board is periodic
+//! ([`crate::hal::StepDriver::period`]: the rotor stands on the field, and the encoder reads the field's
+//! position in counts, rounded down, plus a constant), what the controller does at each tick is known
+//! in advance:
+//!
+//! - The rotor stands where the field was put by the tick before, and the encoder's settings (AP 202,
+//!   210 and the resolution) convert its counts back to the field's microsteps (the board says how far
+//!   its counts move over its period, [`crate::hal::StepDriver::period_counts`]), so the loop reads the
+//!   field's position, plus a constant, less ρ, what the counts' resolution and the conversion cut off. ρ lies within a
+//!   count's microsteps plus two of its value now (ρ₀), on either side (the conversion truncates towards
+//!   the encoder's reference, `Motor::encoder_value`, so ρ may change sides there).
+//! - If the field stands at the ramp plus the hold integrator's part, H = hold / 1024 (the loop's
+//!   `field_offset` is H), a tick's controller (`drive::closed_loop::control`) finds its set point
+//!   (the ramp plus H) equal to the last field plus the ramp's step: the catch-up limit does not act;
+//!   the set point lies step + ρ from the rotor, so with |step| + |ρ| within β (AP 111) and half an
+//!   electrical period the commutation limit does not act either. The field moves exactly as the ramp,
+//!   H stays (the integrator runs only while the ramp stands), e = step + ρ − H, and gamma = ρ·256 / a
+//!   full step.
+//! - The current scaling (AP 113–122) regulates |gamma| or |e| (AP 115): both lie within bounds known
+//!   from the steps' range. Within a band of speeds whose errors all take one branch that cannot move
+//!   the scaler (`ClosedLoop::scaler_stays`), the current is constant: the I²t sum follows tick by tick
+//!   in a tight loop up to its fixed point (`ClosedLoop::i2t_ahead`), the scaling's counters in closed
+//!   form (`ClosedLoop::run_locked`). The following-error check (AP 125) cannot trip within the band.
+//!
+//! The band is given to the ramp's span (`motion/ramp/span.rs`) as its speed bounds, with the board's
+//! quiet window and the span's other bounds, so the span stops before a tick that leaves it; the board
+//! hears of the field's move once. The last [`VELOCITY_WINDOW`] + 1 ticks before the span's end are
+//! ticked, as after an open-loop span of a closed-loop model (`spans.rs`): they fill the velocity window
+//! (AP 131) and measure the rotor, the error and gamma as ticking does. Those ticks lie in the band too,
+//! so their controller does not depend on the rotor's move before them, which they measure over the
+//! whole span. The result is that of ticking (`tests/event_driven.rs` in `tmcl-sim` draws closed loops
+//! both ways).
+
+use super::Module;
+use crate::drive::closed_loop::{Init, VELOCITY_WINDOW};
+use crate::hal::prelude::*;
+use crate::hal::Board;
+use crate::motion::{Bounds, Ramp, RampParams, Span, TICK};
+use crate::time::{Duration, Instant};
+
+/// After a look for a run that found none, the next waits this many ticks (unless the look found the
+/// next event nearer).
+const RETRY_TICKS: u64 = 16;
+
+/// A planned run of a locked loop's ticks.
+struct LockedRun {
+    /// The ramp after it, and its span.
+    ramp: Ramp,
+    span: Span,
+    /// The span that the band and the bounds allow, its last [`VELOCITY_WINDOW`] + 1 ticks included.
+    whole: u64,
+    /// The lowest and highest error the current scaling regulates in it.
+    error: (i64, i64),
+    /// The I²t sum after it.
+    i2t: i64,
+}
+
+impl<B: Board> Module<B> {
+    /// At the start of a tick with motor 0's loop closed (one-motor models): takes the ticks up to
+    /// `now` as a run of the locked loop, less the last [`VELOCITY_WINDOW`] + 1 (see the module docs).
+    /// Returns whether it took any tick.
+    #[inline(never)] // out of the open loop's way
+    pub(super) fn take_locked(&mut self, now: Instant, params: &RampParams) -> bool {
+        if self.periods.locked_until.is_some_and(|u| self.st.motion_time < u) {
+            return false;
+        }
+        let start = self.st.motion_time;
+        let run = match self.plan_locked(Some(now), params) {
+            Ok(run) => run,
+            Err(wait) => {
+                self.periods.locked_until = Some(start + Duration::from_micros(wait * TICK.micros()));
+                return false;
+            }
+        };
+        self.periods.locked_until = Some(start + Duration::from_micros(run.whole * TICK.micros()));
+        let scale = self.motor_at(0).locked_loop().scale;
+        let axis = &mut self.st.axes[0];
+        axis.ramp = run.ramp;
+        axis.cl.run_locked(&scale, run.error, run.span.ticks, run.i2t);
+        // The field moved as the ramp: its offset from the ramp is where it was.
+        axis.unreported_steps += run.span.steps;
+        let t = self.st.motion_time + Duration::from_micros(run.span.ticks * TICK.micros());
+        self.after_span(t);
+        true
+    }
+
+    /// How many ticks from `motion_time` on a run of the locked loop would take now, the ticks after it
+    /// that are ticked included, without taking them (0: none): for the deadline.
+    pub(super) fn locked_ahead(&mut self, params: &RampParams) -> u64 {
+        if self.periods.locked_until.is_some_and(|u| self.st.motion_time < u) {
+            return 0;
+        }
+        self.plan_locked(None, params).map_or(0, |run| run.whole)
+    }
+
+    /// Plans a run of the locked loop from the state now (see the module docs); `horizon`: no tick after
+    /// it (`None`: a look-ahead for the deadline, braking computed only so far). Without one: after how
+    /// many ticks to look again (a look costs a span: not at every tick of a loop that cannot take one).
+    fn plan_locked(&mut self, horizon: Option<Instant>, params: &RampParams) -> Result<LockedRun, u64> {
+        let (cl, ramp) = (self.st.axes[0].cl, self.st.axes[0].ramp);
+        if self.st.axes.count() != 1
+            || !cl.active
+            || cl.init != Init::Done
+            || cl.torque.is_some()
+            || cl.pending_us != 0
+            || self.st.axes[0].reference.is_active()
+            || ramp.velocity_micro() == 0
+            || cl.field_offset != cl.hold / 1024
+        {
+            return Err(0);
+        }
+        let (limits, mut bounds, period) = self.span_bounds_periodic(horizon).ok_or(RETRY_TICKS)?;
+        if horizon.is_none() {
+            bounds.work = super::spans::LOOKAHEAD_WORK;
+        }
+        // The encoder reads the field's own travel: its counts over a period of the board are what the
+        // encoder's settings (AP 202, 210, 140) make of the period's microsteps. (Else ρ drifts with the
+        // travel: an AP 210 that is not the encoder's, for one.)
+        let (f, r) = self.conversion().ok_or(RETRY_TICKS)?;
+        let state = self.st.axes[0].last_drive.ok_or(RETRY_TICKS)?;
+        let counts = self.board.period_counts(0, &state, period).ok_or(RETRY_TICKS)?;
+        if i128::from(counts) * i128::from(f) != i128::from(period) * i128::from(r) {
+            return Err(RETRY_TICKS);
+        }
+        let p = self.motor_at(0).locked_loop();
+        let actual = i64::from(self.motor_at(0).encoder_position());
+        let h = (cl.hold / 1024).abs();
+        // |ρ| at every tick of the run: ρ₀ now, a count's microsteps and two on either side.
+        let field = i64::from(ramp.position) + cl.field_offset;
+        let rho = (field - actual).abs() + (f + r.max(1) - 1) / r.max(1) + 2;
+        // A tick whose |AP 3| (truncated pps) is v moves ⌊v·dt⌋ microsteps, give or take one for the
+        // ramp's fraction and two for AP 3's truncation, and as much as the speed changes in a tick (the
+        // step is made at the speed before or after it): `slack` microsteps either way.
+        let us = i128::from(TICK.micros());
+        let slack = (i128::from(params.max_accel.unsigned_abs()) * us * us / 1_000_000_000_000 + 3) as i64;
+        let steps_at = |v: i64| (i128::from(v) * us / 1_000_000) as i64;
+        // The highest speed whose steps are at most `hi`, and the lowest whose steps are at least `lo`.
+        let top = |hi: i64| {
+            let whole = i128::from(hi - slack);
+            if whole < 0 {
+                -1
+            } else {
+                (((whole + 1) * 1_000_000 - 1) / us).min(i64::MAX.into()) as i64
+            }
+        };
+        let bottom = |lo: i64| {
+            let whole = i128::from(lo.max(0) + slack);
+            ((whole * 1_000_000 + us - 1) / us).min(i64::MAX.into()) as i64
+        };
+        // The commutation limit does not act, the following error does not trip: the steps' bound.
+        let mut max_step = p.beta.min(p.max_lead) - rho;
+        if p.max_error > 0 {
+            max_step = max_step.min(p.max_error - rho - h);
+        }
+        let (mut min_speed, mut max_speed) = (1, top(max_step));
+        // The current scaling's band around the speed now.
+        let v = i64::from(ramp.velocity().unsigned_abs());
+        let error = if p.scale_on_error {
+            // |e| = |step + ρ − H| lies within |step| ± (|ρ| + |H|).
+            let off = rho + h;
+            let (lower, upper) = (p.scale.lower, p.scale.upper);
+            // Steps whose |e| lies below the lower limit (down), within the limits, above the upper (up).
+            let bands = [(i64::MIN, lower - 1 - off), (lower + off, upper - off), (upper + 1 + off, i64::MAX)];
+            let s = steps_at(v);
+            let (lo, hi) =
+                bands.into_iter().find(|(lo, hi)| *lo <= s - slack && s + slack <= *hi).ok_or(RETRY_TICKS)?;
+            if lo > i64::MIN {
+                min_speed = min_speed.max(bottom(lo));
+            }
+            if hi < i64::MAX {
+                max_speed = max_speed.min(top(hi));
+            }
+            ((steps_at(min_speed) - slack - off).max(0), steps_at(max_speed) + slack + off)
+        } else {
+            // |gamma| = |ρ|·256 / a full step.
+            (0, rho * 256 / p.full_step.max(1) + 1)
+        };
+        if max_speed < min_speed || !cl.scaler_stays(&p.scale, error) {
+            return Err(RETRY_TICKS);
+        }
+        bounds.min_speed = bounds.min_speed.max(min_speed.clamp(1, i64::from(u32::MAX)) as u32);
+        bounds.max_speed = bounds.max_speed.min(max_speed.clamp(0, i64::from(u32::MAX)) as u32);
+        let keep = VELOCITY_WINDOW as u64 + 1;
+        let (_, whole) = self.span(params, limits, &bounds);
+        if whole.ticks <= keep {
+            return Err(whole.ticks + 1); // the next event is near: after it
+        }
+        // The I²t sum at the constant current, up to the monitor's next change (that tick changes the
+        // current: it is ticked).
+        let (taken, mut i2t) = cl.i2t_ahead(p.rms_ma, p.tau_ms, p.i2t_limit, whole.ticks - keep);
+        let (ramp, span) = self.span(params, limits, &Bounds { ticks: taken, ..bounds });
+        if span.ticks == 0 {
+            return Err(1);
+        }
+        if span.ticks != taken {
+            i2t = cl.i2t_ahead(p.rms_ma, p.tau_ms, p.i2t_limit, span.ticks).1;
+        }
+        // Cut short by the I²t monitor, the run is followed by more than the window's ticks anyway.
+        let whole = if taken < whole.ticks - keep { span.ticks } else { whole.ticks };
+        Ok(LockedRun { ramp, span, whole, error, i2t })
+    }
+}
