@@ -221,13 +221,13 @@ pub trait StepDriver {
         0
     }
 
-    /// After [`StepDriver::period`] reported `period` (non-zero) for `state`: how far the encoder counts
-    /// move while the field moves `period` microsteps up (a whole number; negative where they count
-    /// down), or `None` (the default) if the board cannot say. The core compares it with what the
-    /// encoder's settings make of that move, to know whether the encoder reads the field's own travel
-    /// (`module/loop_span.rs`).
-    fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64> {
-        let _ = (motor, state, period);
+    /// Within a window in which [`StepDriver::period`] found the board periodic for `state` (the rotor
+    /// stands on the field): the encoder counts (as [`EncoderCounter::encoder_counts`] reads them) with
+    /// the field `ahead` microsteps of the resolution in force from where it stands now, or `None` (the
+    /// default) if the board cannot say. The core reads a closed loop's measurements over a run of
+    /// ticks from it (`module/loop_span.rs`); `ahead` stays within the window's travel.
+    fn counts_at(&mut self, motor: usize, state: &DriveState, ahead: i64) -> Option<i64> {
+        let _ = (motor, state, ahead);
         None
     }
 }
@@ -289,7 +289,7 @@ forward! {
         fn configure(&mut self, motor: usize, settings: &DriverSettings);
         fn quiet(&mut self, motor: usize, now: Instant, state: &DriveState) -> Option<Quiet>;
         fn period(&mut self, motor: usize, state: &DriveState, quiet: &mut Quiet) -> u64;
-        fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64>;
+        fn counts_at(&mut self, motor: usize, state: &DriveState, ahead: i64) -> Option<i64>;
     }
     LoadSensor {
         fn load(&mut self, motor: usize) -> u16;

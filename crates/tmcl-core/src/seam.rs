@@ -123,8 +123,8 @@ impl<B: StepDriver> StepDriver for Seam<B> {
         self.board.period(motor, state, quiet)
     }
     #[inline]
-    fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64> {
-        self.board.period_counts(motor, state, period)
+    fn counts_at(&mut self, motor: usize, state: &DriveState, ahead: i64) -> Option<i64> {
+        self.board.counts_at(motor, state, ahead)
     }
 }
 

@@ -1231,26 +1231,25 @@ impl StepDriver for SimBoard {
         self.period_window(state, quiet)
     }
 
-    fn period_counts(&mut self, motor: usize, state: &DriveState, period: u64) -> Option<i64> {
+    fn counts_at(&mut self, motor: usize, state: &DriveState, ahead: i64) -> Option<i64> {
         if motor > 0 && motor <= self.axes.len() {
-            return self.axes[motor - 1].period_counts(0, state, period);
+            return self.axes[motor - 1].counts_at(0, state, ahead);
         }
-        // The counts are ⌊(x − zero) · cpr / upr⌋ (`counts`): a move of the field by `period` µsteps of
-        // the resolution in force moves them by its physical µsteps · cpr / upr, when that is whole.
+        // As `counts` reads them, with the rotor (on the field) `ahead` µsteps of the resolution in force
+        // further on.
         let model = self.profile.encoder?;
         let (ssi, per_rev) = match self.spec.encoder {
             Some(e) => (e.kind == EncoderType::Ssi, e.counts_per_rev),
             None => (model.kind == EncoderKind::Ssi, model.counts_per_rev),
         };
-        let upr = self.plan.mech.usteps_per_rev();
-        if ssi || ssi != self.driver.settings.ssi_encoder || !whole(upr) || upr < 1.0 {
+        if ssi || self.driver.settings.ssi_encoder {
             return None;
         }
-        let per_step = 1i128 << (8 - state.resolution.min(8));
+        let per_step = 1i64 << (8 - state.resolution.min(8));
         let sign = if state.reverse { -1 } else { 1 };
-        let moved = i128::from(period) * per_step * sign * i128::from(per_rev);
-        let upr = upr as i128;
-        (moved % upr == 0).then(|| i64::try_from(moved / upr).ok()).flatten()
+        let x = self.plan.mech.rotor() + (ahead * per_step * sign) as f64;
+        let turns = (x - self.plan.encoder_zero) / self.plan.mech.usteps_per_rev();
+        Some(floor_i64(turns * f64::from(per_rev)) + self.encoder_slip)
     }
 }
 

@@ -520,6 +520,27 @@ impl ClosedLoop {
     }
 }
 
+impl ClosedLoop {
+    /// After [`ClosedLoop::run_locked`] took `ticks` ticks: what the loop measured at the last of them,
+    /// from `actuals`, the rotor's positions at the start of each of the last `actuals.len() − 1` ticks
+    /// and at the one before them: their moves in the velocity window's slots (the next slot has moved
+    /// on already), the last move and the rotor's position.
+    pub fn measured(&mut self, actuals: &[i64], ticks: u64) {
+        let n = actuals.len().saturating_sub(1);
+        if n == 0 || ticks < n as u64 {
+            return;
+        }
+        let window = VELOCITY_WINDOW;
+        let first = (usize::from(self.moves_at) % window + window - n % window) % window;
+        for (i, pair) in actuals.windows(2).enumerate() {
+            let moved = pair[1] - pair[0];
+            self.moves[(first + i) % window] = moved.clamp(i16::MIN.into(), i16::MAX.into()) as i16;
+            self.last_move = moved;
+        }
+        self.actual = actuals[n];
+    }
+}
+
 /// Which way one millisecond of current scaling goes for a regulated error ([`scale`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Branch {

@@ -51,18 +51,21 @@ struct LockedRun {
     /// The ramp after it, and its span.
     ramp: Ramp,
     span: Span,
-    /// The span that the band and the bounds allow, its last [`VELOCITY_WINDOW`] + 1 ticks included.
-    whole: u64,
     /// The lowest and highest error the current scaling regulates in it.
     error: (i64, i64),
     /// The I²t sum after it.
     i2t: i64,
+    /// What the loop measures at its last ticks: the rotor's position (AP 209's microsteps) at the
+    /// start of each of the last `measured` ticks and at the one before them (the first: the loop's
+    /// `actual` before the run if the run is that short), and the ramp's step of the last tick.
+    actuals: [i64; VELOCITY_WINDOW + 1],
+    measured: usize,
+    last_step: i64,
 }
 
 impl<B: Board> Module<B> {
     /// At the start of a tick with motor 0's loop closed (one-motor models): takes the ticks up to
-    /// `now` as a run of the locked loop, less the last [`VELOCITY_WINDOW`] + 1 (see the module docs).
-    /// Returns whether it took any tick.
+    /// `now` as a run of the locked loop (see the module docs). Returns whether it took any tick.
     #[inline(never)] // out of the open loop's way
     pub(super) fn take_locked(&mut self, now: Instant, params: &RampParams) -> bool {
         if self.periods.locked_until.is_some_and(|u| self.st.motion_time < u) {
@@ -76,11 +79,18 @@ impl<B: Board> Module<B> {
                 return false;
             }
         };
-        self.periods.locked_until = Some(start + Duration::from_micros(run.whole * TICK.micros()));
-        let scale = self.motor_at(0).locked_loop().scale;
+        self.periods.locked_until = None;
+        let p = self.motor_at(0).locked_loop();
         let axis = &mut self.st.axes[0];
         axis.ramp = run.ramp;
-        axis.cl.run_locked(&scale, run.error, run.span.ticks, run.i2t);
+        axis.cl.run_locked(&p.scale, run.error, run.span.ticks, run.i2t);
+        axis.cl.measured(&run.actuals[..=run.measured], run.span.ticks);
+        // The last tick's error and gamma: e = virtual − actual; the field stands at e + H from the rotor
+        // and leads the ramp's step by gamma.
+        let e = i64::from(axis.ramp.position.wrapping_sub(axis.cl.actual as i32));
+        axis.cl.error = e.clamp(i32::MIN.into(), i32::MAX.into()) as i32;
+        let lead = e + axis.cl.field_offset - run.last_step;
+        axis.cl.gamma = (lead * 256 / p.full_step.max(1)).clamp(-256, 256) as i32;
         // The field moved as the ramp: its offset from the ramp is where it was.
         axis.unreported_steps += run.span.steps;
         let t = self.st.motion_time + Duration::from_micros(run.span.ticks * TICK.micros());
@@ -88,13 +98,13 @@ impl<B: Board> Module<B> {
         true
     }
 
-    /// How many ticks from `motion_time` on a run of the locked loop would take now, the ticks after it
-    /// that are ticked included, without taking them (0: none): for the deadline.
+    /// How many ticks from `motion_time` on a run of the locked loop would take now, without taking them
+    /// (0: none): for the deadline.
     pub(super) fn locked_ahead(&mut self, params: &RampParams) -> u64 {
         if self.periods.locked_until.is_some_and(|u| self.st.motion_time < u) {
             return 0;
         }
-        self.plan_locked(None, params).map_or(0, |run| run.whole)
+        self.plan_locked(None, params).map_or(0, |run| run.span.ticks)
     }
 
     /// Plans a run of the locked loop from the state now (see the module docs); `horizon`: no tick after
@@ -122,8 +132,15 @@ impl<B: Board> Module<B> {
         // travel: an AP 210 that is not the encoder's, for one.)
         let (f, r) = self.conversion().ok_or(RETRY_TICKS)?;
         let state = self.st.axes[0].last_drive.ok_or(RETRY_TICKS)?;
-        let counts = self.board.period_counts(0, &state, period).ok_or(RETRY_TICKS)?;
-        if i128::from(counts) * i128::from(f) != i128::from(period) * i128::from(r) {
+        let read = |module: &mut Self, ahead: i64| {
+            let counts = module.board.counts_at(0, &state, ahead)?;
+            let motor = module.motor_at(0);
+            let logical = motor.logical_counts(counts);
+            Some((logical, i64::from(motor.encoder_value(logical))))
+        };
+        let (here, _) = read(self, 0).ok_or(RETRY_TICKS)?;
+        let (there, _) = read(self, i64::try_from(period).map_err(|_| RETRY_TICKS)?).ok_or(RETRY_TICKS)?;
+        if i128::from(there - here) * i128::from(f) != i128::from(period) * i128::from(r) {
             return Err(RETRY_TICKS);
         }
         let p = self.motor_at(0).locked_loop();
@@ -184,23 +201,51 @@ impl<B: Board> Module<B> {
         }
         bounds.min_speed = bounds.min_speed.max(min_speed.clamp(1, i64::from(u32::MAX)) as u32);
         bounds.max_speed = bounds.max_speed.min(max_speed.clamp(0, i64::from(u32::MAX)) as u32);
-        let keep = VELOCITY_WINDOW as u64 + 1;
-        let (_, whole) = self.span(params, limits, &bounds);
-        if whole.ticks <= keep {
-            return Err(whole.ticks + 1); // the next event is near: after it
-        }
-        // The I²t sum at the constant current, up to the monitor's next change (that tick changes the
-        // current: it is ticked).
-        let (taken, mut i2t) = cl.i2t_ahead(p.rms_ma, p.tau_ms, p.i2t_limit, whole.ticks - keep);
-        let (ramp, span) = self.span(params, limits, &Bounds { ticks: taken, ..bounds });
+        let (mut ramp, mut span) = self.span(params, limits, &bounds);
         if span.ticks == 0 {
             return Err(1);
         }
-        if span.ticks != taken {
+        // The I²t sum at the constant current, up to the monitor's next change (that tick changes the
+        // current: it is ticked).
+        let (taken, mut i2t) = cl.i2t_ahead(p.rms_ma, p.tau_ms, p.i2t_limit, span.ticks);
+        if taken < span.ticks {
+            (ramp, span) = self.span(params, limits, &Bounds { ticks: taken, ..bounds });
+            if span.ticks == 0 {
+                return Err(1);
+            }
             i2t = cl.i2t_ahead(p.rms_ma, p.tau_ms, p.i2t_limit, span.ticks).1;
         }
-        // Cut short by the I²t monitor, the run is followed by more than the window's ticks anyway.
-        let whole = if taken < whole.ticks - keep { span.ticks } else { whole.ticks };
-        Ok(LockedRun { ramp, span, whole, error, i2t })
+        if horizon.is_none() {
+            // (A look for the deadline needs the run's length only.)
+            let actuals = [0; VELOCITY_WINDOW + 1];
+            return Ok(LockedRun { ramp, span, error, i2t, actuals, measured: 0, last_step: 0 });
+        }
+        // The last ticks' measurements (the velocity window, AP 131): the ramp's last ticks one by one
+        // after a span of the ticks before them, the encoder read where the field stood at each.
+        let keep = VELOCITY_WINDOW as u64;
+        let (ones, measured) = if span.ticks > keep { (keep + 1, keep) } else { (span.ticks, span.ticks) };
+        let (mut at, head) = self.span(params, limits, &Bounds { ticks: span.ticks - ones, ..bounds });
+        if head.ticks != span.ticks - ones {
+            return Err(1); // (a shorter span gave back ticks that make no step: not worth a second look)
+        }
+        let (mut travel, mut actuals, mut last_step) = (head.steps, [0; VELOCITY_WINDOW + 1], 0);
+        let measured = measured as usize;
+        // The reading before the first measured tick (where the tick before it left the field), or the
+        // loop's own if the run is no longer than the window.
+        if ones > measured as u64 {
+            actuals[0] = read(self, travel).ok_or(1u64)?.1;
+            travel += at.tick(TICK, params, limits).steps;
+        } else {
+            actuals[0] = cl.actual;
+        }
+        for slot in actuals.iter_mut().skip(1).take(measured) {
+            *slot = read(self, travel).ok_or(1u64)?.1;
+            last_step = at.tick(TICK, params, limits).steps;
+            travel += last_step;
+        }
+        if at != ramp || travel != span.steps {
+            return Err(1); // (the ticks one by one are the span's: never)
+        }
+        Ok(LockedRun { ramp, span, error, i2t, actuals, measured, last_step })
     }
 }
