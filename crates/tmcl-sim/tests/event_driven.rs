@@ -145,6 +145,31 @@ fn a_motor_stopped_in_the_tick_before_ticks_once_more() {
     }
 }
 
+/// The multi-axis property test's find at 1 000 cases (shrunk): a TMCM-6110 whose motor 4 turns at about
+/// half a step a tick against a detent torque, its rotor lagging the field. A look for the deadline brought
+/// each moving motor's board to the tick's start before a tick did; a tick brings it there only after
+/// the motors before it have ticked, whose boards bring its clock on with theirs, so its rotor settled at
+/// another instant than ticking lets it, and after 6 s it stood a microstep elsewhere. With several
+/// motors a look asks each board as it is.
+#[test]
+fn a_look_ahead_leaves_every_motors_board_as_ticking_finds_it() {
+    let mut bytes = vec![7, 1];
+    bytes.extend_from_slice(&[
+        222, 102, 64, 98, 108, 79, 184, 163, 54, 194, 32, 150, 249, 68, 46, 50, 251, 25, 23, 222, 89, 110, 147, 138,
+        146, 95, 80, 114, 97, 190, 126, 67, 255, 127, 243, 78, 47, 235, 105, 248, 238, 190, 24, 141, 27, 254, 92, 246,
+        14, 127, 73, 95, 231, 241, 232, 159, 105, 45, 97, 76, 168, 251, 19, 61, 34, 72, 120, 232, 92, 51, 113, 250,
+        251, 4, 23, 4, 94, 178, 229, 143, 223, 245, 177, 101, 70, 217, 91, 45, 101, 123, 56, 11, 186, 254, 106, 46, 6,
+        235, 219, 158, 91, 112, 47, 171, 98, 200, 191, 243, 100, 255, 74, 219, 114, 57, 110, 249, 78, 56, 84, 103, 152,
+        172, 236, 2, 7, 235, 174, 233, 138, 171, 186, 141, 223, 61, 19, 248, 220, 87, 252, 64, 116, 87, 88, 223, 116,
+        11, 140, 101, 183, 79, 45, 234, 225, 134, 75, 45, 141, 79, 94, 113, 6, 170, 205,
+    ]);
+    let scenario = Scenario::decode(&bytes);
+    assert_eq!(scenario.spec.motors, 6);
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
 /// The `event_driven` fuzz target's find (a slow unit, 76 s): a TMCM-3110 whose three motors move slower
 /// than a step a tick, each at its own rate (the TMC428's pulse divisors 9 to 11). A span ends on its last
 /// step, so the three rarely ended on the same tick, and the first cut looked for one tick by tick; the

@@ -445,9 +445,15 @@ impl<B: Board> Module<B> {
                 return None;
             }
         }
-        // The board at the span's start, as a first tick would read it.
+        // The board at the span's start, as a first tick would read it. With several motors, each board
+        // is asked as it is: a tick brings it to its start only after the motors before it have ticked,
+        // and their boards may have brought its clock on with theirs (`SimBoard`'s axes share the main
+        // board's clock), so a look that brought it there first would leave it otherwise than ticking
+        // does (see `several_spans`).
         let t = self.st.motion_time;
-        self.motor_at(m).sync_board(t);
+        if self.st.axes.count() == 1 {
+            self.motor_at(m).sync_board(t);
+        }
         let state = self.st.axes[m].last_drive?;
         let mut quiet = self.board.quiet(m, self.st.motion_time, &state)?;
         let period = if periodic { self.board.period(m, &state, &mut quiet) } else { 0 };
