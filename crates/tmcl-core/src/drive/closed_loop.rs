@@ -501,10 +501,9 @@ impl ClosedLoop {
     /// the field on the ramp (`module/loop_span.rs` checks both), the error the current scaling regulates
     /// within `error` all through, where [`ClosedLoop::scaler_stays`]: the scaling's millisecond counters
     /// as ticking leaves them, the I²t sum `i2t` (from [`ClosedLoop::i2t_ahead`] at the loop's constant
-    /// current), and the velocity window's next slot moved on (the moves themselves are left to the
-    /// [`VELOCITY_WINDOW`] + 1 ticks after the run, which are ticked and overwrite every slot, as after an
-    /// open-loop span: [`ClosedLoop::skip_ticks`]). The field's offset from the ramp, the hold integrator
-    /// and the scaler stay; the rotor's position, error and gamma are the next tick's to measure.
+    /// current), and the velocity window's next slot moved on ([`ClosedLoop::skip_ticks`]; the moves of
+    /// the last ticks are [`ClosedLoop::measured`]'s). The field's offset from the ramp, the hold
+    /// integrator and the scaler stay.
     pub fn run_locked(&mut self, s: &ScaleParams, error: (i64, i64), ticks: u64, i2t: i64) {
         if ticks == 0 {
             return;
@@ -896,6 +895,71 @@ mod tests {
                 assert!(n < 5000, "the I²t limit crossed: the crossing tick is left to ticking");
             }
         }
+    }
+
+    #[test]
+    fn a_locked_run_in_closed_form_is_the_loop_ticked() {
+        // The scaler at its limit below (errors under the lower limit), at its limit above (over the
+        // upper), between the limits, and off; moves of a rotor accelerating from 3 to about 9 microsteps a
+        // tick with a wobble of the encoder's quantisation; runs shorter and longer than the window.
+        let scale = ScaleParams {
+            enabled: true,
+            min: 100,
+            max: 240,
+            lower: 32,
+            upper: 128,
+            increment: 8,
+            decrement: 1,
+            up_ms: 7,
+            down_ms: 10,
+        };
+        let cases = [
+            (100u8, (0i64, 20i64), scale),
+            (240, (130, 200), scale),
+            (170, (40, 100), scale),
+            (240, (0, 500), ScaleParams { enabled: false, ..scale }),
+        ];
+        for (scaler, (lo, hi), scale) in cases {
+            for ticks in [5u64, 32, 33, 700] {
+                let start = ClosedLoop {
+                    active: true,
+                    init: Init::Done,
+                    scaler,
+                    down_ms: 3,
+                    up_ms: 2,
+                    ..ClosedLoop::default()
+                };
+                let start = ClosedLoop { actual: 1000, moves_at: 7, ..start };
+                assert!(start.scaler_stays(&scale, (lo, hi)), "{scaler} {lo}..{hi}");
+                let (rms, tau) = (800, 300);
+                let mut ticked = start;
+                let mut actuals = vec![start.actual];
+                let mut actual = start.actual;
+                for k in 0..ticks {
+                    actual += 3 + (k as i64 * 6) / 700 + (k as i64 % 3);
+                    actuals.push(actual);
+                    // The regulated error somewhere within the run's range, as the module feeds it.
+                    let error = lo + (k as i64 * 7919) % (hi - lo + 1);
+                    let moved = actual - ticked.actual;
+                    assert!(ticked.record_move(moved, 1000));
+                    ticked.actual = actual;
+                    scale_tick(&mut ticked, &scale, error, rms, tau);
+                }
+                let mut run = start;
+                let (_, i2t) = run.i2t_ahead(rms, tau, 0, ticks);
+                run.run_locked(&scale, (lo, hi), ticks, i2t);
+                let last = actuals.len().min(VELOCITY_WINDOW + 1);
+                let from = if ticks as usize >= VELOCITY_WINDOW { actuals.len() - last } else { 0 };
+                run.measured(&actuals[from..], ticks);
+                assert_eq!(run, ticked, "{scaler} {lo}..{hi}, {ticks} ticks");
+            }
+        }
+    }
+
+    /// The current scaling and I²t of one tick, as `Motor::regulate_current` runs them.
+    fn scale_tick(cl: &mut ClosedLoop, s: &ScaleParams, error: i64, rms: i64, tau: i64) {
+        scale(cl, s, error);
+        i2t(cl, rms, 1000, tau, 0);
     }
 
     /// One tick of a loop at rest, as the module runs it: the move recorded, the scaler, I²t.

@@ -8,11 +8,11 @@
 //! in advance:
 //!
 //! - The rotor stands where the field was put by the tick before, and the encoder's settings (AP 202,
-//!   210 and the resolution) convert its counts back to the field's microsteps (the board says how far
-//!   its counts move over its period, [`crate::hal::StepDriver::period_counts`]), so the loop reads the
-//!   field's position, plus a constant, less ρ, what the counts' resolution and the conversion cut off. ρ lies within a
-//!   count's microsteps plus two of its value now (ρ₀), on either side (the conversion truncates towards
-//!   the encoder's reference, `Motor::encoder_value`, so ρ may change sides there).
+//!   210 and the resolution) convert its counts back to the field's microsteps (checked against the
+//!   board's counts over its period, [`crate::hal::StepDriver::counts_at`]), so the loop reads the
+//!   field's position, plus a constant, less ρ, what the counts' resolution and the conversion cut off.
+//!   ρ lies within a count's microsteps plus two of its value now (ρ₀), on either side (the conversion
+//!   truncates towards the encoder's reference, `Motor::encoder_value`, so ρ may change sides there).
 //! - If the field stands at the ramp plus the hold integrator's part, H = hold / 1024 (the loop's
 //!   `field_offset` is H), a tick's controller (`drive::closed_loop::control`) finds its set point
 //!   (the ramp plus H) equal to the last field plus the ramp's step: the catch-up limit does not act;
@@ -28,12 +28,11 @@
 //!
 //! The band is given to the ramp's span (`motion/ramp/span.rs`) as its speed bounds, with the board's
 //! quiet window and the span's other bounds, so the span stops before a tick that leaves it; the board
-//! hears of the field's move once. The last [`VELOCITY_WINDOW`] + 1 ticks before the span's end are
-//! ticked, as after an open-loop span of a closed-loop model (`spans.rs`): they fill the velocity window
-//! (AP 131) and measure the rotor, the error and gamma as ticking does. Those ticks lie in the band too,
-//! so their controller does not depend on the rotor's move before them, which they measure over the
-//! whole span. The result is that of ticking (`tests/event_driven.rs` in `tmcl-sim` draws closed loops
-//! both ways).
+//! hears of the field's move once. What the loop measures at the run's last [`VELOCITY_WINDOW`] ticks
+//! (the velocity window, AP 131, the last move, the rotor's position, the error and gamma) is computed
+//! one by one: the ramp's last ticks after a span of the ticks before them, and the encoder's reading
+//! where the field stood at each (`StepDriver::counts_at`). The result is that of ticking
+//! (`tests/event_driven.rs` in `tmcl-sim` draws closed loops both ways).
 
 use super::Module;
 use crate::drive::closed_loop::{Init, VELOCITY_WINDOW};
