@@ -598,17 +598,13 @@ pub fn scale(cl: &mut ClosedLoop, p: &ScaleParams, error: i64) {
     match Branch::of(p, error) {
         Branch::Up => {
             cl.down_ms = 0;
-            cl.up_ms += 1;
-            if cl.up_ms >= p.up_ms.max(1) {
-                cl.up_ms = 0;
+            if runs_out(&mut cl.up_ms, p.up_ms) {
                 cl.scaler = cl.scaler.saturating_add(p.increment);
             }
         }
         Branch::Down => {
             cl.up_ms = 0;
-            cl.down_ms += 1;
-            if cl.down_ms >= p.down_ms.max(1) {
-                cl.down_ms = 0;
+            if runs_out(&mut cl.down_ms, p.down_ms) {
                 cl.scaler = cl.scaler.saturating_sub(p.decrement);
             }
         }
@@ -618,6 +614,17 @@ pub fn scale(cl: &mut ClosedLoop, p: &ScaleParams, error: i64) {
         }
     }
     cl.scaler = cl.scaler.clamp(lo, hi);
+}
+
+/// One millisecond of a counter of the current scaling (AP 120, 121: `period` ms, at least 1): whether
+/// it ran out (and starts again at 0).
+fn runs_out(count: &mut u32, period: u32) -> bool {
+    *count += 1;
+    let out = *count >= period.max(1);
+    if out {
+        *count = 0;
+    }
+    out
 }
 
 /// The I²t sum after `rms_ma` flowed for `dt_us` with time constant `tau_ms`: dS = I²·dt − S·dt/τ,
@@ -781,17 +788,7 @@ mod tests {
 
     #[test]
     fn current_scaling_rises_under_load_and_falls_without() {
-        let p = ScaleParams {
-            enabled: true,
-            min: 100,
-            max: 240,
-            lower: 32,
-            upper: 128,
-            increment: 8,
-            decrement: 1,
-            up_ms: 1,
-            down_ms: 10,
-        };
+        let p = ScaleParams { up_ms: 1, ..SCALE };
         let mut cl = ClosedLoop { scaler: 240, ..ClosedLoop::default() };
         for _ in 0..2000 {
             scale(&mut cl, &p, 0);
@@ -834,21 +831,24 @@ mod tests {
         assert!(cl.measured_velocity() > 0, "a huge move is clamped, not wrapped");
     }
 
+    /// The current scaling the tests run with (the model's defaults, AP 113–122, but AP 120).
+    const SCALE: ScaleParams = ScaleParams {
+        enabled: true,
+        min: 100,
+        max: 240,
+        lower: 32,
+        upper: 128,
+        increment: 8,
+        decrement: 1,
+        up_ms: 7,
+        down_ms: 10,
+    };
+
     #[test]
     fn a_loop_at_rest_in_closed_form_is_the_loop_ticked() {
         // Scaler at its minimum (down counter running round), at its maximum (up counter), between the
         // limits, off; I²t settling, and crossing its limit.
-        let scale = ScaleParams {
-            enabled: true,
-            min: 100,
-            max: 240,
-            lower: 32,
-            upper: 128,
-            increment: 8,
-            decrement: 1,
-            up_ms: 7,
-            down_ms: 10,
-        };
+        let scale = SCALE;
         let cases = [
             (100u8, 0i32, scale, 0i64),
             (240, 200, scale, 0),
@@ -902,17 +902,7 @@ mod tests {
         // The scaler at its limit below (errors under the lower limit), at its limit above (over the
         // upper), between the limits, and off; moves of a rotor accelerating from 3 to about 9 microsteps a
         // tick with a wobble of the encoder's quantisation; runs shorter and longer than the window.
-        let scale = ScaleParams {
-            enabled: true,
-            min: 100,
-            max: 240,
-            lower: 32,
-            upper: 128,
-            increment: 8,
-            decrement: 1,
-            up_ms: 7,
-            down_ms: 10,
-        };
+        let scale = SCALE;
         let cases = [
             (100u8, (0i64, 20i64), scale),
             (240, (130, 200), scale),
