@@ -469,6 +469,9 @@ fn compare(fast: &mut Module<SimBoard>, slow: &mut Module<SimBoard>, t: Instant)
 
 /// What a module shows at `t`: named values, as text.
 fn view(m: &mut Module<SimBoard>, t: Instant) -> Vec<(String, String)> {
+    // The boards as a read at `t` finds them: a look for the deadline may have brought a board to `t`
+    // already (a rotor settling after a step moves then), where ticking brings it there at its next tick.
+    m.sync_boards(t);
     // When the module last called the board is not compared: a tick-by-tick run brings the board's clock
     // to every tick it reads the board at, a span reads nothing in between (the board's state at any
     // instant is the same: its world runs on composably, see `SimBoard::quiet`).

@@ -170,6 +170,26 @@ fn a_look_ahead_leaves_every_motors_board_as_ticking_finds_it() {
     ]);
 }
 
+/// The `event_driven` fuzz target's find (campaign on this round's code): a PD28-1021 moving at 120 pps
+/// against a detent torque and a weak spring. After a step the rotor settles in two moves, the second at
+/// the board's next update; a look for the deadline brought the board to the tick's start before the
+/// next tick did, so at 3 s the event-driven board showed the second move and the ticked one not yet,
+/// though a read at that instant (which brings the board there first) finds the same in both. The
+/// comparison now looks at the boards as a read does (`Module::sync_boards`).
+#[test]
+fn boards_are_compared_as_a_read_finds_them() {
+    let scenario = Scenario::decode(&[
+        228, 126, 105, 116, 0, 95, 44, 32, 113, 27, 27, 27, 27, 27, 27, 27, 27, 27, 27, 27, 27, 27, 27, 113, 113, 63,
+        1, 6, 0, 0, 0, 0, 119, 1, 0, 255, 103, 104, 255, 255, 255, 157, 255, 85, 34, 34, 34, 34, 34, 164, 48, 0, 126,
+        105, 0, 58, 58, 58, 59, 0, 27, 27, 0, 0, 0, 0,
+    ])
+    .compressed(3_000);
+    assert_eq!(scenario.spec.motors, 1);
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
 /// The `event_driven` fuzz target's find (a slow unit, 76 s): a TMCM-3110 whose three motors move slower
 /// than a step a tick, each at its own rate (the TMC428's pulse divisors 9 to 11). A span ends on its last
 /// step, so the three rarely ended on the same tick, and the first cut looked for one tick by tick; the

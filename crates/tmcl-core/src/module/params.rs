@@ -91,6 +91,16 @@ impl<B: Board> Module<B> {
         self.read_axis(m, number, None)
     }
 
+    /// Brings every motor's board to `now` as a read of its switches or flags does (an update with what
+    /// the board was last told, if it has not heard from the module since): for a caller that looks at
+    /// the boards themselves (a simulator's view of its rotors), where the module may have brought one
+    /// there already (a look for its deadline) and another not yet (its next tick will).
+    pub fn sync_boards(&mut self, now: Instant) {
+        for m in 0..self.st.axes.count() {
+            self.motor_at(m).sync_board(now);
+        }
+    }
+
     /// SAP of motor 0 without the frame: writes an axis parameter (RAM only) at `now`, as a library call
     /// from outside (an input, `seam.rs`).
     pub fn set_axis(&mut self, number: u8, v: i32, now: Instant) -> Result<(), Status> {
