@@ -1154,10 +1154,12 @@ impl StepDriver for SimBoard {
             return self.axes[motor - 1].update(0, now, state);
         }
         self.advance(now);
-        // Whether the field moved with the step counter (see `field_speed`); a counter set without a move
-        // (SAP 1, a reset) or a new resolution says nothing about the field's speed.
+        // Whether the field moved with the step counter (see `field_speed`); a new resolution says nothing
+        // about the field's speed. A field that stood while the counter moved (a closed loop holding a
+        // seized rotor: the ramp runs on) stood: its speed is 0, not the ramp's (a counter set without a
+        // move, SAP 1, is taken the same way; the next tick's update says again how the field moves).
         let counted = i64::from(state.position.wrapping_sub(self.drive.position));
-        let own_speed = state.moved != counted && state.moved != 0 && state.resolution == self.drive.resolution;
+        let own_speed = state.moved != counted && state.resolution == self.drive.resolution;
         let dt = now.saturating_duration_since(self.updated).micros();
         self.drive = *state;
         self.power();

@@ -403,6 +403,22 @@ mod tests {
         ]);
     }
 
+    /// The `closed_loop` campaign's find on this round's code: the shaft seized (the world's stall fault)
+    /// while the loop held the field at the rotor and the ramp ran on at 60 M pps; the driver stages went
+    /// off (AAP 167 with A = 0) at the moment the seizure ended. The field had stood over the board's
+    /// last update while the step counter moved, which the board took as "moves with the counter" and
+    /// handed the freed rotor the ramp's speed: it ran 200 full steps ahead of the field within a
+    /// millisecond. A field that stands while the counter moves now stands (speed 0).
+    #[test]
+    fn a_rotor_freed_after_a_seizure_coasts_at_the_fields_speed_not_the_ramps() {
+        closed_loop(&[
+            2, 35, 35, 35, 35, 35, 35, 35, 35, 35, 35, 1, 41, 164, 42, 0, 29, 0, 213, 1, 0, 15, 33, 33, 33, 33, 26, 13,
+            2, 0, 0, 128, 128, 128, 128, 128, 5, 5, 5, 0, 35, 35, 35, 35, 13, 255, 33, 128, 128, 128, 128, 5, 251, 255,
+            0, 1, 0, 0, 0, 0, 0, 255, 0, 9, 34, 167, 0, 29, 0, 213, 1, 0, 90, 90, 90, 90, 90, 90, 90, 90, 90, 90, 90,
+            213, 1, 6, 0, 201, 132, 255, 118, 90, 90, 90, 90, 90, 90, 223, 90,
+        ]);
+    }
+
     proptest::proptest! {
         #[test]
         fn module_stream_never_panics(data in proptest::collection::vec(proptest::num::u8::ANY, 0..600)) {
