@@ -190,6 +190,26 @@ fn boards_are_compared_as_a_read_finds_them() {
     }
 }
 
+/// The `event_driven` fuzz target's find: a PD28-1021 standing at its target in position mode, a
+/// program that enabled the left-switch interrupt (so every tick samples the interrupt sources) and a
+/// heartbeat (GP 68, 464 ms) that runs out with the motor standing. The ticks jumped over reached past the
+/// heartbeat's expiry, so the tick after it was sampled with the motor still in position mode, and the
+/// target-reached source's last level stayed "at the target" where a ticking module, stopped by the
+/// heartbeat, had it leave. A jump now ends at the heartbeat's expiry.
+#[test]
+fn a_heartbeat_that_runs_out_while_standing_is_sampled_at_its_tick() {
+    let scenario = Scenario::decode(&[
+        108, 47, 126, 21, 63, 116, 65, 255, 255, 41, 255, 255, 108, 111, 98, 97, 97, 97, 97, 97, 41, 97, 102, 37, 158,
+        158, 158, 156, 158, 88, 8, 97, 100, 29, 13, 29, 29, 29,
+    ])
+    .compressed(3_000);
+    assert_eq!(scenario.spec.motors, 1);
+    assert!(scenario.host.iter().any(|(_, c)| matches!(c, Command::Sgp { param: 68, .. })));
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
 /// The `event_driven` fuzz target's find (a slow unit, 76 s): a TMCM-3110 whose three motors move slower
 /// than a step a tick, each at its own rate (the TMC428's pulse divisors 9 to 11). A span ends on its last
 /// step, so the three rarely ended on the same tick, and the first cut looked for one tick by tick; the

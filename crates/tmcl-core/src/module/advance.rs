@@ -298,10 +298,19 @@ impl<B: Board> Module<B> {
                 self.motor_at(m).update_board(t);
             }
         }
-        let until = [self.program_deadline(), self.timer_deadline(), self.drive_due().map(|(_, d)| d), quiet_until]
-            .into_iter()
-            .flatten()
-            .fold(now, Instant::min);
+        // The heartbeat stops the motors at the first tick after it ran out (`check_heartbeat`): the ticks
+        // jumped over end at its expiry, so the tick that stops them is sampled with them stopped (a
+        // target-reached interrupt's source then no longer stands at its target).
+        let until = [
+            self.program_deadline(),
+            self.timer_deadline(),
+            self.drive_due().map(|(_, d)| d),
+            quiet_until,
+            self.heartbeat_expiry(),
+        ]
+        .into_iter()
+        .flatten()
+        .fold(now, Instant::min);
         let tick_at = self.st.motion_time + TICK;
         if until < tick_at {
             return false;
