@@ -45,6 +45,20 @@ use crate::time::{Duration, Instant};
 /// next event nearer).
 const RETRY_TICKS: u64 = 16;
 
+/// How many ticks a look for the deadline computes one by one at most, at the most (a braking phase of
+/// about a minute): the limit grows fourfold from `LOOKAHEAD_WORK` with every look whose run the next
+/// poll took whole.
+const MAX_LOOK_WORK: u64 = 1 << 16;
+
+/// A look for the deadline that found a run of the locked loop: where it started, and the run's length
+/// if it was cut short by the ticks a look computes one by one (a braking phase).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Look {
+    from: Instant,
+    ticks: u64,
+    work: u64,
+}
+
 /// A planned run of a locked loop's ticks.
 struct LockedRun {
     /// The ramp after it, and its span.
@@ -71,7 +85,24 @@ impl<B: Board> Module<B> {
             return false;
         }
         let start = self.st.motion_time;
-        let run = match self.plan_locked(Some(now), params) {
+        // A look for the deadline from here whose run was cut short (braking, tick by tick, computed only
+        // so far): if the poll comes at the deadline it gave, its run is taken as it was computed (any
+        // first part of a run is one; the span is remembered), and the next look computes more. A poll
+        // before it (a host polling while the motor brakes) takes the ticks up to it, and the next
+        // looks compute as little as at first, so that frequent polls do not each compute the rest of
+        // a braking phase; a poll after it (a caller that polls at its own pace) takes the ticks up to
+        // it, as without a look.
+        let mut work = u64::MAX;
+        if let Some(look) = self.periods.locked_look.take().filter(|l| l.from == start) {
+            let ticks = (now - start).micros() / TICK.micros();
+            if ticks < look.ticks {
+                self.periods.locked_work = 0;
+            } else if ticks <= look.ticks + 1 {
+                work = look.work;
+                self.periods.locked_work = look.work.saturating_mul(4).min(MAX_LOOK_WORK);
+            }
+        }
+        let run = match self.plan_locked(Some(now), work, params) {
             Ok(run) => run,
             Err(wait) => {
                 self.periods.locked_until = Some(start + Duration::from_micros(wait * TICK.micros()));
@@ -103,13 +134,24 @@ impl<B: Board> Module<B> {
         if self.periods.locked_until.is_some_and(|u| self.st.motion_time < u) {
             return 0;
         }
-        self.plan_locked(None, params).map_or(0, |run| run.span.ticks)
+        let work = match self.periods.locked_work {
+            0 => super::spans::LOOKAHEAD_WORK,
+            w => w,
+        };
+        let from = self.st.motion_time;
+        match self.plan_locked(None, work, params) {
+            Ok(run) => {
+                self.periods.locked_look = run.span.capped.then_some(Look { from, ticks: run.span.ticks, work });
+                run.span.ticks
+            }
+            Err(_) => 0,
+        }
     }
 
     /// Plans a run of the locked loop from the state now (see the module docs); `horizon`: no tick after
     /// it (`None`: a look-ahead for the deadline, braking computed only so far). Without one: after how
     /// many ticks to look again (a look costs a span: not at every tick of a loop that cannot take one).
-    fn plan_locked(&mut self, horizon: Option<Instant>, params: &RampParams) -> Result<LockedRun, u64> {
+    fn plan_locked(&mut self, horizon: Option<Instant>, work: u64, params: &RampParams) -> Result<LockedRun, u64> {
         let (cl, ramp) = (self.st.axes[0].cl, self.st.axes[0].ramp);
         if self.st.axes.count() != 1
             || !cl.active
@@ -123,9 +165,7 @@ impl<B: Board> Module<B> {
             return Err(0);
         }
         let (limits, mut bounds, period) = self.span_bounds_periodic(horizon).ok_or(RETRY_TICKS)?;
-        if horizon.is_none() {
-            bounds.work = super::spans::LOOKAHEAD_WORK;
-        }
+        bounds.work = work;
         // The encoder reads the field's own travel: its counts over a period of the board are what the
         // encoder's settings (AP 202, 210, 140) make of the period's microsteps. (Else ρ drifts with the
         // travel: an AP 210 that is not the encoder's, for one.)

@@ -84,6 +84,10 @@ pub(crate) struct Periods {
     /// No run of the locked loop planned before this motion time (`loop_span.rs`): the ticks after the
     /// last run, which are ticked, or a while after a look that found none.
     pub(super) locked_until: Option<Instant>,
+    /// The last look for the deadline at a run of the locked loop (`loop_span.rs`), and how many ticks
+    /// the next such look computes one by one (0: `LOOKAHEAD_WORK`).
+    pub(super) locked_look: Option<crate::module::loop_span::Look>,
+    pub(super) locked_work: u64,
 }
 
 /// A jump of whole periods.
