@@ -34,11 +34,12 @@
 //! where the field stood at each (`StepDriver::counts_at`). The result is that of ticking
 //! (`tests/event_driven.rs` in `tmcl-sim` draws closed loops both ways).
 
+use super::spans::LastTicks;
 use super::Module;
 use crate::drive::closed_loop::{Init, VELOCITY_WINDOW};
 use crate::hal::prelude::*;
 use crate::hal::Board;
-use crate::motion::{Bounds, Ramp, RampParams, Span, TICK};
+use crate::motion::{Bounds, Limits, Ramp, RampParams, Span, Trail, TICK};
 use crate::time::{Duration, Instant};
 
 /// After a look for a run that found none, the next waits this many ticks (unless the look found the
@@ -148,6 +149,31 @@ impl<B: Board> Module<B> {
         }
     }
 
+    /// [`Module::span`] with the steps up to its last ticks if `noting` (`None` if a tick of them is not
+    /// told by the span's trail): remembered with the span, or computed with it.
+    fn span_with_last(
+        &mut self,
+        noting: bool,
+        params: &RampParams,
+        limits: Limits,
+        bounds: &Bounds,
+    ) -> (Ramp, Span, LastTicks) {
+        if !noting {
+            let (to, span) = self.span(params, limits, bounds);
+            return (to, span, None);
+        }
+        let from = self.st.axes[0].ramp;
+        if let Some(found @ (_, _, Some(_))) = self.memos.find(&from, params, limits, bounds) {
+            return found;
+        }
+        let mut trail = Trail::default();
+        let mut to = from;
+        let span = to.span_noting(params, limits, bounds, &mut trail);
+        let last = last_ticks(&trail, &span);
+        self.memos.remember(from, params, limits, bounds, to, span, last);
+        (to, span, last)
+    }
+
     /// Plans a run of the locked loop from the state now (see the module docs); `horizon`: no tick after
     /// it (`None`: a look-ahead for the deadline, braking computed only so far). Without one: after how
     /// many ticks to look again (a look costs a span: not at every tick of a loop that cannot take one).
@@ -240,7 +266,10 @@ impl<B: Board> Module<B> {
         }
         bounds.min_speed = bounds.min_speed.max(min_speed.clamp(1, i64::from(u32::MAX)) as u32);
         bounds.max_speed = bounds.max_speed.min(max_speed.clamp(0, i64::from(u32::MAX)) as u32);
-        let (mut ramp, mut span) = self.span(params, limits, &bounds);
+        // A look for the deadline notes the steps of the run's last ticks for the poll that takes it only
+        // while the polls come at the deadlines (`take_locked`): else that poll takes other ticks.
+        let noting = horizon.is_some() || self.periods.locked_work != 0;
+        let (mut ramp, mut span, mut last) = self.span_with_last(noting, params, limits, &bounds);
         if span.ticks == 0 {
             return Err(1);
         }
@@ -248,7 +277,7 @@ impl<B: Board> Module<B> {
         // current: it is ticked).
         let (taken, mut i2t) = cl.i2t_ahead(p.rms_ma, p.tau_ms, p.i2t_limit, span.ticks);
         if taken < span.ticks {
-            (ramp, span) = self.span(params, limits, &Bounds { ticks: taken, ..bounds });
+            (ramp, span, last) = self.span_with_last(noting, params, limits, &Bounds { ticks: taken, ..bounds });
             if span.ticks == 0 {
                 return Err(1);
             }
@@ -259,10 +288,25 @@ impl<B: Board> Module<B> {
             let actuals = [0; VELOCITY_WINDOW + 1];
             return Ok(LockedRun { ramp, span, error, i2t, actuals, measured: 0, last_step: 0 });
         }
-        // The last ticks' measurements (the velocity window, AP 131): the ramp's last ticks one by one
-        // after a span of the ticks before them, the encoder read where the field stood at each.
+        // The last ticks' measurements (the velocity window, AP 131): the encoder read where the field
+        // stood at the start of each of the last ticks (and of the one before them), the steps up to each
+        // told by the span's trail, or else the ramp's last ticks one by one after a span of the ticks
+        // before them.
         let keep = VELOCITY_WINDOW as u64;
         let (ones, measured) = if span.ticks > keep { (keep + 1, keep) } else { (span.ticks, span.ticks) };
+        if let Some((base, steps)) = last {
+            // steps[i]: the steps up to tick n − ones + i, less `base`; the measured ticks are the last
+            // `measured`, and with one more tick (`ones` > `measured`) the reading before them comes first.
+            let mut actuals = [0; VELOCITY_WINDOW + 1];
+            let (ones, measured) = (ones as usize, measured as usize);
+            let skip = ones - measured;
+            actuals[0] = if skip > 0 { read(self, base).ok_or(1u64)?.1 } else { cl.actual };
+            for (i, slot) in actuals.iter_mut().skip(1).take(measured).enumerate() {
+                *slot = read(self, base + i64::from(steps[skip + i])).ok_or(1u64)?.1;
+            }
+            let last_step = i64::from(steps[ones] - steps[ones - 1]);
+            return Ok(LockedRun { ramp, span, error, i2t, actuals, measured, last_step });
+        }
         let (mut at, head) = self.span(params, limits, &Bounds { ticks: span.ticks - ones, ..bounds });
         if head.ticks != span.ticks - ones {
             return Err(1); // (a shorter span gave back ticks that make no step: not worth a second look)
@@ -287,4 +331,21 @@ impl<B: Board> Module<B> {
         }
         Ok(LockedRun { ramp, span, error, i2t, actuals, measured, last_step })
     }
+}
+
+/// The steps up to the last ticks of `span` as its `trail` tells them (see [`LastTicks`]).
+fn last_ticks(trail: &Trail, span: &Span) -> LastTicks {
+    let n = span.ticks;
+    let ones = n.min(VELOCITY_WINDOW as u64 + 1);
+    let mut all = [0i64; VELOCITY_WINDOW + 2];
+    let all = &mut all[..=ones as usize];
+    if !trail.steps_from(n - ones, all) || all[ones as usize] != span.steps {
+        return None;
+    }
+    let base = all[0];
+    let mut steps = [0i32; VELOCITY_WINDOW + 2];
+    for (s, a) in steps.iter_mut().zip(all.iter()) {
+        *s = i32::try_from(a - base).ok()?;
+    }
+    Some((base, steps))
 }

@@ -77,7 +77,14 @@ struct Memo {
     bounds: Bounds,
     to: Ramp,
     span: Span,
+    /// The steps up to its last ticks, if it was computed for a closed loop (`loop_span.rs`).
+    last: LastTicks,
 }
+
+/// The steps of a span up to each of its last ticks, for a closed loop's velocity window
+/// (`loop_span.rs`): for the last `min(n, VELOCITY_WINDOW + 1)` ticks of a span of `n`, the steps up to
+/// the tick before the first of them, and then up to each, relative to that.
+pub(super) type LastTicks = Option<(i64, [i32; VELOCITY_WINDOW + 2])>;
 
 #[cfg(feature = "span-memo")]
 impl Memo {
@@ -106,13 +113,36 @@ pub(crate) struct Memos {
 
 #[cfg(feature = "span-memo")]
 impl Memos {
-    fn find(&self, from: &Ramp, params: &RampParams, limits: Limits, bounds: &Bounds) -> Option<(Ramp, Span)> {
+    pub(super) fn find(
+        &self,
+        from: &Ramp,
+        params: &RampParams,
+        limits: Limits,
+        bounds: &Bounds,
+    ) -> Option<(Ramp, Span, LastTicks)> {
         self.recent
             .iter()
             .chain(&self.costly)
             .flatten()
             .find(|m| m.answers(from, params, limits, bounds))
-            .map(|m| (m.to, m.span))
+            .map(|m| (m.to, m.span, m.last))
+    }
+
+    /// Remembers the span `to`, `span` computed from `from` with these inputs.
+    #[allow(clippy::too_many_arguments)] // (a memo's fields)
+    pub(super) fn remember(
+        &mut self,
+        from: Ramp,
+        params: &RampParams,
+        limits: Limits,
+        bounds: &Bounds,
+        to: Ramp,
+        span: Span,
+        last: LastTicks,
+    ) {
+        if span.ticks > 0 {
+            self.keep(Memo { from, params: *params, limits, bounds: *bounds, to, span, last });
+        }
     }
 
     fn keep(&mut self, memo: Memo) {
@@ -133,9 +163,12 @@ pub(crate) struct Memos;
 
 #[cfg(not(feature = "span-memo"))]
 impl Memos {
-    fn find(&self, _: &Ramp, _: &RampParams, _: Limits, _: &Bounds) -> Option<(Ramp, Span)> {
+    pub(super) fn find(&self, _: &Ramp, _: &RampParams, _: Limits, _: &Bounds) -> Option<(Ramp, Span, LastTicks)> {
         None
     }
+
+    #[allow(clippy::too_many_arguments)] // (a memo's fields)
+    pub(super) fn remember(&mut self, _: Ramp, _: &RampParams, _: Limits, _: &Bounds, _: Ramp, _: Span, _: LastTicks) {}
 
     fn keep(&mut self, _: Memo) {}
 }
@@ -381,14 +414,12 @@ impl<B: Board> Module<B> {
     /// bounds alone, so the motors share what is remembered).
     fn span_of(&mut self, m: usize, params: &RampParams, limits: Limits, bounds: &Bounds) -> (Ramp, Span) {
         let from = self.st.axes[m].ramp;
-        if let Some(found) = self.memos.find(&from, params, limits, bounds) {
-            return found;
+        if let Some((to, span, _)) = self.memos.find(&from, params, limits, bounds) {
+            return (to, span);
         }
         let mut to = from;
         let span = to.span(params, limits, bounds);
-        if span.ticks > 0 {
-            self.memos.keep(Memo { from, params: *params, limits, bounds: *bounds, to, span });
-        }
+        self.memos.remember(from, params, limits, bounds, to, span, None);
         (to, span)
     }
 

@@ -4,5 +4,5 @@
 pub mod ramp;
 pub mod reference;
 
-pub use ramp::{Bounds, Limits, Mode, Ramp, RampParams, Span, TickResult, TICK};
+pub use ramp::{Bounds, Limits, Mode, Ramp, RampParams, Record, Span, TickResult, Trail, TICK};
 pub use reference::{Reference, SearchMode};

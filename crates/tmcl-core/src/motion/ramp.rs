@@ -22,7 +22,7 @@
 use crate::time::Duration;
 
 mod span;
-pub use span::{Bounds, Span};
+pub use span::{Bounds, Record, Span, Trail};
 
 /// The motion controller's update period.
 pub const TICK: Duration = Duration::from_millis(1);

@@ -95,11 +95,129 @@ struct Toward {
     v_min: i64,
 }
 
+/// How many of the ticks a span computes one by one a [`Trail`] keeps.
+const TRAIL_TICKS: usize = 64;
+/// How many of a span's closed-form runs a [`Trail`] keeps.
+const TRAIL_RUNS: usize = 4;
+
+/// What a span passes on the way: the steps moved up to each of its last ticks (for a caller that
+/// needs each of the last ticks, as a closed loop's velocity window does: `module/loop_span.rs`),
+/// without computing them again. The ticks of a closed-form run are told from the run (its start and
+/// its change per tick); those computed one by one (braking, the generic tick) are kept as they pass,
+/// the last [`TRAIL_TICKS`] of them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Trail {
+    /// (k, the steps of ticks 1..=k) at index k mod TRAIL_TICKS, for ticks computed one by one.
+    ticks: [(u64, i64); TRAIL_TICKS],
+    /// The entries of `ticks` written since the trail was cleared, one bit each.
+    written: u64,
+    /// The last closed-form runs, by where they start.
+    runs: [Option<RunFrom>; TRAIL_RUNS],
+    next_run: usize,
+}
+
+/// A closed-form run of a span: after tick `after` (`before` steps moved), `n` ticks of `dv` each from
+/// the ramp `start`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct RunFrom {
+    after: u64,
+    n: u64,
+    start: Ramp,
+    dv: i64,
+    before: i64,
+}
+
+impl Default for Trail {
+    fn default() -> Self {
+        Trail { ticks: [(0, 0); TRAIL_TICKS], written: 0, runs: [None; TRAIL_RUNS], next_run: 0 }
+    }
+}
+
+impl Trail {
+    /// Forgets everything (for the next span).
+    pub fn clear(&mut self) {
+        self.written = 0;
+        self.runs = [None; TRAIL_RUNS];
+        self.next_run = 0;
+    }
+
+    /// The steps of the span's ticks 1..=k (signed; 0 for k = 0), if the trail knows them: a tick of one
+    /// of its last closed-form runs, or one of the last ticks it computed one by one.
+    pub fn steps_to(&self, k: u64) -> Option<i64> {
+        let mut one = [0];
+        self.steps_from(k, &mut one).then_some(one[0])
+    }
+
+    /// [`Trail::steps_to`] of the ticks `k`, `k + 1`, … into `out`, one each; `false` if the trail does
+    /// not know one. Consecutive ticks of a closed-form run are told one from the other, as a tick
+    /// makes them.
+    pub fn steps_from(&self, k: u64, out: &mut [i64]) -> bool {
+        // The run the tick before was in, its ramp after that tick and the steps up to it.
+        let mut within: Option<(&RunFrom, Ramp, i64)> = None;
+        for (j, o) in (k..).zip(out.iter_mut()) {
+            let i = (j % TRAIL_TICKS as u64) as usize;
+            let (at, steps) = self.ticks[i];
+            if j == 0 {
+                *o = 0;
+                within = None;
+            } else if self.written >> i & 1 == 1 && at == j {
+                *o = steps;
+                within = None;
+            } else if let Some((run, ramp, steps)) = within.as_mut().filter(|(r, ..)| j <= r.after + r.n) {
+                *steps += ramp.one_tick(run.dv);
+                *o = *steps;
+            } else {
+                let Some(run) = self.runs.iter().flatten().find(|r| r.after < j && j <= r.after + r.n) else {
+                    return false;
+                };
+                let mut ramp = run.start;
+                let steps = run.before + ramp.apply(run.dv, j - run.after);
+                *o = steps;
+                within = Some((run, ramp, steps));
+            }
+        }
+        true
+    }
+}
+
+/// Where a span notes what it passes ([`Trail`], or nothing: `()`).
+pub trait Record {
+    /// Tick `k` of the span, computed one by one, brought the steps to `steps`.
+    fn tick(&mut self, k: u64, steps: i64);
+    /// A closed-form run of `n` ticks of `dv` each from `start`, after tick `after` and `before` steps.
+    fn run(&mut self, after: u64, n: u64, start: &Ramp, dv: i64, before: i64);
+}
+
+impl Record for () {
+    #[inline(always)]
+    fn tick(&mut self, _: u64, _: i64) {}
+    #[inline(always)]
+    fn run(&mut self, _: u64, _: u64, _: &Ramp, _: i64, _: i64) {}
+}
+
+impl Record for Trail {
+    #[inline(always)]
+    fn tick(&mut self, k: u64, steps: i64) {
+        let i = (k % TRAIL_TICKS as u64) as usize;
+        self.ticks[i] = (k, steps);
+        self.written |= 1 << i;
+    }
+    fn run(&mut self, after: u64, n: u64, start: &Ramp, dv: i64, before: i64) {
+        self.runs[self.next_run] = Some(RunFrom { after, n, start: *start, dv, before });
+        self.next_run = (self.next_run + 1) % TRAIL_RUNS;
+    }
+}
+
 impl Ramp {
     /// Advances over as many ticks as are no events and the bounds allow, exactly as [`Ramp::tick`]
     /// would one by one with the same parameters and limits (see the module docs). The caller runs the
     /// tick after the span as a normal tick.
     pub fn span(&mut self, p: &RampParams, limits: Limits, bounds: &Bounds) -> Span {
+        self.span_noting(p, limits, bounds, &mut ())
+    }
+
+    /// [`Ramp::span`], noting what it passes in `record` (a [`Trail`]).
+    pub fn span_noting<R: Record>(&mut self, p: &RampParams, limits: Limits, bounds: &Bounds, record: &mut R) -> Span {
         let mut done = Span::default();
         if self.velocity == 0 {
             return done;
@@ -117,6 +235,7 @@ impl Ramp {
                     if n > 0 {
                         let start = *self;
                         let steps = self.apply(run.dv, n);
+                        record.run(done.ticks, n, &start, run.dv, done.steps);
                         if steps != 0 {
                             // The run's last step: at its last tick, or (slower than a step per tick) at
                             // the first tick that reached its count.
@@ -140,7 +259,7 @@ impl Ramp {
                     if run.toward.is_some() {
                         // Braking towards the target: square roots from here to the arrival, tick by
                         // tick; a run (a new target further away) is looked for again only now and then.
-                        if self.brake(p, bounds, &mut done, &mut mark) {
+                        if self.brake(p, bounds, &mut done, &mut mark, record) {
                             continue;
                         }
                         retry = BRAKING_RETRY;
@@ -170,6 +289,7 @@ impl Ramp {
             }
             done.ticks += 1;
             done.steps = total;
+            record.tick(done.ticks, total);
             if r.steps != 0 {
                 mark = Some((*self, done));
             }
@@ -192,7 +312,14 @@ impl Ramp {
     /// lies above `u`, from `u` by Newton's method. Stops before a tick that is an event, that would
     /// arrive, or that leaves the bounds (the caller's generic tick decides those). Adds the ticks to
     /// `done` and `mark` as [`Ramp::span`] does; returns whether it took any.
-    fn brake(&mut self, p: &RampParams, b: &Bounds, done: &mut Span, mark: &mut Option<(Ramp, Span)>) -> bool {
+    fn brake<R: Record>(
+        &mut self,
+        p: &RampParams,
+        b: &Bounds,
+        done: &mut Span,
+        mark: &mut Option<(Ramp, Span)>,
+        record: &mut R,
+    ) -> bool {
         let dir = self.velocity.signum();
         let distance = self.distance();
         if distance == 0 || distance.signum() != dir || !b.ramping {
@@ -238,6 +365,7 @@ impl Ramp {
             d -= steps;
             moved += steps as u64;
             ticks += 1;
+            record.tick(done.ticks + ticks, done.steps + moved as i64 * dir);
             if steps != 0 {
                 (last, last_u, last_f, last_moved) = (ticks, u, f, moved);
             }
@@ -427,6 +555,20 @@ impl Ramp {
         let (k, v, dv) = (i128::from(k), i128::from(self.velocity), i128::from(dv));
         let sum = k.checked_mul(v)?.checked_add(dv.checked_mul(k.checked_mul(k + 1)? / 2)?)?;
         i128::from(self.fraction).checked_add(sum.checked_mul(DT)?)
+    }
+
+    /// One tick of a run with `dv` per tick ([`Ramp::apply`] of one tick, in 64 bits where they
+    /// suffice); returns the steps.
+    fn one_tick(&mut self, dv: i64) -> i64 {
+        let v = self.velocity + dv;
+        let Some(total) = v.checked_mul(TICK.micros() as i64).and_then(|t| t.checked_add(self.fraction)) else {
+            return self.apply(dv, 1);
+        };
+        let steps = total / super::PICO;
+        self.fraction = total - steps * super::PICO;
+        self.velocity = v;
+        self.position = self.wrap(self.position.wrapping_add(steps as i32));
+        steps
     }
 
     /// Applies `n` ticks of a run (allowed by [`Ramp::allowed`], so the sums fit); returns the steps.

@@ -22,10 +22,13 @@ fn check(ramp: Ramp, p: &RampParams, limits: Limits, b: &Bounds) -> Span {
     let mut slow = ramp;
     let (mut steps, mut last) = (0i64, TickResult::default());
     let mut any = false;
+    // The steps up to each tick, ticking.
+    let mut upto = vec![0i64];
     for k in 0..span.ticks {
         let before = slow;
         last = slow.tick(TICK, p, limits);
         steps += last.steps;
+        upto.push(steps);
         any |= last.steps != 0;
         assert!(!last.arrived && !last.stopped_by_switch, "tick {k} of {span:?} is an event: {last:?} from {before:?}");
         assert_eq!(last.ramping, b.ramping, "tick {k}: ramping");
@@ -38,7 +41,45 @@ fn check(ramp: Ramp, p: &RampParams, limits: Limits, b: &Bounds) -> Span {
     assert_eq!(fast, slow, "after {} ticks, from {ramp:?} with {p:?}", span.ticks);
     assert_eq!(span.steps, steps);
     assert!(!any || last.steps != 0, "the span ends on a tick without a step");
+    // The same span noting its trail: the same span, and what the trail tells is what ticking made, for
+    // the last ticks (a closed loop's velocity window) and a sample of the others.
+    let mut noted = ramp;
+    let mut trail = Trail::default();
+    assert_eq!(noted.span_noting(p, limits, b, &mut trail), span);
+    assert_eq!(noted, fast);
+    let n = span.ticks;
+    let sample = (0..=n).step_by((n / 64).max(1) as usize).chain(n.saturating_sub(80)..=n);
+    for k in sample {
+        if let Some(s) = trail.steps_to(k) {
+            assert_eq!(s, upto[k as usize], "the trail's steps up to tick {k} of {span:?} from {ramp:?}");
+        }
+    }
+    let last_ticks = n.min(40);
+    let mut told = vec![0i64; last_ticks as usize + 1];
+    if trail.steps_from(n - last_ticks, &mut told) {
+        assert_eq!(told, upto[(n - last_ticks) as usize..], "the trail's last ticks of {span:?} from {ramp:?}");
+    }
     span
+}
+
+/// A span's trail tells the steps up to each of its last ticks (as many as a closed loop's velocity
+/// window needs, and the one before) on every span of a move: its closed-form runs and its braking.
+#[test]
+fn a_trail_tells_the_last_ticks_of_every_span_of_a_move() {
+    let mut ramp = Ramp::default();
+    ramp.move_to(102_400);
+    ramp.tick(TICK, &P, Limits::default());
+    while !ramp.is_idle() {
+        let ramping = ramp.velocity() != 51200;
+        let span = check(ramp, &P, Limits::default(), &Bounds { ramping, ..FREE });
+        let mut trail = Trail::default();
+        ramp.span_noting(&P, Limits::default(), &Bounds { ramping, ..FREE }, &mut trail);
+        let back = span.ticks.min(33);
+        let mut told = [0i64; 34];
+        assert!(trail.steps_from(span.ticks - back, &mut told[..=back as usize]), "{span:?}");
+        assert_eq!(told[back as usize], span.steps);
+        ramp.tick(TICK, &P, Limits::default());
+    }
 }
 
 const P: RampParams = RampParams { max_speed: 51200, max_accel: 51200, min_speed: 0 };
