@@ -2,8 +2,9 @@
 //! EtherCAT frames through the slave in process.
 //!
 //! Run: `cargo bench -p tmcl-cli --bench throughput` (a plain harness that prints its figures; pass
-//! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory|fleet|serve1310` for
-//! one part; `fleet` is what `scripts/fleet-bench.sh` runs, `serve1310` the TMCM-1310 under `tmcl serve`).
+//! `--quick` for a short run, `--only core|gap|vm|motion|events|run|growth|serve|pty|memory|fleet|serve1310|
+//! closed-loop` for one part; `fleet` is what `scripts/fleet-bench.sh` runs, `serve1310` the TMCM-1310 under
+//! `tmcl serve`, `closed-loop [--poll end|deadlines|MS]` an hour of the TMCM-1310's closed-loop program).
 
 use std::hint::black_box;
 use std::process::{Child, Command as Process, Stdio};
@@ -168,6 +169,60 @@ fn motion_program_ratio(virtual_secs: u64, exact: bool) {
         "motion program (§2.4 loop), {virtual_secs} s, {how}  {:.0}x real time ({:.4} s wall)",
         virtual_secs as f64 / secs,
         secs
+    );
+}
+
+/// The TMCM-1310's closed-loop program (`tests/programs/tmcm1310_closed_loop.tmc`: the encoder
+/// initialisation, the loop closed, two revolutions forth and back, a free axis) for an hour of module
+/// time, polled as its callers poll: `end` once at the end (`tmcl run` without a trace), `deadlines` at
+/// every deadline the module gives (`tmcl serve` with no host traffic), or every `N` ms (a host that
+/// polls). Prints the wall time, the polls and the position at the end.
+fn closed_loop_hour(poll: &str) {
+    use tmcl_wire::{Command, Condition, MoveTarget, WaitCondition};
+    let spec = &tmcl_core::model::tmcm_1310::SPEC;
+    let mut module = Module::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO);
+    let program = [
+        Command::Sap { param: 132, motor: 0, value: 1 },
+        Command::Gap { param: 132, motor: 0 },
+        Command::Comp { operand: 2 },
+        Command::Jc { condition: Condition::NotEqual, address: 1 },
+        Command::Sap { param: 129, motor: 0, value: 1 },
+        Command::Mvp { motor: 0, target: MoveTarget::Abs(102_400) },
+        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
+        Command::Mvp { motor: 0, target: MoveTarget::Abs(0) },
+        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
+        Command::Ja { address: 5 },
+    ];
+    let cells: Vec<Instruction> = program.iter().map(|c| c.encode()).collect();
+    module.load_program(&cells).expect("the program loads");
+    module.execute(Command::RunApplication { from: Some(0) }, Instant::ZERO).expect("the program starts");
+    let end = Instant::from_secs(3600);
+    let every = match poll {
+        "end" | "deadlines" => None,
+        ms => Some(tmcl_core::Duration::from_millis(ms.parse().expect("--poll end|deadlines|MS"))),
+    };
+    let (mut t, mut polls) = (Instant::ZERO, 0u64);
+    let start = StdInstant::now();
+    loop {
+        let now = if poll == "end" { end } else { t };
+        let deadline = module.poll(now, &mut |_: &[u8]| {});
+        polls += 1;
+        if now >= end {
+            break;
+        }
+        let next = match every {
+            Some(every) => t + every,
+            None => deadline.unwrap_or(end),
+        };
+        t = next.max(t + tmcl_core::Duration::from_micros(1)).min(end);
+    }
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "closed-loop hour (TMCM-1310), polled {poll:>9}: {polls:>7} polls, {:>8.4} s wall, {:>8.0}x real time, \
+         AP 1 {}",
+        secs,
+        3600.0 / secs,
+        module.ramp().position
     );
 }
 
@@ -726,6 +781,14 @@ fn main() {
     }
     if part("pty") {
         pty_latency(if quick { 2_000 } else { 20_000 });
+    }
+    if only == Some("closed-loop") {
+        // `--poll end|deadlines|MS` (default: each of end, deadlines, 10, 100, 1000 in turn).
+        let poll = args.iter().position(|a| a == "--poll").and_then(|i| args.get(i + 1));
+        match poll {
+            Some(p) => closed_loop_hour(p),
+            None => ["end", "deadlines", "10", "100", "1000"].into_iter().for_each(closed_loop_hour),
+        }
     }
     if only == Some("fleet") {
         // `FLEET_BEFORE=PATH`: a `tmcl` from before --fleet, served as one process per line, in the same run.
