@@ -68,6 +68,7 @@ type Runs = [Option<Run>; MAX_MOTORS as usize];
 
 /// A span the module computed: [`crate::motion::Ramp::span`] is a function of the ramp's state, its
 /// parameters, the limits and the bounds alone, so the same inputs give the same span.
+#[cfg(feature = "span-memo")]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Memo {
     from: Ramp,
@@ -169,8 +170,6 @@ impl Memos {
 
     #[allow(clippy::too_many_arguments)] // (a memo's fields)
     pub(super) fn remember(&mut self, _: Ramp, _: &RampParams, _: Limits, _: &Bounds, _: Ramp, _: Span, _: LastTicks) {}
-
-    fn keep(&mut self, _: Memo) {}
 }
 
 impl<B: Board> Module<B> {
