@@ -104,7 +104,7 @@ const TRAIL_RUNS: usize = 4;
 /// needs each of the last ticks, as a closed loop's velocity window does: `module/loop_span.rs`),
 /// without computing them again. The ticks of a closed-form run are told from the run (its start and
 /// its change per tick); those computed one by one (braking, the generic tick) are kept as they pass,
-/// the last [`TRAIL_TICKS`] of them.
+/// the last 64 of them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Trail {
     /// (k, the steps of ticks 1..=k) at index k mod TRAIL_TICKS, for ticks computed one by one.
