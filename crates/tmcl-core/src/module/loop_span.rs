@@ -30,9 +30,14 @@
 //! quiet window and the span's other bounds, so the span stops before a tick that leaves it; the board
 //! hears of the field's move once. What the loop measures at the run's last [`VELOCITY_WINDOW`] ticks
 //! (the velocity window, AP 131, the last move, the rotor's position, the error and gamma) is computed
-//! one by one: the ramp's last ticks after a span of the ticks before them, and the encoder's reading
-//! where the field stood at each (`StepDriver::counts_at`). The result is that of ticking
-//! (`tests/event_driven.rs` in `tmcl-sim` draws closed loops both ways).
+//! one by one: the steps up to each of those ticks, as the span noted them on its way
+//! ([`crate::motion::Trail`]; else the ramp's last ticks one by one after a span of the ticks before
+//! them), and the encoder's reading where the field stood at each (`StepDriver::counts_at`). The result
+//! is that of ticking (`tests/event_driven.rs` in `tmcl-sim` draws closed loops both ways).
+//!
+//! A look for the deadline computes a braking phase only so far (`LOOKAHEAD_WORK` ticks at first); while
+//! the polls come at the deadlines it gives, each poll takes the look's run as computed and the next look
+//! computes four times as far (`take_locked`).
 
 use super::spans::LastTicks;
 use super::Module;
@@ -46,9 +51,8 @@ use crate::time::{Duration, Instant};
 /// next event nearer).
 const RETRY_TICKS: u64 = 16;
 
-/// How many ticks a look for the deadline computes one by one at most, at the most (a braking phase of
-/// about a minute): the limit grows fourfold from `LOOKAHEAD_WORK` with every look whose run the next
-/// poll took whole.
+/// The most ticks a look for the deadline computes one by one (a braking phase of about a minute): from
+/// `LOOKAHEAD_WORK`, the limit grows fourfold with every look whose run the next poll took whole.
 const MAX_LOOK_WORK: u64 = 1 << 16;
 
 /// A look for the deadline that found a run of the locked loop: where it started, and the run's length
