@@ -107,10 +107,9 @@ const TRAIL_RUNS: usize = 4;
 /// the last 64 of them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Trail {
-    /// (k, the steps of ticks 1..=k) at index k mod TRAIL_TICKS, for ticks computed one by one.
+    /// (k, the steps of ticks 1..=k) at index k mod TRAIL_TICKS, for ticks computed one by one (k ≥ 1,
+    /// so an entry never written, (0, 0), names no tick).
     ticks: [(u64, i64); TRAIL_TICKS],
-    /// The entries of `ticks` written since the trail was cleared, one bit each.
-    written: u64,
     /// The last closed-form runs, by where they start.
     runs: [Option<RunFrom>; TRAIL_RUNS],
     next_run: usize,
@@ -129,18 +128,11 @@ struct RunFrom {
 
 impl Default for Trail {
     fn default() -> Self {
-        Trail { ticks: [(0, 0); TRAIL_TICKS], written: 0, runs: [None; TRAIL_RUNS], next_run: 0 }
+        Trail { ticks: [(0, 0); TRAIL_TICKS], runs: [None; TRAIL_RUNS], next_run: 0 }
     }
 }
 
 impl Trail {
-    /// Forgets everything (for the next span).
-    pub fn clear(&mut self) {
-        self.written = 0;
-        self.runs = [None; TRAIL_RUNS];
-        self.next_run = 0;
-    }
-
     /// The steps of the span's ticks 1..=k (signed; 0 for k = 0), if the trail knows them: a tick of one
     /// of its last closed-form runs, or one of the last ticks it computed one by one.
     pub fn steps_to(&self, k: u64) -> Option<i64> {
@@ -160,7 +152,7 @@ impl Trail {
             if j == 0 {
                 *o = 0;
                 within = None;
-            } else if self.written >> i & 1 == 1 && at == j {
+            } else if at == j {
                 *o = steps;
                 within = None;
             } else if let Some((run, ramp, steps)) = within.as_mut().filter(|(r, ..)| j <= r.after + r.n) {
@@ -198,9 +190,7 @@ impl Record for () {
 impl Record for Trail {
     #[inline(always)]
     fn tick(&mut self, k: u64, steps: i64) {
-        let i = (k % TRAIL_TICKS as u64) as usize;
-        self.ticks[i] = (k, steps);
-        self.written |= 1 << i;
+        self.ticks[(k % TRAIL_TICKS as u64) as usize] = (k, steps);
     }
     fn run(&mut self, after: u64, n: u64, start: &Ramp, dv: i64, before: i64) {
         self.runs[self.next_run] = Some(RunFrom { after, n, start: *start, dv, before });
