@@ -293,46 +293,40 @@ impl<B: Board> Module<B> {
             return Ok(LockedRun { ramp, span, error, i2t, actuals, measured: 0, last_step: 0 });
         }
         // The last ticks' measurements (the velocity window, AP 131): the encoder read where the field
-        // stood at the start of each of the last ticks (and of the one before them), the steps up to each
-        // told by the span's trail, or else the ramp's last ticks one by one after a span of the ticks
-        // before them.
+        // stood at the start of each of the last ticks (and of the one before them). The steps up to each
+        // are those the span's trail told, or else those of the ramp's last ticks one by one after a span
+        // of the ticks before them.
         let keep = VELOCITY_WINDOW as u64;
         let (ones, measured) = if span.ticks > keep { (keep + 1, keep) } else { (span.ticks, span.ticks) };
+        let (ones, measured) = (ones as usize, measured as usize);
+        // upto[i]: the steps up to tick n − ones + i, for i = 0..=ones.
+        let mut upto = [0i64; VELOCITY_WINDOW + 2];
         if let Some((base, steps)) = last {
-            // steps[i]: the steps up to tick n − ones + i, less `base`; the measured ticks are the last
-            // `measured`, and with one more tick (`ones` > `measured`) the reading before them comes first.
-            let mut actuals = [0; VELOCITY_WINDOW + 1];
-            let (ones, measured) = (ones as usize, measured as usize);
-            let skip = ones - measured;
-            actuals[0] = if skip > 0 { read(self, base).ok_or(1u64)?.1 } else { cl.actual };
-            for (i, slot) in actuals.iter_mut().skip(1).take(measured).enumerate() {
-                *slot = read(self, base + i64::from(steps[skip + i])).ok_or(1u64)?.1;
+            for (u, s) in upto.iter_mut().zip(steps).take(ones + 1) {
+                *u = base + i64::from(s);
             }
-            let last_step = i64::from(steps[ones] - steps[ones - 1]);
-            return Ok(LockedRun { ramp, span, error, i2t, actuals, measured, last_step });
+        } else {
+            let (mut at, head) = self.span(params, limits, &Bounds { ticks: span.ticks - ones as u64, ..bounds });
+            if head.ticks != span.ticks - ones as u64 {
+                return Err(1); // (a shorter span gave back ticks that make no step: not worth a second look)
+            }
+            upto[0] = head.steps;
+            for i in 1..=ones {
+                upto[i] = upto[i - 1] + at.tick(TICK, params, limits).steps;
+            }
+            if at != ramp || upto[ones] != span.steps {
+                return Err(1); // (the ticks one by one are the span's: never)
+            }
         }
-        let (mut at, head) = self.span(params, limits, &Bounds { ticks: span.ticks - ones, ..bounds });
-        if head.ticks != span.ticks - ones {
-            return Err(1); // (a shorter span gave back ticks that make no step: not worth a second look)
-        }
-        let (mut travel, mut actuals, mut last_step) = (head.steps, [0; VELOCITY_WINDOW + 1], 0);
-        let measured = measured as usize;
         // The reading before the first measured tick (where the tick before it left the field), or the
         // loop's own if the run is no longer than the window.
-        if ones > measured as u64 {
-            actuals[0] = read(self, travel).ok_or(1u64)?.1;
-            travel += at.tick(TICK, params, limits).steps;
-        } else {
-            actuals[0] = cl.actual;
+        let skip = ones - measured;
+        let mut actuals = [0; VELOCITY_WINDOW + 1];
+        actuals[0] = if skip > 0 { read(self, upto[0]).ok_or(1u64)?.1 } else { cl.actual };
+        for (slot, travel) in actuals.iter_mut().skip(1).zip(&upto[skip..ones]) {
+            *slot = read(self, *travel).ok_or(1u64)?.1;
         }
-        for slot in actuals.iter_mut().skip(1).take(measured) {
-            *slot = read(self, travel).ok_or(1u64)?.1;
-            last_step = at.tick(TICK, params, limits).steps;
-            travel += last_step;
-        }
-        if at != ramp || travel != span.steps {
-            return Err(1); // (the ticks one by one are the span's: never)
-        }
+        let last_step = upto[ones] - upto[ones - 1];
         Ok(LockedRun { ramp, span, error, i2t, actuals, measured, last_step })
     }
 }
