@@ -172,28 +172,17 @@ fn motion_program_ratio(virtual_secs: u64, exact: bool) {
     );
 }
 
-/// The TMCM-1310's closed-loop program (`tests/programs/tmcm1310_closed_loop.tmc`: the encoder
+/// The TMCM-1310's closed-loop program (`tests/programs/tmcm1310_closed_loop.tmc`, assembled: the encoder
 /// initialisation, the loop closed, two revolutions forth and back, a free axis) for an hour of module
 /// time, polled as its callers poll: `end` once at the end (`tmcl run` without a trace), `deadlines` at
 /// every deadline the module gives (`tmcl serve` with no host traffic), or every `N` ms (a host that
 /// polls). Prints the wall time, the polls and the position at the end.
 fn closed_loop_hour(poll: &str) {
-    use tmcl_wire::{Command, Condition, MoveTarget, WaitCondition};
+    use tmcl_wire::Command;
     let spec = &tmcl_core::model::tmcm_1310::SPEC;
     let mut module = Module::new(SimBoard::in_memory_for(spec), spec, Instant::ZERO);
-    let program = [
-        Command::Sap { param: 132, motor: 0, value: 1 },
-        Command::Gap { param: 132, motor: 0 },
-        Command::Comp { operand: 2 },
-        Command::Jc { condition: Condition::NotEqual, address: 1 },
-        Command::Sap { param: 129, motor: 0, value: 1 },
-        Command::Mvp { motor: 0, target: MoveTarget::Abs(102_400) },
-        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
-        Command::Mvp { motor: 0, target: MoveTarget::Abs(0) },
-        Command::Wait { condition: WaitCondition::Pos, motor: 0, ticks: 0 },
-        Command::Ja { address: 5 },
-    ];
-    let cells: Vec<Instruction> = program.iter().map(|c| c.encode()).collect();
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/programs/tmcm1310_closed_loop.tmc");
+    let cells = tmcl_asm::assemble(&file).expect("the program assembles").instructions;
     module.load_program(&cells).expect("the program loads");
     module.execute(Command::RunApplication { from: Some(0) }, Instant::ZERO).expect("the program starts");
     let end = Instant::from_secs(3600);
