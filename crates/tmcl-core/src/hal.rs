@@ -372,10 +372,13 @@ pub trait Pass {
     /// The drive state motor `motor` was last given (to ask the board's quiet window with).
     fn drive(&self, motor: usize) -> DriveState;
     /// The next instant at which something changes by itself, whatever the program does: a standby or
-    /// freewheeling delay, the heartbeat, an enabled timer.
+    /// freewheeling delay, the heartbeat, an enabled timer — as the pass names them, and as every state
+    /// the program passed through since the last [`Pass::save`] named them (a turn of a loop may set a
+    /// delay and set it back: every later turn names that instant again). An instant at or before
+    /// [`Pass::time`] has passed within the turns seen: what later turns name is not known from them.
     fn next_event(&self) -> Option<Instant>;
-    /// A copy of the whole state.
-    fn save(&self) -> Self::Saved;
+    /// A copy of the whole state; from here on [`Pass::next_event`] gathers the instants named anew.
+    fn save(&mut self) -> Self::Saved;
     /// Whether the state now is `saved` a whole number of turns later: every field equal but the clocks,
     /// the program's and the motion controller's by the same Δ > 0, and the instruction count by n > 0.
     /// Returns (Δ, n).

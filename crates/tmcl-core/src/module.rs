@@ -209,6 +209,11 @@ pub struct Module<B: Board> {
     /// Within a poll's advance: a jump back of the program is reported to the board's hook
     /// (`hal::Hook::jumped_back`); in a single step (command 130) it is not.
     pub(crate) advancing: bool,
+    /// The earliest instant at which something changes by itself (a standby or freewheeling delay, the
+    /// heartbeat, an enabled timer) that a state of the running program named since the board's hook last
+    /// copied the whole state (`module/pass.rs`): a turn of a loop passes through states its pass does not
+    /// show (a loop that sets AP 204 to 1 and back to 12 names the freewheeling delay of 1 only in between).
+    pub(crate) named: Option<Instant>,
     /// The gap after which a partial binary frame is dropped (`None`: never), see
     /// [`Module::set_inter_byte_timeout`].
     pub(crate) inter_byte_timeout: Option<Duration>,
@@ -240,6 +245,7 @@ impl<B: Board> Module<B> {
             #[cfg(feature = "loop-periods")]
             periods: Default::default(),
             advancing: false,
+            named: None,
             inter_byte_timeout: Some(crate::iface::INTER_BYTE_TIMEOUT),
         }
     }
@@ -471,6 +477,15 @@ impl<B: Board> Module<B> {
     #[inline(always)]
     pub(crate) fn motor_at(&mut self, m: usize) -> Motor<'_, B> {
         Motor { m, axis: &mut self.st.axes[m], spec: self.spec, banks: &self.st.banks, board: &mut self.board }
+    }
+
+    /// Notes an instant at which something changes by itself that a state of the running program named,
+    /// for the board's hook (`module/pass.rs`; cleared at each copy of the whole state).
+    #[inline(always)]
+    pub(crate) fn name(&mut self, at: Option<Instant>) {
+        if let Some(at) = at {
+            self.named = Some(self.named.map_or(at, |n| n.min(at)));
+        }
     }
 
     /// What motor `m` did beyond itself ([`Faults`]): the program's deviation flag, the stall and

@@ -20,7 +20,9 @@
 //! time only through
 //! - the ticks, [`tmcl_core::motion::TICK`] apart from the motion controller's clock;
 //! - the instants kept in the state (a timer, a standby or freewheeling delay, the heartbeat:
-//!   [`Pass::next_event`]);
+//!   [`Pass::next_event`]) — at the pass, and in every state a turn passes through: a turn that sets AP 204
+//!   to 1 and back to 12 shows the delay of 120 ms at its passes, yet every turn cuts the current where
+//!   the delay of 1 has run out, so the firmware gathers what the states between two passes name;
 //! - the board's readings, which a quiet window ([`tmcl_core::hal::StepDriver::quiet`]) promises to keep
 //!   until its end while the driver is told nothing new;
 //! - the caller's `now`, where a poll ends;
@@ -171,9 +173,13 @@ impl LoopSkip {
         };
         let epoch = pass.changes();
         let time = pass.time();
+        let next_event = pass.next_event();
         let turn = match &self.snapshot {
             // The copy's quiet window has ended since (the board may have changed): a fresh copy, no failure.
             Some(s) if s.until.is_some_and(|u| u <= time) => None,
+            // An instant named since the copy has passed (nothing showed it): what the turns after it name
+            // is not known from these. A fresh copy gathers them anew, no failure.
+            Some(_) if next_event.is_some_and(|e| e <= time) => None,
             Some(s) => {
                 let turn = match s.saved.downcast_ref::<P::Saved>() {
                     Some(saved) if s.epoch == epoch => pass.turned(saved),
@@ -203,7 +209,7 @@ impl LoopSkip {
         // Nothing that is not the loop's may fall within the turns jumped over: the end of this poll
         // (instructions up to and including `now` run in it), the board's quiet window (as it was at both
         // passes), a standby or freewheeling delay, the heartbeat, a timer (sampled at the ticks).
-        let event = [until, quiet_until, pass.next_event()].into_iter().flatten().min();
+        let event = [until, quiet_until, next_event].into_iter().flatten().min();
         let now = pass.now();
         // Nothing is due within this poll: the loop spins on in its fixed point up to `event`, and the
         // program needs no poll before it (the deadline after this poll says so).

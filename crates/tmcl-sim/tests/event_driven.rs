@@ -210,6 +210,74 @@ fn a_heartbeat_that_runs_out_while_standing_is_sampled_at_its_tick() {
     }
 }
 
+/// The `event_driven` fuzz target's fourth find, cut down: a PD28-1021 standing, its program setting the
+/// freewheeling delay (AP 204, PD28-1021 manual §4) to 1 (10 ms) and back to 12 (120 ms) in a loop. Every
+/// pass through the loop's jump back shows the delay of 120 ms, so the loop looked like a fixed point with
+/// nothing due before 120 ms, and whole turns were jumped over past 10 ms: the driver kept its current
+/// where a ticking module cuts it for the part of each turn with the delay of 1 (the coils' energy 0.023
+/// against 0.013 A²s after 3 s). The instants a turn's states name are now gathered between the passes.
+#[test]
+fn a_loop_that_sets_a_delay_and_sets_it_back_is_sampled_where_it_runs_out() {
+    let scenario = Scenario {
+        spec: &tmcl_core::model::pd28_1021::SPEC,
+        world: String::new(),
+        settings: Vec::new(),
+        program: vec![
+            Command::Sap { param: 204, motor: 0, value: 1 },
+            Command::Sap { param: 204, motor: 0, value: 12 },
+            Command::Ja { address: 0 },
+        ],
+        host: Vec::new(),
+        polls: Vec::new(),
+        end: Instant::from_millis(3_000),
+    };
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
+/// The same for a timer (PD28-1021 manual §3.6.6): timer 0 every 50 ms, its interrupt enabled in the middle
+/// of each turn and disabled before the jump back, where the pass shows no interrupt enabled. The ticks
+/// that fall between EI and DI (a turn of 7 instructions against a tick of 50: every phase comes round)
+/// sample the timer and run its handler, which counts its runs in a user variable.
+#[test]
+fn a_loop_that_enables_a_timer_only_between_its_passes_is_sampled_where_it_fires() {
+    use tmcl_wire::CalcOp;
+    let scenario = Scenario {
+        spec: &tmcl_core::model::pd28_1021::SPEC,
+        world: String::new(),
+        settings: Vec::new(),
+        program: vec![
+            Command::Vect { interrupt: 0, address: 10 },
+            Command::Sgp { param: 0, bank: 3, value: 50 },
+            Command::Ei { interrupt: 255 },
+            // 3: the loop
+            Command::Ei { interrupt: 0 },
+            Command::Calc { op: CalcOp::Add, operand: 0 },
+            Command::Calc { op: CalcOp::Add, operand: 0 },
+            Command::Calc { op: CalcOp::Add, operand: 0 },
+            Command::Calc { op: CalcOp::Add, operand: 0 },
+            Command::Di { interrupt: 0 },
+            Command::Ja { address: 3 },
+            // 10: the handler: user variable 0 (GP 0, bank 2) counts its runs (RETI restores the accumulator)
+            Command::Ggp { param: 0, bank: 2 },
+            Command::Calc { op: CalcOp::Add, operand: 1 },
+            Command::Agp { param: 0, bank: 2 },
+            Command::Reti,
+        ],
+        host: Vec::new(),
+        polls: Vec::new(),
+        end: Instant::from_millis(3_000),
+    };
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+    let mut module = scenario.module(false).expect("the scenario loads");
+    module.poll(scenario.end, &mut |_: &[u8]| {});
+    let runs = module.get_global(0, 2, scenario.end).expect("GP 0, bank 2");
+    assert!(runs > 10, "the timer's handler ran {runs} times");
+}
+
 /// The `event_driven` fuzz target's find (a slow unit, 76 s): a TMCM-3110 whose three motors move slower
 /// than a step a tick, each at its own rate (the TMC428's pulse divisors 9 to 11). A span ends on its last
 /// step, so the three rarely ended on the same tick, and the first cut looked for one tick by tick; the

@@ -137,6 +137,10 @@ impl<B: Board> Module<B> {
             }
             if let Some((m, d)) = self.drive_due().filter(|(_, d)| *d < tick_at && *d <= now) {
                 self.motor_at(m).update_board(d); // the next delay, if any, lies after `d`
+                if self.vm.state == RunState::Running && !self.exact {
+                    // (After a program's command, mostly: what its settings name, `module/pass.rs`.)
+                    self.name(self.st.axes[m].drive_due);
+                }
                 continue;
             }
             if tick_at > now {

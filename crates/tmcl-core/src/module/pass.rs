@@ -22,6 +22,9 @@ pub(crate) struct Turn<'a> {
     pub vm: &'a mut Vm,
     /// The count of changes at the pass (`seam.rs`).
     pub changes: u32,
+    /// The earliest instant at which something changes by itself that the program's states named since
+    /// the last copy ([`next_named`]; the module's `named`).
+    pub named: &'a mut Option<Instant>,
 }
 
 /// The whole firmware state and program machine at a pass (about 8 KiB with six motor slots).
@@ -85,12 +88,17 @@ impl Pass for Turn<'_> {
     }
 
     fn next_event(&self) -> Option<Instant> {
-        // Timers fire only while interrupts are enabled (they are sampled at the ticks).
-        let timers = self.vm.timers.iter().flatten().filter(|_| self.vm.enabled != 0).copied();
-        [self.st.axes.drive_due().map(|(_, d)| d), heartbeat_expiry(self.st)].into_iter().flatten().chain(timers).min()
+        // The pass's own, and what the states between the copy and the pass named: a turn may pass through
+        // settings the pass does not show, and every later turn passes through them again.
+        [self.st.axes.drive_due().map(|(_, d)| d), heartbeat_expiry(self.st), timers(self.vm), *self.named]
+            .into_iter()
+            .flatten()
+            .min()
     }
 
-    fn save(&self) -> Saved {
+    fn save(&mut self) -> Saved {
+        // The instants named from here on are those of the turns after this copy.
+        *self.named = None;
         Saved { st: self.st.clone(), vm: self.vm.clone() }
     }
 
@@ -103,6 +111,18 @@ impl Pass for Turn<'_> {
         self.st.motion_time += by;
         self.vm.executed += instructions;
     }
+}
+
+/// The earliest enabled timer's expiry: timers fire only while interrupts are enabled (they are sampled at
+/// the ticks).
+fn timers(vm: &Vm) -> Option<Instant> {
+    vm.timers.iter().flatten().filter(|_| vm.enabled != 0).copied().min()
+}
+
+/// What the global settings and the program machine name (after a program's SGP, AGP, RSGP, EI or DI):
+/// the heartbeat's expiry (GP 68) and the earliest enabled timer (bank 3).
+pub(crate) fn named_by_globals(st: &State, vm: &Vm) -> Option<Instant> {
+    [heartbeat_expiry(st), timers(vm)].into_iter().flatten().min()
 }
 
 /// Whether `st`/`vm` is `a` a whole number of turns later: every field equal but the clocks, which are Δ

@@ -2,7 +2,7 @@
 //! program gives, the WAIT conditions, the hooks), the interrupt sources, and the control commands
 //! 128–135 (the machine itself, its state and its cycle, is [`crate::vm`]'s).
 
-use super::pass::Turn;
+use super::pass::{named_by_globals, Turn};
 use super::{Module, Origin};
 use crate::hal::prelude::*;
 use crate::hal::{Board, Nvm};
@@ -351,7 +351,24 @@ impl<B: Board> Bus for Module<B> {
 
     #[inline]
     fn execute(&mut self, command: Command, now: Instant) -> Result<i32, Status> {
-        match self.exec(command, now, Origin::Program)? {
+        let done = self.exec(command, now, Origin::Program);
+        // What the program's state now names, for the board's hook (`module/pass.rs`): the heartbeat (bank
+        // 0) and the timers (bank 3, and whether interrupts are enabled) change with these commands only;
+        // a motor's delays are named at the board's update that a parameter write brings
+        // (`module/advance.rs`).
+        if !self.exact
+            && matches!(
+                command,
+                Command::Sgp { bank: 0 | 3, .. }
+                    | Command::Agp { bank: 0 | 3, .. }
+                    | Command::Rsgp { bank: 0 | 3, .. }
+                    | Command::Ei { .. }
+                    | Command::Di { .. }
+            )
+        {
+            self.name(named_by_globals(&self.st, &self.vm));
+        }
+        match done? {
             super::Outcome::Value(v) => Ok(v),
             // (Commands with other replies are control commands, which end a program instead.)
             _ => Ok(0),
@@ -379,7 +396,7 @@ impl<B: Board> Bus for Module<B> {
             return false;
         }
         let changes = self.board.changes();
-        let mut turn = Turn { spec: self.spec, st: &mut self.st, vm: &mut self.vm, changes };
+        let mut turn = Turn { spec: self.spec, st: &mut self.st, vm: &mut self.vm, changes, named: &mut self.named };
         self.board.timeline().jumped_back(&mut turn)
     }
 
