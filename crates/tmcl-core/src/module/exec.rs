@@ -1,4 +1,5 @@
-//! The one dispatcher: every command a host sends goes through [`Module::execute`].
+//! The one dispatcher: every command a host sends goes through [`Module::execute`] — the host's reads
+//! (GAP, GGP, GIO) by a short way into the same arms (`Module::host_read`), as most of a host's traffic.
 //!
 //! Each arm cites the manual section that defines the command. Statuses the manual leaves open are
 //! decided once, here and in [`crate::param::ParamError`]:
@@ -24,9 +25,19 @@ use crate::param::{persist, ParamError, Role};
 use crate::time::Instant;
 use crate::vm::{alu, Registers, Vm};
 use tmcl_wire::command::MAGIC_KEY;
-use tmcl_wire::{CalcOp, CalcxOp, Command, EventMode, MoveTarget, Status, StatusKind, VersionFormat, FRAME_LEN};
+use tmcl_wire::{
+    CalcOp, CalcxOp, Command, EventMode, Instruction, MoveTarget, Opcode, Status, StatusKind, VersionFormat, FRAME_LEN,
+};
 
 type Exec = Result<Outcome, Status>;
+
+/// The reads [`Module::host_read`] answers.
+#[derive(Clone, Copy)]
+enum Read {
+    Gap,
+    Ggp,
+    Gio,
+}
 
 fn value(v: i32) -> Exec {
     Ok(Outcome::Value(v))
@@ -102,10 +113,7 @@ impl<B: Board> Module<B> {
                 value(v)
             }
             // §3.7.6 GAP.
-            C::Gap { param, motor } => {
-                let m = self.motor(motor)?;
-                value(self.read_axis(m, param, Some(now))?)
-            }
+            C::Gap { param, motor } => value(self.gap(param, motor, now)?),
             // §3.7.7 STAP: E parameters only; the motor's RAM value, the model's table and the EEPROM.
             C::Stap { param, motor } => {
                 let m = self.motor(motor)?;
@@ -124,10 +132,7 @@ impl<B: Board> Module<B> {
                 params::write_global(spec, banks, reach, param, bank, v, now).map(|()| Outcome::Value(v))
             }
             // §3.7.10 GGP: the banks; GP 128–130 the program machine.
-            C::Ggp { param, bank } => {
-                let Module { spec, st, vm, .. } = self;
-                value(params::read_global(spec, &mut st.banks, vm, param, bank, now)?)
-            }
+            C::Ggp { param, bank } => value(self.ggp(param, bank, now)?),
             // §3.7.11 STGP: bank 2 user variables 0..55 (§5.3); bank 0 A parameters are already stored
             // and a STGP rewrites them (the manual does not say what STGP does on bank 0).
             C::Stgp { param, bank } => {
@@ -153,7 +158,7 @@ impl<B: Board> Module<B> {
                 sio(board, spec, &mut st.outputs, a, port, bank, v)
             }
             // §3.7.15 GIO: bank 0 digital inputs, bank 1 analog inputs, bank 2 outputs read back.
-            C::Gio { port, bank } => self.gio(port, bank),
+            C::Gio { port, bank } => value(self.gio(port, bank)?),
             // §3.7.16 CALC: A ← A op operand; the reply carries the operand (example reply §3.7.16).
             C::Calc { op, operand } => self.calc(op, operand, origin),
             // §3.7.28 CALCX: A ← A op X (LOAD, SWAP and NOT work on X).
@@ -339,14 +344,54 @@ impl<B: Board> Module<B> {
     }
 
     /// GIO: a port of bank 0, 1 or 2 the model has (another port 3, another bank 4).
-    fn gio(&mut self, port: u8, bank: u8) -> Exec {
+    fn gio(&mut self, port: u8, bank: u8) -> Result<i32, Status> {
         let missing = if bank <= 2 { Status::WrongType } else { Status::InvalidValue };
         let desc = self.spec.port(bank, port).ok_or(missing)?;
         match read_port(&mut self.board, self.st.outputs, desc.kind) {
-            Some(v) => value(v),
+            Some(v) => Ok(v),
             // (The encoder of motor 0: the models with this port have one motor.)
-            None => value(i32::from(self.motor_at(0).encoder_near_zero())),
+            None => Ok(i32::from(self.motor_at(0).encoder_near_zero())),
         }
+    }
+
+    /// §3.7.6 GAP: axis parameter `param` of `motor` at `now`.
+    #[inline(always)]
+    fn gap(&mut self, param: u8, motor: u8, now: Instant) -> Result<i32, Status> {
+        let m = self.motor(motor)?;
+        self.read_axis(m, param, Some(now))
+    }
+
+    /// §3.7.10 GGP: parameter `param` of bank `bank` at `now`.
+    #[inline(always)]
+    fn ggp(&mut self, param: u8, bank: u8, now: Instant) -> Result<i32, Status> {
+        let Module { spec, st, vm, .. } = self;
+        params::read_global(spec, &mut st.banks, vm, param, bank, now)
+    }
+
+    /// A host's read — GAP, GGP or GIO — answered straight from the instruction's fields; `None` for any
+    /// other command, or one the model lacks (the dispatcher answers those). Reads change nothing the
+    /// driver sees and are most of what a host sends (it polls positions, parameters and inputs), so they
+    /// skip the decode into a [`Command`] and the dispatcher's checks for commands that change something;
+    /// what they run is the dispatcher's own arm (`gap`, `ggp`, `gio`), so the value and the status are
+    /// the ones [`Module::exec`] gives (a test compares both ways for every type, motor or bank and model).
+    #[inline(always)]
+    pub(crate) fn host_read(&mut self, i: &Instruction, now: Instant) -> Option<Result<i32, Status>> {
+        let read = match i.opcode {
+            Opcode::Gap => Read::Gap,
+            Opcode::Ggp => Read::Ggp,
+            Opcode::Gio => Read::Gio,
+            _ => return None,
+        };
+        if !self.spec.commands.contains(i.opcode) {
+            return None;
+        }
+        // A host input, as at the top of `exec`.
+        self.board.input();
+        Some(match read {
+            Read::Gap => self.gap(i.kind, i.motor, now),
+            Read::Ggp => self.ggp(i.kind, i.motor, now),
+            Read::Gio => self.gio(i.kind, i.motor),
+        })
     }
 
     /// CALC (§3.7.16) on the host's or the program's registers (`vm/alu.rs`); the reply carries the

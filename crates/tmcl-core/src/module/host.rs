@@ -267,13 +267,17 @@ impl<B: Board> Module<B> {
             return;
         }
         self.st.asking_port = port as u8;
-        // As `decode_host`, with one check more: no ASCII mode on an interface without it.
-        let result = self.decode_code(i, op).and_then(|c| {
-            if self.program_only(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
-                return Err(Status::NotAvailable);
-            }
-            self.exec(c, now, Origin::Host)
-        });
+        let result = match self.host_read(&i, now) {
+            // A read, the short way (`Module::host_read`).
+            Some(read) => read.map(Outcome::Value),
+            // As `decode_host`, with one check more: no ASCII mode on an interface without it.
+            None => self.decode_code(i, op).and_then(|c| {
+                if self.program_only(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
+                    return Err(Status::NotAvailable);
+                }
+                self.exec(c, now, Origin::Host)
+            }),
+        };
         let reply = match result {
             Ok(Outcome::Value(v) | Outcome::Restart(v)) => Ok((Status::Ok, v, op)),
             Ok(Outcome::Raw(raw)) => Err(raw),
