@@ -236,6 +236,35 @@ fn a_loop_that_sets_a_delay_and_sets_it_back_is_sampled_where_it_runs_out() {
     }
 }
 
+/// The `event_driven` fuzz target's fifth find, cut down (it came on a PD-113): a program that spins
+/// reading the tick timer (GP 132, "incremented every 1 ms", PD28-1021 manual §5.1), jumps back at once
+/// while it reads 8 and otherwise overwrites it with GIO 255 before its jump back. Every pass showed the
+/// same state — the timer's value is the clock's, not the state's — so whole turns were jumped over the
+/// millisecond in which it reads 8, and the program's turns fell out of step with ticking. A read of the
+/// tick timer now names its next increment.
+#[test]
+fn a_loop_that_reads_the_tick_timer_is_sampled_where_it_changes() {
+    use tmcl_wire::Condition;
+    let scenario = Scenario {
+        spec: &tmcl_core::model::pd28_1021::SPEC,
+        world: String::new(),
+        settings: Vec::new(),
+        program: vec![
+            Command::Ggp { param: 132, bank: 0 },
+            Command::Comp { operand: 8 },
+            Command::Jc { condition: Condition::Zero, address: 0 },
+            Command::Gio { port: 255, bank: 0 },
+            Command::Ja { address: 0 },
+        ],
+        host: vec![(Instant::from_micros(1_126_486), Command::StopApplication)],
+        polls: Vec::new(),
+        end: Instant::from_millis(1_500),
+    };
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
 /// The same for a timer (PD28-1021 manual §3.6.6): timer 0 every 50 ms, its interrupt enabled in the middle
 /// of each turn and disabled before the jump back, where the pass shows no interrupt enabled. The ticks
 /// that fall between EI and DI (a turn of 7 instructions against a tick of 50: every phase comes round)

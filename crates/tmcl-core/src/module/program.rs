@@ -8,7 +8,7 @@ use crate::hal::prelude::*;
 use crate::hal::{Board, Nvm};
 use crate::model::{ModelSpec, Setting, Source};
 use crate::param::banks::Banks;
-use crate::param::persist;
+use crate::param::{persist, Role};
 use crate::time::{Duration, Instant};
 use crate::vm::{self, Bus, Parts, Program, Registers, RunState, Vm, Wait, EMPTY, INSTRUCTION_TIME, MAX_PROGRAM};
 use tmcl_model::capacity::MAX_MOTORS;
@@ -356,17 +356,22 @@ impl<B: Board> Bus for Module<B> {
         // 0) and the timers (bank 3, and whether interrupts are enabled) change with these commands only;
         // a motor's delays are named at the board's update that a parameter write brings
         // (`module/advance.rs`).
-        if !self.exact
-            && matches!(
-                command,
+        if !self.exact {
+            match command {
                 Command::Sgp { bank: 0 | 3, .. }
-                    | Command::Agp { bank: 0 | 3, .. }
-                    | Command::Rsgp { bank: 0 | 3, .. }
-                    | Command::Ei { .. }
-                    | Command::Di { .. }
-            )
-        {
-            self.name(named_by_globals(&self.st, &self.vm));
+                | Command::Agp { bank: 0 | 3, .. }
+                | Command::Rsgp { bank: 0 | 3, .. }
+                | Command::Ei { .. }
+                | Command::Di { .. } => self.name(named_by_globals(&self.st, &self.vm)),
+                // A read of the tick timer (GP 132, "incremented every 1 ms", §5.1) reads the clock: what
+                // the program does with it may change at its next increment, which no state holds.
+                Command::Ggp { param, bank: 0 }
+                    if self.spec.global.find(param).is_ok_and(|(_, d)| d.role == Role::TickTimer) =>
+                {
+                    self.name(Some(self.st.banks.tick_timer_changes(now)));
+                }
+                _ => {}
+            }
         }
         match done? {
             super::Outcome::Value(v) => Ok(v),

@@ -8,7 +8,7 @@
 //! reads (`FrameSettings`) ready: no other code can write the bank, so they are never stale.
 
 use crate::model::{ModelSpec, Setting};
-use crate::time::Instant;
+use crate::time::{Duration, Instant};
 use tmcl_model::capacity::{MAX_GLOBAL_PARAMS, MAX_INTERRUPT_PARAMS, MAX_USER_VARIABLES};
 
 /// GP 133's generator starts from this seed at every start (a write to GP 133 reseeds it).
@@ -147,6 +147,13 @@ impl Banks {
     pub(crate) fn tick_timer(&self, now: Instant) -> i32 {
         let (at, base) = self.tick_base;
         ((u64::from(base) + (now - at).millis()) & 0x7FFF_FFFF) as i32
+    }
+
+    /// When GP 132 next changes after `now`: its next increment.
+    #[inline]
+    pub(crate) fn tick_timer_changes(&self, now: Instant) -> Instant {
+        let (at, _) = self.tick_base;
+        at + Duration::from_millis((now - at).millis() + 1)
     }
 
     /// GP 133: a new random number 0..2^31−1 on every read (§5.1; xorshift32).
