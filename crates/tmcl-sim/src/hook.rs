@@ -22,7 +22,8 @@
 //! - the instants kept in the state (a timer, a standby or freewheeling delay, the heartbeat:
 //!   [`Pass::next_event`]) — at the pass, and in every state a turn passes through: a turn that sets AP 204
 //!   to 1 and back to 12 shows the delay of 120 ms at its passes, yet every turn cuts the current where
-//!   the delay of 1 has run out, so the firmware gathers what the states between two passes name;
+//!   the delay of 1 has run out, so the firmware gathers what the states between two passes name (and
+//!   the tick timer's next increment after a program reads it: the clock read, not the state);
 //! - the board's readings, which a quiet window ([`tmcl_core::hal::StepDriver::quiet`]) promises to keep
 //!   until its end while the driver is told nothing new;
 //! - the caller's `now`, where a poll ends;
