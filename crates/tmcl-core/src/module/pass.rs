@@ -23,7 +23,7 @@ pub(crate) struct Turn<'a> {
     /// The count of changes at the pass (`seam.rs`).
     pub changes: u32,
     /// The earliest instant at which something changes by itself that the program's states named since
-    /// the last copy ([`next_named`]; the module's `named`).
+    /// the last copy (the module's `named`: gathered in `module/program.rs` and `module/advance.rs`).
     pub named: &'a mut Option<Instant>,
 }
 
