@@ -100,7 +100,7 @@ impl<B: Board> Module<B> {
                 }
             };
             if let Some(frame) = frame {
-                self.handle_frame(port, iface, frame, now);
+                self.handle_frame(port, iface, frame, now, sink);
                 // A command that only reads changes nothing the driver sees; anything else may.
                 if !CommandSet::READ_ONLY.contains_code(frame[1]) {
                     self.update_boards(now);
@@ -121,7 +121,7 @@ impl<B: Board> Module<B> {
         let instruction = Instruction::new(message[1].into(), message[2], message[3], value);
         self.st.last_command = now;
         self.st.heartbeat_tripped = false;
-        self.handle_instruction(port, iface, instruction, message[1], now);
+        self.handle_instruction(port, iface, instruction, message[1], now, sink);
         if !CommandSet::READ_ONLY.contains_code(message[1]) {
             self.update_boards(now);
         }
@@ -233,7 +233,14 @@ impl<B: Board> Module<B> {
     }
 
     #[inline(always)]
-    fn handle_frame(&mut self, port: usize, iface: &InterfaceDesc, bytes: [u8; FRAME_LEN], now: Instant) {
+    fn handle_frame(
+        &mut self,
+        port: usize,
+        iface: &InterfaceDesc,
+        bytes: [u8; FRAME_LEN],
+        now: Instant,
+        sink: &mut impl Sink,
+    ) {
         let frame = Frame::new_unchecked(&bytes[..]);
         let address = frame.address();
         // §3.1 / §5.1 GP 66, GP 87: on a bus, frames for other addresses get no reply at all.
@@ -248,15 +255,24 @@ impl<B: Board> Module<B> {
         match Request::parse(&frame) {
             // §3.2.1 status 1; the reply carries opcode 0 and value 0, as Trinamic's TMCL code does.
             Err(_) => self.queue_reply_aside(port, iface, frame.opcode(), Ok((Status::WrongChecksum, 0, 0u8)), now),
-            Ok(request) => self.handle_instruction(port, iface, request.instruction, bytes[1], now),
+            Ok(request) => self.handle_instruction(port, iface, request.instruction, bytes[1], now, sink),
         }
     }
 
-    /// Executes a host's instruction (download mode stores it instead) and queues the reply on `port`.
-    /// `op` is the command byte as it arrived (`i.opcode.code()`, taken from the frame rather than
-    /// computed back from the opcode: one table lookup less per frame).
+    /// Executes a host's instruction (download mode stores it instead) and queues the reply on `port`
+    /// (a read's reply, due at once on an empty binary outbox, goes straight to `sink`). `op` is the
+    /// command byte as it arrived (`i.opcode.code()`, taken from the frame rather than computed back from
+    /// the opcode: one table lookup less per frame).
     #[inline(always)]
-    fn handle_instruction(&mut self, port: usize, iface: &InterfaceDesc, i: Instruction, op: u8, now: Instant) {
+    fn handle_instruction(
+        &mut self,
+        port: usize,
+        iface: &InterfaceDesc,
+        i: Instruction,
+        op: u8,
+        now: Instant,
+        sink: &mut impl Sink,
+    ) {
         if self.vm.download.is_some() && !i.opcode.is_control() {
             // §3.7.38 132: in download mode every command but the control commands is stored.
             let status = match self.download(i) {
@@ -267,17 +283,23 @@ impl<B: Board> Module<B> {
             return;
         }
         self.st.asking_port = port as u8;
-        let result = match self.host_read(&i, now) {
-            // A read, the short way (`Module::host_read`).
-            Some(read) => read.map(Outcome::Value),
-            // As `decode_host`, with one check more: no ASCII mode on an interface without it.
-            None => self.decode_code(i, op).and_then(|c| {
-                if self.program_only(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
-                    return Err(Status::NotAvailable);
-                }
-                self.exec(c, now, Origin::Host)
-            }),
-        };
+        // A read, the short way (`Module::host_read`): it always replies (§5.1 GP 255: GAP, GGP and GIO
+        // are never suppressed), and nothing follows its reply.
+        if let Some(read) = self.host_read(&i, now) {
+            let reply = match read {
+                Ok(v) => (Status::Ok, v),
+                Err(status) => (status, i.value),
+            };
+            self.send_reply(port, iface, op, reply, now, sink);
+            return;
+        }
+        // As `decode_host`, with one check more: no ASCII mode on an interface without it.
+        let result = self.decode_code(i, op).and_then(|c| {
+            if self.program_only(op) || (matches!(c, Command::EnterAscii) && !iface.ascii) {
+                return Err(Status::NotAvailable);
+            }
+            self.exec(c, now, Origin::Host)
+        });
         let reply = match result {
             Ok(Outcome::Value(v) | Outcome::Restart(v)) => Ok((Status::Ok, v, op)),
             Ok(Outcome::Raw(raw)) => Err(raw),
@@ -297,6 +319,32 @@ impl<B: Board> Module<B> {
             Ok(Outcome::Restart(_)) => self.start(now),
             Ok(Outcome::EnterAscii) => self.enter_ascii(port),
             _ => {}
+        }
+    }
+
+    /// A read's reply on `port`: straight to `sink` when it is due at once on a binary interface whose
+    /// outbox is empty (what queueing it and flushing the outbox would send, without the copy into the
+    /// outbox and back), else queued behind what waits there.
+    #[inline(always)]
+    fn send_reply(
+        &mut self,
+        port: usize,
+        iface: &InterfaceDesc,
+        op: u8,
+        (status, value): (Status, i32),
+        now: Instant,
+        sink: &mut impl Sink,
+    ) {
+        let due = self.reply_due(iface, now);
+        if iface.framing != Framing::Binary {
+            return self.push_reply(port, iface.framing, op, Ok((status, value, op)), due);
+        }
+        let bytes = self.reply_bytes(status, op, value);
+        let Some(p) = self.st.ports.get_mut(port) else { return };
+        if due <= now && p.outbox.is_empty() {
+            sink.send(&bytes);
+        } else {
+            p.outbox.push_frame(bytes, due);
         }
     }
 

@@ -95,3 +95,44 @@ fn a_backlog_of_ascii_lines_is_answered_line_by_line() {
     b.module.receive(b.now, &text, &mut |x: &[u8]| out.extend_from_slice(x));
     assert_eq!(String::from_utf8_lossy(&out), expected);
 }
+
+/// A read's reply goes to the host at once only when nothing waits before it: behind a reply held by
+/// the telegram pause (§5.1 GP 75) it waits its turn, although it is due at once itself (the pause set
+/// to 0 in between).
+#[test]
+fn a_reads_reply_never_passes_a_reply_that_waits() {
+    let mut b = Bench::new();
+    assert_eq!(b.sgp(75, 0, 10), Status::Ok);
+    assert_eq!(b.sgp(7, 2, 77), Status::Ok);
+    let t0 = b.now + Duration::from_millis(50);
+    let frame = |opcode, kind, bank, value| {
+        Request { address: 1, instruction: Instruction::new(opcode, kind, bank, value) }.to_bytes()
+    };
+    let mut out = Vec::new();
+    // The first read: its reply waits 10 ms.
+    b.module.receive(t0, &frame(Opcode::Gap, 4, 0, 0), &mut |x: &[u8]| out.extend_from_slice(x));
+    // The pause set to 0, and a second read, both due at once, both behind the first reply.
+    let t1 = t0 + Duration::from_millis(1);
+    b.module.receive(t1, &frame(Opcode::Sgp, 75, 0, 0), &mut |x: &[u8]| out.extend_from_slice(x));
+    let t2 = t0 + Duration::from_millis(2);
+    b.module.receive(t2, &frame(Opcode::Ggp, 7, 2, 0), &mut |x: &[u8]| out.extend_from_slice(x));
+    assert!(out.is_empty(), "nothing passes the reply that waits");
+    assert_eq!(b.module.poll(t2, &mut |x: &[u8]| out.extend_from_slice(x)), Some(t0 + Duration::from_millis(10)));
+    b.module.poll(t0 + Duration::from_millis(10), &mut |x: &[u8]| out.extend_from_slice(x));
+    let got = replies(&out);
+    let max_speed = b.gap(4);
+    assert_eq!(
+        got.iter().map(|r| (r.opcode, r.status, r.value)).collect::<Vec<_>>(),
+        [
+            (Opcode::Gap.code(), Status::Ok, max_speed),
+            (Opcode::Sgp.code(), Status::Ok, 0),
+            (Opcode::Ggp.code(), Status::Ok, 77)
+        ]
+    );
+    // With the outbox empty again, a read's reply comes at once.
+    out.clear();
+    b.module.receive(t0 + Duration::from_millis(11), &frame(Opcode::Ggp, 7, 2, 0), &mut |x: &[u8]| {
+        out.extend_from_slice(x)
+    });
+    assert_eq!(replies(&out).iter().map(|r| r.value).collect::<Vec<_>>(), [77]);
+}
