@@ -20,6 +20,27 @@ fn same_both_ways(scenario: &Scenario) -> Result<(), proptest::test_runner::Test
     Ok(())
 }
 
+/// A PD28-1021 without a world, settings, host commands or polls, running `program` for `end_ms`: the
+/// shape of the loop skip's finds, cut down.
+fn pd28_program(program: Vec<Command>, end_ms: u64) -> Scenario {
+    Scenario {
+        spec: &tmcl_core::model::pd28_1021::SPEC,
+        world: String::new(),
+        settings: Vec::new(),
+        program,
+        host: Vec::new(),
+        polls: Vec::new(),
+        end: Instant::from_millis(end_ms),
+    }
+}
+
+/// The scenario must run the same both ways; on a difference the test fails with it.
+fn assert_same(scenario: &Scenario) {
+    if let Err(e) = scenario.check() {
+        panic!("{e}");
+    }
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(
         std::env::var("EVENT_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(48)
@@ -130,9 +151,7 @@ fn same_on_the_tmcm_6110(data: &[u8]) {
     bytes.extend_from_slice(data);
     let scenario = Scenario::decode(&bytes);
     assert_eq!(scenario.spec.motors, 6);
-    if let Err(e) = scenario.check() {
-        panic!("{e}");
-    }
+    assert_same(&scenario);
 }
 
 /// The multi-axis property test's first find (shrunk): a TMCM-6110 whose motors the heartbeat stops;
@@ -185,9 +204,7 @@ fn boards_are_compared_as_a_read_finds_them() {
     ])
     .compressed(3_000);
     assert_eq!(scenario.spec.motors, 1);
-    if let Err(e) = scenario.check() {
-        panic!("{e}");
-    }
+    assert_same(&scenario);
 }
 
 /// The `event_driven` fuzz target's find: a PD28-1021 standing at its target in position mode, a
@@ -205,9 +222,7 @@ fn a_heartbeat_that_runs_out_while_standing_is_sampled_at_its_tick() {
     .compressed(3_000);
     assert_eq!(scenario.spec.motors, 1);
     assert!(scenario.host.iter().any(|(_, c)| matches!(c, Command::Sgp { param: 68, .. })));
-    if let Err(e) = scenario.check() {
-        panic!("{e}");
-    }
+    assert_same(&scenario);
 }
 
 /// The `event_driven` fuzz target's fourth find, cut down: a PD28-1021 standing, its program setting the
@@ -218,22 +233,14 @@ fn a_heartbeat_that_runs_out_while_standing_is_sampled_at_its_tick() {
 /// against 0.013 A²s after 3 s). The instants a turn's states name are now gathered between the passes.
 #[test]
 fn a_loop_that_sets_a_delay_and_sets_it_back_is_sampled_where_it_runs_out() {
-    let scenario = Scenario {
-        spec: &tmcl_core::model::pd28_1021::SPEC,
-        world: String::new(),
-        settings: Vec::new(),
-        program: vec![
+    assert_same(&pd28_program(
+        vec![
             Command::Sap { param: 204, motor: 0, value: 1 },
             Command::Sap { param: 204, motor: 0, value: 12 },
             Command::Ja { address: 0 },
         ],
-        host: Vec::new(),
-        polls: Vec::new(),
-        end: Instant::from_millis(3_000),
-    };
-    if let Err(e) = scenario.check() {
-        panic!("{e}");
-    }
+        3_000,
+    ));
 }
 
 /// The `event_driven` fuzz target's fifth find, cut down (it came on a PD-113): a program that spins
@@ -245,24 +252,17 @@ fn a_loop_that_sets_a_delay_and_sets_it_back_is_sampled_where_it_runs_out() {
 #[test]
 fn a_loop_that_reads_the_tick_timer_is_sampled_where_it_changes() {
     use tmcl_wire::Condition;
-    let scenario = Scenario {
-        spec: &tmcl_core::model::pd28_1021::SPEC,
-        world: String::new(),
-        settings: Vec::new(),
-        program: vec![
-            Command::Ggp { param: 132, bank: 0 },
-            Command::Comp { operand: 8 },
-            Command::Jc { condition: Condition::Zero, address: 0 },
-            Command::Gio { port: 255, bank: 0 },
-            Command::Ja { address: 0 },
-        ],
+    let program = vec![
+        Command::Ggp { param: 132, bank: 0 },
+        Command::Comp { operand: 8 },
+        Command::Jc { condition: Condition::Zero, address: 0 },
+        Command::Gio { port: 255, bank: 0 },
+        Command::Ja { address: 0 },
+    ];
+    assert_same(&Scenario {
         host: vec![(Instant::from_micros(1_126_486), Command::StopApplication)],
-        polls: Vec::new(),
-        end: Instant::from_millis(1_500),
-    };
-    if let Err(e) = scenario.check() {
-        panic!("{e}");
-    }
+        ..pd28_program(program, 1_500)
+    });
 }
 
 /// The same for a timer (PD28-1021 manual §3.6.6): timer 0 every 50 ms, its interrupt enabled in the middle
@@ -272,11 +272,8 @@ fn a_loop_that_reads_the_tick_timer_is_sampled_where_it_changes() {
 #[test]
 fn a_loop_that_enables_a_timer_only_between_its_passes_is_sampled_where_it_fires() {
     use tmcl_wire::CalcOp;
-    let scenario = Scenario {
-        spec: &tmcl_core::model::pd28_1021::SPEC,
-        world: String::new(),
-        settings: Vec::new(),
-        program: vec![
+    let scenario = pd28_program(
+        vec![
             Command::Vect { interrupt: 0, address: 10 },
             Command::Sgp { param: 0, bank: 3, value: 50 },
             Command::Ei { interrupt: 255 },
@@ -294,13 +291,9 @@ fn a_loop_that_enables_a_timer_only_between_its_passes_is_sampled_where_it_fires
             Command::Agp { param: 0, bank: 2 },
             Command::Reti,
         ],
-        host: Vec::new(),
-        polls: Vec::new(),
-        end: Instant::from_millis(3_000),
-    };
-    if let Err(e) = scenario.check() {
-        panic!("{e}");
-    }
+        3_000,
+    );
+    assert_same(&scenario);
     let mut module = scenario.module(false).expect("the scenario loads");
     module.poll(scenario.end, &mut |_: &[u8]| {});
     let runs = module.get_global(0, 2, scenario.end).expect("GP 0, bank 2");
@@ -319,9 +312,7 @@ fn several_slow_motors_take_the_ticks_after_their_last_steps() {
     ])
     .compressed(3_000);
     assert_eq!(scenario.spec.motors, 3);
-    if let Err(e) = scenario.check() {
-        panic!("{e}");
-    }
+    assert_same(&scenario);
 }
 
 proptest::proptest! {
