@@ -591,6 +591,24 @@ impl Mechanics {
             return;
         }
         let moving = |m: &Mechanics, y: f64| s * m.net(y) - m.resist(y) > tolerance;
+        // A rotor that slides the whole march for sure is moved at once: loads that do not change with
+        // the position (no spring, no detent, no jam's edge on the way) and exceed all the torque the
+        // motor can give, so that every step of the march would find it moving. (A motor whose current
+        // is far below its load slides 64 periods at every settle; the march's 4 096 looks of a sine
+        // each made a reference search against such a load take 5 ms a tick: the `event_driven` fuzz
+        // target's sixth find.) The one sum differs from the march's 4 096 additions at most in the
+        // last bits of the position, in both time modes alike.
+        if self.spring.is_none() && self.detent == 0.0 {
+            let far = x + s * MARCH * f64::from(MARCH_LIMIT);
+            let end = if s * (far - limit) >= 0.0 { limit } else { far };
+            let (ext, f) = (self.external(x), self.resist(x));
+            // (A margin for the rounding of the sum the look computes, far below any torque that matters.)
+            let margin = 1e-9 * (ext.abs() + self.available + f);
+            if self.jams_clear(x, end) && s * ext - self.available - f > tolerance + margin {
+                self.rotor = end;
+                return;
+            }
+        }
         for _ in 0..MARCH_LIMIT {
             let mut next = x + s * MARCH;
             let hit = s * (next - limit) >= 0.0;
@@ -850,5 +868,33 @@ mod tests {
         }
         m.drive_to(f);
         assert_eq!(m.rotor(), one_by_one.rotor());
+    }
+
+    /// A load beyond all the torque the motor gives slides the rotor 64 periods at every settle, in one
+    /// step where nothing on the way changes the load (the `event_driven` fuzz target's sixth find: the
+    /// march looked 4 096 times), and as the march does where something does: it stops at a jam.
+    #[test]
+    fn a_load_beyond_the_torque_slides_64_periods_a_settle() {
+        let mut m = world("[load]\nconstant = -0.05");
+        m.set_available(0.03, 0.0);
+        let x = m.rotor();
+        m.settle();
+        assert_eq!(m.rotor(), x - 64.0 * PERIOD);
+        m.settle();
+        assert_eq!(m.rotor(), x - 128.0 * PERIOD);
+        // A jam on the way that holds the rotor: the march stops at its edge.
+        let mut m =
+            world("[load]\nconstant = -0.05\n[[load.jam]]\nat = [\"-30000 usteps\", \"-20000 usteps\"]\ntorque = 0.5");
+        m.set_available(0.03, 0.0);
+        m.settle();
+        assert!((m.rotor() + 20_000.0).abs() <= 1.0, "stopped at the jam: {}", m.rotor());
+        // A load the torque can hold: the rotor settles behind the field and stays.
+        let mut m = world("[load]\nconstant = -0.02");
+        m.set_available(0.03, 0.0);
+        m.settle();
+        let held = m.rotor();
+        assert!((held - m.field() as f64).abs() < PERIOD / 4.0, "held near the field: {held}");
+        m.settle();
+        assert_eq!(m.rotor(), held);
     }
 }
