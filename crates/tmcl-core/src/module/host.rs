@@ -324,7 +324,7 @@ impl<B: Board> Module<B> {
 
     /// A read's reply on `port`: straight to `sink` when it is due at once on a binary interface whose
     /// outbox is empty (what queueing it and flushing the outbox would send, without the copy into the
-    /// outbox and back), else queued behind what waits there.
+    /// outbox and back), else queued behind what waits there ([`Module::queue_reply`]).
     #[inline(always)]
     fn send_reply(
         &mut self,
@@ -335,16 +335,11 @@ impl<B: Board> Module<B> {
         now: Instant,
         sink: &mut impl Sink,
     ) {
-        let due = self.reply_due(iface, now);
-        if iface.framing != Framing::Binary {
-            return self.push_reply(port, iface.framing, op, Ok((status, value, op)), due);
-        }
-        let bytes = self.reply_bytes(status, op, value);
-        let Some(p) = self.st.ports.get_mut(port) else { return };
-        if due <= now && p.outbox.is_empty() {
-            sink.send(&bytes);
+        let idle = self.st.ports.get(port).is_some_and(|p| p.outbox.is_empty());
+        if iface.framing == Framing::Binary && idle && self.reply_due(iface, now) <= now {
+            sink.send(&self.reply_bytes(status, op, value));
         } else {
-            p.outbox.push_frame(bytes, due);
+            self.queue_reply(port, iface, op, Ok((status, value, op)), now);
         }
     }
 
