@@ -300,6 +300,78 @@ fn a_loop_that_enables_a_timer_only_between_its_passes_is_sampled_where_it_fires
     assert!(runs > 10, "the timer's handler ran {runs} times");
 }
 
+/// A PD28-1021 whose program waits (`WAIT TICKS`, 10 s) with timer 0 (PD28-1021 manual §3.6.6, every
+/// 272 ms) enabled, its handler starting a `WAIT TICKS` of its own (1 s) and setting OUT0 after it.
+fn waiting_program_with_a_timer_handler() -> Vec<Command> {
+    use tmcl_wire::WaitCondition::Ticks;
+    vec![
+        Command::Vect { interrupt: 0, address: 6 },
+        Command::Sgp { param: 0, bank: 3, value: 272 },
+        Command::Ei { interrupt: 0 },
+        Command::Ei { interrupt: 255 },
+        // 4: the main program waits
+        Command::Wait { condition: Ticks, motor: 0, ticks: 1_000 },
+        Command::Ja { address: 4 },
+        // 6: the handler
+        Command::Wait { condition: Ticks, motor: 0, ticks: 100 },
+        Command::Sio { port: 0, bank: 2, value: 1 },
+        Command::Reti,
+    ]
+}
+
+/// The `event_driven` fuzz target's seventh find, cut down (it came on a TMCM-1310 whose timer handler
+/// started a `WAIT POS` with a timeout): a program waiting while the motor stands, a timer interrupt
+/// sampled at a tick after standing ticks jumped over. A waiting program sleeps up to every tick, so
+/// ticking leaves its clock at the tick that raised the interrupt; the jump left it where the program had
+/// last been looked at, and the handler ran from there, in the past: its WAIT's end reckoned from an
+/// earlier instant, which depended on when the module had last been polled (an extra poll of the
+/// event-driven run at 150.7 ms against none: ends at 1.151 s and 1.000 s, where ticking has 1.273 s).
+/// A jump over standing ticks now brings a waiting program's clock to its last tick, as a span does.
+#[test]
+fn a_timer_handler_after_standing_ticks_starts_at_the_tick_that_raised_it() {
+    let mut scenario = pd28_program(waiting_program_with_a_timer_handler(), 600);
+    scenario.polls = vec![Instant::from_micros(150_694)];
+    assert_same(&scenario);
+}
+
+/// The same program, polled only at the module's deadlines (as `tmcl run` and `tmcl serve` do) and at
+/// every tick: timer 0's period is set by the second instruction (at 20 µs), so it fires at 272.02 ms and
+/// is sampled at the tick of 273 ms, where the handler starts its 1 s WAIT; OUT0 goes high at 1.273 s.
+#[test]
+fn a_timer_handler_runs_at_its_tick_however_the_module_is_polled() {
+    let scenario = pd28_program(waiting_program_with_a_timer_handler(), 1_400);
+    for exact in [false, true] {
+        for every_tick in [false, true] {
+            let mut module = scenario.module(exact).expect("the scenario loads");
+            let mut t = Instant::ZERO;
+            let mut out0_at = None;
+            let check_at = Instant::from_millis(400);
+            while t <= scenario.end {
+                let deadline = module.poll(t, &mut |_: &[u8]| {});
+                module.board_timeline().advance(t);
+                if t == check_at {
+                    let wait = module.vm().wait.expect("the handler waits");
+                    assert_eq!(
+                        (module.vm().pc, wait.until),
+                        (6, Some(Instant::from_millis(1_273))),
+                        "exact {exact}, every tick {every_tick}"
+                    );
+                }
+                if out0_at.is_none() && module.board().outputs() & 1 == 1 {
+                    out0_at = Some(t);
+                }
+                let tick = Instant::from_micros((t.micros() / 1000 + 1) * 1000);
+                let mut next = if every_tick { tick } else { deadline.filter(|d| *d > t).unwrap_or(tick) };
+                if t < check_at {
+                    next = next.min(check_at);
+                }
+                t = next;
+            }
+            assert_eq!(out0_at, Some(Instant::from_millis(1_273)), "exact {exact}, every tick {every_tick}");
+        }
+    }
+}
+
 /// The `event_driven` fuzz target's find (a slow unit, 76 s): a TMCM-3110 whose three motors move slower
 /// than a step a tick, each at its own rate (the TMC428's pulse divisors 9 to 11). A span ends on its last
 /// step, so the three rarely ended on the same tick, and the first cut looked for one tick by tick; the

@@ -338,6 +338,7 @@ impl<B: Board> Module<B> {
         for m in 0..motors {
             self.st.axes[m].ramping = false;
         }
+        self.waiting_program_slept_to(self.st.motion_time);
         if watching {
             // In place of sampled ticks, what the last of them does: the encoder followed (its counts and the
             // last zero passed are all that count), the 138 event, the interrupt sources.

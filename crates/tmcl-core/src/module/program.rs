@@ -189,6 +189,16 @@ impl<B: Board> Module<B> {
         self.vm.time
     }
 
+    /// After motion ticks taken at once up to `t` (a span, a jump over standing ticks): a waiting program
+    /// is looked at before every tick and sleeps up to it, so ticking one by one leaves its clock at the
+    /// last tick; an interrupt sampled at that tick is serviced from there, not from where the program
+    /// last looked (a handler's WAIT timeout and timings start at the tick that raised it).
+    pub(crate) fn waiting_program_slept_to(&mut self, t: Instant) {
+        if self.vm.state == RunState::Running && self.vm.wait.is_some() {
+            self.vm.time = self.vm.time.max(t);
+        }
+    }
+
     // ---- control commands (§3.7.38) -------------------------------------------------------------
 
     /// Loads a whole program into memory and the EEPROM from address 0 and clears the rest, as a

@@ -34,7 +34,6 @@ use crate::hal::Board;
 use crate::model::Setting;
 use crate::motion::{Bounds, Limits, Ramp, RampParams, Span, TICK};
 use crate::time::{Duration, Instant};
-use crate::vm::RunState;
 use tmcl_model::capacity::MAX_MOTORS;
 
 /// The longest span, in ticks (about 50 days): keeps every sum of a span far inside 64 bits.
@@ -220,10 +219,7 @@ impl<B: Board> Module<B> {
         self.motor_at(0).update_board(t);
         self.st.motion_time = t;
         self.tick_done(t);
-        if self.vm.state == RunState::Running && self.vm.wait.is_some() {
-            // A waiting program is looked at before every tick: it slept up to the last one.
-            self.vm.time = self.vm.time.max(t);
-        }
+        self.waiting_program_slept_to(t);
     }
 
     /// [`Module::take_span`] for a model of several motors (TMCM-3110, TMCM-6110): the ticks after
@@ -260,9 +256,7 @@ impl<B: Board> Module<B> {
         }
         self.st.motion_time = t;
         self.tick_done(t);
-        if self.vm.state == RunState::Running && self.vm.wait.is_some() {
-            self.vm.time = self.vm.time.max(t);
-        }
+        self.waiting_program_slept_to(t);
         true
     }
 
