@@ -27,7 +27,8 @@
 //!   accumulator (GAP, GGP, GIO, GCO, RFS STATUS, CALC, CALCX) sets them from `A − 0`. ZE ≡ EQ, NZ ≡ NE.
 //! - **Interrupts.** The manual does not say how pending interrupts queue; ours: one pending bit per source, set when its event occurs while the interrupt
 //!   is enabled (EI n) and has a vector; serviced between instructions, lowest number first, when
-//!   interrupts are globally on (EI 255) and no handler runs (no nesting). A handler interrupts a WAIT;
+//!   interrupts are globally on (EI 255) and no handler runs (no nesting). A handler interrupts a WAIT,
+//!   starting at the motion tick that raised the interrupt (a waiting program sleeps up to every tick);
 //!   RETI resumes the WAIT where it was. DI n clears its pending bit. A timer fires every period (bank 3,
 //!   ms) from the moment its period is set; period 0 = off. Which vectors exist and what raises each is
 //!   the model's table ([`tmcl_model::Interrupts`]).
